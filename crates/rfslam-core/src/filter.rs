@@ -1,0 +1,80 @@
+//! The [`SlamFilter`] trait every filter implements, and the models it is built with.
+
+use nalgebra::{Matrix2, Matrix3};
+
+use crate::detection::{ClutterModel, DetectionModel, Fov};
+use crate::motion::Motion;
+use crate::sensor::RangeBearingSensor;
+use crate::types::{ControlSegment, Estimate, Scan, StepReport};
+use crate::{Pose, Rng};
+
+/// Everything a filter knows about the world it runs in (the scenario's models as the
+/// filter assumes them), shared by all filters of a run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SlamModels {
+    /// Motion model of the odometry.
+    pub motion: Motion,
+    /// Control noise covariance `Q_u` (3 x 3; zero rows and columns for unused inputs).
+    pub control_noise: Matrix3<f64>,
+    /// Range-bearing sensor.
+    pub sensor: RangeBearingSensor,
+    /// Measurement noise covariance `R = diag(sigma_r^2, sigma_phi^2)`.
+    pub measurement_noise: Matrix2<f64>,
+    /// Sensor field of view.
+    pub fov: Fov,
+    /// Detection probability model.
+    pub detection: DetectionModel,
+    /// Clutter model (rate and the intensity units the filters use).
+    pub clutter: ClutterModel,
+    /// Known initial pose `x_0`.
+    pub initial_pose: Pose,
+}
+
+/// A SLAM filter: predict through the odometry since the last scan, then update with it.
+///
+/// One instance runs one Monte Carlo job on one thread; all randomness comes from the
+/// `rng` passed in, so the same seed gives the same output on any thread count.
+pub trait SlamFilter: Send {
+    /// Registered name (e.g. `phd-3.0`).
+    fn name(&self) -> &str;
+
+    /// Number of particles (1 for filters that have none).
+    fn particles(&self) -> usize;
+
+    /// Predict through the odometry segments since the last scan, then update with `scan`.
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport;
+
+    /// Best pose and landmark map now (highest-weight particle unless the filter says otherwise).
+    fn estimate(&self) -> Estimate;
+}
+
+/// An invalid filter parameter: the key and what is wrong with it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{key}: {message}")]
+pub struct ParamError {
+    /// Parameter name (as in the configuration).
+    pub key: String,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl ParamError {
+    /// A new error for `key`.
+    pub fn new(key: impl Into<String>, message: impl Into<String>) -> Self {
+        ParamError { key: key.into(), message: message.into() }
+    }
+}
+
+/// How the registry builds a filter: typed parameters with defaults, validated before any
+/// run starts (unknown keys are rejected by `deny_unknown_fields` on `Params`).
+pub trait FilterBuild: SlamFilter + Sized + 'static {
+    /// The filter's parameters; `Default` gives the published settings.
+    type Params: serde::de::DeserializeOwned + serde::Serialize + Default + Clone;
+
+    /// Checks ranges and consistency of the parameters (with the scenario's models and the
+    /// number of particles, which some checks need).
+    fn validate(params: &Self::Params, models: &SlamModels, particles: usize) -> Result<(), ParamError>;
+
+    /// Builds a filter at the scenario's initial pose.
+    fn build(params: Self::Params, models: &SlamModels, particles: usize) -> Self;
+}

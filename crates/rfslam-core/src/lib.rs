@@ -1,0 +1,35 @@
+//! rfslam-core: the types, models and utilities every rfslam filter shares.
+//!
+//! - [`types`]: poses, controls, scans, estimates, step reports;
+//! - [`motion`]: velocity (seed 000 eq. 49), Ackermann (Victoria Park) and 2-D odometry
+//!   models with Jacobians wrt state and control;
+//! - [`sensor`]: the range-bearing sensor (eq. 50), its Jacobians and inverse;
+//! - [`detection`]: field of view, detection probability, Poisson clutter;
+//! - [`gaussian`]: log densities and sampling by Cholesky, failures returned not unwrapped;
+//! - [`rbpf`]: log-sum-exp, ESS, systematic resampling;
+//! - [`filter`]: the [`SlamFilter`] trait and the [`SlamModels`] a filter is built with;
+//! - [`rng`]: the random generator and seed derivation.
+
+pub mod angle;
+pub mod detection;
+pub mod filter;
+pub mod gaussian;
+pub mod motion;
+pub mod rbpf;
+pub mod rng;
+pub mod sensor;
+pub mod types;
+
+pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov};
+pub use filter::{FilterBuild, ParamError, SlamFilter, SlamModels};
+pub use motion::{AckermannModel, Motion, MotionModel, OdometryModel, VelocityModel};
+pub use rng::Rng;
+pub use sensor::RangeBearingSensor;
+pub use types::{Control, ControlSegment, Estimate, MapPoint, Scan, StepReport};
+
+/// Robot pose `x = [px, py, theta]` (m, m, rad), heading wrapped to `[-pi, pi)`.
+pub type Pose = nalgebra::Vector3<f64>;
+/// A point landmark `m = [mx, my]` (m).
+pub type Point2 = nalgebra::Vector2<f64>;
+/// A range-bearing measurement `z = [r, phi]` (m, rad relative to the heading).
+pub type RangeBearing = nalgebra::Vector2<f64>;

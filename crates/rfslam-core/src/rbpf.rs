@@ -1,0 +1,106 @@
+//! Rao-Blackwellised particle filter utilities shared by every particle filter: log-weight
+//! normalisation, effective sample size and systematic resampling.
+
+use rand::RngExt;
+
+/// `ln sum_i exp(l_i)`, stable (subtracts the maximum). `-inf` for an empty or all `-inf` slice.
+pub fn log_sum_exp(log_w: &[f64]) -> f64 {
+    let max = log_w.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if max == f64::NEG_INFINITY {
+        return f64::NEG_INFINITY;
+    }
+    if max == f64::INFINITY {
+        return f64::INFINITY;
+    }
+    max + log_w.iter().map(|l| (l - max).exp()).sum::<f64>().ln()
+}
+
+/// Normalises log weights in place so that `sum exp(l_i) = 1`; returns the normaliser.
+/// If every weight is `-inf` or NaN (total degeneracy) the weights are reset to uniform.
+pub fn normalise_log_weights(log_w: &mut [f64]) -> f64 {
+    let z = log_sum_exp(log_w);
+    if !z.is_finite() {
+        let u = -(log_w.len() as f64).ln();
+        log_w.iter_mut().for_each(|l| *l = u);
+        return z;
+    }
+    log_w.iter_mut().for_each(|l| *l -= z);
+    z
+}
+
+/// Effective sample size `1 / sum w_n^2` of normalised log weights (00-index §10).
+pub fn ess(normalised_log_w: &[f64]) -> f64 {
+    let s: f64 = normalised_log_w.iter().map(|l| (2.0 * l).exp()).sum();
+    if s > 0.0 { 1.0 / s } else { 0.0 }
+}
+
+/// Systematic (low-variance) resampling: `n_out` parents drawn from normalised log weights
+/// with one uniform offset. Returns the parent index of every copy, in non-decreasing order
+/// (so copies of one parent are adjacent). `parents` is cleared and reused.
+pub fn systematic_resample<R: rand::Rng + ?Sized>(
+    normalised_log_w: &[f64],
+    n_out: usize,
+    rng: &mut R,
+    parents: &mut Vec<usize>,
+) {
+    parents.clear();
+    let n = normalised_log_w.len();
+    if n == 0 || n_out == 0 {
+        return;
+    }
+    let step = 1.0 / n_out as f64;
+    let mut u = rng.random::<f64>() * step;
+    let mut i = 0;
+    let mut cum = normalised_log_w[0].exp();
+    for _ in 0..n_out {
+        while u > cum && i + 1 < n {
+            i += 1;
+            cum += normalised_log_w[i].exp();
+        }
+        parents.push(i);
+        u += step;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn lse_matches_direct_sum() {
+        let l = [-1.0, -2.0, 0.5];
+        let direct = l.iter().map(|x: &f64| x.exp()).sum::<f64>().ln();
+        assert!((log_sum_exp(&l) - direct).abs() < 1e-12);
+        assert_eq!(log_sum_exp(&[]), f64::NEG_INFINITY);
+        // stable for very small logs
+        assert!((log_sum_exp(&[-1000.0, -1000.0]) - (-1000.0 + 2f64.ln())).abs() < 1e-9);
+    }
+
+    #[test]
+    fn ess_of_uniform_and_degenerate() {
+        let mut l = vec![0.0; 8];
+        normalise_log_weights(&mut l);
+        assert!((ess(&l) - 8.0).abs() < 1e-9);
+        let mut d = vec![0.0, f64::NEG_INFINITY, f64::NEG_INFINITY];
+        normalise_log_weights(&mut d);
+        assert!((ess(&d) - 1.0).abs() < 1e-12);
+        let mut all_bad = vec![f64::NEG_INFINITY; 4];
+        normalise_log_weights(&mut all_bad);
+        assert!((ess(&all_bad) - 4.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn systematic_counts_match_weights() {
+        let mut rng = crate::Rng::seed_from_u64(3);
+        let w = [0.5f64, 0.25, 0.125, 0.125];
+        let l: Vec<f64> = w.iter().map(|x| x.ln()).collect();
+        let mut parents = Vec::new();
+        systematic_resample(&l, 8, &mut rng, &mut parents);
+        let mut counts = [0usize; 4];
+        parents.iter().for_each(|&p| counts[p] += 1);
+        // Systematic resampling gives floor or ceil of n w_i copies: exact here.
+        assert_eq!(counts, [4, 2, 1, 1]);
+        assert!(parents.windows(2).all(|p| p[0] <= p[1]));
+    }
+}

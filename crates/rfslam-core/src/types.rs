@@ -1,0 +1,87 @@
+//! Plain data types that flow between datasets, filters and the harness.
+
+use nalgebra::Vector3;
+
+use crate::{Point2, Pose, RangeBearing};
+
+/// A control input. Its meaning depends on the motion model:
+/// `velocity` `[v, omega, 0]` (m/s, rad/s), `ackermann` `[v, steer, 0]` (m/s, rad),
+/// `odometry2d` `[dx, dy, dtheta]` (body-frame increments, m, m, rad).
+pub type Control = Vector3<f64>;
+
+/// One piece of odometry between two scans: control `u` applied for `dt` seconds.
+///
+/// A filter step receives every segment since the previous scan, in time order.
+/// For `odometry2d`, `dt` is informational only (the increment is already integrated).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ControlSegment {
+    /// Duration (s).
+    pub dt: f64,
+    /// Control held during the segment.
+    pub u: Control,
+}
+
+/// One sensor scan: the set `Z_k` of range-bearing measurements at time `t`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Scan {
+    /// Time stamp (s).
+    pub t: f64,
+    /// Measurements `z = [range (m), bearing (rad, relative to heading, wrapped)]`.
+    pub z: Vec<RangeBearing>,
+    /// Truth labels, one per measurement when known: the landmark id, `-1` for clutter.
+    /// Filters must not use them except the oracle baseline.
+    pub truth: Option<Vec<i64>>,
+}
+
+/// A landmark of a filter's map estimate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapPoint {
+    /// Landmark position (m).
+    pub position: Point2,
+    /// The filter's weight for it (a GM-PHD weight `eta`, an existence probability, or 1).
+    pub weight: f64,
+}
+
+/// The filter's current best estimate.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Estimate {
+    /// Pose estimate (highest-weight particle unless the filter documents otherwise).
+    pub pose: Pose,
+    /// Map estimate.
+    pub map: Vec<MapPoint>,
+}
+
+/// What a filter reports about one recursion.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepReport {
+    /// Effective sample size `1 / sum w_n^2` after the update, before any resampling
+    /// (between 1 and the number of particles).
+    pub ess: f64,
+    /// Whether the particles were resampled in this step.
+    pub resampled: bool,
+    /// Total number of map components (GM components, hypotheses...) over all particles.
+    pub components: usize,
+    /// Number of importance-density components used (Gamma of PHD-SLAM 3.0), summed over
+    /// the distinct proposals computed; 0 for filters without one.
+    pub proposal_components: usize,
+    /// For filters that make explicit associations, one entry per measurement of the scan:
+    /// the world position of the map component the measurement was associated with by the
+    /// estimate's particle, or `None` when it was treated as clutter. Used for TPR/TNR.
+    pub associations: Option<Vec<Option<Point2>>>,
+    /// Covariances that failed a Cholesky factorisation in this step (handled, counted).
+    pub cholesky_failures: u32,
+}
+
+impl StepReport {
+    /// A report for a filter with `n` equally weighted particles that did nothing special.
+    pub fn plain(n: usize) -> Self {
+        StepReport {
+            ess: n as f64,
+            resampled: false,
+            components: 0,
+            proposal_components: 0,
+            associations: None,
+            cholesky_failures: 0,
+        }
+    }
+}

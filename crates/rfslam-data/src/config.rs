@@ -1,0 +1,513 @@
+//! The model configuration shared by scenario files and `dataset.toml`: the four tables
+//! `[motion]`, `[sensor]`, `[detection]` and `[clutter]`, in the units people write
+//! (degrees for angles), converted to the SI [`SlamModels`] the filters use.
+
+use nalgebra::{Matrix2, Matrix3};
+use rfslam_core::{AckermannModel, ClutterIntensity, ClutterModel, DetectionModel, Fov, Motion, Pose};
+use rfslam_core::{RangeBearingSensor, SlamModels};
+use serde::{Deserialize, Serialize};
+
+use crate::error::ConfigError;
+
+/// The `[motion]` table: the motion model of the odometry and its control noise
+/// (standard deviations of zero-mean Gaussian noise on each control input).
+///
+/// Deserialized through a flat table (all keys of all models), so that toml reports a
+/// wrong value type at the offending key; keys of another model are rejected by name.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "model", rename_all = "lowercase", try_from = "RawMotion")]
+pub enum MotionConfig {
+    /// Velocity model (PHD-SLAM 3.0 eq. 49), control `[v, omega]`.
+    Velocity {
+        /// `sigma_v` (m/s).
+        sigma_v: f64,
+        /// `sigma_omega` (deg/s).
+        sigma_omega_deg: f64,
+    },
+    /// Ackermann car (Victoria Park), control `[v, steer]`.
+    Ackermann {
+        /// Wheelbase `L` (m).
+        #[serde(default = "default_l")]
+        l: f64,
+        /// Encoder offset `H` (m).
+        #[serde(default = "default_h")]
+        h: f64,
+        /// Laser offset forward of the rear axle `a` (m).
+        #[serde(default = "default_a")]
+        a: f64,
+        /// Laser offset left of the centre line `b` (m).
+        #[serde(default = "default_b")]
+        b: f64,
+        /// `sigma_v` on the encoder speed (m/s).
+        sigma_v: f64,
+        /// `sigma_steer` on the steering angle (deg).
+        sigma_steer_deg: f64,
+    },
+    /// Body-frame odometry increments, control `[dx, dy, dtheta]`.
+    Odometry2d {
+        /// `sigma_dx` (m).
+        sigma_dx: f64,
+        /// `sigma_dy` (m).
+        sigma_dy: f64,
+        /// `sigma_dtheta` (deg).
+        sigma_dtheta_deg: f64,
+    },
+}
+
+fn default_l() -> f64 {
+    AckermannModel::default().l
+}
+fn default_h() -> f64 {
+    AckermannModel::default().h
+}
+fn default_a() -> f64 {
+    AckermannModel::default().a
+}
+fn default_b() -> f64 {
+    AckermannModel::default().b
+}
+
+/// The `[motion]` table as written: the tag and every key of every model.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMotion {
+    model: MotionKind,
+    sigma_v: Option<f64>,
+    sigma_omega_deg: Option<f64>,
+    l: Option<f64>,
+    h: Option<f64>,
+    a: Option<f64>,
+    b: Option<f64>,
+    sigma_steer_deg: Option<f64>,
+    sigma_dx: Option<f64>,
+    sigma_dy: Option<f64>,
+    sigma_dtheta_deg: Option<f64>,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+enum MotionKind {
+    Velocity,
+    Ackermann,
+    Odometry2d,
+}
+
+/// Rejects keys that `table`'s variant `name` does not have (`keys`), naming the key.
+pub(crate) fn only_keys(table: &str, name: &str, given: &[(&str, bool)], keys: &[&str]) -> Result<(), String> {
+    let tag = if table == "world" { "kind" } else { "model" };
+    match given.iter().find(|(k, present)| *present && !keys.contains(k)) {
+        Some((k, _)) => {
+            Err(format!("`{table}.{k}` is not a key of {table} {tag} \"{name}\" (its keys: {})", keys.join(", ")))
+        }
+        None => Ok(()),
+    }
+}
+
+/// A required key of a tagged table.
+pub(crate) fn need<T>(table: &str, name: &str, key: &str, v: Option<T>) -> Result<T, String> {
+    let tag = if table == "world" { "kind" } else { "model" };
+    v.ok_or_else(|| format!("missing field `{key}` (needed by {table} {tag} \"{name}\")"))
+}
+
+impl TryFrom<RawMotion> for MotionConfig {
+    type Error = String;
+
+    fn try_from(r: RawMotion) -> Result<Self, String> {
+        let given = [
+            ("sigma_v", r.sigma_v.is_some()),
+            ("sigma_omega_deg", r.sigma_omega_deg.is_some()),
+            ("l", r.l.is_some()),
+            ("h", r.h.is_some()),
+            ("a", r.a.is_some()),
+            ("b", r.b.is_some()),
+            ("sigma_steer_deg", r.sigma_steer_deg.is_some()),
+            ("sigma_dx", r.sigma_dx.is_some()),
+            ("sigma_dy", r.sigma_dy.is_some()),
+            ("sigma_dtheta_deg", r.sigma_dtheta_deg.is_some()),
+        ];
+        let m = "motion";
+        Ok(match r.model {
+            MotionKind::Velocity => {
+                let n = "velocity";
+                only_keys(m, n, &given, &["sigma_v", "sigma_omega_deg"])?;
+                MotionConfig::Velocity {
+                    sigma_v: need(m, n, "sigma_v", r.sigma_v)?,
+                    sigma_omega_deg: need(m, n, "sigma_omega_deg", r.sigma_omega_deg)?,
+                }
+            }
+            MotionKind::Ackermann => {
+                let n = "ackermann";
+                only_keys(m, n, &given, &["l", "h", "a", "b", "sigma_v", "sigma_steer_deg"])?;
+                MotionConfig::Ackermann {
+                    l: r.l.unwrap_or_else(default_l),
+                    h: r.h.unwrap_or_else(default_h),
+                    a: r.a.unwrap_or_else(default_a),
+                    b: r.b.unwrap_or_else(default_b),
+                    sigma_v: need(m, n, "sigma_v", r.sigma_v)?,
+                    sigma_steer_deg: need(m, n, "sigma_steer_deg", r.sigma_steer_deg)?,
+                }
+            }
+            MotionKind::Odometry2d => {
+                let n = "odometry2d";
+                only_keys(m, n, &given, &["sigma_dx", "sigma_dy", "sigma_dtheta_deg"])?;
+                MotionConfig::Odometry2d {
+                    sigma_dx: need(m, n, "sigma_dx", r.sigma_dx)?,
+                    sigma_dy: need(m, n, "sigma_dy", r.sigma_dy)?,
+                    sigma_dtheta_deg: need(m, n, "sigma_dtheta_deg", r.sigma_dtheta_deg)?,
+                }
+            }
+        })
+    }
+}
+
+/// The `[detection]` table as written.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawDetection {
+    model: DetectionKind,
+    pd: Option<f64>,
+    pd0: Option<f64>,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "snake_case")]
+enum DetectionKind {
+    Constant,
+    RangeLinear,
+}
+
+/// Deserializes the `[detection]` table into [`DetectionModel`] through a flat table, so
+/// that toml reports a wrong value type at the offending key.
+pub(crate) fn de_detection<'de, D: serde::Deserializer<'de>>(d: D) -> Result<DetectionModel, D::Error> {
+    let r = RawDetection::deserialize(d)?;
+    let given = [("pd", r.pd.is_some()), ("pd0", r.pd0.is_some())];
+    let t = "detection";
+    let out = match r.model {
+        DetectionKind::Constant => only_keys(t, "constant", &given, &["pd"])
+            .and_then(|_| need(t, "constant", "pd", r.pd))
+            .map(|pd| DetectionModel::Constant { pd }),
+        DetectionKind::RangeLinear => only_keys(t, "range_linear", &given, &["pd0"])
+            .and_then(|_| need(t, "range_linear", "pd0", r.pd0))
+            .map(|pd0| DetectionModel::RangeLinear { pd0 }),
+    };
+    out.map_err(serde::de::Error::custom)
+}
+
+impl MotionConfig {
+    /// The motion model.
+    pub fn motion(&self) -> Motion {
+        match *self {
+            MotionConfig::Velocity { .. } => Motion::Velocity,
+            MotionConfig::Ackermann { l, h, a, b, .. } => Motion::Ackermann(AckermannModel { l, h, a, b }),
+            MotionConfig::Odometry2d { .. } => Motion::Odometry2d,
+        }
+    }
+
+    /// Standard deviations of the control noise per input in SI units (m/s, rad/s, rad, m);
+    /// zero third entry for two-input models.
+    pub fn sigmas(&self) -> [f64; 3] {
+        match *self {
+            MotionConfig::Velocity { sigma_v, sigma_omega_deg } => [sigma_v, sigma_omega_deg.to_radians(), 0.0],
+            MotionConfig::Ackermann { sigma_v, sigma_steer_deg, .. } => [sigma_v, sigma_steer_deg.to_radians(), 0.0],
+            MotionConfig::Odometry2d { sigma_dx, sigma_dy, sigma_dtheta_deg } => {
+                [sigma_dx, sigma_dy, sigma_dtheta_deg.to_radians()]
+            }
+        }
+    }
+
+    /// Control noise covariance `Q_u = diag(sigma^2)` (SI units, 3 x 3).
+    pub fn control_noise(&self) -> Matrix3<f64> {
+        let s = self.sigmas();
+        Matrix3::from_diagonal(&nalgebra::Vector3::new(s[0] * s[0], s[1] * s[1], s[2] * s[2]))
+    }
+
+    /// Checks the values; keys are relative to the table (`sigma_v`).
+    fn validate(&self) -> Result<(), ConfigError> {
+        match *self {
+            MotionConfig::Velocity { sigma_v, sigma_omega_deg } => {
+                non_negative("sigma_v", sigma_v)?;
+                non_negative("sigma_omega_deg", sigma_omega_deg)
+            }
+            MotionConfig::Ackermann { l, h, a, b, sigma_v, sigma_steer_deg } => {
+                positive("l", l)?;
+                finite("h", h)?;
+                finite("a", a)?;
+                finite("b", b)?;
+                non_negative("sigma_v", sigma_v)?;
+                non_negative("sigma_steer_deg", sigma_steer_deg)
+            }
+            MotionConfig::Odometry2d { sigma_dx, sigma_dy, sigma_dtheta_deg } => {
+                non_negative("sigma_dx", sigma_dx)?;
+                non_negative("sigma_dy", sigma_dy)?;
+                non_negative("sigma_dtheta_deg", sigma_dtheta_deg)
+            }
+        }
+    }
+}
+
+/// The `[sensor]` table: range-bearing sensor, field of view and measurement noise.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorConfig {
+    /// Maximum range (m).
+    pub max_range: f64,
+    /// Half of the FOV width (deg); 180 means all around.
+    pub half_angle_deg: f64,
+    /// Range noise `sigma_r` (m).
+    pub sigma_range: f64,
+    /// Bearing noise `sigma_phi` (deg).
+    pub sigma_bearing_deg: f64,
+    /// Sensor position in the body frame (m): forward, left. Default `[0, 0]`.
+    #[serde(default)]
+    pub offset: [f64; 2],
+}
+
+impl SensorConfig {
+    /// The field of view in SI units.
+    pub fn fov(&self) -> Fov {
+        Fov { max_range: self.max_range, half_angle: self.half_angle_deg.to_radians() }
+    }
+
+    /// `R = diag(sigma_r^2, sigma_phi^2)` (m^2, rad^2).
+    pub fn measurement_noise(&self) -> Matrix2<f64> {
+        let b = self.sigma_bearing_deg.to_radians();
+        Matrix2::new(self.sigma_range * self.sigma_range, 0.0, 0.0, b * b)
+    }
+
+    fn validate(&self) -> Result<(), ConfigError> {
+        positive("max_range", self.max_range)?;
+        positive("half_angle_deg", self.half_angle_deg)?;
+        if self.half_angle_deg > 180.0 {
+            return Err(ConfigError::new("half_angle_deg", "must be <= 180 (half of the FOV width)"));
+        }
+        positive("sigma_range", self.sigma_range)?;
+        positive("sigma_bearing_deg", self.sigma_bearing_deg)?;
+        finite("offset[0]", self.offset[0])?;
+        finite("offset[1]", self.offset[1])
+    }
+}
+
+/// The `[clutter]` table: Poisson clutter uniform over the FOV.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClutterConfig {
+    /// Mean number of false measurements per scan `lambda_c`.
+    pub rate: f64,
+    /// Units of the clutter intensity the filters use: `cartesian` (default, `rate / FOV
+    /// area`, as in the published PHD-SLAM 3.0 tables) or `measurement`
+    /// (`rate / (max_range * 2 half_angle)`).
+    #[serde(default)]
+    pub intensity: ClutterIntensity,
+}
+
+impl ClutterConfig {
+    /// The clutter model.
+    pub fn model(&self) -> ClutterModel {
+        ClutterModel { rate: self.rate, intensity: self.intensity }
+    }
+}
+
+/// The four model tables of a scenario or a data set (`[motion]`, `[sensor]`,
+/// `[detection]`, `[clutter]`).
+///
+/// ```toml
+/// [motion]
+/// model = "velocity"
+/// sigma_v = 0.8
+/// sigma_omega_deg = 0.5
+/// [sensor]
+/// max_range = 150.0
+/// half_angle_deg = 90.0
+/// sigma_range = 0.8
+/// sigma_bearing_deg = 0.3
+/// [detection]
+/// model = "constant"
+/// pd = 0.95
+/// [clutter]
+/// rate = 5.0
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelConfig {
+    /// Motion model and control noise.
+    pub motion: MotionConfig,
+    /// Sensor, field of view and measurement noise.
+    pub sensor: SensorConfig,
+    /// Detection probability (`model = "constant"` with `pd`, or `"range_linear"` with `pd0`).
+    #[serde(deserialize_with = "de_detection")]
+    pub detection: DetectionModel,
+    /// Clutter.
+    pub clutter: ClutterConfig,
+}
+
+impl ModelConfig {
+    /// The PHD-SLAM 3.0 synthetic setting (Tables I and II): velocity model with
+    /// `sigma_v = 0.8 m/s, sigma_omega = 0.5 deg/s`; FOV `+-90 deg`, 150 m;
+    /// `sigma_r = 0.8 m, sigma_phi = 0.3 deg`; `p_D = 0.95`; 5 clutter per scan (cartesian).
+    pub fn phd_slam_synthetic() -> ModelConfig {
+        ModelConfig {
+            motion: MotionConfig::Velocity { sigma_v: 0.8, sigma_omega_deg: 0.5 },
+            sensor: SensorConfig {
+                max_range: 150.0,
+                half_angle_deg: 90.0,
+                sigma_range: 0.8,
+                sigma_bearing_deg: 0.3,
+                offset: [0.0, 0.0],
+            },
+            detection: DetectionModel::Constant { pd: 0.95 },
+            clutter: ClutterConfig { rate: 5.0, intensity: ClutterIntensity::Cartesian },
+        }
+    }
+
+    /// Checks every value; the error names the dotted key (`sensor.sigma_range must be > 0`).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.motion.validate().map_err(|e| e.prefixed("motion"))?;
+        self.sensor.validate().map_err(|e| e.prefixed("sensor"))?;
+        let (key, p) = match self.detection {
+            DetectionModel::Constant { pd } => ("detection.pd", pd),
+            DetectionModel::RangeLinear { pd0 } => ("detection.pd0", pd0),
+        };
+        if !(0.0..=1.0).contains(&p) {
+            return Err(ConfigError::new(key, "must be in [0, 1]"));
+        }
+        non_negative("clutter.rate", self.clutter.rate)
+    }
+
+    /// The models in SI units, for a robot starting at `initial_pose`.
+    pub fn to_models(&self, initial_pose: Pose) -> SlamModels {
+        SlamModels {
+            motion: self.motion.motion(),
+            control_noise: self.motion.control_noise(),
+            sensor: RangeBearingSensor { offset: self.sensor.offset },
+            measurement_noise: self.sensor.measurement_noise(),
+            fov: self.sensor.fov(),
+            detection: self.detection,
+            clutter: self.clutter.model(),
+            initial_pose,
+        }
+    }
+}
+
+fn finite(key: &str, v: f64) -> Result<(), ConfigError> {
+    if v.is_finite() { Ok(()) } else { Err(ConfigError::new(key, "must be finite")) }
+}
+
+pub(crate) fn positive(key: &str, v: f64) -> Result<(), ConfigError> {
+    if v > 0.0 && v.is_finite() { Ok(()) } else { Err(ConfigError::new(key, "must be > 0")) }
+}
+
+pub(crate) fn non_negative(key: &str, v: f64) -> Result<(), ConfigError> {
+    if v >= 0.0 && v.is_finite() { Ok(()) } else { Err(ConfigError::new(key, "must be >= 0")) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TEXT: &str = r#"
+[motion]
+model = "velocity"
+sigma_v = 0.8
+sigma_omega_deg = 0.5
+[sensor]
+max_range = 150.0
+half_angle_deg = 90.0
+sigma_range = 0.8
+sigma_bearing_deg = 0.3
+[detection]
+model = "constant"
+pd = 0.95
+[clutter]
+rate = 5.0
+"#;
+
+    #[test]
+    fn parses_the_documented_example_and_converts_units() {
+        let c: ModelConfig = toml::from_str(TEXT).unwrap();
+        assert_eq!(c, ModelConfig::phd_slam_synthetic());
+        c.validate().unwrap();
+        let x0 = Pose::new(1.0, 2.0, 0.3);
+        let m = c.to_models(x0);
+        assert_eq!(m.initial_pose, x0);
+        assert_eq!(m.motion, Motion::Velocity);
+        assert_eq!(m.control_noise[(0, 0)], 0.8 * 0.8);
+        assert!((m.control_noise[(1, 1)] - (0.5f64.to_radians()).powi(2)).abs() < 1e-20);
+        assert_eq!(m.control_noise[(2, 2)], 0.0);
+        assert!((m.measurement_noise[(1, 1)] - (0.3f64.to_radians()).powi(2)).abs() < 1e-20);
+        assert!((m.fov.half_angle - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+        // Cartesian intensity by default: rate over the half-disc area.
+        let expect = 5.0 / (0.5 * std::f64::consts::PI * 150.0 * 150.0);
+        assert!((m.clutter.intensity(&m.fov) - expect).abs() < 1e-15);
+    }
+
+    #[test]
+    fn ackermann_defaults_and_odometry_sigmas() {
+        let text = TEXT.replace(
+            "model = \"velocity\"\nsigma_v = 0.8\nsigma_omega_deg = 0.5",
+            "model = \"ackermann\"\nsigma_v = 1.0\nsigma_steer_deg = 4.0",
+        );
+        let c: ModelConfig = toml::from_str(&text).unwrap();
+        assert_eq!(c.motion.motion(), Motion::Ackermann(AckermannModel::default()));
+        assert!((c.motion.sigmas()[1] - 4f64.to_radians()).abs() < 1e-15);
+        let text = TEXT.replace(
+            "model = \"velocity\"\nsigma_v = 0.8\nsigma_omega_deg = 0.5",
+            "model = \"odometry2d\"\nsigma_dx = 0.1\nsigma_dy = 0.05\nsigma_dtheta_deg = 1.0",
+        );
+        let c: ModelConfig = toml::from_str(&text).unwrap();
+        let q = c.motion.control_noise();
+        assert!((q[(1, 1)] - 0.0025).abs() < 1e-18 && (q[(2, 2)] - 1f64.to_radians().powi(2)).abs() < 1e-18);
+    }
+
+    #[test]
+    fn validation_names_the_key() {
+        let mut c = ModelConfig::phd_slam_synthetic();
+        c.sensor.sigma_range = 0.0;
+        assert_eq!(c.validate().unwrap_err().to_string(), "sensor.sigma_range must be > 0");
+        let mut c = ModelConfig::phd_slam_synthetic();
+        c.detection = DetectionModel::RangeLinear { pd0: 1.5 };
+        assert_eq!(c.validate().unwrap_err().key(), Some("detection.pd0"));
+        let mut c = ModelConfig::phd_slam_synthetic();
+        c.motion = MotionConfig::Velocity { sigma_v: f64::NAN, sigma_omega_deg: 0.5 };
+        assert_eq!(c.validate().unwrap_err().key(), Some("motion.sigma_v"));
+        let mut c = ModelConfig::phd_slam_synthetic();
+        c.sensor.half_angle_deg = 200.0;
+        assert_eq!(c.validate().unwrap_err().key(), Some("sensor.half_angle_deg"));
+        let mut c = ModelConfig::phd_slam_synthetic();
+        c.clutter.rate = -1.0;
+        assert_eq!(c.validate().unwrap_err().key(), Some("clutter.rate"));
+    }
+
+    #[test]
+    fn unknown_keys_and_models_are_rejected() {
+        let e = toml::from_str::<ModelConfig>(&TEXT.replace("pd = 0.95", "pd = 0.95\npdd = 1")).unwrap_err();
+        assert!(e.message().contains("pdd"), "{e}");
+        let e = toml::from_str::<ModelConfig>(&TEXT.replace("\"velocity\"", "\"bicycle\"")).unwrap_err();
+        assert!(e.message().contains("bicycle"), "{e}");
+        let e = toml::from_str::<ModelConfig>(&TEXT.replace("sigma_v = 0.8", "sigma_dx = 0.8")).unwrap_err();
+        assert!(e.message().contains("`motion.sigma_dx` is not a key of motion model \"velocity\""), "{e}");
+        let e = toml::from_str::<ModelConfig>(&TEXT.replace("sigma_v = 0.8\n", "")).unwrap_err();
+        assert!(e.message().contains("missing field `sigma_v`"), "{e}");
+        let e = toml::from_str::<ModelConfig>(&TEXT.replace("pd = 0.95", "pd0 = 0.95")).unwrap_err();
+        assert!(e.message().contains("`detection.pd0` is not a key"), "{e}");
+        // A wrong type is reported at the key itself.
+        let text = TEXT.replace("sigma_omega_deg = 0.5", "sigma_omega_deg = \"half\"");
+        let e = toml::from_str::<ModelConfig>(&text).unwrap_err();
+        assert_eq!(&text[e.span().unwrap()], "\"half\"", "{e}");
+        let text = TEXT.replace("pd = 0.95", "pd = true");
+        let e = toml::from_str::<ModelConfig>(&text).unwrap_err();
+        assert_eq!(&text[e.span().unwrap()], "true", "{e}");
+        let e =
+            toml::from_str::<ModelConfig>(&TEXT.replace("rate = 5.0", "rate = 5.0\nintensity = \"x\"")).unwrap_err();
+        assert!(e.message().contains("unknown variant"), "{e}");
+    }
+
+    #[test]
+    fn serializes_back_to_the_same_config() {
+        let mut c = ModelConfig::phd_slam_synthetic();
+        c.clutter.intensity = ClutterIntensity::Measurement;
+        c.sensor.offset = [0.1, -0.2];
+        let text = toml::to_string(&c).unwrap();
+        let back: ModelConfig = toml::from_str(&text).unwrap();
+        assert_eq!(back, c);
+    }
+}

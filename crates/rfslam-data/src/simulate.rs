@@ -1,0 +1,206 @@
+//! The synthetic data generator of the PHD-SLAM papers (Gao et al. 2021, Kaltiokallio et
+//! al. 2024, Section VI-A): a world plus models plus a run seed gives a data set with
+//! truth labels.
+
+use rand::RngExt;
+use rand_distr::{Distribution, StandardNormal};
+use rfslam_core::angle::wrap;
+use rfslam_core::rng::{purpose, stream};
+use rfslam_core::{RangeBearing, RangeBearingSensor, Scan};
+
+use crate::config::ModelConfig;
+use crate::dataset::{Dataset, DatasetMeta, OdometryRow, TruthPose};
+use crate::error::DataError;
+use crate::world::World;
+
+/// Generates one Monte Carlo data set from `world` with the sensor and noise of `models`.
+///
+/// - True poses: the world's poses (its true controls propagated from the first pose).
+/// - Odometry: one row per used control, at the control's time: the true control plus
+///   independent Gaussian noise `N(0, sigma)` on each input (`models.motion`).
+/// - One scan at every true pose after the first (`t_1 ... t_{T-1}`). Each landmark with
+///   `p_D(m | x) > 0` (inside the FOV: range `<= max_range`, `|bearing| <= half angle`)
+///   is detected with probability `p_D` and measured as `g(m, x) + N(0, R)`, bearing
+///   wrapped (eq. 50, with the sensor offset); then Poisson clutter uniform in range
+///   `[0, max_range]` and bearing over the FOV ([`rfslam_core::ClutterModel::sample`]).
+///   The scan's measurements are shuffled, so their order carries no information; truth
+///   labels are kept (landmark id, `-1` for clutter).
+/// - Ground truth: the true poses at `t_0` and at every scan; landmarks: the world's.
+/// - `dataset.toml`: the world's name, the initial pose `x_0` at `t_0`, and `models`.
+///
+/// All randomness comes from `stream(&[run_seed, purpose::SCENARIO])`: the same seed gives
+/// the same data set. The order of the draws is: for each step `k = 1..T-1`, the odometry
+/// noise of control `k-1`, then per landmark (in world order) the detection draw and the
+/// measurement noise, then the clutter, then the shuffle.
+///
+/// Errors: invalid `models`, or a motion model different from the world's.
+pub fn simulate(world: &World, models: &ModelConfig, run_seed: u64) -> Result<Dataset, DataError> {
+    models.validate().map_err(DataError::config)?;
+    let motion = models.motion.motion();
+    if motion.name() != world.motion.name() {
+        return Err(DataError::Mismatch(format!(
+            "motion.model is `{}` but world `{}` is driven by `{}` controls",
+            motion.name(),
+            world.name,
+            world.motion.name()
+        )));
+    }
+    let Some(&(t0, x0)) = world.poses.first() else {
+        return Err(DataError::Mismatch(format!("world `{}` has no poses", world.name)));
+    };
+    if world.controls.len() + 1 < world.poses.len() {
+        return Err(DataError::Mismatch(format!(
+            "world `{}` has {} poses but only {} controls",
+            world.name,
+            world.poses.len(),
+            world.controls.len()
+        )));
+    }
+    let mut rng = stream(&[run_seed, purpose::SCENARIO]);
+    let sigma = models.motion.sigmas();
+    let inputs = motion.control_columns().len();
+    let fov = models.sensor.fov();
+    let sensor = RangeBearingSensor { offset: models.sensor.offset };
+    let (sr, sb) = (models.sensor.sigma_range, models.sensor.sigma_bearing_deg.to_radians());
+    let clutter = models.clutter.model();
+
+    let steps = world.poses.len();
+    let mut odometry = Vec::with_capacity(steps.saturating_sub(1));
+    let mut scans = Vec::with_capacity(steps.saturating_sub(1));
+    for k in 1..steps {
+        let (tc, u) = world.controls[k - 1];
+        let mut noisy = u;
+        for (j, s) in sigma.iter().enumerate().take(inputs) {
+            let n: f64 = StandardNormal.sample(&mut rng);
+            noisy[j] += s * n;
+        }
+        odometry.push(OdometryRow { t: tc, u: noisy });
+
+        let (t, x) = world.poses[k];
+        let mut z: Vec<RangeBearing> = Vec::new();
+        let mut labels: Vec<i64> = Vec::new();
+        for lm in &world.landmarks {
+            let pd = models.detection.pd(&fov, &x, &lm.position);
+            if pd > 0.0 && rng.random::<f64>() < pd {
+                let g = sensor.predict(&x, &lm.position);
+                let (nr, nb): (f64, f64) = (StandardNormal.sample(&mut rng), StandardNormal.sample(&mut rng));
+                z.push(RangeBearing::new(g[0] + sr * nr, wrap(g[1] + sb * nb)));
+                labels.push(lm.id);
+            }
+        }
+        clutter.sample(&fov, &mut rng, &mut z);
+        labels.resize(z.len(), -1);
+        // Fisher-Yates, measurements and labels together.
+        for i in (1..z.len()).rev() {
+            let j = rng.random_range(0..=i);
+            z.swap(i, j);
+            labels.swap(i, j);
+        }
+        scans.push(Scan { t, z, truth: Some(labels) });
+    }
+    let groundtruth =
+        world.poses.iter().map(|&(t, x)| TruthPose { t, position: x.xy(), heading: Some(x.z) }).collect::<Vec<_>>();
+    Ok(Dataset {
+        meta: DatasetMeta {
+            name: world.name.clone(),
+            description: Some(format!(
+                "synthetic data from world `{}`, run seed {run_seed} (rfslam-data simulate)",
+                world.name
+            )),
+            initial_t: t0,
+            initial_pose: x0,
+            models: *models,
+        },
+        scans,
+        odometry,
+        groundtruth: Some(groundtruth),
+        landmarks: Some(world.landmarks.clone()),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::MotionConfig;
+    use crate::testutil::TempDir;
+    use crate::world::ProceduralParams;
+
+    fn small_world() -> World {
+        World::procedural(&ProceduralParams { steps: 300, landmarks: 40, ..Default::default() }, 3).unwrap()
+    }
+
+    #[test]
+    fn same_seed_same_dataset_and_different_seed_differs() {
+        let w = small_world();
+        let m = ModelConfig::phd_slam_synthetic();
+        let a = simulate(&w, &m, 11).unwrap();
+        let b = simulate(&w, &m, 11).unwrap();
+        assert_eq!(a, b);
+        let c = simulate(&w, &m, 12).unwrap();
+        assert_ne!(a.scans, c.scans);
+        assert_ne!(a.odometry, c.odometry);
+        // Shape.
+        assert_eq!(a.scans.len(), 299);
+        assert_eq!(a.odometry.len(), 299);
+        assert_eq!(a.scans[0].t, w.poses[1].0);
+        assert_eq!(a.meta.initial_pose, w.poses[0].1);
+        assert_eq!(a.groundtruth.as_ref().unwrap().len(), 300);
+        assert!(a.scans.iter().all(|s| s.truth.as_ref().is_some_and(|t| t.len() == s.z.len())));
+        // It survives a write/read round trip unchanged.
+        let tmp = TempDir::new("sim");
+        a.write(tmp.path()).unwrap();
+        assert_eq!(Dataset::read(tmp.path()).unwrap(), a);
+    }
+
+    #[test]
+    fn noise_free_detections_are_exact_and_shuffled() {
+        let w = small_world();
+        let mut m = ModelConfig::phd_slam_synthetic();
+        m.motion = MotionConfig::Velocity { sigma_v: 0.0, sigma_omega_deg: 0.0 };
+        m.sensor.sigma_range = 1e-300;
+        m.sensor.sigma_bearing_deg = 1e-300;
+        m.detection = rfslam_core::DetectionModel::Constant { pd: 1.0 };
+        m.clutter.rate = 0.0;
+        let d = simulate(&w, &m, 5).unwrap();
+        let sensor = RangeBearingSensor::default();
+        let fov = m.sensor.fov();
+        let mut out_of_order = 0;
+        for (k, s) in d.scans.iter().enumerate() {
+            let x = w.poses[k + 1].1;
+            let labels = s.truth.as_ref().unwrap();
+            let visible: Vec<i64> =
+                w.landmarks.iter().filter(|l| fov.contains(&x, &l.position)).map(|l| l.id).collect();
+            assert_eq!(labels.len(), visible.len(), "scan {k}");
+            for (z, id) in s.z.iter().zip(labels) {
+                let lm = w.landmarks.iter().find(|l| l.id == *id).unwrap();
+                assert_eq!(*z, sensor.predict(&x, &lm.position));
+            }
+            out_of_order += labels.windows(2).filter(|p| p[0] > p[1]).count();
+        }
+        assert!(out_of_order > 0, "measurements are never shuffled");
+        assert!(d.odometry.iter().zip(&w.controls).all(|(o, c)| o.u == c.1 && o.t == c.0));
+        // Noise-free odometry, cut into segments per scan and propagated, gives the truth.
+        let mut x = d.meta.initial_pose;
+        let mut segs = Vec::new();
+        for k in 0..d.scans.len() {
+            d.segments_for_scan(k, &mut segs);
+            assert_eq!(segs.len(), 1);
+            x = rfslam_core::motion::propagate(&w.motion, &x, &segs);
+            let truth = d.truth_at(d.scans[k].t, 1e-9).unwrap();
+            assert!((x.xy() - truth.position).norm() < 1e-9, "scan {k}");
+        }
+    }
+
+    #[test]
+    fn motion_mismatch_and_bad_models_are_errors() {
+        let w = small_world();
+        let mut m = ModelConfig::phd_slam_synthetic();
+        m.motion = MotionConfig::Odometry2d { sigma_dx: 0.1, sigma_dy: 0.1, sigma_dtheta_deg: 1.0 };
+        let e = simulate(&w, &m, 1).unwrap_err().to_string();
+        assert!(e.contains("odometry2d") && e.contains("velocity"), "{e}");
+        let mut m = ModelConfig::phd_slam_synthetic();
+        m.sensor.max_range = 0.0;
+        let e = simulate(&w, &m, 1).unwrap_err();
+        assert_eq!(e.key(), Some("sensor.max_range"));
+    }
+}

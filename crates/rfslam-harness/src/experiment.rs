@@ -1,0 +1,468 @@
+//! Experiment configuration: a scenario, filter entries, Monte Carlo runs, a master seed,
+//! an optional published table and an optional parameter grid. Everything is resolved and
+//! validated into a [`Plan`] before the first job starts.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use rfslam_data::{ScenarioConfig, World};
+use serde::{Deserialize, Serialize};
+
+use crate::error::HarnessError;
+use crate::locate::locate;
+use crate::registry;
+
+/// Metric settings of an experiment (`[metrics]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MetricsConfig {
+    /// GOSPA cut-off `c` (m); seed 000 uses 20.
+    pub gospa_c: f64,
+    /// GOSPA order `p`; seed 000 uses 2.
+    pub gospa_p: f64,
+    /// A scan's pose is scored against the ground-truth row nearest in time when it lies
+    /// within this many seconds (Victoria Park: 25 ms of a GPS fix).
+    pub truth_tolerance_s: f64,
+}
+
+impl Default for MetricsConfig {
+    fn default() -> Self {
+        MetricsConfig { gospa_c: 20.0, gospa_p: 2.0, truth_tolerance_s: 0.025 }
+    }
+}
+
+/// One `[[filters]]` entry.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FilterEntryConfig {
+    /// Registered filter name.
+    pub name: String,
+    /// Name used in the `filter` column of every output (default: `name`).
+    #[serde(default)]
+    pub label: Option<String>,
+    /// Particle counts to run.
+    pub particles: Vec<usize>,
+    /// Filter parameters (defaults for what is left out).
+    #[serde(default)]
+    pub params: toml::Table,
+}
+
+impl FilterEntryConfig {
+    /// The label used in outputs.
+    pub fn label(&self) -> &str {
+        self.label.as_deref().unwrap_or(&self.name)
+    }
+}
+
+/// The experiment file as written.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExperimentConfig {
+    /// Experiment name (report title).
+    pub name: String,
+    /// Free text for the report.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// Scenario file, relative to the experiment file.
+    pub scenario: String,
+    /// Monte Carlo runs.
+    pub runs: usize,
+    /// Master seed; run `r` uses run seed `seed + r`.
+    pub seed: u64,
+    /// Published table (CSV with `filter,particles,...` columns), relative to the experiment file.
+    #[serde(default)]
+    pub published: Option<String>,
+    /// Metric settings.
+    #[serde(default)]
+    pub metrics: MetricsConfig,
+    /// Filter entries.
+    pub filters: Vec<FilterEntryConfig>,
+    /// Parameter grid: dotted key -> values. `scenario.<key>` sets a scenario key;
+    /// `filter.<label or name>.<key>` sets a parameter of the matching filter entries.
+    #[serde(default)]
+    pub grid: BTreeMap<String, Vec<toml::Value>>,
+}
+
+/// A filter entry at one grid point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ResolvedFilter {
+    /// Registered name.
+    pub name: String,
+    /// Output label.
+    pub label: String,
+    /// Parameters after grid overrides.
+    pub params: toml::Table,
+    /// Particle counts.
+    pub particles: Vec<usize>,
+}
+
+/// One point of the grid (the only point when there is no grid).
+#[derive(Debug, Clone)]
+pub struct GridPoint {
+    /// Value of each grid key, in [`Plan::grid_keys`] order.
+    pub values: Vec<toml::Value>,
+    /// The scenario with the overrides applied.
+    pub scenario: ScenarioConfig,
+    /// The filters with the overrides applied.
+    pub filters: Vec<ResolvedFilter>,
+    /// The world, loaded once and shared (None for data-set scenarios).
+    pub world: Option<Arc<World>>,
+}
+
+/// One Monte Carlo job: a filter entry with a particle count on one run at one grid point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Job {
+    /// Grid point index.
+    pub point: usize,
+    /// Filter entry index.
+    pub filter: usize,
+    /// Particle count.
+    pub particles: usize,
+    /// Run index.
+    pub run: usize,
+    /// Run seed (`master seed + run`).
+    pub seed: u64,
+}
+
+/// A validated experiment, ready to run.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The experiment file.
+    pub path: PathBuf,
+    /// The experiment as written.
+    pub config: ExperimentConfig,
+    /// The scenario file.
+    pub scenario_path: PathBuf,
+    /// The scenario as written (a TOML table), before overrides.
+    pub scenario_table: toml::Table,
+    /// Grid keys in a fixed order.
+    pub grid_keys: Vec<String>,
+    /// Grid points (cartesian product, last key fastest).
+    pub points: Vec<GridPoint>,
+    /// The published table, when named.
+    pub published: Option<crate::report::PublishedTable>,
+}
+
+/// Restricts which jobs of a plan run (`--filters`, `--particles`, `--runs`).
+#[derive(Debug, Clone, Default)]
+pub struct JobFilter {
+    /// Only these labels (or names).
+    pub filters: Option<Vec<String>>,
+    /// Only these particle counts.
+    pub particles: Option<Vec<usize>>,
+}
+
+fn read(path: &Path) -> Result<String, HarnessError> {
+    std::fs::read_to_string(path).map_err(|e| HarnessError::Io { path: path.to_path_buf(), source: e })
+}
+
+/// A configuration error at `key` of `file`, with the line when the key is written there.
+fn config_error(file: &Path, text: &str, key: &str, message: impl Into<String>) -> HarnessError {
+    HarnessError::Config {
+        file: file.to_path_buf(),
+        line: locate(text, key),
+        key: key.to_string(),
+        message: message.into(),
+    }
+}
+
+/// Converts a toml parse/deserialize error of `file` into a [`HarnessError::Config`].
+pub(crate) fn toml_error(file: &Path, text: &str, e: &toml::de::Error) -> HarnessError {
+    let line = e.span().map(|s| crate::locate::line_of(text, s.start));
+    let msg = e.message().trim().to_string();
+    let key = msg.split('`').nth(1).unwrap_or("").to_string();
+    HarnessError::Config { file: file.to_path_buf(), line, key, message: msg }
+}
+
+/// Sets `value` at the dotted `path` of `table`, creating tables on the way.
+pub fn set_dotted(table: &mut toml::Table, path: &str, value: toml::Value) -> Result<(), String> {
+    let mut parts = path.split('.').peekable();
+    let mut t = table;
+    while let Some(p) = parts.next() {
+        if p.is_empty() {
+            return Err(format!("empty component in key `{path}`"));
+        }
+        if parts.peek().is_none() {
+            t.insert(p.to_string(), value);
+            return Ok(());
+        }
+        let next = t.entry(p.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        t = match next {
+            toml::Value::Table(inner) => inner,
+            _ => return Err(format!("`{p}` in `{path}` is not a table")),
+        };
+    }
+    Ok(())
+}
+
+/// Parses a command-line value: a TOML value (number, bool, array, quoted string) or, failing
+/// that, a bare string.
+pub fn parse_cli_value(s: &str) -> toml::Value {
+    let doc = format!("v = {s}");
+    match doc.parse::<toml::Table>() {
+        Ok(mut t) => t.remove("v").unwrap_or_else(|| toml::Value::String(s.to_string())),
+        Err(_) => toml::Value::String(s.to_string()),
+    }
+}
+
+/// Loads a scenario file as a table (for overrides) and checks it deserializes.
+pub fn load_scenario_table(path: &Path) -> Result<(String, toml::Table), HarnessError> {
+    let text = read(path)?;
+    let table: toml::Table = toml::from_str(&text).map_err(|e| toml_error(path, &text, &e))?;
+    let _: ScenarioConfig = toml::from_str(&text).map_err(|e| toml_error(path, &text, &e))?;
+    Ok((text, table))
+}
+
+/// Deserializes and validates a scenario table; `origin` says where an error should point.
+pub fn scenario_from_table(
+    table: &toml::Table,
+    origin: &dyn Fn(&str, String) -> HarnessError,
+) -> Result<ScenarioConfig, HarnessError> {
+    let sc: ScenarioConfig = toml::Value::Table(table.clone()).try_into().map_err(|e: toml::de::Error| {
+        let msg = e.message().trim().to_string();
+        let key = msg.split('`').nth(1).unwrap_or("").to_string();
+        origin(&key, msg)
+    })?;
+    sc.validate().map_err(|e| origin(e.key().unwrap_or_default(), e.to_string()))?;
+    Ok(sc)
+}
+
+impl Plan {
+    /// Reads, resolves and validates an experiment file: the scenario at every grid point,
+    /// every filter's parameters at every grid point, the published table; loads each
+    /// distinct world once.
+    pub fn load(path: &Path) -> Result<Plan, HarnessError> {
+        let text = read(path)?;
+        let config: ExperimentConfig = toml::from_str(&text).map_err(|e| toml_error(path, &text, &e))?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let err = |key: &str, msg: String| config_error(path, &text, key, msg);
+
+        if config.runs == 0 {
+            return Err(err("runs", "must be at least 1".into()));
+        }
+        if config.filters.is_empty() {
+            return Err(err("filters", "at least one [[filters]] entry is needed".into()));
+        }
+        let m = &config.metrics;
+        if !(m.gospa_c > 0.0 && m.gospa_c.is_finite()) {
+            return Err(err("metrics.gospa_c", "must be > 0".into()));
+        }
+        if !(1.0..1e6).contains(&m.gospa_p) {
+            return Err(err("metrics.gospa_p", "must be in [1, inf)".into()));
+        }
+        if m.truth_tolerance_s.is_nan() || m.truth_tolerance_s < 0.0 {
+            return Err(err("metrics.truth_tolerance_s", "must be >= 0".into()));
+        }
+        let mut labels = std::collections::HashSet::new();
+        for (i, f) in config.filters.iter().enumerate() {
+            if registry::find(&f.name).is_none() {
+                return Err(err(
+                    &format!("filters[{i}].name"),
+                    format!("unknown filter `{}`; registered filters: {}", f.name, registry::names()),
+                ));
+            }
+            if f.particles.is_empty() || f.particles.contains(&0) {
+                return Err(err(&format!("filters[{i}].particles"), "needs one or more particle counts >= 1".into()));
+            }
+            if !labels.insert(f.label().to_string()) {
+                return Err(err(
+                    &format!("filters[{i}].label"),
+                    format!("label `{}` is used twice: give each entry its own label", f.label()),
+                ));
+            }
+        }
+
+        let scenario_path = dir.join(&config.scenario);
+        if !scenario_path.is_file() {
+            return Err(err("scenario", format!("scenario file {} not found", scenario_path.display())));
+        }
+        let (_, scenario_table) = load_scenario_table(&scenario_path)?;
+
+        let published = match &config.published {
+            Some(p) => Some(crate::report::PublishedTable::read(&dir.join(p)).map_err(|e| err("published", e))?),
+            None => None,
+        };
+
+        // Grid keys and values.
+        let grid_keys: Vec<String> = config.grid.keys().cloned().collect();
+        for k in &grid_keys {
+            let gkey = format!("grid.\"{k}\"");
+            if config.grid[k].is_empty() {
+                return Err(err(&gkey, "needs at least one value".into()));
+            }
+            let ok = if let Some(rest) = k.strip_prefix("scenario.") {
+                !rest.is_empty()
+            } else if let Some(rest) = k.strip_prefix("filter.") {
+                match rest.split_once('.') {
+                    Some((who, key)) if !key.is_empty() => {
+                        if !config.filters.iter().any(|f| f.label() == who || f.name == who) {
+                            return Err(err(&gkey, format!("no filter entry is labelled or named `{who}`")));
+                        }
+                        true
+                    }
+                    _ => false,
+                }
+            } else {
+                false
+            };
+            if !ok {
+                return Err(err(&gkey, "grid keys are `scenario.<key>` or `filter.<label or name>.<key>`".into()));
+            }
+        }
+
+        let mut points = Vec::new();
+        let mut worlds: Vec<(String, Arc<World>)> = Vec::new();
+        let n_points: usize = grid_keys.iter().map(|k| config.grid[k].len()).product();
+        for p in 0..n_points {
+            // decode point index, last key fastest
+            let mut idx = p;
+            let mut values = vec![toml::Value::Boolean(false); grid_keys.len()];
+            for (ki, k) in grid_keys.iter().enumerate().rev() {
+                let n = config.grid[k].len();
+                values[ki] = config.grid[k][idx % n].clone();
+                idx /= n;
+            }
+            let mut sc_table = scenario_table.clone();
+            let mut filters: Vec<ResolvedFilter> = config
+                .filters
+                .iter()
+                .map(|f| ResolvedFilter {
+                    name: f.name.clone(),
+                    label: f.label().to_string(),
+                    params: f.params.clone(),
+                    particles: f.particles.clone(),
+                })
+                .collect();
+            for (k, v) in grid_keys.iter().zip(&values) {
+                let gkey = format!("grid.\"{k}\"");
+                if let Some(rest) = k.strip_prefix("scenario.") {
+                    set_dotted(&mut sc_table, rest, v.clone()).map_err(|m| err(&gkey, m))?;
+                } else if let Some((who, key)) = k.strip_prefix("filter.").and_then(|r| r.split_once('.')) {
+                    for f in filters.iter_mut().filter(|f| f.label == who || f.name == who) {
+                        set_dotted(&mut f.params, key, v.clone()).map_err(|m| err(&gkey, m))?;
+                    }
+                }
+            }
+            let at = |values: &[toml::Value]| -> String {
+                grid_keys.iter().zip(values).map(|(k, v)| format!("{k} = {v}")).collect::<Vec<_>>().join(", ")
+            };
+            let scenario = scenario_from_table(&sc_table, &|key: &str, msg: String| {
+                if grid_keys.is_empty() {
+                    config_error(&scenario_path, &read(&scenario_path).unwrap_or_default(), key, msg)
+                } else {
+                    err("grid", format!("at grid point ({}): scenario key `{key}`: {msg}", at(&values)))
+                }
+            })?;
+            let world_key = toml::to_string(&sc_table.get("world")).unwrap_or_default();
+            let world = match worlds.iter().find(|(k, _)| *k == world_key) {
+                Some((_, w)) => Some(w.clone()),
+                None => match scenario.load_world().map_err(|e| HarnessError::Data(e.to_string()))? {
+                    Some(w) => {
+                        let w = Arc::new(w);
+                        worlds.push((world_key, w.clone()));
+                        Some(w)
+                    }
+                    None => None,
+                },
+            };
+            let models = scenario.models_for(world.as_deref()).map_err(|e| HarnessError::Data(e.to_string()))?;
+            for (i, f) in filters.iter().enumerate() {
+                let entry = registry::find(&f.name).expect("checked above");
+                for &n in &f.particles {
+                    (entry.validate)(&f.params, &models, n).map_err(|e| {
+                        if grid_keys.is_empty() {
+                            let key = if e.key == "particles" {
+                                format!("filters[{i}].particles")
+                            } else {
+                                format!("filters[{i}].params.{}", e.key)
+                            };
+                            err(&key, format!("filter `{}`: {}", f.label, e))
+                        } else {
+                            err(
+                                "grid",
+                                format!(
+                                    "at grid point ({}): filter `{}` with {n} particles: {e}",
+                                    at(&values),
+                                    f.label
+                                ),
+                            )
+                        }
+                    })?;
+                }
+            }
+            points.push(GridPoint { values, scenario, filters, world });
+        }
+        Ok(Plan { path: path.to_path_buf(), config, scenario_path, scenario_table, grid_keys, points, published })
+    }
+
+    /// Every job of the plan in canonical order (point, filter, particles, run), restricted by `sel`.
+    pub fn jobs(&self, sel: &JobFilter) -> Vec<Job> {
+        let mut jobs = Vec::new();
+        for (pi, p) in self.points.iter().enumerate() {
+            for (fi, f) in p.filters.iter().enumerate() {
+                if let Some(names) = &sel.filters
+                    && !names.iter().any(|n| *n == f.label || *n == f.name)
+                {
+                    continue;
+                }
+                for &n in &f.particles {
+                    if let Some(ps) = &sel.particles
+                        && !ps.contains(&n)
+                    {
+                        continue;
+                    }
+                    for r in 0..self.config.runs {
+                        jobs.push(Job {
+                            point: pi,
+                            filter: fi,
+                            particles: n,
+                            run: r,
+                            seed: self.config.seed.wrapping_add(r as u64),
+                        });
+                    }
+                }
+            }
+        }
+        jobs
+    }
+
+    /// The resolved experiment (scenario inlined, defaults filled, seeds listed), written next
+    /// to the outputs and used to check that a resumed sweep is the same experiment.
+    pub fn resolved_toml(&self) -> String {
+        let mut root = toml::Table::new();
+        root.insert("name".into(), self.config.name.clone().into());
+        root.insert("experiment_file".into(), self.path.display().to_string().into());
+        root.insert("scenario_file".into(), self.scenario_path.display().to_string().into());
+        root.insert("runs".into(), (self.config.runs as i64).into());
+        root.insert("seed".into(), (self.config.seed as i64).into());
+        root.insert(
+            "run_seeds".into(),
+            format!("run r uses seed {} + r (data stream and filter stream derived from it)", self.config.seed).into(),
+        );
+        if let Ok(v) = toml::Value::try_from(&self.config.metrics) {
+            root.insert("metrics".into(), v);
+        }
+        root.insert("scenario".into(), toml::Value::Table(self.scenario_table.clone()));
+        let mut filters = Vec::new();
+        for f in &self.config.filters {
+            let mut t = toml::Table::new();
+            t.insert("name".into(), f.name.clone().into());
+            t.insert("label".into(), f.label().to_string().into());
+            t.insert("particles".into(), toml::Value::Array(f.particles.iter().map(|&n| (n as i64).into()).collect()));
+            let mut params = registry::find(&f.name).map(|e| (e.defaults)()).unwrap_or_default();
+            for (k, v) in &f.params {
+                params.insert(k.clone(), v.clone());
+            }
+            t.insert("params".into(), toml::Value::Table(params));
+            filters.push(toml::Value::Table(t));
+        }
+        root.insert("filters".into(), toml::Value::Array(filters));
+        let mut grid = toml::Table::new();
+        for (k, v) in &self.config.grid {
+            grid.insert(k.clone(), toml::Value::Array(v.clone()));
+        }
+        root.insert("grid".into(), toml::Value::Table(grid));
+        toml::to_string_pretty(&root).unwrap_or_default()
+    }
+}

@@ -1,0 +1,23 @@
+//! rfslam-harness: the Monte Carlo harness behind `rfslam sweep` and `rfslam run`.
+//!
+//! - [`registry`]: filter name -> typed parameters -> `Box<dyn SlamFilter>`;
+//! - [`experiment`]: experiment TOML -> validated [`experiment::Plan`] of jobs;
+//! - [`job`]: one filter over one data set, scored (with an observer hook);
+//! - [`sweep`]: parallel, deterministic, resumable execution; `runs.csv`;
+//! - [`summary`], [`report`]: `summary.csv` with seed 000's columns and `report.md` beside
+//!   the published figures.
+
+pub mod error;
+pub mod experiment;
+pub mod job;
+pub mod locate;
+pub mod registry;
+pub mod report;
+pub mod runs;
+pub mod summary;
+pub mod sweep;
+
+pub use error::HarnessError;
+pub use experiment::{ExperimentConfig, JobFilter, Plan};
+pub use job::{JobOutcome, StepRecord, run_filter};
+pub use sweep::{SweepOptions, SweepOutcome, sweep};

@@ -1,0 +1,185 @@
+//! `report.md`: our summary beside a published table, with ratios.
+
+use std::collections::HashMap;
+use std::fmt::Write;
+use std::path::Path;
+
+use crate::summary::SummaryRow;
+
+/// A published table: CSV with `filter,particles` and metric columns named as in
+/// `summary.csv` (`pos_rmse_m`, `gospa_m`, `time_ms`, ...); empty cells are "not published".
+#[derive(Debug, Clone, PartialEq)]
+pub struct PublishedTable {
+    /// File it was read from.
+    pub source: String,
+    /// Metric columns present.
+    pub columns: Vec<String>,
+    /// (filter, particles) -> column -> value.
+    pub rows: HashMap<(String, usize), HashMap<String, f64>>,
+}
+
+impl PublishedTable {
+    /// Reads a published table; the error says what is wrong (file and line).
+    pub fn read(path: &Path) -> Result<PublishedTable, String> {
+        let mut rdr = csv::Reader::from_path(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let hdr: Vec<String> =
+            rdr.headers().map_err(|e| format!("{}: {e}", path.display()))?.iter().map(String::from).collect();
+        let (Some(fi), Some(pi)) = (hdr.iter().position(|h| h == "filter"), hdr.iter().position(|h| h == "particles"))
+        else {
+            return Err(format!("{}: needs `filter` and `particles` columns", path.display()));
+        };
+        let mut rows = HashMap::new();
+        for (i, rec) in rdr.records().enumerate() {
+            let line = i + 2;
+            let rec = rec.map_err(|e| format!("{}:{line}: {e}", path.display()))?;
+            let n: usize = rec[pi]
+                .trim()
+                .parse()
+                .map_err(|_| format!("{}:{line}: particles `{}` is not a count", path.display(), &rec[pi]))?;
+            let mut vals = HashMap::new();
+            for (c, h) in hdr.iter().enumerate() {
+                if c == fi || c == pi || rec.get(c).is_none_or(|s| s.trim().is_empty()) {
+                    continue;
+                }
+                let v: f64 = rec[c]
+                    .trim()
+                    .parse()
+                    .map_err(|_| format!("{}:{line}: `{}` in column {h} is not a number", path.display(), &rec[c]))?;
+                vals.insert(h.clone(), v);
+            }
+            rows.insert((rec[fi].trim().to_string(), n), vals);
+        }
+        let columns = hdr.into_iter().enumerate().filter(|(c, _)| *c != fi && *c != pi).map(|(_, h)| h).collect();
+        Ok(PublishedTable { source: path.display().to_string(), columns, rows })
+    }
+}
+
+const REPORT_COLUMNS: &[(&str, &str)] = &[
+    ("pos_rmse_m", "pos RMSE [m]"),
+    ("head_rmse_deg", "head RMSE [deg]"),
+    ("gospa_m", "GOSPA [m]"),
+    ("ess_pct", "ESS [%]"),
+    ("resampling_pct", "resampling [%]"),
+    ("time_ms", "ms / recursion"),
+    ("tpr", "TPR"),
+    ("tnr", "TNR"),
+];
+
+fn num(x: f64) -> String {
+    if x.is_nan() {
+        "–".into()
+    } else if x.abs() >= 100.0 {
+        format!("{x:.1}")
+    } else if x.abs() >= 1.0 || x == 0.0 {
+        format!("{x:.2}")
+    } else {
+        format!("{x:.4}")
+    }
+}
+
+/// Context printed at the top of a report.
+pub struct ReportInfo<'a> {
+    /// Experiment name.
+    pub name: &'a str,
+    /// Experiment description.
+    pub description: Option<&'a str>,
+    /// Experiment file.
+    pub experiment: &'a str,
+    /// Monte Carlo runs.
+    pub runs: usize,
+    /// Master seed.
+    pub seed: u64,
+    /// Grid keys.
+    pub grid_keys: &'a [String],
+    /// Wall time of the sweep invocation that finished it (s), jobs and threads.
+    pub wall: Option<(f64, usize, usize)>,
+}
+
+/// Renders `report.md`: per grid point a table with ours, the published figure and the ratio
+/// ours / published for every column the published table has.
+pub fn render(info: &ReportInfo, rows: &[SummaryRow], published: Option<&PublishedTable>) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# {}\n", info.name);
+    if let Some(d) = info.description {
+        let _ = writeln!(s, "{}\n", d.trim());
+    }
+    let _ = writeln!(
+        s,
+        "- experiment: `{}`; {} Monte Carlo runs per row, master seed {}",
+        info.experiment, info.runs, info.seed
+    );
+    if let Some((wall, jobs, threads)) = info.wall {
+        let _ = writeln!(s, "- last sweep invocation: {jobs} jobs in {wall:.1} s wall time on {threads} thread(s)");
+    }
+    let _ = writeln!(
+        s,
+        "- position and heading RMSE over all steps of all runs (± std of the per-run RMSE); GOSPA of the final map (mean ± std); ms per recursion is the mean wall time of one filter step on one core of this machine"
+    );
+    if let Some(p) = published {
+        let _ = writeln!(s, "- published figures: `{}`; ratio = ours / published", p.source);
+    }
+    let _ = writeln!(s);
+
+    let used: Vec<&(&str, &str)> = REPORT_COLUMNS
+        .iter()
+        .filter(|(c, _)| {
+            rows.iter().any(|r| r.get(c).is_some_and(|x| !x.is_nan()))
+                || published.is_some_and(|p| p.columns.iter().any(|pc| pc == c))
+        })
+        .collect();
+
+    let mut points: Vec<&Vec<String>> = Vec::new();
+    for r in rows {
+        if !points.contains(&&r.grid) {
+            points.push(&r.grid);
+        }
+    }
+    for g in points {
+        if !info.grid_keys.is_empty() {
+            let title: Vec<String> = info.grid_keys.iter().zip(g).map(|(k, v)| format!("{k} = {v}")).collect();
+            let _ = writeln!(s, "## {}\n", title.join(", "));
+        }
+        let mut head = String::from("| filter | N | runs |");
+        let mut sep = String::from("|---|---:|---:|");
+        for (c, title) in &used {
+            let has_pub = published.is_some_and(|p| p.columns.iter().any(|pc| pc == c));
+            if has_pub {
+                let _ = write!(head, " {title} | published | ratio |");
+                sep.push_str("---:|---:|---:|");
+            } else {
+                let _ = write!(head, " {title} |");
+                sep.push_str("---:|");
+            }
+        }
+        let _ = writeln!(s, "{head}\n{sep}");
+        for r in rows.iter().filter(|r| &r.grid == g) {
+            let mut line = format!("| {} | {} | {} |", r.filter, r.particles, r.runs);
+            let pubrow = published.and_then(|p| p.rows.get(&(r.filter.clone(), r.particles)));
+            for (c, _) in &used {
+                let ours = r.get(c).unwrap_or(f64::NAN);
+                let std = match *c {
+                    "pos_rmse_m" => Some(r.pos_std_m),
+                    "head_rmse_deg" => Some(r.head_std_deg),
+                    "gospa_m" => Some(r.gospa_std_m),
+                    "time_ms" => Some(r.time_std_ms),
+                    _ => None,
+                };
+                let cell = match std {
+                    Some(sd) if !ours.is_nan() && !sd.is_nan() => format!("{} ± {}", num(ours), num(sd)),
+                    _ => num(ours),
+                };
+                let has_pub = published.is_some_and(|p| p.columns.iter().any(|pc| pc == c));
+                if has_pub {
+                    let p = pubrow.and_then(|m| m.get(*c)).copied().unwrap_or(f64::NAN);
+                    let ratio = if p.is_nan() || ours.is_nan() || p == 0.0 { f64::NAN } else { ours / p };
+                    let _ = write!(line, " {cell} | {} | {} |", num(p), num(ratio));
+                } else {
+                    let _ = write!(line, " {cell} |");
+                }
+            }
+            let _ = writeln!(s, "{line}");
+        }
+        let _ = writeln!(s);
+    }
+    s
+}

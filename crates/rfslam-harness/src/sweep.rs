@@ -1,0 +1,265 @@
+//! Runs the jobs of a [`Plan`] in parallel (rayon across jobs, each job single-threaded),
+//! appending `runs.csv` as each job ends, then writes `summary.csv` and `report.md`.
+//!
+//! Determinism: a job's data depend only on (scenario, run seed) and its filter's random
+//! draws only on (run seed, particle count), so rows are identical whatever `--jobs` is;
+//! `runs.csv` is rewritten in canonical job order at the end.
+
+use std::collections::HashSet;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use crate::error::HarnessError;
+use crate::experiment::{Job, JobFilter, Plan};
+use crate::job::run_filter;
+use crate::registry;
+use crate::report::{ReportInfo, render};
+use crate::runs::{RunRow, RunsAppender, read_rows, write_rows};
+use crate::summary::{summarise, write_summary};
+
+/// Options of one sweep invocation.
+#[derive(Debug, Clone, Default)]
+pub struct SweepOptions {
+    /// Output directory.
+    pub out: PathBuf,
+    /// Worker threads (jobs run at once); 0 = all cores.
+    pub jobs: usize,
+    /// Continue an interrupted sweep in `out`.
+    pub resume: bool,
+    /// Subset of jobs.
+    pub select: JobFilter,
+    /// Progress output: `None` = automatic (a bar on a terminal, lines otherwise).
+    pub quiet: bool,
+}
+
+/// What a sweep did.
+#[derive(Debug, Clone)]
+pub struct SweepOutcome {
+    /// Jobs run by this invocation.
+    pub ran: usize,
+    /// Jobs found finished in `runs.csv` and skipped.
+    pub skipped: usize,
+    /// Wall time (s).
+    pub wall_s: f64,
+    /// Output directory.
+    pub out: PathBuf,
+}
+
+/// Runs one job: builds its data set and filter, runs, scores.
+pub fn run_job(plan: &Plan, job: &Job) -> Result<RunRow, HarnessError> {
+    let point = &plan.points[job.point];
+    let f = &point.filters[job.filter];
+    let dataset = point
+        .scenario
+        .build_dataset(point.world.as_deref(), job.seed)
+        .map_err(|e| HarnessError::Data(e.to_string()))?;
+    let models = dataset.models();
+    let entry = registry::find(&f.name).ok_or_else(|| HarnessError::Run(format!("unknown filter {}", f.name)))?;
+    let mut filter =
+        (entry.build)(&f.params, &models, job.particles).map_err(|e| HarnessError::Run(format!("{}: {e}", f.label)))?;
+    let o = run_filter(&dataset, filter.as_mut(), job.seed, &plan.config.metrics, &mut |_| {});
+    let (tpr, tnr, pos, neg) = match &o.da {
+        Some(d) => (d.tpr().unwrap_or(f64::NAN), d.tnr().unwrap_or(f64::NAN), d.positives, d.negatives),
+        None => (f64::NAN, f64::NAN, 0, 0),
+    };
+    Ok(RunRow {
+        run: job.run,
+        filter: f.label.clone(),
+        particles: job.particles,
+        seed: job.seed,
+        pos_rmse_m: o.pos_rmse_m,
+        head_rmse_deg: o.head_rmse_deg,
+        gospa_m: o.gospa_m,
+        ess_pct: o.ess_pct,
+        resampling_pct: o.resampling_pct,
+        time_ms_per_step: o.time_ms_per_step,
+        steps: o.steps,
+        scored_steps: o.scored_steps,
+        gospa_loc_m: o.gospa_loc_m,
+        gospa_missed: o.gospa_missed,
+        gospa_false: o.gospa_false,
+        tpr,
+        tnr,
+        da_positives: pos as u64,
+        da_negatives: neg as u64,
+        cholesky_failures: o.cholesky_failures,
+        grid: point.values.iter().map(|v| v.to_string()).collect(),
+    })
+}
+
+enum Progress {
+    Bar(indicatif::ProgressBar),
+    Lines { total: usize, every: usize, done: Mutex<usize> },
+    Quiet,
+}
+
+impl Progress {
+    fn new(total: usize, quiet: bool) -> Progress {
+        if quiet {
+            Progress::Quiet
+        } else if std::io::stderr().is_terminal() && std::env::var_os("CI").is_none() {
+            let bar = indicatif::ProgressBar::new(total as u64);
+            if let Ok(style) = indicatif::ProgressStyle::with_template(
+                "{bar:40} {pos}/{len} jobs  {elapsed} elapsed, eta {eta}  {msg}",
+            ) {
+                bar.set_style(style);
+            }
+            Progress::Bar(bar)
+        } else {
+            Progress::Lines { total, every: (total / 20).max(1), done: Mutex::new(0) }
+        }
+    }
+
+    fn tick(&self, row: &RunRow) {
+        match self {
+            Progress::Bar(b) => {
+                b.set_message(format!("{} N={} run {}", row.filter, row.particles, row.run));
+                b.inc(1);
+            }
+            Progress::Lines { total, every, done } => {
+                let mut d = done.lock().unwrap_or_else(|p| p.into_inner());
+                *d += 1;
+                if *d % every == 0 || *d == *total {
+                    eprintln!(
+                        "[{}/{}] {} N={} run {}: pos RMSE {:.2} m, {:.3} ms/step",
+                        *d, total, row.filter, row.particles, row.run, row.pos_rmse_m, row.time_ms_per_step
+                    );
+                }
+            }
+            Progress::Quiet => {}
+        }
+    }
+
+    fn finish(&self) {
+        if let Progress::Bar(b) = self {
+            b.finish_and_clear();
+        }
+    }
+}
+
+/// Runs a sweep (see the module docs).
+pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessError> {
+    let start = Instant::now();
+    let out = &opts.out;
+    std::fs::create_dir_all(out).map_err(|e| HarnessError::io(out, e))?;
+    let runs_path = out.join("runs.csv");
+    let resolved_path = out.join("experiment.resolved.toml");
+    let resolved = plan.resolved_toml();
+
+    let mut previous: Vec<RunRow> = Vec::new();
+    if runs_path.exists() {
+        if !opts.resume {
+            return Err(HarnessError::Resume(format!(
+                "{} already exists: pass --resume to continue that sweep, or choose another --out",
+                runs_path.display()
+            )));
+        }
+        if let Ok(old) = std::fs::read_to_string(&resolved_path)
+            && old != resolved
+        {
+            return Err(HarnessError::Resume(format!(
+                "{} describes a different experiment (configuration changed since that sweep): use another --out",
+                resolved_path.display()
+            )));
+        }
+        previous = read_rows(&runs_path, &plan.grid_keys)?;
+    }
+    std::fs::write(&resolved_path, &resolved).map_err(|e| HarnessError::io(&resolved_path, e))?;
+    // Rewrite what was complete (drops a truncated last line) and append from there.
+    write_rows(&runs_path, &plan.grid_keys, &previous)?;
+
+    let all_jobs = plan.jobs(&opts.select);
+    let done: HashSet<_> = previous.iter().map(|r| r.key()).collect();
+    let key_of = |j: &Job| {
+        let p = &plan.points[j.point];
+        (
+            p.values.iter().map(|v| v.to_string()).collect::<Vec<_>>(),
+            p.filters[j.filter].label.clone(),
+            j.particles,
+            j.run,
+        )
+    };
+    let todo: Vec<Job> = all_jobs.iter().filter(|j| !done.contains(&key_of(j))).copied().collect();
+    let skipped = all_jobs.len() - todo.len();
+
+    let threads =
+        if opts.jobs == 0 { std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1) } else { opts.jobs };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| HarnessError::Run(format!("thread pool: {e}")))?;
+    let appender = Mutex::new(RunsAppender::open(&runs_path)?);
+    let failure: Mutex<Option<HarnessError>> = Mutex::new(None);
+    let progress = Progress::new(todo.len(), opts.quiet);
+    if skipped > 0 && !opts.quiet {
+        eprintln!("resuming: {skipped} of {} jobs already in {}", all_jobs.len(), runs_path.display());
+    }
+    pool.install(|| {
+        todo.par_iter().with_max_len(1).for_each(|job| {
+            if failure.lock().map(|f| f.is_some()).unwrap_or(true) {
+                return;
+            }
+            let res = run_job(plan, job).and_then(|row| {
+                appender.lock().unwrap_or_else(|p| p.into_inner()).append(&row)?;
+                progress.tick(&row);
+                Ok(())
+            });
+            if let Err(e) = res {
+                let mut f = failure.lock().unwrap_or_else(|p| p.into_inner());
+                if f.is_none() {
+                    *f = Some(e);
+                }
+            }
+        })
+    });
+    progress.finish();
+    drop(appender);
+    if let Some(e) = failure.into_inner().unwrap_or_else(|p| p.into_inner()) {
+        return Err(e);
+    }
+    let wall_s = start.elapsed().as_secs_f64();
+    finish(plan, out, Some((wall_s, todo.len(), threads)))?;
+    Ok(SweepOutcome { ran: todo.len(), skipped, wall_s, out: out.clone() })
+}
+
+/// Rewrites `runs.csv` in canonical job order and writes `summary.csv` and `report.md`
+/// from every row in it.
+pub fn finish(plan: &Plan, out: &Path, wall: Option<(f64, usize, usize)>) -> Result<(), HarnessError> {
+    let runs_path = out.join("runs.csv");
+    let mut rows = read_rows(&runs_path, &plan.grid_keys)?;
+    let order: Vec<_> = plan.jobs(&JobFilter::default());
+    let rank = |r: &RunRow| {
+        order
+            .iter()
+            .position(|j| {
+                let p = &plan.points[j.point];
+                p.filters[j.filter].label == r.filter
+                    && j.particles == r.particles
+                    && j.run == r.run
+                    && p.values.iter().map(|v| v.to_string()).collect::<Vec<_>>() == r.grid
+            })
+            .unwrap_or(usize::MAX)
+    };
+    let mut keyed: Vec<(usize, RunRow)> = rows.drain(..).map(|r| (rank(&r), r)).collect();
+    keyed.sort_by_key(|(k, _)| *k);
+    let rows: Vec<RunRow> = keyed.into_iter().map(|(_, r)| r).collect();
+    write_rows(&runs_path, &plan.grid_keys, &rows)?;
+    let summary = summarise(&rows);
+    write_summary(&out.join("summary.csv"), &plan.grid_keys, &summary)?;
+    let info = ReportInfo {
+        name: &plan.config.name,
+        description: plan.config.description.as_deref(),
+        experiment: &plan.path.display().to_string(),
+        runs: plan.config.runs,
+        seed: plan.config.seed,
+        grid_keys: &plan.grid_keys,
+        wall,
+    };
+    let md = render(&info, &summary, plan.published.as_ref());
+    let report = out.join("report.md");
+    std::fs::write(&report, md).map_err(|e| HarnessError::io(&report, e))
+}

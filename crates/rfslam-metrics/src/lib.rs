@@ -1,0 +1,24 @@
+//! rfslam-metrics: the accuracy measures the rfslam papers report.
+//!
+//! - [`gospa`] (alpha = 2) and [`ospa`]: map error between the true landmark set and a
+//!   filter's map estimate (seed 000 §VI uses GOSPA with `c = 20 m`, `p = 2`; seed 001
+//!   uses OSPA with `c = 0.5 m`, `p = 1`). Both use the optimal assignment of
+//!   [`rfslam_assign`].
+//! - [`PoseErrors`]: position and wrapped-heading RMSE over steps, poolable across runs.
+//! - [`DaCounts`] / [`score_associations`]: data-association true-positive and
+//!   true-negative ratios (seed 000 §VI-A-1).
+//! - [`RunningMean`] / [`EssStats`]: mean effective sample size and resampling rate.
+
+#![warn(missing_docs)]
+
+mod da;
+mod error;
+mod ospa;
+mod pose;
+mod stats;
+
+pub use da::{DaCounts, score_associations};
+pub use error::MetricError;
+pub use ospa::{Gospa, Ospa, gospa, ospa};
+pub use pose::PoseErrors;
+pub use stats::{EssStats, RunningMean};
