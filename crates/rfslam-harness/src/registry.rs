@@ -12,6 +12,9 @@ pub struct FilterEntry {
     pub name: &'static str,
     /// One line for `rfslam filters`.
     pub summary: &'static str,
+    /// A baseline that builds no map (dead reckoning): the conformance suite does not
+    /// expect it to localise or map.
+    pub baseline: bool,
     /// Parses and validates parameters without building.
     pub validate: fn(&toml::Table, &SlamModels, usize) -> Result<(), ParamError>,
     /// Parses, validates and builds.
@@ -50,9 +53,13 @@ fn defaults_with<F: FilterBuild>() -> toml::Table {
 
 macro_rules! entry {
     ($name:literal, $ty:ty, $summary:literal) => {
+        entry!($name, $ty, $summary, false)
+    };
+    ($name:literal, $ty:ty, $summary:literal, $baseline:literal) => {
         FilterEntry {
             name: $name,
             summary: $summary,
+            baseline: $baseline,
             validate: validate_with::<$ty>,
             build: build_with::<$ty>,
             defaults: defaults_with::<$ty>,
@@ -64,7 +71,8 @@ macro_rules! entry {
 pub static REGISTRY: &[FilterEntry] = &[entry!(
     "dead-reckoning",
     dead_reckoning::DeadReckoning,
-    "odometry only, no map: the baseline every SLAM filter must beat"
+    "odometry only, no map: the baseline every SLAM filter must beat",
+    true
 )];
 
 /// Looks a filter up by name.
