@@ -14,6 +14,7 @@ pub mod angle;
 pub mod detection;
 pub mod filter;
 pub mod gaussian;
+pub mod ipl;
 pub mod motion;
 pub mod rbpf;
 pub mod rng;

@@ -343,7 +343,7 @@ rate = 5.0
         let a = sc.build_dataset(Some(&w), 3).unwrap();
         let b = sc.build_dataset(None, 3).unwrap();
         assert_eq!(a, b);
-        assert_eq!(a.scans.len(), 199);
+        assert_eq!(a.scans.len(), 200);
         assert_eq!(a.models(), m);
     }
 

@@ -18,7 +18,9 @@ use crate::world::World;
 /// - True poses: the world's poses (its true controls propagated from the first pose).
 /// - Odometry: one row per used control, at the control's time: the true control plus
 ///   independent Gaussian noise `N(0, sigma)` on each input (`models.motion`).
-/// - One scan at every true pose after the first (`t_1 ... t_{T-1}`). Each landmark with
+/// - One scan at every true pose, the first included (`t_0 ... t_{T-1}`): as in the published
+///   simulation (PHD-SLAM 3.0 code), the first scan is taken at the known initial pose, so
+///   the filter's first recursion has no odometry and anchors the map. Each landmark with
 ///   `p_D(m | x) > 0` (inside the FOV: range `<= max_range`, `|bearing| <= half angle`)
 ///   is detected with probability `p_D` and measured as `g(m, x) + N(0, R)`, bearing
 ///   wrapped (eq. 50, with the sensor offset); then Poisson clutter uniform in range
@@ -29,8 +31,8 @@ use crate::world::World;
 /// - `dataset.toml`: the world's name, the initial pose `x_0` at `t_0`, and `models`.
 ///
 /// All randomness comes from `stream(&[run_seed, purpose::SCENARIO])`: the same seed gives
-/// the same data set. The order of the draws is: for each step `k = 1..T-1`, the odometry
-/// noise of control `k-1`, then per landmark (in world order) the detection draw and the
+/// the same data set. The order of the draws is: for each step `k = 0..T-1`, the odometry
+/// noise of control `k-1` (for `k >= 1`), then per landmark (in world order) the detection draw and the
 /// measurement noise, then the clutter, then the shuffle.
 ///
 /// Errors: invalid `models`, or a motion model different from the world's.
@@ -66,15 +68,17 @@ pub fn simulate(world: &World, models: &ModelConfig, run_seed: u64) -> Result<Da
 
     let steps = world.poses.len();
     let mut odometry = Vec::with_capacity(steps.saturating_sub(1));
-    let mut scans = Vec::with_capacity(steps.saturating_sub(1));
-    for k in 1..steps {
-        let (tc, u) = world.controls[k - 1];
-        let mut noisy = u;
-        for (j, s) in sigma.iter().enumerate().take(inputs) {
-            let n: f64 = StandardNormal.sample(&mut rng);
-            noisy[j] += s * n;
+    let mut scans = Vec::with_capacity(steps);
+    for k in 0..steps {
+        if k > 0 {
+            let (tc, u) = world.controls[k - 1];
+            let mut noisy = u;
+            for (j, s) in sigma.iter().enumerate().take(inputs) {
+                let n: f64 = StandardNormal.sample(&mut rng);
+                noisy[j] += s * n;
+            }
+            odometry.push(OdometryRow { t: tc, u: noisy });
         }
-        odometry.push(OdometryRow { t: tc, u: noisy });
 
         let (t, x) = world.poses[k];
         let mut z: Vec<RangeBearing> = Vec::new();
@@ -140,9 +144,9 @@ mod tests {
         assert_ne!(a.scans, c.scans);
         assert_ne!(a.odometry, c.odometry);
         // Shape.
-        assert_eq!(a.scans.len(), 299);
+        assert_eq!(a.scans.len(), 300);
         assert_eq!(a.odometry.len(), 299);
-        assert_eq!(a.scans[0].t, w.poses[1].0);
+        assert_eq!(a.scans[0].t, w.poses[0].0);
         assert_eq!(a.meta.initial_pose, w.poses[0].1);
         assert_eq!(a.groundtruth.as_ref().unwrap().len(), 300);
         assert!(a.scans.iter().all(|s| s.truth.as_ref().is_some_and(|t| t.len() == s.z.len())));
@@ -166,7 +170,7 @@ mod tests {
         let fov = m.sensor.fov();
         let mut out_of_order = 0;
         for (k, s) in d.scans.iter().enumerate() {
-            let x = w.poses[k + 1].1;
+            let x = w.poses[k].1;
             let labels = s.truth.as_ref().unwrap();
             let visible: Vec<i64> =
                 w.landmarks.iter().filter(|l| fov.contains(&x, &l.position)).map(|l| l.id).collect();
@@ -184,7 +188,8 @@ mod tests {
         let mut segs = Vec::new();
         for k in 0..d.scans.len() {
             d.segments_for_scan(k, &mut segs);
-            assert_eq!(segs.len(), 1);
+            // the first scan is at the initial pose: no odometry before it
+            assert_eq!(segs.len(), usize::from(k > 0), "scan {k}");
             x = rfslam_core::motion::propagate(&w.motion, &x, &segs);
             let truth = d.truth_at(d.scans[k].t, 1e-9).unwrap();
             assert!((x.xy() - truth.position).norm() < 1e-9, "scan {k}");

@@ -19,8 +19,8 @@ fn mean_std(x: &[f64]) -> (f64, f64) {
 
 #[test]
 fn generator_statistics_match_the_settings() {
-    // 4001 poses: scans at the 4000 poses after the first.
-    let world = World::procedural(&ProceduralParams { steps: 4001, ..Default::default() }, 1).unwrap();
+    // 4000 poses: one scan at each, the initial pose included.
+    let world = World::procedural(&ProceduralParams { steps: 4000, ..Default::default() }, 1).unwrap();
     let models = ModelConfig::phd_slam_synthetic();
     let t0 = Instant::now();
     let d = simulate(&world, &models, 2024).unwrap();
@@ -34,7 +34,7 @@ fn generator_statistics_match_the_settings() {
     let (mut dr, mut db) = (Vec::new(), Vec::new());
     let (mut clutter_r, mut clutter_b) = (Vec::new(), Vec::new());
     for (k, s) in d.scans.iter().enumerate() {
-        let (t, x) = world.poses[k + 1];
+        let (t, x) = world.poses[k];
         assert_eq!(s.t, t);
         in_fov += world.landmarks.iter().filter(|l| m.fov.contains(&x, &l.position)).count();
         for (z, &id) in s.z.iter().zip(s.truth.as_ref().unwrap()) {

@@ -68,12 +68,24 @@ macro_rules! entry {
 }
 
 /// Every filter the harness can run.
-pub static REGISTRY: &[FilterEntry] = &[entry!(
-    "dead-reckoning",
-    dead_reckoning::DeadReckoning,
-    "odometry only, no map: the baseline every SLAM filter must beat",
-    true
-)];
+pub static REGISTRY: &[FilterEntry] = &[
+    entry!(
+        "dead-reckoning",
+        dead_reckoning::DeadReckoning,
+        "odometry only, no map: the baseline every SLAM filter must beat",
+        true
+    ),
+    entry!(
+        "phd-1.0",
+        phd_slam_1::PhdSlam1,
+        "PHD-SLAM 1.0 (Mullane et al. 2011): RB-PHD SLAM, transition density as proposal"
+    ),
+    entry!(
+        "phd-3.0",
+        phd_slam_3::PhdSlam3,
+        "PHD-SLAM 3.0 (Kaltiokallio et al. 2024): multi-hypotheses importance density (Murty + partitioned IPL)"
+    ),
+];
 
 /// Looks a filter up by name.
 pub fn find(name: &str) -> Option<&'static FilterEntry> {

@@ -1,0 +1,54 @@
+//! `phd-1.0`: PHD-SLAM 1.0 (Mullane, Vo, Adams, Vo, IEEE T-RO 2011), the bootstrap RB-PHD
+//! filter: poses are drawn from the transition density `f(x_k | x_{k-1}, u_k) =
+//! N(f(x_{k-1}, u_k), Q_{k-1})` (seed 000 eqs. 1, 26), so the prior and proposal terms of
+//! eq. (45) cancel and the weight update is the measurement term alone (eq. 27), computed
+//! with eq. (46) as the tables of seed 000 were (note 01 §2).
+
+use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
+use rfslam_core::gaussian::sample;
+use rfslam_core::{ParamError, Rng, SlamModels};
+use serde::{Deserialize, Serialize};
+
+/// The bootstrap proposal has no parameters of its own.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransitionParams {}
+
+/// The transition density as importance density (eq. 26).
+#[derive(Debug, Clone, Default)]
+pub struct TransitionProposal;
+
+impl Proposal for TransitionProposal {
+    const NAME: &'static str = "phd-1.0";
+    type Params = TransitionParams;
+
+    fn validate(_: &TransitionParams) -> Result<(), ParamError> {
+        Ok(())
+    }
+
+    fn new(_: &TransitionParams, _: &SlamModels) -> Self {
+        TransitionProposal
+    }
+
+    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+        out.clear();
+        let mut stats = ProposalStats { components: 1, cholesky_failures: 0 };
+        for _ in 0..n {
+            let pose = match sample(&ctx.predicted, &ctx.q, rng) {
+                Some(mut x) => {
+                    x[2] = rfslam_core::angle::wrap(x[2]);
+                    x
+                }
+                None => {
+                    stats.cholesky_failures += 1;
+                    ctx.predicted
+                }
+            };
+            out.push(PoseSample { pose, log_correction: 0.0, component: 0 });
+        }
+        stats
+    }
+}
+
+/// PHD-SLAM 1.0.
+pub type PhdSlam1 = RbPhd<TransitionProposal>;

@@ -1,0 +1,361 @@
+//! `phd-3.0`: PHD-SLAM 3.0 (Kaltiokallio, Hostettler, Ge, Kim, Talvitie, Wymeersch,
+//! Valkama, IEEE T-RO 2024, "seed 000"), the RB-PHD filter with the multi-hypotheses
+//! importance density (GM-ID) of Section V:
+//!
+//! 1. cost matrix eqs. (29)-(31) at the predicted pose, with the predicted pose covariance
+//!    in the innovation covariance `S = G_m P G_m^T + G_x Q G_x^T + R`, gated;
+//! 2. the Gamma best associations by Murty's algorithm (at most `max_assignments`, stopping
+//!    once an assignment is more than `ln(1 / assignment_ratio)` less likely than the best),
+//!    plus the all-missed association (the transition density);
+//! 3. per association, Algorithm 1 (partitioned IPL) for the component moments and eq. (44)
+//!    for its weight;
+//! 4. a component drawn from the categorical of the weights, the pose from its Gaussian, and
+//!    the weight correction `ln f - ln q` of eqs. (45), (47), (48).
+
+use nalgebra::Matrix3;
+use rand::RngExt;
+use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
+use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
+use rfslam_core::angle::wrap;
+use rfslam_core::gaussian::{log_normal, sample, symmetrise};
+use rfslam_core::ipl::{IplSettings, ipl_update, pose_diff};
+use rfslam_core::rbpf::log_sum_exp;
+use rfslam_core::{ParamError, Pose, RangeBearing, RangeBearingSensor, Rng, SlamModels};
+use serde::{Deserialize, Serialize};
+
+/// How the missed-detection entries of the cost matrix (and the missed factors of eq. 44)
+/// treat the component weight `eta_i` (note 05 §1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MissedCost {
+    /// `-ln((1 - pD) eta)`, as eqs. (31)/(40)/(44) print it and as the public code that
+    /// produced the tables computes it (eta is then a row constant and cancels).
+    #[default]
+    Paper,
+    /// `-ln(1 - pD)`: the earlier public code (low-weight components cost about `-ln eta` more
+    /// to associate).
+    NoEta,
+    /// `-ln(1 - pD min(eta, 1))`: a Bernoulli-style missed term.
+    Bernoulli,
+}
+
+/// Parameters of the multi-hypotheses importance density (defaults: seed 000 §VI).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MhParams {
+    /// Maximum number of ranked assignments `Gamma_bar` (50).
+    pub max_assignments: usize,
+    /// Stop generating assignments once `gamma_t / gamma_1` falls below this (1e-3).
+    pub assignment_ratio: f64,
+    /// Maximum IPL iterations `L` (5).
+    pub ipl_iterations: usize,
+    /// IPL convergence threshold on the KL divergence between iterates (1e-3).
+    pub ipl_kl_threshold: f64,
+    /// Missed-detection convention.
+    pub missed_cost: MissedCost,
+    /// Always append the all-missed association (the transition density) to the mixture.
+    pub append_all_missed: bool,
+}
+
+impl Default for MhParams {
+    fn default() -> Self {
+        MhParams {
+            max_assignments: 50,
+            assignment_ratio: 1e-3,
+            ipl_iterations: 5,
+            ipl_kl_threshold: 1e-3,
+            missed_cost: MissedCost::Paper,
+            append_all_missed: true,
+        }
+    }
+}
+
+/// One component of the GM-ID: association, moments and log weight.
+#[derive(Debug, Clone, Default)]
+struct Component {
+    /// Measurement index of each cost-matrix row (`None`: missed), eq. (33).
+    phi: Vec<Option<usize>>,
+    mean: Pose,
+    cov: Matrix3<f64>,
+    log_w: f64,
+    /// Cholesky of `cov` succeeded (else the component is not sampled from).
+    chol_ok: bool,
+}
+
+/// The multi-hypotheses importance density of seed 000 Section V.
+pub struct MhProposal {
+    params: MhParams,
+    murty: Murty,
+    ranked: Vec<Assignment>,
+    components: Vec<Component>,
+    n_components: usize,
+    /// Cost-matrix row -> map component index, of the last call.
+    rows: Vec<usize>,
+    n_meas: usize,
+    det_cost: Vec<f64>,
+    miss_cost: Vec<f64>,
+    pairs_z: Vec<RangeBearing>,
+    pairs_row: Vec<usize>,
+    log_w: Vec<f64>,
+    /// Terms of the mixture density eq. (48), reused.
+    terms: Vec<f64>,
+}
+
+impl MhProposal {
+    fn log_missed(&self, pd: f64, log_eta: f64) -> f64 {
+        match self.params.missed_cost {
+            MissedCost::Paper => (1.0 - pd).ln() + log_eta,
+            MissedCost::NoEta => (1.0 - pd).ln(),
+            MissedCost::Bernoulli => (1.0 - pd * log_eta.exp().min(1.0)).ln(),
+        }
+    }
+
+    fn component_slot(&mut self) -> &mut Component {
+        if self.n_components == self.components.len() {
+            self.components.push(Component::default());
+        }
+        self.n_components += 1;
+        &mut self.components[self.n_components - 1]
+    }
+}
+
+impl Proposal for MhProposal {
+    const NAME: &'static str = "phd-3.0";
+    type Params = MhParams;
+
+    fn validate(p: &MhParams) -> Result<(), ParamError> {
+        if p.max_assignments == 0 {
+            return Err(ParamError::new("max_assignments", "must be at least 1"));
+        }
+        if !(p.assignment_ratio > 0.0 && p.assignment_ratio <= 1.0) {
+            return Err(ParamError::new("assignment_ratio", "must be in (0, 1]"));
+        }
+        if p.ipl_iterations == 0 {
+            return Err(ParamError::new("ipl_iterations", "must be at least 1"));
+        }
+        if p.ipl_kl_threshold.is_nan() || p.ipl_kl_threshold < 0.0 {
+            return Err(ParamError::new("ipl_kl_threshold", "must be >= 0"));
+        }
+        Ok(())
+    }
+
+    fn new(params: &MhParams, _models: &SlamModels) -> Self {
+        MhProposal {
+            params: params.clone(),
+            murty: Murty::new(),
+            ranked: Vec::new(),
+            components: Vec::new(),
+            n_components: 0,
+            rows: Vec::new(),
+            n_meas: 0,
+            det_cost: Vec::new(),
+            miss_cost: Vec::new(),
+            pairs_z: Vec::new(),
+            pairs_row: Vec::new(),
+            log_w: Vec::new(),
+            terms: Vec::new(),
+        }
+    }
+
+    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+        let models = ctx.models;
+        let r = models.measurement_noise;
+        let sensor = &models.sensor;
+        let (x_bar, q) = (ctx.predicted, ctx.q);
+        let nz = ctx.z.len();
+        let mut stats = ProposalStats::default();
+        self.rows.clear();
+        self.rows.extend_from_slice(ctx.detectable);
+        self.n_meas = nz;
+        let m = self.rows.len();
+        self.n_components = 0;
+
+        // 1. Cost matrix, eqs. (29)-(31), at the predicted pose.
+        self.det_cost.clear();
+        self.miss_cost.clear();
+        for (row, &i) in self.rows.iter().enumerate() {
+            let (mi, pi, lw, pd) = (ctx.map.mean[i], ctx.map.cov[i], ctx.map.log_w[i], ctx.pd[row]);
+            let lin = sensor.linearise(&x_bar, &mi);
+            let s = symmetrise(&(lin.hm * pi * lin.hm.transpose() + lin.hx * q * lin.hx.transpose() + r));
+            let ch = s.cholesky();
+            if ch.is_none() {
+                stats.cholesky_failures += 1;
+            }
+            let log_det = ch.as_ref().map(|c| 2.0 * (c.l_dirty()[(0, 0)].ln() + c.l_dirty()[(1, 1)].ln()));
+            for zj in ctx.z {
+                let cost = match (&ch, log_det) {
+                    (Some(c), Some(ld)) => {
+                        let nu = RangeBearingSensor::residual(zj, &lin.z);
+                        let maha = nu.dot(&c.solve(&nu));
+                        if maha <= ctx.gate {
+                            -(pd.ln() + lw - ctx.log_clutter - 0.5 * (2.0 * LN_2PI + ld + maha))
+                        } else {
+                            f64::INFINITY
+                        }
+                    }
+                    _ => f64::INFINITY,
+                };
+                self.det_cost.push(cost);
+            }
+            self.miss_cost.push(-self.log_missed(pd, lw));
+        }
+
+        // 2. Ranked associations (Murty), then the all-missed one.
+        self.ranked.clear();
+        if m > 0
+            && nz > 0
+            && let Ok(cm) = CostMatrix::with_missed_diagonal(&self.det_cost, &self.miss_cost, m, nz)
+        {
+            let opts = MurtyOptions {
+                max_count: self.params.max_assignments,
+                max_log_ratio: Some(-self.params.assignment_ratio.ln()),
+            };
+            if self.murty.k_best(&cm, &opts, &mut self.ranked).is_err() {
+                self.ranked.clear();
+            }
+        }
+        let ipl =
+            IplSettings { max_iterations: self.params.ipl_iterations, kl_threshold: self.params.ipl_kl_threshold };
+        let n_ranked = self.ranked.len();
+        let total = n_ranked + usize::from(self.params.append_all_missed || n_ranked == 0);
+        for t in 0..total {
+            // phi for this component
+            let mut phi = std::mem::take(&mut self.component_slot().phi);
+            phi.clear();
+            if t < n_ranked {
+                phi.extend(self.ranked[t].col_for_row.iter().map(|c| c.filter(|&c| c < nz)));
+            } else {
+                phi.resize(m, None);
+            }
+            // 3. Algorithm 1 on the associated landmarks, in row order.
+            self.pairs_z.clear();
+            self.pairs_row.clear();
+            for (row, j) in phi.iter().enumerate() {
+                if let Some(j) = j {
+                    self.pairs_row.push(row);
+                    self.pairs_z.push(ctx.z[*j]);
+                }
+            }
+            let (rows, pairs_row) = (&self.rows, &self.pairs_row);
+            let res = ipl_update(
+                &x_bar,
+                &q,
+                &self.pairs_z,
+                |k, x_pi| {
+                    let i = rows[pairs_row[k]];
+                    let lin = sensor.linearise(x_pi, &ctx.map.mean[i]);
+                    (lin.z, lin.hx, lin.hm * ctx.map.cov[i] * lin.hm.transpose() + r)
+                },
+                &ipl,
+            );
+            if res.lost_definiteness {
+                stats.cholesky_failures += 1;
+            }
+            // Eq. (44): missed factors, and detected factors evaluated at (mu_t, Sigma_t).
+            let mut log_w = 0.0;
+            for (row, j) in phi.iter().enumerate() {
+                let i = self.rows[row];
+                let (lw, pd) = (ctx.map.log_w[i], ctx.pd[row]);
+                match j {
+                    None => log_w += self.log_missed(pd, lw),
+                    Some(j) => {
+                        let lin = sensor.linearise(&res.mean, &ctx.map.mean[i]);
+                        let s = symmetrise(
+                            &(lin.hx * res.cov * lin.hx.transpose() + lin.hm * ctx.map.cov[i] * lin.hm.transpose() + r),
+                        );
+                        let nu = RangeBearingSensor::residual(&ctx.z[*j], &lin.z);
+                        match log_normal(&nu, &s) {
+                            Some(l) => log_w += pd.ln() + lw - ctx.log_clutter + l,
+                            None => {
+                                stats.cholesky_failures += 1;
+                                log_w = f64::NEG_INFINITY;
+                            }
+                        }
+                    }
+                }
+            }
+            let chol_ok = res.cov.cholesky().is_some();
+            let slot = &mut self.components[t];
+            slot.phi = phi;
+            slot.mean = res.mean;
+            slot.cov = res.cov;
+            slot.log_w = if chol_ok { log_w } else { f64::NEG_INFINITY };
+            slot.chol_ok = chol_ok;
+        }
+        stats.components = self.n_components;
+
+        // Normalised component weights kappa~_t.
+        self.log_w.clear();
+        self.log_w.extend(self.components[..self.n_components].iter().map(|c| c.log_w));
+        let z_norm = log_sum_exp(&self.log_w);
+        if !z_norm.is_finite() {
+            // Every component failed: fall back to the transition density.
+            self.log_w.iter_mut().for_each(|l| *l = f64::NEG_INFINITY);
+            let last = self.n_components - 1;
+            self.components[last].mean = x_bar;
+            self.components[last].cov = q;
+            self.components[last].phi.iter_mut().for_each(|p| *p = None);
+            self.log_w[last] = 0.0;
+        } else {
+            self.log_w.iter_mut().for_each(|l| *l -= z_norm);
+        }
+
+        // 4. Sample and weight, eqs. (45), (47), (48).
+        out.clear();
+        let mut terms = std::mem::take(&mut self.terms);
+        for _ in 0..n {
+            let u: f64 = rng.random();
+            let mut acc = 0.0;
+            let mut t = self.n_components - 1;
+            for (k, l) in self.log_w.iter().enumerate() {
+                acc += l.exp();
+                if u < acc {
+                    t = k;
+                    break;
+                }
+            }
+            let c = &self.components[t];
+            let Some(mut x) = sample(&c.mean, &c.cov, rng) else {
+                // Keep the predicted mean and leave the weight (the public code's fallback).
+                stats.cholesky_failures += 1;
+                out.push(PoseSample { pose: x_bar, log_correction: 0.0, component: t });
+                continue;
+            };
+            x[2] = wrap(x[2]);
+            let log_prior = log_normal(&pose_diff(&x, &x_bar), &q).unwrap_or(f64::NEG_INFINITY);
+            terms.clear();
+            for (k, comp) in self.components[..self.n_components].iter().enumerate() {
+                if self.log_w[k] == f64::NEG_INFINITY {
+                    continue;
+                }
+                if let Some(l) = log_normal(&pose_diff(&x, &comp.mean), &comp.cov) {
+                    terms.push(self.log_w[k] + l);
+                }
+            }
+            let log_q = log_sum_exp(&terms);
+            let corr = log_prior - log_q;
+            let corr = if corr.is_finite() { corr } else { 0.0 };
+            out.push(PoseSample { pose: x, log_correction: corr, component: t });
+        }
+        self.terms = terms;
+        stats
+    }
+
+    fn associations(&self, component: usize, out: &mut Vec<Option<usize>>) -> bool {
+        out.clear();
+        out.resize(self.n_meas, None);
+        if let Some(c) = self.components[..self.n_components].get(component) {
+            for (row, j) in c.phi.iter().enumerate() {
+                if let Some(j) = j {
+                    out[*j] = Some(self.rows[row]);
+                }
+            }
+        }
+        true
+    }
+}
+
+const LN_2PI: f64 = 1.837_877_066_409_345_5;
+
+/// PHD-SLAM 3.0.
+pub type PhdSlam3 = RbPhd<MhProposal>;

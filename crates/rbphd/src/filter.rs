@@ -1,0 +1,290 @@
+//! The RB-PHD SLAM filter (seed 000 Algorithm 3) generic over the importance density.
+
+use nalgebra::Matrix3;
+use rfslam_core::motion::propagate_with_covariance;
+use rfslam_core::rbpf::{ess, normalise_log_weights, systematic_resample};
+use rfslam_core::{
+    ControlSegment, Estimate, FilterBuild, Fov, MapPoint, ParamError, Point2, Pose, RangeBearing, Rng, Scan,
+    SlamFilter, SlamModels, StepReport,
+};
+
+use crate::gm::{GmMap, ReduceScratch, ReduceSettings, UpdateScratch, UpdateSettings, phd_update, reduce};
+use crate::params::{PhdParams, RbPhdParams};
+use crate::proposal::{PoseSample, Proposal, ProposalContext};
+
+/// One particle: weight, pose, GM-PHD map and the measurements to be born next step.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Particle {
+    /// Log weight (normalised after every step).
+    pub log_w: f64,
+    /// Pose `x_k`.
+    pub pose: Pose,
+    /// GM-PHD map `v_k` (active and set-aside components together).
+    pub map: GmMap,
+    /// `Z^B_k`: measurements of the last scan that gated with no component (eq. 19).
+    pub birth: Vec<RangeBearing>,
+    /// Association of the last scan's measurements (world position of the component),
+    /// when the proposal makes explicit associations.
+    pub associations: Vec<Option<Point2>>,
+}
+
+/// Rao-Blackwellised PHD-SLAM with importance density `P`.
+pub struct RbPhd<P: Proposal> {
+    params: RbPhdParams,
+    models: SlamModels,
+    proposal: P,
+    particles: Vec<Particle>,
+    /// `family[n] == family[n - 1]`: particle n is an identical copy of n - 1 (same parent
+    /// at the last resampling, not yet moved), so the importance density is shared.
+    family: Vec<usize>,
+    best: usize,
+    log_clutter: f64,
+    fov_active: Fov,
+    estimate_threshold: f64,
+    has_associations: bool,
+    // reusable buffers
+    spare: Vec<Particle>,
+    parents: Vec<usize>,
+    log_w: Vec<f64>,
+    samples: Vec<PoseSample>,
+    active: Vec<usize>,
+    is_active: Vec<bool>,
+    detectable: Vec<usize>,
+    pd: Vec<f64>,
+    updated: GmMap,
+    rebuilt: GmMap,
+    upd: UpdateScratch,
+    red: ReduceScratch,
+    assoc_idx: Vec<Option<usize>>,
+}
+
+impl<P: Proposal> RbPhd<P> {
+    /// A filter with `n` particles at the scenario's initial pose, empty maps.
+    pub fn new(params: RbPhdParams, proposal: P, models: &SlamModels, n: usize) -> Self {
+        let clutter = match params.clutter_intensity {
+            Some(units) => rfslam_core::ClutterModel { rate: models.clutter.rate, intensity: units },
+            None => models.clutter,
+        };
+        // A zero clutter rate makes c(z) = 0; keep ln c finite so unexplained measurements
+        // do not produce NaN weights.
+        let log_clutter = clutter.intensity(&models.fov).max(1e-300).ln();
+        let fov_active = models.fov.enlarged(params.fov_buffer_range, params.fov_buffer_deg.to_radians());
+        let estimate_threshold = params.estimate_threshold(models);
+        let p0 = Particle { log_w: -(n as f64).ln(), pose: models.initial_pose, ..Default::default() };
+        RbPhd {
+            params,
+            models: models.clone(),
+            proposal,
+            particles: vec![p0; n],
+            family: (0..n).map(|_| 0).collect(),
+            best: 0,
+            log_clutter,
+            fov_active,
+            estimate_threshold,
+            has_associations: false,
+            spare: Vec::new(),
+            parents: Vec::new(),
+            log_w: Vec::new(),
+            samples: Vec::new(),
+            active: Vec::new(),
+            is_active: Vec::new(),
+            detectable: Vec::new(),
+            pd: Vec::new(),
+            updated: GmMap::default(),
+            rebuilt: GmMap::default(),
+            upd: UpdateScratch::default(),
+            red: ReduceScratch::default(),
+            assoc_idx: Vec::new(),
+        }
+    }
+
+    /// The particles (for inspection and tests).
+    pub fn particles(&self) -> &[Particle] {
+        &self.particles
+    }
+
+    /// Births (eq. 19): each `z` of `Z^B_{k-1}` becomes a component placed with the pose at
+    /// k-1 through the inverse sensor model, covariance `J_z R J_z^T`, weight `birth_weight`.
+    fn add_births(models: &SlamModels, ln_birth: f64, p: &mut Particle) {
+        for z in &p.birth {
+            let (m, jz, _) = models.sensor.inverse_with_jacobians(&p.pose, z);
+            p.map.push(ln_birth, m, jz * models.measurement_noise * jz.transpose());
+        }
+        p.birth.clear();
+    }
+}
+
+impl<P: Proposal> SlamFilter for RbPhd<P> {
+    fn name(&self) -> &str {
+        P::NAME
+    }
+
+    fn particles(&self) -> usize {
+        self.particles.len()
+    }
+
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
+        let n = self.particles.len();
+        let models = &self.models;
+        let ln_birth = self.params.birth_weight.ln();
+        let jitter = Matrix3::from_diagonal(&self.params.q_jitter.into());
+        let upd_settings = UpdateSettings {
+            gate: self.params.gate,
+            log_clutter: self.log_clutter,
+            exact_pd_term: self.params.exact_pd_term,
+        };
+        let red_settings = ReduceSettings { prune: self.params.prune, merge: self.params.merge };
+        let ln_prune = self.params.prune.ln();
+        let mut chol = 0u32;
+        let mut gm_components = 0usize;
+
+        let mut a = 0;
+        while a < n {
+            let mut b = a + 1;
+            while b < n && self.family[b] == self.family[a] {
+                b += 1;
+            }
+            for p in &mut self.particles[a..b] {
+                Self::add_births(models, ln_birth, p);
+            }
+            // Prediction and the active set, shared by the identical copies a..b.
+            let rep = &self.particles[a];
+            let (x_bar, q) = propagate_with_covariance(&models.motion, &rep.pose, odometry, &models.control_noise);
+            let q = q + jitter;
+            self.active.clear();
+            self.detectable.clear();
+            self.pd.clear();
+            self.is_active.clear();
+            self.is_active.resize(rep.map.len(), false);
+            for i in 0..rep.map.len() {
+                if self.fov_active.contains(&x_bar, &rep.map.mean[i]) {
+                    self.active.push(i);
+                    self.is_active[i] = true;
+                    let pd = models.detection.pd(&models.fov, &x_bar, &rep.map.mean[i]);
+                    if pd > 0.0 {
+                        self.detectable.push(i);
+                        self.pd.push(pd);
+                    }
+                }
+            }
+            let ctx = ProposalContext {
+                models,
+                z: &scan.z,
+                prior_pose: rep.pose,
+                predicted: x_bar,
+                q,
+                map: &rep.map,
+                detectable: &self.detectable,
+                pd: &self.pd,
+                log_clutter: self.log_clutter,
+                gate: self.params.gate,
+            };
+            let stats = self.proposal.propose(&ctx, b - a, rng, &mut self.samples);
+            chol += stats.cholesky_failures;
+            gm_components += stats.components;
+
+            for (off, sample) in self.samples.iter().enumerate() {
+                let idx = a + off;
+                // Associations refer to the family's (shared) predicted map.
+                self.has_associations = self.proposal.associations(sample.component, &mut self.assoc_idx);
+                let p = &mut self.particles[idx];
+                p.associations.clear();
+                if self.has_associations {
+                    p.associations.extend(self.assoc_idx.iter().map(|i| i.map(|i| p.map.mean[i])));
+                }
+                p.pose = sample.pose;
+                p.log_w += sample.log_correction;
+                let pose = p.pose;
+                let out = phd_update(
+                    &p.map,
+                    &self.active,
+                    &pose,
+                    &scan.z,
+                    &models.sensor,
+                    &models.measurement_noise,
+                    |m| models.detection.pd(&models.fov, &pose, m),
+                    &upd_settings,
+                    &mut self.upd,
+                    &mut self.updated,
+                );
+                chol += out.cholesky_failures;
+                p.log_w += out.log_likelihood;
+                p.birth.clear();
+                p.birth.extend(scan.z.iter().zip(&self.upd.gated).filter(|(_, g)| !**g).map(|(z, _)| *z));
+                // Set-aside components stay as they are (dropped if already below the
+                // pruning threshold); the updated active ones are pruned and merged.
+                self.rebuilt.clear();
+                for i in 0..p.map.len() {
+                    if !self.is_active[i] && p.map.log_w[i] >= ln_prune {
+                        self.rebuilt.push_from(&p.map, i);
+                    }
+                }
+                reduce(&self.updated, &red_settings, &mut self.red, &mut self.rebuilt);
+                std::mem::swap(&mut p.map, &mut self.rebuilt);
+            }
+            a = b;
+        }
+
+        // Normalise, estimate (highest weight), resample.
+        self.log_w.clear();
+        self.log_w.extend(self.particles.iter().map(|p| p.log_w));
+        normalise_log_weights(&mut self.log_w);
+        for (p, &l) in self.particles.iter_mut().zip(&self.log_w) {
+            p.log_w = l;
+        }
+        let ess_now = ess(&self.log_w);
+        self.best = (0..n).max_by(|&i, &j| self.log_w[i].total_cmp(&self.log_w[j]).then(j.cmp(&i))).unwrap_or(0);
+        let components: usize = self.particles.iter().map(|p| p.map.len()).sum();
+        let associations = self.has_associations.then(|| self.particles[self.best].associations.clone());
+        let threshold = self.params.resample_ess.unwrap_or(self.params.resample_ess_fraction * n as f64);
+        let resampled = n > 1 && ess_now <= threshold;
+        if resampled {
+            systematic_resample(&self.log_w, n, rng, &mut self.parents);
+            self.spare.resize_with(n, Particle::default);
+            let uniform = -(n as f64).ln();
+            for (dst, &parent) in self.spare.iter_mut().zip(&self.parents) {
+                dst.clone_from(&self.particles[parent]);
+                dst.log_w = uniform;
+            }
+            std::mem::swap(&mut self.particles, &mut self.spare);
+            self.family.clone_from(&self.parents);
+            self.best = self.parents.iter().position(|&p| p == self.best).unwrap_or(0);
+        } else {
+            for (i, f) in self.family.iter_mut().enumerate() {
+                *f = i;
+            }
+        }
+        StepReport {
+            ess: ess_now,
+            resampled,
+            components,
+            proposal_components: gm_components,
+            associations,
+            cholesky_failures: chol,
+        }
+    }
+
+    fn estimate(&self) -> Estimate {
+        let p = &self.particles[self.best];
+        let ln_t = self.estimate_threshold.ln();
+        let map = (0..p.map.len())
+            .filter(|&i| p.map.log_w[i] > ln_t)
+            .map(|i| MapPoint { position: p.map.mean[i], weight: p.map.log_w[i].exp() })
+            .collect();
+        Estimate { pose: p.pose, map }
+    }
+}
+
+impl<P: Proposal> FilterBuild for RbPhd<P> {
+    type Params = PhdParams<P::Params>;
+
+    fn validate(params: &Self::Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+        params.common.validate(particles)?;
+        P::validate(&params.proposal)
+    }
+
+    fn build(params: Self::Params, models: &SlamModels, particles: usize) -> Self {
+        let proposal = P::new(&params.proposal, models);
+        RbPhd::new(params.common, proposal, models, particles)
+    }
+}

@@ -1,0 +1,321 @@
+//! The per-particle GM-PHD map (seed 000 eq. 17) stored as struct-of-arrays with log
+//! weights, its gated update (eqs. 20-22) returning the measurement term of the particle
+//! weight (eq. 46), and hypothesis reduction (Vo and Ma 2006, Table II, as the public
+//! PHD-SLAM 3.0 code does it).
+
+use nalgebra::{Matrix2, Vector2};
+use rfslam_core::gaussian::{mahalanobis_and_log_det, symmetrise};
+use rfslam_core::rbpf::log_sum_exp;
+use rfslam_core::{Point2, Pose, RangeBearing, RangeBearingSensor};
+
+const LN_2PI: f64 = 1.837_877_066_409_345_5;
+
+/// A Gaussian mixture intensity `v(m) = sum_i eta_i N(m; m_i, P_i)`, weights stored as logs.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct GmMap {
+    /// `ln eta_i`.
+    pub log_w: Vec<f64>,
+    /// Means `m_i`.
+    pub mean: Vec<Point2>,
+    /// Covariances `P_i`.
+    pub cov: Vec<Matrix2<f64>>,
+}
+
+impl GmMap {
+    /// Number of components.
+    pub fn len(&self) -> usize {
+        self.log_w.len()
+    }
+
+    /// Whether the map has no component.
+    pub fn is_empty(&self) -> bool {
+        self.log_w.is_empty()
+    }
+
+    /// Removes every component, keeping the allocations.
+    pub fn clear(&mut self) {
+        self.log_w.clear();
+        self.mean.clear();
+        self.cov.clear();
+    }
+
+    /// Appends a component.
+    #[inline]
+    pub fn push(&mut self, log_w: f64, mean: Point2, cov: Matrix2<f64>) {
+        self.log_w.push(log_w);
+        self.mean.push(mean);
+        self.cov.push(cov);
+    }
+
+    /// Appends component `i` of `other`.
+    #[inline]
+    pub fn push_from(&mut self, other: &GmMap, i: usize) {
+        self.push(other.log_w[i], other.mean[i], other.cov[i]);
+    }
+
+    /// Expected number of landmarks `sum_i eta_i`.
+    pub fn mass(&self) -> f64 {
+        self.log_w.iter().map(|l| l.exp()).sum()
+    }
+}
+
+/// Settings of the GM-PHD update.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UpdateSettings {
+    /// Gate `T_G` on the squared Mahalanobis distance (eq. 22).
+    pub gate: f64,
+    /// `ln c(z)`, the clutter intensity (uniform over the FOV).
+    pub log_clutter: f64,
+    /// Include `-sum_i pD_i eta_i` in the weight (the exact Poisson marginal likelihood);
+    /// `false` reproduces eq. (46) as printed and as the public code computes it.
+    pub exact_pd_term: bool,
+}
+
+/// Reusable buffers of [`phd_update`] (no allocation per step once warmed up).
+#[derive(Debug, Default, Clone)]
+pub struct UpdateScratch {
+    /// `ln a_ij` for the detectable components (rows) and measurements (columns).
+    log_a: Vec<f64>,
+    /// Predicted measurement per detectable component.
+    zhat: Vec<RangeBearing>,
+    /// Kalman gain per detectable component.
+    gain: Vec<Matrix2<f64>>,
+    /// Updated covariance per detectable component (Joseph form).
+    p_upd: Vec<Matrix2<f64>>,
+    /// Component index of each detectable row.
+    rows: Vec<usize>,
+    /// Log detection probability of each detectable row.
+    log_pd: Vec<f64>,
+    /// `ln D_j = ln(c(z_j) + sum_i a_ij)`.
+    log_d: Vec<f64>,
+    /// Whether measurement j gated with some component.
+    pub gated: Vec<bool>,
+}
+
+/// Result of one GM-PHD update.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UpdateOutcome {
+    /// `w_meas` of eq. (46): `sum_j ln(c(z_j) + sum_i pD_i eta_i N(z_j; h_i, S_i))`
+    /// (minus `sum_i pD_i eta_i` with `exact_pd_term`).
+    pub log_likelihood: f64,
+    /// Covariances that failed Cholesky (those components were left as they were).
+    pub cholesky_failures: u32,
+}
+
+/// Gated GM-PHD update (seed 000 eqs. 20-22) of the components `active` of `map` at the
+/// pose `x`, written to `out` (which is cleared first): every component once as a missed
+/// detection with weight `(1 - pD_i) eta_i`, plus one component per gated pair with weight
+/// `pD_i eta_i N(z_j; h_i, S_i) / (c(z_j) + sum_i' ...)`, EKF mean and Joseph-form
+/// covariance. `pd(i)` gives `pD` evaluated at component i's mean (00-index §7).
+/// `scratch.gated[j]` tells whether measurement j gated with any component (those that did
+/// not form the birth set `Z^B` of the next step).
+#[allow(clippy::too_many_arguments)]
+pub fn phd_update(
+    map: &GmMap,
+    active: &[usize],
+    x: &Pose,
+    z: &[RangeBearing],
+    sensor: &RangeBearingSensor,
+    r: &Matrix2<f64>,
+    pd: impl Fn(&Point2) -> f64,
+    settings: &UpdateSettings,
+    scratch: &mut UpdateScratch,
+    out: &mut GmMap,
+) -> UpdateOutcome {
+    out.clear();
+    let nz = z.len();
+    let s = scratch;
+    s.rows.clear();
+    s.zhat.clear();
+    s.gain.clear();
+    s.p_upd.clear();
+    s.log_pd.clear();
+    s.log_a.clear();
+    s.gated.clear();
+    s.gated.resize(nz, false);
+    let mut failures = 0u32;
+    let mut pd_mass = 0.0;
+
+    for &i in active {
+        let m = map.mean[i];
+        let p_d = pd(&m);
+        if p_d <= 0.0 {
+            out.push_from(map, i); // undetectable: unchanged (eq. 20 with pD = 0)
+            continue;
+        }
+        let lw = map.log_w[i];
+        pd_mass += p_d * lw.exp();
+        let lin = sensor.linearise(x, &m);
+        let p = map.cov[i];
+        let sm = symmetrise(&(lin.hm * p * lin.hm.transpose() + r));
+        let Some(ch) = sm.cholesky() else {
+            failures += 1;
+            out.push_from(map, i);
+            continue;
+        };
+        let s_inv = ch.inverse();
+        let log_det = 2.0 * (ch.l_dirty()[(0, 0)].ln() + ch.l_dirty()[(1, 1)].ln());
+        let k = p * lin.hm.transpose() * s_inv;
+        let ikh = Matrix2::identity() - k * lin.hm;
+        let p_upd = symmetrise(&(ikh * p * ikh.transpose() + k * r * k.transpose()));
+        // missed-detection copy
+        out.push(lw + (1.0 - p_d).ln(), m, p);
+        let row = s.rows.len();
+        s.rows.push(i);
+        s.zhat.push(lin.z);
+        s.gain.push(k);
+        s.p_upd.push(p_upd);
+        s.log_pd.push(p_d.ln());
+        let base = p_d.ln() + lw - 0.5 * (2.0 * LN_2PI + log_det);
+        for (j, zj) in z.iter().enumerate() {
+            let nu = RangeBearingSensor::residual(zj, &lin.z);
+            let maha = (nu.transpose() * s_inv * nu)[(0, 0)];
+            let la = if maha <= settings.gate {
+                s.gated[j] = true;
+                base - 0.5 * maha
+            } else {
+                f64::NEG_INFINITY
+            };
+            s.log_a.push(la);
+        }
+        debug_assert_eq!(s.log_a.len(), (row + 1) * nz);
+    }
+
+    // ln D_j = ln(c + sum_i a_ij), by log-sum-exp.
+    s.log_d.clear();
+    let rows = s.rows.len();
+    let mut log_lik = 0.0;
+    for j in 0..nz {
+        let mut mx = settings.log_clutter;
+        for row in 0..rows {
+            mx = mx.max(s.log_a[row * nz + j]);
+        }
+        let mut acc = (settings.log_clutter - mx).exp();
+        for row in 0..rows {
+            acc += (s.log_a[row * nz + j] - mx).exp();
+        }
+        let ld = mx + acc.ln();
+        s.log_d.push(ld);
+        log_lik += ld;
+    }
+    if settings.exact_pd_term {
+        log_lik -= pd_mass;
+    }
+
+    // Detected components, eq. (20): weight a_ij / D_j, EKF mean, updated covariance.
+    for row in 0..rows {
+        let i = s.rows[row];
+        for (j, zj) in z.iter().enumerate() {
+            let la = s.log_a[row * nz + j];
+            if la == f64::NEG_INFINITY {
+                continue;
+            }
+            let nu = RangeBearingSensor::residual(zj, &s.zhat[row]);
+            out.push(la - s.log_d[j], map.mean[i] + s.gain[row] * nu, s.p_upd[row]);
+        }
+    }
+    UpdateOutcome { log_likelihood: log_lik, cholesky_failures: failures }
+}
+
+/// Settings of hypothesis reduction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReduceSettings {
+    /// Components with `eta` below this are dropped.
+    pub prune: f64,
+    /// Merge threshold `U` on the squared Mahalanobis distance; also the trace above which
+    /// a merged component is demoted.
+    pub merge: f64,
+}
+
+/// Weight given to a merged component whose covariance trace exceeds the merge threshold
+/// (the public PHD-SLAM 3.0 code's demotion).
+pub const DEMOTED_LOG_WEIGHT: f64 = -41.446_531_673_892_82; // ln 1e-18
+
+/// Reusable buffers of [`reduce`].
+#[derive(Debug, Default, Clone)]
+pub struct ReduceScratch {
+    order: Vec<usize>,
+    used: Vec<bool>,
+    group: Vec<usize>,
+}
+
+/// Prunes components of `input` with `eta < prune`, then merges greedily from the heaviest:
+/// every remaining component within squared Mahalanobis distance `merge` of it (under the
+/// heaviest one's covariance) is moment-matched into one (weight, mean and spread preserved);
+/// a merged component whose covariance trace exceeds `merge` gets weight 1e-18. Appends the
+/// result to `out`.
+pub fn reduce(input: &GmMap, settings: &ReduceSettings, scratch: &mut ReduceScratch, out: &mut GmMap) {
+    let ln_prune = settings.prune.ln();
+    let s = scratch;
+    s.order.clear();
+    s.order.extend((0..input.len()).filter(|&i| input.log_w[i] >= ln_prune));
+    // heaviest first; ties by index for determinism
+    s.order.sort_by(|&a, &b| input.log_w[b].total_cmp(&input.log_w[a]).then(a.cmp(&b)));
+    s.used.clear();
+    s.used.resize(s.order.len(), false);
+    for oi in 0..s.order.len() {
+        if s.used[oi] {
+            continue;
+        }
+        let j = s.order[oi];
+        let (mj, pj) = (input.mean[j], input.cov[j]);
+        let pj_inv = pj.try_inverse();
+        s.group.clear();
+        for oq in oi..s.order.len() {
+            if s.used[oq] {
+                continue;
+            }
+            let i = s.order[oq];
+            let inside = if i == j {
+                true
+            } else {
+                match &pj_inv {
+                    Some(inv) => {
+                        let d: Vector2<f64> = input.mean[i] - mj;
+                        (d.transpose() * inv * d)[(0, 0)] <= settings.merge
+                    }
+                    None => false,
+                }
+            };
+            if inside {
+                s.used[oq] = true;
+                s.group.push(i);
+            }
+        }
+        if s.group.len() == 1 {
+            out.push_from(input, j);
+            continue;
+        }
+        // Moment matching in the linear domain relative to the heaviest weight.
+        let lw_max = input.log_w[j];
+        let mut wsum = 0.0;
+        let mut mean = Vector2::zeros();
+        for &i in &s.group {
+            let w = (input.log_w[i] - lw_max).exp();
+            wsum += w;
+            mean += w * input.mean[i];
+        }
+        mean /= wsum;
+        let mut cov = Matrix2::zeros();
+        for &i in &s.group {
+            let w = (input.log_w[i] - lw_max).exp();
+            let d = mean - input.mean[i];
+            cov += w * (input.cov[i] + d * d.transpose());
+        }
+        cov /= wsum;
+        let lw = lw_max + wsum.ln();
+        let lw = if cov.trace() > settings.merge { DEMOTED_LOG_WEIGHT } else { lw };
+        out.push(lw, mean, symmetrise(&cov));
+    }
+}
+
+/// `ln v(m) = ln sum_i eta_i N(m; m_i, P_i)` (intensity at a point).
+pub fn log_intensity_at(map: &GmMap, m: &Point2) -> f64 {
+    let mut terms: Vec<f64> = Vec::with_capacity(map.len());
+    for i in 0..map.len() {
+        if let Some((maha, ld)) = mahalanobis_and_log_det(&(m - map.mean[i]), &map.cov[i]) {
+            terms.push(map.log_w[i] - 0.5 * (2.0 * LN_2PI + ld + maha));
+        }
+    }
+    log_sum_exp(&terms)
+}

@@ -1,0 +1,16 @@
+//! rbphd: the Rao-Blackwellised PHD-SLAM machinery shared by every PHD-SLAM variant
+//! (seed 000 Section IV): per particle a pose and a GM-PHD map; birth from the previous
+//! scan's unexplained measurements; the gated GM-PHD update with the particle weight of
+//! eq. (46); pruning and merging; components outside the field of view set aside untouched;
+//! resampling, with the importance density computed once per group of copies of one parent.
+//! A variant is a [`Proposal`] (the importance density of eq. 23) plus its defaults.
+
+pub mod filter;
+pub mod gm;
+pub mod params;
+pub mod proposal;
+
+pub use filter::{Particle, RbPhd};
+pub use gm::GmMap;
+pub use params::{PhdParams, RbPhdParams};
+pub use proposal::{PoseSample, Proposal, ProposalContext, ProposalStats};

@@ -1,0 +1,150 @@
+//! Parameters shared by every RB-PHD variant, and the flat parameter table of a variant
+//! (shared keys plus its proposal's keys, e.g. `merge = 10`, `max_assignments = 50`).
+
+use rfslam_core::{DetectionModel, ParamError, SlamModels};
+use serde::de::{DeserializeOwned, Error as _};
+use serde::{Deserialize, Deserializer, Serialize};
+
+/// The RB-PHD settings of seed 000 (§VI, and the public code where the paper is silent).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RbPhdParams {
+    /// Weight `eta` of a new component (eq. 19): 1e-6.
+    pub birth_weight: f64,
+    /// Gate `T_G` on the squared Mahalanobis distance (eq. 22): 41.4465 (chi^2_2, tail 1e-9).
+    pub gate: f64,
+    /// Components with weight below this are pruned: 1e-6.
+    pub prune: f64,
+    /// Merge threshold (squared Mahalanobis distance, and covariance-trace cap): 50.
+    pub merge: f64,
+    /// Range added to the FOV for the active set (m): 10.
+    pub fov_buffer_range: f64,
+    /// Angle added to the FOV half-angle for the active set (deg): 10.
+    pub fov_buffer_deg: f64,
+    /// Map estimate threshold `T_eta`; default `(1 - pD)^2` of the detection model.
+    pub estimate_threshold: Option<f64>,
+    /// Resample when `ESS <= resample_ess_fraction * N` (seed 000 Table II: 0.2;
+    /// Table I: 0, never).
+    pub resample_ess_fraction: f64,
+    /// Resample when `ESS <=` this absolute value instead (Victoria Park: 1).
+    pub resample_ess: Option<f64>,
+    /// Jitter added to the diagonal of the predicted pose covariance (00-index §4).
+    pub q_jitter: [f64; 3],
+    /// Include `-sum_i pD_i eta_i` in the particle weight (the exact Poisson marginal
+    /// likelihood; 01 §2). `false` is eq. (46) as printed and as the tables were made.
+    pub exact_pd_term: bool,
+    /// Clutter intensity units, overriding the scenario's: `"cartesian"` (the published
+    /// code: rate / FOV area) or `"measurement"` (rate / (max_range 2 half_angle)).
+    pub clutter_intensity: Option<rfslam_core::ClutterIntensity>,
+}
+
+impl Default for RbPhdParams {
+    fn default() -> Self {
+        RbPhdParams {
+            birth_weight: 1e-6,
+            gate: 41.4465,
+            prune: 1e-6,
+            merge: 50.0,
+            fov_buffer_range: 10.0,
+            fov_buffer_deg: 10.0,
+            estimate_threshold: None,
+            resample_ess_fraction: 0.2,
+            resample_ess: None,
+            q_jitter: [1e-9, 1e-9, 1e-18],
+            exact_pd_term: false,
+            clutter_intensity: None,
+        }
+    }
+}
+
+/// Keys of [`RbPhdParams`].
+pub const COMMON_KEYS: &[&str] = &[
+    "birth_weight",
+    "gate",
+    "prune",
+    "merge",
+    "fov_buffer_range",
+    "fov_buffer_deg",
+    "estimate_threshold",
+    "resample_ess_fraction",
+    "resample_ess",
+    "q_jitter",
+    "exact_pd_term",
+    "clutter_intensity",
+];
+
+impl RbPhdParams {
+    /// Checks ranges.
+    pub fn validate(&self, particles: usize) -> Result<(), ParamError> {
+        let pos = |k: &str, v: f64| {
+            if v > 0.0 && v.is_finite() { Ok(()) } else { Err(ParamError::new(k, format!("must be > 0 (got {v})"))) }
+        };
+        pos("birth_weight", self.birth_weight)?;
+        pos("gate", self.gate)?;
+        pos("prune", self.prune)?;
+        pos("merge", self.merge)?;
+        if self.fov_buffer_range < 0.0 || self.fov_buffer_deg < 0.0 || self.fov_buffer_deg > 180.0 {
+            return Err(ParamError::new("fov_buffer_range", "FOV buffers must be >= 0 (angle <= 180 deg)"));
+        }
+        if let Some(t) = self.estimate_threshold {
+            pos("estimate_threshold", t)?;
+        }
+        if !(0.0..=1.0).contains(&self.resample_ess_fraction) {
+            return Err(ParamError::new("resample_ess_fraction", "must be in [0, 1]"));
+        }
+        if let Some(e) = self.resample_ess
+            && !(e >= 0.0 && e <= particles as f64)
+        {
+            return Err(ParamError::new("resample_ess", format!("must be in [0, N = {particles}]")));
+        }
+        if self.q_jitter.iter().any(|j| !(*j >= 0.0 && j.is_finite())) {
+            return Err(ParamError::new("q_jitter", "entries must be >= 0"));
+        }
+        if particles == 0 {
+            return Err(ParamError::new("particles", "at least one particle"));
+        }
+        Ok(())
+    }
+
+    /// The map estimate threshold: the parameter, else `(1 - pD)^2` (Victoria Park's
+    /// range-dependent model: its value at zero range).
+    pub fn estimate_threshold(&self, models: &SlamModels) -> f64 {
+        self.estimate_threshold.unwrap_or_else(|| {
+            let pd = match models.detection {
+                DetectionModel::Constant { pd } => pd,
+                DetectionModel::RangeLinear { pd0 } => pd0,
+            };
+            (1.0 - pd) * (1.0 - pd)
+        })
+    }
+}
+
+/// A variant's flat parameter table: the shared [`RbPhdParams`] keys plus the proposal's.
+#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+pub struct PhdParams<PP> {
+    /// Shared settings.
+    #[serde(flatten)]
+    pub common: RbPhdParams,
+    /// The proposal's settings.
+    #[serde(flatten)]
+    pub proposal: PP,
+}
+
+impl<'de, PP: DeserializeOwned> Deserialize<'de> for PhdParams<PP> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let all = toml::Table::deserialize(d)?;
+        let (mut common, mut rest) = (toml::Table::new(), toml::Table::new());
+        for (k, v) in all {
+            if COMMON_KEYS.contains(&k.as_str()) {
+                common.insert(k, v);
+            } else {
+                rest.insert(k, v);
+            }
+        }
+        let common =
+            toml::Value::Table(common).try_into().map_err(|e: toml::de::Error| D::Error::custom(e.message()))?;
+        let proposal =
+            toml::Value::Table(rest).try_into().map_err(|e: toml::de::Error| D::Error::custom(e.message()))?;
+        Ok(PhdParams { common, proposal })
+    }
+}

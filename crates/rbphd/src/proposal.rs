@@ -1,0 +1,78 @@
+//! The importance density of a PHD-SLAM variant (seed 000 eq. 23) behind one trait.
+
+use nalgebra::Matrix3;
+use rfslam_core::{ParamError, Pose, RangeBearing, Rng, SlamModels};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+
+use crate::gm::GmMap;
+
+/// What a proposal sees for one particle (or one group of identical copies).
+pub struct ProposalContext<'a> {
+    /// The scenario's models.
+    pub models: &'a SlamModels,
+    /// The scan `Z_k`.
+    pub z: &'a [RangeBearing],
+    /// The particle's pose `x_{k-1}`.
+    pub prior_pose: Pose,
+    /// `f(x_{k-1}, u_k)` through the odometry segments.
+    pub predicted: Pose,
+    /// Predicted pose covariance `Q_{k-1}` (with jitter).
+    pub q: Matrix3<f64>,
+    /// The particle's predicted map `v_{k|k-1}` (eq. 19, births included).
+    pub map: &'a GmMap,
+    /// Components of `map` that may be detected from the predicted pose.
+    pub detectable: &'a [usize],
+    /// `pD` of each detectable component at the predicted pose.
+    pub pd: &'a [f64],
+    /// `ln c(z)`.
+    pub log_clutter: f64,
+    /// Gate `T_G`.
+    pub gate: f64,
+}
+
+/// One sampled pose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseSample {
+    /// `x_k^n`.
+    pub pose: Pose,
+    /// `ln f(x_k | x_{k-1}, u_k) - ln q(x_k | ...)` (eqs. 45, 47-48); 0 for the bootstrap.
+    pub log_correction: f64,
+    /// The importance-density component drawn (for [`Proposal::associations`]).
+    pub component: usize,
+}
+
+/// Per-call statistics.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ProposalStats {
+    /// Importance-density components (Gamma of seed 000).
+    pub components: usize,
+    /// Covariances that failed Cholesky.
+    pub cholesky_failures: u32,
+}
+
+/// An importance density for the pose.
+pub trait Proposal: Send + Sized + 'static {
+    /// The registered name of the variant (`phd-3.0`).
+    const NAME: &'static str;
+    /// The proposal's own parameters (`deny_unknown_fields`; defaults = the paper's).
+    type Params: Serialize + DeserializeOwned + Default + Clone + Send;
+
+    /// Checks the proposal's parameters.
+    fn validate(params: &Self::Params) -> Result<(), ParamError>;
+
+    /// A proposal for the scenario's models.
+    fn new(params: &Self::Params, models: &SlamModels) -> Self;
+
+    /// Computes the importance density for `ctx` once and draws `n` poses into `out`
+    /// (cleared first).
+    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats;
+
+    /// For proposals that condition on an association: the map component (index into
+    /// `ctx.map`) each measurement was associated with in `component` of the last
+    /// [`Proposal::propose`], `None` for clutter. Returns `false` if the proposal makes no
+    /// explicit association.
+    fn associations(&self, _component: usize, _out: &mut Vec<Option<usize>>) -> bool {
+        false
+    }
+}
