@@ -102,6 +102,13 @@ pub struct MhProposal {
 }
 
 impl MhProposal {
+    /// The mixture of the last [`Proposal::propose`] call, in Murty's order (the all-missed
+    /// component last): for each component its association (measurement index per
+    /// detectable component, `None` = missed), mean, covariance and normalised log weight.
+    pub fn mixture(&self) -> impl Iterator<Item = (&[Option<usize>], &Pose, &Matrix3<f64>, f64)> {
+        self.components[..self.n_components].iter().zip(&self.log_w).map(|(c, &w)| (c.phi.as_slice(), &c.mean, &c.cov, w))
+    }
+
     fn log_missed(&self, pd: f64, log_eta: f64) -> f64 {
         match self.params.missed_cost {
             MissedCost::Paper => (1.0 - pd).ln() + log_eta,
@@ -359,3 +366,114 @@ const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
 /// PHD-SLAM 3.0.
 pub type PhdSlam3 = RbPhd<MhProposal>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Matrix2;
+    use rand::SeedableRng;
+    use rbphd::GmMap;
+    use rfslam_core::{ClutterIntensity, ClutterModel, DetectionModel, Fov, Motion, Point2};
+
+    fn models() -> SlamModels {
+        SlamModels {
+            motion: Motion::Velocity,
+            control_noise: Matrix3::from_diagonal(&nalgebra::Vector3::new(0.64, (0.5f64).to_radians().powi(2), 0.0)),
+            sensor: RangeBearingSensor::default(),
+            measurement_noise: Matrix2::new(0.64, 0.0, 0.0, (0.3f64).to_radians().powi(2)),
+            fov: Fov { max_range: 150.0, half_angle: std::f64::consts::FRAC_PI_2 },
+            detection: DetectionModel::Constant { pd: 0.95 },
+            clutter: ClutterModel { rate: 5.0, intensity: ClutterIntensity::Cartesian },
+            initial_pose: Pose::zeros(),
+        }
+    }
+
+    /// Note 05 §7.4: two well-separated landmarks, each gating one measurement, and a third
+    /// measurement gating nothing. Ranked: both detected; then the single detection of the
+    /// landmark with the larger ratio pD N / c (the one measured exactly); then the other
+    /// single detection; both missed last. The third measurement is never assigned.
+    /// With the paper's stop ratio 1e-3 only the best survives, plus the all-missed component.
+    #[test]
+    fn ranked_associations_on_two_landmarks_three_measurements() {
+        let m = models();
+        let sensor = m.sensor;
+        let x_bar = Pose::new(0.0, 0.0, 0.0);
+        let q = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.01, 0.01, 1e-6));
+        let mut map = GmMap::default();
+        map.push(0.0, Point2::new(20.0, 10.0), Matrix2::identity() * 0.05);
+        map.push(0.0, Point2::new(20.0, -10.0), Matrix2::identity() * 0.05);
+        let z0 = sensor.predict(&x_bar, &map.mean[0]);
+        let z1 = sensor.predict(&x_bar, &map.mean[1]) + RangeBearing::new(1.0, 0.002);
+        let z = [z1, RangeBearing::new(60.0, 0.0), z0]; // order must not matter
+        let ctx = ProposalContext {
+            models: &m,
+            z: &z,
+            prior_pose: x_bar,
+            predicted: x_bar,
+            q,
+            map: &map,
+            detectable: &[0, 1],
+            pd: &[0.95, 0.95],
+            log_clutter: m.clutter.intensity(&m.fov).ln(),
+            gate: 41.4465,
+        };
+        let mut rng = Rng::seed_from_u64(1);
+        let mut out = Vec::new();
+        let all = MhParams { assignment_ratio: 1e-300, append_all_missed: false, ..Default::default() };
+        let mut p = MhProposal::new(&all, &m);
+        let stats = p.propose(&ctx, 4, &mut rng, &mut out);
+        let phis: Vec<Vec<Option<usize>>> = p.mixture().map(|(phi, ..)| phi.to_vec()).collect();
+        assert_eq!(stats.components, 4);
+        assert_eq!(
+            phis,
+            vec![vec![Some(2), Some(0)], vec![Some(2), None], vec![None, Some(0)], vec![None, None]],
+            "ranked associations"
+        );
+        // Mixture weights follow the same order here (separated landmarks, accurate prior).
+        let w: Vec<f64> = p.mixture().map(|(.., w)| w).collect();
+        assert!(w.windows(2).all(|p| p[0] > p[1]), "{w:?}");
+        // associations() maps measurements to map components; the third is clutter.
+        let mut assoc = Vec::new();
+        assert!(p.associations(0, &mut assoc));
+        assert_eq!(assoc, vec![Some(1), None, Some(0)]);
+
+        let mut p = MhProposal::new(&MhParams::default(), &m);
+        let stats = p.propose(&ctx, 4, &mut rng, &mut out);
+        let phis: Vec<Vec<Option<usize>>> = p.mixture().map(|(phi, ..)| phi.to_vec()).collect();
+        assert_eq!(stats.components, 2);
+        assert_eq!(phis, vec![vec![Some(2), Some(0)], vec![None, None]]);
+        // The all-missed component is the transition density.
+        let (_, mean, cov, _) = p.mixture().nth(1).unwrap();
+        assert_eq!((*mean, *cov), (x_bar, q));
+        assert!(out.iter().all(|s| s.log_correction.is_finite()));
+    }
+
+    /// With no map the proposal is the transition density: one component and a zero
+    /// weight correction (note 04 §7.6).
+    #[test]
+    fn no_map_means_prior_proposal() {
+        let m = models();
+        let map = GmMap::default();
+        let q = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.5, 0.5, 1e-4));
+        let z = [RangeBearing::new(10.0, 0.1)];
+        let ctx = ProposalContext {
+            models: &m,
+            z: &z,
+            prior_pose: Pose::zeros(),
+            predicted: Pose::new(1.0, 0.0, 0.0),
+            q,
+            map: &map,
+            detectable: &[],
+            pd: &[],
+            log_clutter: -9.0,
+            gate: 41.4465,
+        };
+        let mut p = MhProposal::new(&MhParams::default(), &m);
+        let mut out = Vec::new();
+        let stats = p.propose(&ctx, 3, &mut Rng::seed_from_u64(2), &mut out);
+        assert_eq!(stats.components, 1);
+        for s in &out {
+            assert!(s.log_correction.abs() < 1e-9, "{}", s.log_correction);
+        }
+    }
+}

@@ -319,3 +319,140 @@ pub fn log_intensity_at(map: &GmMap, m: &Point2) -> f64 {
     }
     log_sum_exp(&terms)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    fn one_landmark() -> GmMap {
+        let mut m = GmMap::default();
+        m.push(0.0, Point2::new(10.0, 0.0), Matrix2::identity());
+        m
+    }
+
+    fn settings(exact: bool) -> UpdateSettings {
+        UpdateSettings { gate: 41.4465, log_clutter: 0.01f64.ln(), exact_pd_term: exact }
+    }
+
+    /// Note 01 §5.2: eta = 1, m = (10, 0), P = I, pose at the origin, R = diag(0.01, 1e-4),
+    /// pD = 0.9, c = 0.01, z = (10, 0), plus one clutter measurement far from the landmark.
+    /// S = diag(1.01, 0.0101), N(z; h, S) = 1 / (2 pi sqrt(1.01 * 0.0101)), a = 0.9 N,
+    /// D = c + a; updated weights 0.1 (missed) and a / D; w_meas = ln D + ln c.
+    #[test]
+    fn update_matches_hand_computation() {
+        let map = one_landmark();
+        let r = Matrix2::new(0.01, 0.0, 0.0, 1e-4);
+        let z = [RangeBearing::new(10.0, 0.0), RangeBearing::new(80.0, 1.0)];
+        let (mut scratch, mut out) = (UpdateScratch::default(), GmMap::default());
+        let sensor = RangeBearingSensor::default();
+        let o = phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_| 0.9, &settings(false), &mut scratch, &mut out);
+        let n = 1.0 / (2.0 * std::f64::consts::PI * (1.01f64 * 0.0101).sqrt());
+        assert_relative_eq!(n, 1.57579, epsilon = 1e-5);
+        let a = 0.9 * n;
+        let d = 0.01 + a;
+        assert_relative_eq!(a, 1.41821, epsilon = 1e-5);
+        assert_relative_eq!(d, 1.42821, epsilon = 1e-5);
+        assert_eq!(out.len(), 2, "one missed copy and one detection: the clutter gates nothing");
+        assert_relative_eq!(out.log_w[0].exp(), 0.1, epsilon = 1e-12);
+        assert_relative_eq!(out.log_w[1].exp(), a / d, epsilon = 1e-12);
+        assert_relative_eq!(a / d, 0.99300, epsilon = 1e-5);
+        assert_relative_eq!(o.log_likelihood, d.ln() + 0.01f64.ln(), epsilon = 1e-12);
+        assert_eq!(scratch.gated, vec![true, false], "the clutter measurement becomes a birth");
+        // EKF posterior of the detected copy: z equals the prediction, so the mean stays;
+        // covariance (I - K H) P with K = P H^T S^-1.
+        assert_relative_eq!(out.mean[1], Point2::new(10.0, 0.0), epsilon = 1e-12);
+        assert_relative_eq!(out.cov[1][(0, 0)], 1.0 - 1.0 / 1.01, epsilon = 1e-12);
+        assert_relative_eq!(out.cov[1][(1, 1)], 1.0 - 0.01 / 0.0101, epsilon = 1e-12);
+        // The exact Poisson likelihood subtracts sum pD eta.
+        let o2 = phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_| 0.9, &settings(true), &mut scratch, &mut out);
+        assert_relative_eq!(o2.log_likelihood, o.log_likelihood - 0.9, epsilon = 1e-12);
+    }
+
+    /// Note 01 §5.1 and §5.4: with no measurement the update is exact (w_meas = 0, or
+    /// -sum pD eta with the exact term), and the mass after an update is
+    /// sum (1 - pD) eta + sum_j (sum_i a_ij) / D_j.
+    #[test]
+    fn empty_scan_and_mass_bookkeeping() {
+        let mut map = one_landmark();
+        map.push(0.3f64.ln(), Point2::new(0.0, 20.0), Matrix2::identity() * 2.0);
+        map.push(0.5f64.ln(), Point2::new(-5.0, -5.0), Matrix2::identity()); // behind: pD 0
+        let r = Matrix2::new(0.5, 0.0, 0.0, 1e-3);
+        let sensor = RangeBearingSensor::default();
+        let pd = |m: &Point2| if m.x >= 0.0 { 0.8 } else { 0.0 };
+        let (mut scratch, mut out) = (UpdateScratch::default(), GmMap::default());
+        let o = phd_update(&map, &[0, 1, 2], &Pose::zeros(), &[], &sensor, &r, pd, &settings(true), &mut scratch, &mut out);
+        assert_relative_eq!(o.log_likelihood, -(0.8 * 1.0 + 0.8 * 0.3), epsilon = 1e-12);
+        assert_relative_eq!(out.mass(), 0.2 * 1.3 + 0.5, epsilon = 1e-12);
+
+        let z = [
+            sensor.predict(&Pose::zeros(), &Point2::new(10.3, 0.2)),
+            sensor.predict(&Pose::zeros(), &Point2::new(0.5, 19.0)),
+            RangeBearing::new(3.0, 0.0),
+        ];
+        let o = phd_update(&map, &[0, 1, 2], &Pose::zeros(), &z, &sensor, &r, pd, &settings(false), &mut scratch, &mut out);
+        // detected mass per measurement is (D_j - c) / D_j = 1 - exp(ln c - ln D_j)
+        let ln_c = 0.01f64.ln();
+        let detected: f64 = scratch.log_d.iter().map(|ld| 1.0 - (ln_c - ld).exp()).sum();
+        assert_relative_eq!(out.mass(), 0.2 * 1.3 + 0.5 + detected, epsilon = 1e-9);
+        assert_relative_eq!(o.log_likelihood, scratch.log_d.iter().sum::<f64>(), epsilon = 1e-12);
+    }
+
+    /// The bearing residual is wrapped in the gate and in the mean update: a landmark
+    /// behind-left seen across +-pi gates and moves the right way.
+    #[test]
+    fn bearing_wraps_across_pi() {
+        let mut map = GmMap::default();
+        map.push(0.0, Point2::new(-10.0, 0.01), Matrix2::identity() * 0.1);
+        let sensor = RangeBearingSensor::default();
+        let r = Matrix2::new(0.01, 0.0, 0.0, 1e-4);
+        let z = [RangeBearing::new(10.0, rfslam_core::angle::wrap(std::f64::consts::PI + 0.002))];
+        let (mut scratch, mut out) = (UpdateScratch::default(), GmMap::default());
+        phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_| 0.9, &settings(false), &mut scratch, &mut out);
+        assert_eq!(out.len(), 2, "the measurement gates across the +-pi cut");
+        assert!(out.mean[1].y < 0.01, "moved towards the measurement (bearing pi + 0.002 is below the x axis)");
+    }
+
+    fn merged_moments(m: &GmMap, idx: &[usize]) -> (f64, Point2, Matrix2<f64>) {
+        let w: f64 = idx.iter().map(|&i| m.log_w[i].exp()).sum();
+        let mean = idx.iter().map(|&i| m.log_w[i].exp() * m.mean[i]).sum::<Vector2<f64>>() / w;
+        let cov = idx
+            .iter()
+            .map(|&i| {
+                let d = mean - m.mean[i];
+                m.log_w[i].exp() * (m.cov[i] + d * d.transpose())
+            })
+            .sum::<Matrix2<f64>>()
+            / w;
+        (w, mean, cov)
+    }
+
+    /// Prune below the threshold, merge within the threshold preserving weight, mean and
+    /// second moment, keep distant components apart, demote a merged component whose
+    /// covariance trace exceeds the threshold.
+    #[test]
+    fn reduce_prunes_merges_and_preserves_moments() {
+        let mut m = GmMap::default();
+        m.push(0.9f64.ln(), Point2::new(0.0, 0.0), Matrix2::identity());
+        m.push(0.05f64.ln(), Point2::new(1.0, 0.5), Matrix2::identity() * 2.0);
+        m.push(1e-8f64.ln(), Point2::new(0.1, 0.0), Matrix2::identity()); // pruned
+        m.push(0.7f64.ln(), Point2::new(100.0, 0.0), Matrix2::identity()); // far: kept alone
+        let (mut scratch, mut out) = (ReduceScratch::default(), GmMap::default());
+        reduce(&m, &ReduceSettings { prune: 1e-6, merge: 50.0 }, &mut scratch, &mut out);
+        assert_eq!(out.len(), 2);
+        let (w, mean, cov) = merged_moments(&m, &[0, 1]);
+        assert_relative_eq!(out.log_w[0].exp(), w, epsilon = 1e-12);
+        assert_relative_eq!(out.mean[0], mean, epsilon = 1e-12);
+        assert_relative_eq!(out.cov[0], cov, epsilon = 1e-12);
+        assert_relative_eq!(out.mean[1], Point2::new(100.0, 0.0));
+
+        // Two spread components merged into one whose trace exceeds U get weight 1e-18.
+        let mut wide = GmMap::default();
+        wide.push(0.0, Point2::new(0.0, 0.0), Matrix2::identity() * 30.0);
+        wide.push(0.0, Point2::new(5.0, 0.0), Matrix2::identity() * 30.0);
+        out.clear();
+        reduce(&wide, &ReduceSettings { prune: 1e-6, merge: 50.0 }, &mut scratch, &mut out);
+        assert_eq!(out.len(), 1);
+        assert_eq!(out.log_w[0], DEMOTED_LOG_WEIGHT);
+    }
+}
