@@ -83,6 +83,7 @@ struct Component {
 }
 
 /// The multi-hypotheses importance density of seed 000 Section V.
+#[derive(Clone)]
 pub struct MhProposal {
     params: MhParams,
     murty: Murty,
@@ -106,7 +107,10 @@ impl MhProposal {
     /// component last): for each component its association (measurement index per
     /// detectable component, `None` = missed), mean, covariance and normalised log weight.
     pub fn mixture(&self) -> impl Iterator<Item = (&[Option<usize>], &Pose, &Matrix3<f64>, f64)> {
-        self.components[..self.n_components].iter().zip(&self.log_w).map(|(c, &w)| (c.phi.as_slice(), &c.mean, &c.cov, w))
+        self.components[..self.n_components]
+            .iter()
+            .zip(&self.log_w)
+            .map(|(c, &w)| (c.phi.as_slice(), &c.mean, &c.cov, w))
     }
 
     fn log_missed(&self, pd: f64, log_eta: f64) -> f64 {

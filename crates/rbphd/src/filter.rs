@@ -29,6 +29,7 @@ pub struct Particle {
 }
 
 /// Rao-Blackwellised PHD-SLAM with importance density `P`.
+#[derive(Clone)]
 pub struct RbPhd<P: Proposal> {
     params: RbPhdParams,
     models: SlamModels,
