@@ -346,7 +346,8 @@ mod tests {
         let z = [RangeBearing::new(10.0, 0.0), RangeBearing::new(80.0, 1.0)];
         let (mut scratch, mut out) = (UpdateScratch::default(), GmMap::default());
         let sensor = RangeBearingSensor::default();
-        let o = phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_| 0.9, &settings(false), &mut scratch, &mut out);
+        let o =
+            phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_| 0.9, &settings(false), &mut scratch, &mut out);
         let n = 1.0 / (2.0 * std::f64::consts::PI * (1.01f64 * 0.0101).sqrt());
         assert_relative_eq!(n, 1.57579, epsilon = 1e-5);
         let a = 0.9 * n;
@@ -365,7 +366,8 @@ mod tests {
         assert_relative_eq!(out.cov[1][(0, 0)], 1.0 - 1.0 / 1.01, epsilon = 1e-12);
         assert_relative_eq!(out.cov[1][(1, 1)], 1.0 - 0.01 / 0.0101, epsilon = 1e-12);
         // The exact Poisson likelihood subtracts sum pD eta.
-        let o2 = phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_| 0.9, &settings(true), &mut scratch, &mut out);
+        let o2 =
+            phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_| 0.9, &settings(true), &mut scratch, &mut out);
         assert_relative_eq!(o2.log_likelihood, o.log_likelihood - 0.9, epsilon = 1e-12);
     }
 
@@ -381,7 +383,8 @@ mod tests {
         let sensor = RangeBearingSensor::default();
         let pd = |m: &Point2| if m.x >= 0.0 { 0.8 } else { 0.0 };
         let (mut scratch, mut out) = (UpdateScratch::default(), GmMap::default());
-        let o = phd_update(&map, &[0, 1, 2], &Pose::zeros(), &[], &sensor, &r, pd, &settings(true), &mut scratch, &mut out);
+        let o =
+            phd_update(&map, &[0, 1, 2], &Pose::zeros(), &[], &sensor, &r, pd, &settings(true), &mut scratch, &mut out);
         assert_relative_eq!(o.log_likelihood, -(0.8 * 1.0 + 0.8 * 0.3), epsilon = 1e-12);
         assert_relative_eq!(out.mass(), 0.2 * 1.3 + 0.5, epsilon = 1e-12);
 
@@ -390,7 +393,8 @@ mod tests {
             sensor.predict(&Pose::zeros(), &Point2::new(0.5, 19.0)),
             RangeBearing::new(3.0, 0.0),
         ];
-        let o = phd_update(&map, &[0, 1, 2], &Pose::zeros(), &z, &sensor, &r, pd, &settings(false), &mut scratch, &mut out);
+        let o =
+            phd_update(&map, &[0, 1, 2], &Pose::zeros(), &z, &sensor, &r, pd, &settings(false), &mut scratch, &mut out);
         // detected mass per measurement is (D_j - c) / D_j = 1 - exp(ln c - ln D_j)
         let ln_c = 0.01f64.ln();
         let detected: f64 = scratch.log_d.iter().map(|ld| 1.0 - (ln_c - ld).exp()).sum();

@@ -125,15 +125,23 @@ fn scenario_with_overrides(
     path: &Path,
     sets: &[(String, toml::Value)],
 ) -> Result<rfslam_data::ScenarioConfig, Failure> {
-    let (_, mut table) = load_scenario_table(path)?;
+    let (text, mut table) = load_scenario_table(path)?;
     for (k, v) in sets {
         set_dotted(&mut table, k, v.clone()).map_err(|m| usage(format!("--set scenario.{k}: {m}")))?;
     }
-    let origin = |key: &str, msg: String| HarnessError::Config {
-        file: path.to_path_buf(),
-        line: None,
-        key: key.to_string(),
-        message: if sets.is_empty() { msg } else { format!("{msg} (after --set overrides)") },
+    // A bad value is pointed at in the file, unless a --set gave it.
+    let origin = |key: &str, msg: String| {
+        let set =
+            sets.iter().find(|(k, _)| key == k || key.strip_prefix(k.as_str()).is_some_and(|r| r.starts_with('.')));
+        HarnessError::Config {
+            file: path.to_path_buf(),
+            line: if set.is_some() { None } else { rfslam_harness::locate::locate(&text, key) },
+            key: key.to_string(),
+            message: match set {
+                Some((k, _)) => format!("{msg} (set by --set {k}=...)"),
+                None => msg,
+            },
+        }
     };
     Ok(scenario_from_table(&table, &origin)?)
 }
@@ -298,6 +306,21 @@ fn main() -> ExitCode {
                             labels.join(", ")
                         )));
                     }
+                }
+            }
+            if let Some(ps) = &particles {
+                let selected = |e: &&rfslam_harness::experiment::FilterEntryConfig| {
+                    filters.as_ref().is_none_or(|fs| fs.iter().any(|f| f == e.label() || *f == e.name))
+                };
+                let counts: std::collections::BTreeSet<usize> =
+                    plan.config.filters.iter().filter(selected).flat_map(|e| e.particles.iter().copied()).collect();
+                if let Some(p) = ps.iter().find(|p| !counts.contains(p)) {
+                    let counts: Vec<String> = counts.iter().map(|n| n.to_string()).collect();
+                    return Err(usage(format!(
+                        "--particles: no selected entry of {} runs {p} particles (particle counts: {})",
+                        experiment.display(),
+                        counts.join(", ")
+                    )));
                 }
             }
             let out = out.unwrap_or_else(|| PathBuf::from("results/runs").join(&plan.config.name));

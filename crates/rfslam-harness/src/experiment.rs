@@ -167,12 +167,30 @@ fn config_error(file: &Path, text: &str, key: &str, message: impl Into<String>) 
     }
 }
 
-/// Converts a toml parse/deserialize error of `file` into a [`HarnessError::Config`].
+/// Converts a toml parse/deserialize error of `file` into a [`HarnessError::Config`]: the
+/// line of the error, the dotted key it is about (the key written there, or the missing
+/// field), and toml's message followed by the offending line.
 pub(crate) fn toml_error(file: &Path, text: &str, e: &toml::de::Error) -> HarnessError {
-    let line = e.span().map(|s| crate::locate::line_of(text, s.start));
     let msg = e.message().trim().to_string();
-    let key = msg.split('`').nth(1).unwrap_or("").to_string();
-    HarnessError::Config { file: file.to_path_buf(), line, key, message: msg }
+    // An empty span at the very start is toml's "somewhere in the document" (a missing
+    // top-level field): no line to point at.
+    let span = e.span().filter(|s| !(s.is_empty() && s.start == 0));
+    let written = span.clone().and_then(|s| crate::locate::key_at(text, s));
+    let quoted = msg.split("field `").nth(1).and_then(|r| r.split('`').next()).unwrap_or("");
+    let key = if msg.starts_with("missing field") {
+        match &written {
+            Some(parent) => format!("{parent}.{quoted}"),
+            None => quoted.to_string(),
+        }
+    } else {
+        written.unwrap_or_else(|| quoted.to_string())
+    };
+    let line = span.as_ref().map(|s| crate::locate::line_of(text, s.start));
+    let mut message = msg;
+    if let (Some(l), Some(content)) = (line, line.and_then(|l| text.lines().nth(l - 1))) {
+        message.push_str(&format!("\n{l:>5} | {}", content.trim_end()));
+    }
+    HarnessError::Config { file: file.to_path_buf(), line, key, message }
 }
 
 /// Sets `value` at the dotted `path` of `table`, creating tables on the way.
@@ -347,12 +365,30 @@ impl Plan {
             let at = |values: &[toml::Value]| -> String {
                 grid_keys.iter().zip(values).map(|(k, v)| format!("{k} = {v}")).collect::<Vec<_>>().join(", ")
             };
-            let scenario = scenario_from_table(&sc_table, &|key: &str, msg: String| {
-                if grid_keys.is_empty() {
-                    config_error(&scenario_path, &read(&scenario_path).unwrap_or_default(), key, msg)
-                } else {
-                    err("grid", format!("at grid point ({}): scenario key `{key}`: {msg}", at(&values)))
-                }
+            // An error is reported at the grid key that set the bad value, else where the value
+            // is written (naming the grid point, which may still be why it is bad).
+            let point = if grid_keys.is_empty() { String::new() } else { format!(" (at grid point {})", at(&values)) };
+            // Whether the grid's dotted `set` gave the value of the error's `key` (a dotted path,
+            // or a bare field name when the deserializer gives no more).
+            let covers = |set: &str, key: &str| {
+                key == set
+                    || key.strip_prefix(set).is_some_and(|r| r.starts_with('.'))
+                    || set.strip_suffix(key).is_some_and(|r| r.ends_with('.'))
+            };
+            let scenario = scenario_from_table(&sc_table, &|key: &str, msg: String| match grid_keys
+                .iter()
+                .find(|g| g.strip_prefix("scenario.").is_some_and(|set| covers(set, key)))
+            {
+                Some(g) => err(
+                    &format!("grid.\"{g}\""),
+                    format!("at grid point ({}): scenario key `{key}`: {msg}", at(&values)),
+                ),
+                None => config_error(
+                    &scenario_path,
+                    &read(&scenario_path).unwrap_or_default(),
+                    key,
+                    format!("{msg}{point}"),
+                ),
             })?;
             let world_key = toml::to_string(&sc_table.get("world")).unwrap_or_default();
             let world = match worlds.iter().find(|(k, _)| *k == world_key) {
@@ -371,22 +407,28 @@ impl Plan {
                 let entry = registry::find(&f.name).expect("checked above");
                 for &n in &f.particles {
                     (entry.validate)(&f.params, &models, n).map_err(|e| {
-                        if grid_keys.is_empty() {
-                            let key = if e.key == "particles" {
-                                format!("filters[{i}].particles")
-                            } else {
-                                format!("filters[{i}].params.{}", e.key)
-                            };
-                            err(&key, format!("filter `{}`: {}", f.label, e))
-                        } else {
-                            err(
-                                "grid",
+                        let set_by = grid_keys.iter().find(|g| {
+                            g.strip_prefix("filter.")
+                                .and_then(|r| r.split_once('.'))
+                                .is_some_and(|(who, set)| (who == f.label || who == f.name) && covers(set, &e.key))
+                        });
+                        match set_by {
+                            Some(g) => err(
+                                &format!("grid.\"{g}\""),
                                 format!(
                                     "at grid point ({}): filter `{}` with {n} particles: {e}",
                                     at(&values),
                                     f.label
                                 ),
-                            )
+                            ),
+                            None => {
+                                let key = if e.key == "particles" {
+                                    format!("filters[{i}].particles")
+                                } else {
+                                    format!("filters[{i}].params.{}", e.key)
+                                };
+                                err(&key, format!("filter `{}`: {e}{point}", f.label))
+                            }
                         }
                     })?;
                 }

@@ -80,6 +80,49 @@ pub fn locate(text: &str, path: &str) -> Option<usize> {
     best.map(|p| line_of(text, p))
 }
 
+/// The dotted path (`filters[1].params.alpha`, `grid."scenario.x"`) of the key whose name or
+/// value is written exactly at `span` of `text` (the deepest one when several are). `None`
+/// when the document does not parse or nothing is written exactly there. toml reports a
+/// value of the wrong type only by its span: this names its key.
+pub fn key_at(text: &str, span: std::ops::Range<usize>) -> Option<String> {
+    let doc = DeTable::parse(text).ok()?;
+    let mut found = None;
+    walk_table(doc.get_ref(), "", &span, &mut found);
+    found
+}
+
+fn join_key(prefix: &str, key: &str) -> String {
+    let bare = !key.is_empty() && key.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+    let key = if bare { key.to_string() } else { format!("\"{key}\"") };
+    if prefix.is_empty() { key } else { format!("{prefix}.{key}") }
+}
+
+fn walk_table(table: &DeTable, prefix: &str, span: &std::ops::Range<usize>, found: &mut Option<String>) {
+    for (key, value) in table.iter() {
+        let path = join_key(prefix, key.get_ref());
+        if key.span() == *span || value.span() == *span {
+            *found = Some(path.clone());
+        }
+        walk_value(value.get_ref(), &path, span, found);
+    }
+}
+
+fn walk_value(value: &DeValue, path: &str, span: &std::ops::Range<usize>, found: &mut Option<String>) {
+    match value {
+        DeValue::Table(t) => walk_table(t, path, span, found),
+        DeValue::Array(a) => {
+            for (i, v) in a.iter().enumerate() {
+                let p = format!("{path}[{i}]");
+                if v.span() == *span {
+                    *found = Some(p.clone());
+                }
+                walk_value(v.get_ref(), &p, span, found);
+            }
+        }
+        _ => {}
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -95,5 +138,22 @@ mod tests {
         // missing leaf: falls back to the closest written parent
         assert_eq!(locate(DOC, "filters[1].params.missing"), Some(11));
         assert_eq!(locate(DOC, "nothing"), None);
+    }
+
+    #[test]
+    fn names_the_key_written_at_a_span() {
+        let at = |needle: &str| {
+            let start = DOC.find(needle).unwrap();
+            key_at(DOC, start..start + needle.len())
+        };
+        assert_eq!(at("5.0").as_deref(), Some("clutter.rate"));
+        assert_eq!(at("rate").as_deref(), Some("clutter.rate"));
+        assert_eq!(at("\"b\"").as_deref(), Some("filters[1].name"));
+        assert_eq!(at("3").as_deref(), Some("filters[1].params.max"));
+        assert_eq!(at("2").as_deref(), Some("grid.\"scenario.clutter.rate\"[1]"));
+        assert_eq!(at("[clutter]").as_deref(), Some("clutter"));
+        assert_eq!(at("5.0\n"), None);
+        assert_eq!(key_at("a.b = 1\n", 6..7).as_deref(), Some("a.b"));
+        assert_eq!(key_at("a = = 1\n", 4..5), None);
     }
 }

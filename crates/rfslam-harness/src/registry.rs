@@ -23,14 +23,51 @@ pub struct FilterEntry {
     pub defaults: fn() -> toml::Table,
 }
 
-/// Parses a parameter table into `P`. An unknown key or a value of the wrong type is a
-/// [`ParamError`] naming the key when the deserializer says which one.
+/// Parses a parameter table into `P`. An unknown key, a missing key or a value of the wrong
+/// type is a [`ParamError`] naming the key (dotted for nested tables: `birth.weight`).
 pub fn parse_params<P: serde::de::DeserializeOwned>(table: &toml::Table) -> Result<P, ParamError> {
     toml::Value::Table(table.clone()).try_into::<P>().map_err(|e| {
         let msg = e.message().trim().to_string();
-        let key = msg.split('`').nth(1).filter(|k| table.contains_key(*k)).unwrap_or("params").to_string();
-        ParamError::new(key, msg)
+        ParamError::new(param_key::<P>(table, &msg), msg)
     })
+}
+
+/// The key a parameter error is about. toml names unknown and missing fields in the message
+/// but a value of the wrong type only by its position: the table is written out as a
+/// document and parsed again to find the key written there (a dotted path for nested
+/// tables). Where that gives no position (a custom deserializer), the key is the first that
+/// gives the same error on its own, else the first whose removal changes the error.
+fn param_key<P: serde::de::DeserializeOwned>(table: &toml::Table, msg: &str) -> String {
+    let quoted = msg.split("field `").nth(1).and_then(|r| r.split('`').next());
+    if msg.starts_with("missing field")
+        && let Some(k) = quoted
+    {
+        return k.to_string();
+    }
+    if let Ok(text) = toml::to_string(table)
+        && let Err(e) = toml::from_str::<P>(&text)
+        && let Some(key) = e.span().and_then(|s| crate::locate::key_at(&text, s))
+    {
+        return key;
+    }
+    for (k, v) in table {
+        let alone = toml::Table::from_iter([(k.clone(), v.clone())]);
+        if toml::Value::Table(alone).try_into::<P>().is_err_and(|e| e.message().trim() == msg) {
+            return k.clone();
+        }
+    }
+    for k in table.keys() {
+        let mut without = table.clone();
+        without.remove(k);
+        let gone = match toml::Value::Table(without).try_into::<P>() {
+            Ok(_) => true,
+            Err(e) => e.message().trim() != msg,
+        };
+        if gone {
+            return k.clone();
+        }
+    }
+    quoted.filter(|k| table.contains_key(*k)).unwrap_or("params").to_string()
 }
 
 fn validate_with<F: FilterBuild>(t: &toml::Table, m: &SlamModels, n: usize) -> Result<(), ParamError> {

@@ -159,12 +159,16 @@ impl RunRow {
 }
 
 /// Reads the complete rows of an existing `runs.csv`; a truncated last line (a sweep killed
-/// while writing) is dropped. The header must match `grid_keys`.
+/// while writing) is dropped. Every row is written with its line end in one write, so a
+/// last line without one is truncated even when it still parses (cut inside its last
+/// field). The header must match `grid_keys`.
 pub fn read_rows(path: &Path, grid_keys: &[String]) -> Result<Vec<RunRow>, HarnessError> {
-    let mut rdr = csv::ReaderBuilder::new()
-        .flexible(true)
-        .from_path(path)
-        .map_err(|e| HarnessError::Resume(format!("{}: {e}", path.display())))?;
+    let mut text = std::fs::read(path).map_err(|e| HarnessError::Resume(format!("{}: {e}", path.display())))?;
+    let complete = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    if complete > 0 {
+        text.truncate(complete);
+    }
+    let mut rdr = csv::ReaderBuilder::new().flexible(true).from_reader(text.as_slice());
     let hdr = rdr.headers().map_err(|e| HarnessError::Resume(format!("{}: {e}", path.display())))?.clone();
     let want = header(grid_keys);
     if hdr.iter().collect::<Vec<_>>() != want.iter().map(|s| s.as_str()).collect::<Vec<_>>() {

@@ -159,7 +159,7 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
             )));
         }
         if let Ok(old) = std::fs::read_to_string(&resolved_path)
-            && old != resolved
+            && !same_experiment(&old, &resolved)
         {
             return Err(HarnessError::Resume(format!(
                 "{} describes a different experiment (configuration changed since that sweep): use another --out",
@@ -224,6 +224,23 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
     let wall_s = start.elapsed().as_secs_f64();
     finish(plan, out, Some((wall_s, todo.len(), threads)))?;
     Ok(SweepOutcome { ran: todo.len(), skipped, wall_s, out: out.clone() })
+}
+
+/// Whether two resolved experiments (`experiment.resolved.toml`) are the same experiment:
+/// equal but for the paths of the files they were read from (the scenario is inlined), so
+/// that `./exp.toml`, an absolute path or another working directory can resume a sweep.
+fn same_experiment(old: &str, new: &str) -> bool {
+    let strip = |text: &str| {
+        text.parse::<toml::Table>().ok().map(|mut t| {
+            t.remove("experiment_file");
+            t.remove("scenario_file");
+            t
+        })
+    };
+    match (strip(old), strip(new)) {
+        (Some(a), Some(b)) => a == b,
+        _ => old == new,
+    }
 }
 
 /// Rewrites `runs.csv` in canonical job order and writes `summary.csv` and `report.md`

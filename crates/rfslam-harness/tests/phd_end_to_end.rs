@@ -8,7 +8,8 @@ use rfslam_harness::experiment::MetricsConfig;
 use rfslam_harness::{registry, run_filter};
 
 fn scenario() -> ScenarioConfig {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/procedural.toml")).unwrap();
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/procedural.toml")).unwrap();
     let mut table: toml::Table = toml::from_str(&text).unwrap();
     table["world"].as_table_mut().unwrap().insert("steps".into(), 500.into());
     toml::Value::Table(table).try_into().unwrap()

@@ -1,0 +1,282 @@
+//! Helpers shared by the `rfslam` acceptance tests: a temporary directory per test, running
+//! the binary, small scenario and experiment files, CSV and JSON readers.
+
+#![allow(dead_code)]
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use rfslam_harness::registry::{FilterEntry, REGISTRY};
+
+/// A directory under the system temp dir, unique per process and test, removed when the
+/// test passes (kept, and its path printed, when it fails).
+pub struct TempDir(PathBuf);
+
+impl TempDir {
+    pub fn new(test: &str) -> TempDir {
+        let p = std::env::temp_dir().join(format!("rfslam-cli-{}-{test}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&p);
+        std::fs::create_dir_all(&p).expect("create the test directory");
+        TempDir(p)
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.0
+    }
+
+    pub fn join(&self, rel: &str) -> PathBuf {
+        self.0.join(rel)
+    }
+
+    /// Writes `text` to `rel` and returns the path.
+    pub fn write(&self, rel: &str, text: &str) -> PathBuf {
+        let p = self.0.join(rel);
+        std::fs::write(&p, text).unwrap_or_else(|e| panic!("writing {}: {e}", p.display()));
+        p
+    }
+
+    pub fn read(&self, rel: &str) -> String {
+        let p = self.0.join(rel);
+        std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("reading {}: {e}", p.display()))
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            eprintln!("test files kept in {}", self.0.display());
+        } else {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+/// What one invocation of `rfslam` did.
+#[derive(Debug)]
+pub struct Output {
+    pub code: i32,
+    pub stdout: String,
+    pub stderr: String,
+}
+
+/// Runs `rfslam args` in `dir` with `RFSLAM_DATA` pointing at `dir/data` (so that no real
+/// data set is ever found by accident) and no terminal. Never a panic, whatever the input.
+pub fn rfslam(dir: &Path, args: &[&str]) -> Output {
+    rfslam_env(dir, args, &[])
+}
+
+/// [`rfslam`] with extra environment variables.
+pub fn rfslam_env(dir: &Path, args: &[&str], env: &[(&str, &Path)]) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_rfslam"));
+    cmd.args(args).current_dir(dir).env("RFSLAM_DATA", dir.join("data")).env("CI", "1").env_remove("RUST_BACKTRACE");
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    let out = cmd.output().expect("start rfslam");
+    let o = Output {
+        code: out.status.code().unwrap_or(-1),
+        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+    };
+    assert!(
+        !o.stderr.contains("panicked") && !o.stdout.contains("panicked") && !o.stderr.contains("stack backtrace"),
+        "rfslam {args:?} panicked:\n{}",
+        o.stderr
+    );
+    o
+}
+
+/// Runs `rfslam args` and requires exit code 0.
+pub fn ok(dir: &Path, args: &[&str]) -> Output {
+    let o = rfslam(dir, args);
+    assert_eq!(o.code, 0, "rfslam {args:?} failed:\n{}\n{}", o.stdout, o.stderr);
+    o
+}
+
+/// Runs `rfslam args` and requires exit code `code` and every needle in stderr.
+pub fn fails(dir: &Path, args: &[&str], code: i32, needles: &[&str]) -> Output {
+    let o = rfslam(dir, args);
+    assert_eq!(o.code, code, "rfslam {args:?}: expected exit code {code}, stderr:\n{}", o.stderr);
+    for n in needles {
+        assert!(o.stderr.contains(n), "rfslam {args:?}: stderr lacks {n:?}:\n{}", o.stderr);
+    }
+    o
+}
+
+/// A procedural scenario: a `extent = 300` m world with `steps` poses and `landmarks`
+/// landmarks, the PHD-SLAM 3.0 synthetic sensor and noise, detection `pd`, `clutter` per scan.
+pub fn scenario(steps: usize, landmarks: usize, pd: f64, clutter: f64) -> String {
+    format!(
+        r#"name = "small"
+description = "a small procedural world for the acceptance tests"
+
+[world]
+kind = "procedural"
+seed = 1
+steps = {steps}
+extent = 300.0
+landmarks = {landmarks}
+
+[motion]
+model = "velocity"
+sigma_v = 0.8
+sigma_omega_deg = 0.5
+
+[sensor]
+max_range = 150.0
+half_angle_deg = 90.0
+sigma_range = 0.8
+sigma_bearing_deg = 0.3
+
+[detection]
+model = "constant"
+pd = {pd:?}
+
+[clutter]
+rate = {clutter:?}
+"#
+    )
+}
+
+/// One `[[filters]]` entry of an experiment.
+#[derive(Debug, Clone)]
+pub struct Entry {
+    pub name: String,
+    pub label: String,
+    pub particles: Vec<usize>,
+}
+
+impl Entry {
+    pub fn new(name: &str, label: &str, particles: &[usize]) -> Entry {
+        Entry { name: name.into(), label: label.into(), particles: particles.to_vec() }
+    }
+}
+
+/// An experiment file over `scenario` with `entries`, then `extra` (e.g. a `[grid]` table).
+pub fn experiment(scenario: &str, runs: usize, seed: u64, entries: &[Entry], extra: &str) -> String {
+    let mut s = format!("name = \"acceptance\"\nscenario = \"{scenario}\"\nruns = {runs}\nseed = {seed}\n");
+    for e in entries {
+        let ps: Vec<String> = e.particles.iter().map(|n| n.to_string()).collect();
+        s.push_str(&format!(
+            "\n[[filters]]\nname = \"{}\"\nlabel = \"{}\"\nparticles = [{}]\n",
+            e.name,
+            e.label,
+            ps.join(", ")
+        ));
+    }
+    s.push_str(extra);
+    s
+}
+
+/// The models a filter is validated with on `scenario_text`.
+pub fn models(scenario_text: &str) -> rfslam_core::SlamModels {
+    let sc = rfslam_data::ScenarioConfig::from_toml_str(scenario_text, "scenario.toml").expect("valid scenario");
+    sc.models_for(None).expect("scenario models")
+}
+
+/// The particle counts among `candidates` that `entry` accepts with its default parameters.
+pub fn valid_counts(entry: &FilterEntry, models: &rfslam_core::SlamModels, candidates: &[usize]) -> Vec<usize> {
+    candidates.iter().copied().filter(|&n| (entry.validate)(&toml::Table::new(), models, n).is_ok()).collect()
+}
+
+/// Every registered filter with the counts among `candidates` it accepts (at least one).
+pub fn registered(models: &rfslam_core::SlamModels, candidates: &[usize]) -> Vec<(&'static FilterEntry, Vec<usize>)> {
+    REGISTRY
+        .iter()
+        .map(|e| {
+            let counts = valid_counts(e, models, candidates);
+            assert!(!counts.is_empty(), "{} accepts none of the particle counts {candidates:?}", e.name);
+            (e, counts)
+        })
+        .collect()
+}
+
+/// A CSV file: header and rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Csv {
+    pub header: Vec<String>,
+    pub rows: Vec<Vec<String>>,
+}
+
+impl Csv {
+    pub fn read(path: &Path) -> Csv {
+        let mut r = csv::Reader::from_path(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let header = r.headers().expect("header").iter().map(String::from).collect();
+        let rows = r
+            .records()
+            .map(|rec| rec.unwrap_or_else(|e| panic!("{}: {e}", path.display())).iter().map(String::from).collect())
+            .collect();
+        Csv { header, rows }
+    }
+
+    /// Index of column `name`.
+    pub fn col(&self, name: &str) -> usize {
+        self.header.iter().position(|h| h == name).unwrap_or_else(|| panic!("no column {name} in {:?}", self.header))
+    }
+
+    /// The value of column `name` in row `i`.
+    pub fn get(&self, i: usize, name: &str) -> &str {
+        &self.rows[i][self.col(name)]
+    }
+
+    /// The value of column `name` in row `i` as a number (NaN for an empty field).
+    pub fn num(&self, i: usize, name: &str) -> f64 {
+        let s = self.get(i, name);
+        if s.is_empty() { f64::NAN } else { s.parse().unwrap_or_else(|_| panic!("{name} = {s:?} is not a number")) }
+    }
+
+    /// The same table without the columns `drop` (e.g. wall times).
+    pub fn without(&self, drop: &[&str]) -> Csv {
+        let keep: Vec<usize> = (0..self.header.len()).filter(|&i| !drop.contains(&self.header[i].as_str())).collect();
+        Csv {
+            header: keep.iter().map(|&i| self.header[i].clone()).collect(),
+            rows: self.rows.iter().map(|r| keep.iter().map(|&i| r[i].clone()).collect()).collect(),
+        }
+    }
+
+    /// Rows as maps column -> value.
+    pub fn maps(&self) -> Vec<BTreeMap<String, String>> {
+        self.rows.iter().map(|r| self.header.iter().cloned().zip(r.iter().cloned()).collect()).collect()
+    }
+}
+
+/// The wall-time columns of `runs.csv` and `summary.csv`: the only ones allowed to differ
+/// between two executions of the same jobs.
+pub const RUN_TIME: &[&str] = &["time_ms_per_step"];
+pub const SUMMARY_TIME: &[&str] = &["time_ms", "time_std_ms"];
+
+/// Reads `metrics.json`.
+pub fn metrics(path: &Path) -> serde_json::Map<String, serde_json::Value> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    match serde_json::from_str(&text) {
+        Ok(serde_json::Value::Object(m)) => m,
+        other => panic!("{}: not a JSON object: {other:?}", path.display()),
+    }
+}
+
+/// The members of the flat, pretty-printed `metrics.json` as written: key -> JSON literal.
+/// Numbers are compared through these (parsed with `str::parse`, which rounds correctly;
+/// serde_json's default float parser may be one ulp off).
+pub fn metrics_raw(path: &Path) -> BTreeMap<String, String> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut out = BTreeMap::new();
+    for line in text.lines().map(str::trim).filter(|l| l.starts_with('"')) {
+        let (k, v) = line.split_once(": ").unwrap_or_else(|| panic!("{}: odd line {line:?}", path.display()));
+        out.insert(k.trim_matches('"').to_string(), v.trim_end_matches(',').to_string());
+    }
+    assert_eq!(out.len(), metrics(path).len(), "{}: not a flat object", path.display());
+    out
+}
+
+/// A number of `metrics.json` (NaN for `null`).
+pub fn metric(raw: &BTreeMap<String, String>, key: &str) -> f64 {
+    let v = raw.get(key).unwrap_or_else(|| panic!("metrics.json lacks {key}: {raw:?}"));
+    if v == "null" { f64::NAN } else { v.parse().unwrap_or_else(|_| panic!("{key} = {v} is not a number")) }
+}
+
+/// 1-based line of the first occurrence of `needle` in `text`.
+pub fn line_of(text: &str, needle: &str) -> usize {
+    let at = text.find(needle).unwrap_or_else(|| panic!("{needle:?} not in\n{text}"));
+    text[..at].matches('\n').count() + 1
+}

@@ -1,0 +1,234 @@
+//! Bad input never panics: every mistake gives the documented exit code (2 for usage and
+//! configuration, 1 for failures while running) and a message naming the file, the line
+//! and the key (configuration) or what is missing (data).
+
+mod common;
+
+use common::*;
+use rfslam_harness::registry::REGISTRY;
+
+/// A valid scenario and experiment in a fresh directory; returns (dir, scenario, experiment).
+fn setup(test: &str) -> (TempDir, String, String) {
+    let tmp = TempDir::new(test);
+    let scen = scenario(50, 10, 0.95, 2.0);
+    let entries = [Entry::new("dead-reckoning", "dr-a", &[1]), Entry::new("dead-reckoning", "dr-b", &[1])];
+    let exp = experiment("scen.toml", 2, 1, &entries, "");
+    tmp.write("scen.toml", &scen);
+    tmp.write("exp.toml", &exp);
+    std::fs::create_dir_all(tmp.join("data")).unwrap();
+    (tmp, scen, exp)
+}
+
+/// `rfslam sweep bad.toml` (with `text` as bad.toml) fails with exit code 2, naming
+/// `bad.toml:<line of needle>:` and every one of `also`; nothing is written.
+fn sweep_config_error(tmp: &TempDir, text: &str, line_needle: &str, also: &[&str]) -> String {
+    tmp.write("bad.toml", text);
+    let line = line_of(text, line_needle);
+    let at = format!("bad.toml:{line}:");
+    let o = fails(tmp.path(), &["sweep", "bad.toml", "--out", "out"], 2, &[&at]);
+    for n in also {
+        assert!(o.stderr.contains(n), "stderr lacks {n:?}:\n{}", o.stderr);
+    }
+    assert!(!tmp.join("out").exists(), "a rejected experiment wrote output");
+    o.stderr
+}
+
+fn replace_once(text: &str, from: &str, to: &str) -> String {
+    assert!(text.contains(from), "{from:?} not in\n{text}");
+    text.replacen(from, to, 1)
+}
+
+/// `text` with the last occurrence of `from` replaced by `to`.
+fn replace_last(text: &str, from: &str, to: &str) -> String {
+    let at = text.rfind(from).unwrap_or_else(|| panic!("{from:?} not in\n{text}"));
+    format!("{}{to}{}", &text[..at], &text[at + from.len()..])
+}
+
+#[test]
+fn unknown_filter_on_the_command_line_lists_the_registered_ones() {
+    let (tmp, _, _) = setup("run-unknown-filter");
+    let o = fails(tmp.path(), &["run", "--scenario", "scen.toml", "--filter", "nope", "--out", "o"], 2, &["`nope`"]);
+    for e in REGISTRY {
+        assert!(o.stderr.contains(e.name), "{} not listed:\n{}", e.name, o.stderr);
+    }
+    assert!(!tmp.join("o").exists());
+}
+
+#[test]
+fn unknown_filter_in_an_experiment_names_file_line_and_key() {
+    let (tmp, _, exp) = setup("exp-unknown-filter");
+    // The second entry, so that the line and index are not the first ones by luck.
+    let text = exp.replace("name = \"dead-reckoning\"\nlabel = \"dr-b\"", "name = \"nope\"\nlabel = \"dr-b\"");
+    let err = sweep_config_error(&tmp, &text, "name = \"nope\"", &["filters[1].name", "`nope`"]);
+    for e in REGISTRY {
+        assert!(err.contains(e.name), "{} not listed:\n{err}", e.name);
+    }
+    let text = replace_once(&exp, "name = \"dead-reckoning\"", "name = \"nope\"");
+    sweep_config_error(&tmp, &text, "name = \"nope\"", &["filters[0].name"]);
+}
+
+#[test]
+fn toml_syntax_error_names_file_line_and_shows_it() {
+    let (tmp, _, exp) = setup("syntax");
+    let text = replace_once(&exp, "seed = 1", "seed = = 1");
+    sweep_config_error(&tmp, &text, "seed = = 1", &["seed = = 1"]);
+    let text = replace_once(&exp, "label = \"dr-b\"", "label = \"dr-b");
+    sweep_config_error(&tmp, &text, "label = \"dr-b", &["label"]);
+}
+
+#[test]
+fn unknown_key_names_file_line_and_key() {
+    let (tmp, _, exp) = setup("unknown-key");
+    let text = replace_once(&exp, "seed = 1\n", "seed = 1\nrunz = 3\n");
+    sweep_config_error(&tmp, &text, "runz = 3", &["`runz`"]);
+    let text = replace_once(&exp, "label = \"dr-b\"", "label = \"dr-b\"\nlabl = \"x\"");
+    sweep_config_error(&tmp, &text, "labl", &["filters[1].labl"]);
+}
+
+#[test]
+fn wrong_type_names_file_line_and_key() {
+    let (tmp, _, exp) = setup("wrong-type");
+    let text = replace_once(&exp, "runs = 2", "runs = \"ten\"");
+    sweep_config_error(&tmp, &text, "runs = \"ten\"", &["`runs`", "\"ten\""]);
+    let text = replace_last(&exp, "particles = [1]", "particles = 1");
+    sweep_config_error(&tmp, &text, "particles = 1\n", &["filters[1].particles"]);
+}
+
+#[test]
+fn out_of_range_value_names_file_line_and_key() {
+    let (tmp, _, exp) = setup("out-of-range");
+    let text = replace_once(&exp, "runs = 2", "runs = 0");
+    sweep_config_error(&tmp, &text, "runs = 0", &["`runs`"]);
+    // Dead reckoning has no particles: 3 is out of its range.
+    let text = replace_last(&exp, "particles = [1]", "particles = [3]");
+    sweep_config_error(&tmp, &text, "particles = [3]", &["filters[1].particles", "dead-reckoning"]);
+}
+
+#[test]
+fn bad_filter_parameters_name_file_line_and_key() {
+    let (tmp, scen, exp) = setup("bad-params");
+    let text = exp.replace(
+        "label = \"dr-b\"\nparticles = [1]\n",
+        "label = \"dr-b\"\nparticles = [1]\n\n[filters.params]\nbogus = 1\n",
+    );
+    sweep_config_error(&tmp, &text, "bogus = 1", &["filters[1].params.bogus"]);
+
+    // A parameter of the wrong type, for every registered filter that has a number parameter.
+    let models = models(&scen);
+    for (e, counts) in registered(&models, &[1, 3]) {
+        let Some((key, _)) = (e.defaults)().into_iter().find(|(_, v)| v.is_float() || v.is_integer()) else { continue };
+        let entries = [Entry::new("dead-reckoning", "dr", &[1]), Entry::new(e.name, "f", &counts[..1])];
+        let mut text = experiment("scen.toml", 1, 1, &entries, "");
+        text.push_str(&format!("\n[filters.params]\n{key} = \"wide\"\n"));
+        let key_path = format!("filters[1].params.{key}");
+        let err = sweep_config_error(&tmp, &text, &format!("{key} = \"wide\""), &[&key_path, "\"wide\""]);
+        assert!(err.contains("filter `f`"), "{err}");
+    }
+}
+
+#[test]
+fn scenario_errors_name_the_scenario_file_line_and_key() {
+    let (tmp, scen, _) = setup("scenario-errors");
+    for (bad, needle, key) in [
+        (replace_once(&scen, "rate = 2.0", "rat = 5"), "rat = 5", "clutter.rat"),
+        (replace_once(&scen, "rate = 2.0", "rate = -2.0"), "rate = -2.0", "clutter.rate"),
+        (replace_once(&scen, "sigma_v = 0.8", "sigma_v = \"fast\""), "sigma_v = \"fast\"", "sigma_v"),
+    ] {
+        tmp.write("scen.toml", &bad);
+        let at = format!("scen.toml:{}:", line_of(&bad, needle));
+        fails(tmp.path(), &["sweep", "exp.toml", "--out", "out"], 2, &[&at, key]);
+        assert!(!tmp.join("out").exists());
+        let args = ["run", "--scenario", "scen.toml", "--filter", "dead-reckoning", "--out", "o"];
+        fails(tmp.path(), &args, 2, &[&at, key]);
+        fails(tmp.path(), &["simulate", "--scenario", "scen.toml", "--out", "ds"], 2, &[&at, key]);
+        assert!(!tmp.join("o").exists() && !tmp.join("ds").exists());
+    }
+}
+
+#[test]
+fn bad_grid_keys_and_values_name_the_grid_key() {
+    let (tmp, _, exp) = setup("bad-grid");
+    let text = format!("{exp}\n[grid]\n\"bogus.x\" = [1]\n");
+    sweep_config_error(&tmp, &text, "\"bogus.x\"", &["bogus.x", "scenario.<key>"]);
+    let text = format!("{exp}\n[grid]\n\"filter.nobody.x\" = [1]\n");
+    sweep_config_error(&tmp, &text, "\"filter.nobody.x\"", &["filter.nobody.x", "nobody"]);
+    let text = format!("{exp}\n[grid]\n\"scenario.clutter.rate\" = [1.0, -1.0]\n");
+    sweep_config_error(&tmp, &text, "\"scenario.clutter.rate\"", &["scenario.clutter.rate", "-1.0", "must be >= 0"]);
+    let text = format!("{exp}\n[grid]\n\"scenario.clutter.rat\" = [1.0]\n");
+    sweep_config_error(&tmp, &text, "\"scenario.clutter.rat\"", &["scenario.clutter.rat", "`rat`"]);
+    let text = format!("{exp}\n[grid]\n\"filter.dr-a.bogus\" = [1]\n");
+    sweep_config_error(&tmp, &text, "\"filter.dr-a.bogus\"", &["filter.dr-a.bogus", "bogus"]);
+}
+
+#[test]
+fn missing_external_data_lists_the_directories_and_how_to_get_it() {
+    let (tmp, scen, exp) = setup("missing-data");
+    let world = "kind = \"procedural\"\nseed = 1\nsteps = 50\nextent = 300.0\nlandmarks = 10";
+    let env_scen = replace_once(&scen, world, "kind = \"environment\"\npath = \"definitely-missing-dataset\"");
+    tmp.write("env.toml", &env_scen);
+    tmp.write("env-exp.toml", &exp.replace("scen.toml", "env.toml"));
+    let data = tmp.join("data");
+    let looked = data.join("definitely-missing-dataset").display().to_string();
+    let needles = ["definitely-missing-dataset", looked.as_str(), "shared/data", "RFSLAM_DATA", "docs/datasets.md"];
+    for args in [
+        &["sweep", "env-exp.toml", "--out", "out"][..],
+        &["run", "--scenario", "env.toml", "--filter", "dead-reckoning", "--out", "o"],
+        &["simulate", "--scenario", "env.toml", "--out", "ds"],
+    ] {
+        let o = rfslam_env(tmp.path(), args, &[("RFSLAM_DATA", &data)]);
+        assert_ne!(o.code, 0, "{args:?} succeeded without data");
+        for n in needles {
+            assert!(o.stderr.contains(n), "{args:?}: stderr lacks {n:?}:\n{}", o.stderr);
+        }
+    }
+}
+
+#[test]
+fn missing_or_corrupt_dataset_is_a_run_failure() {
+    let (tmp, _, _) = setup("bad-dataset");
+    fails(
+        tmp.path(),
+        &["run", "--dataset", "/nonexistent", "--filter", "dead-reckoning", "--out", "o"],
+        1,
+        &["/nonexistent", "not found"],
+    );
+    assert!(!tmp.join("o").exists());
+
+    ok(tmp.path(), &["simulate", "--scenario", "scen.toml", "--seed", "2", "--out", "ds"]);
+    let meas = tmp.read("ds/measurements.csv");
+    let mut lines: Vec<String> = meas.lines().map(String::from).collect();
+    let fields: Vec<&str> = lines[3].split(',').collect();
+    lines[3] = format!("{},not-a-range,{}", fields[0], fields[2..].join(","));
+    tmp.write("ds/measurements.csv", &(lines.join("\n") + "\n"));
+    fails(
+        tmp.path(),
+        &["run", "--dataset", "ds", "--filter", "dead-reckoning", "--out", "o"],
+        1,
+        &["measurements.csv:4", "range"],
+    );
+}
+
+#[test]
+fn usage_errors_exit_with_2() {
+    let (tmp, _, _) = setup("usage");
+    fails(tmp.path(), &["run", "--scenario", "scen.toml", "--filter", "dead-reckoning"], 2, &["--out"]);
+    fails(tmp.path(), &["sweep"], 2, &["EXPERIMENT"]);
+    fails(tmp.path(), &["frobnicate"], 2, &["frobnicate"]);
+    fails(tmp.path(), &["run", "--filter", "dead-reckoning", "--out", "o"], 2, &["--dataset"]);
+    let run = ["run", "--scenario", "scen.toml", "--filter", "dead-reckoning", "--out", "o"];
+    fails(tmp.path(), &[&run[..], &["--set", "bogus=1"]].concat(), 2, &["bogus"]);
+    fails(tmp.path(), &[&run[..], &["--set", "novalue"]].concat(), 2, &["novalue", "KEY=VALUE"]);
+    fails(tmp.path(), &[&run[..], &["--set", "scenario.clutter.rate=-1"]].concat(), 2, &["clutter.rate"]);
+    fails(tmp.path(), &[&run[..], &["--particles", "2"]].concat(), 2, &["particles"]);
+    fails(
+        tmp.path(),
+        &["simulate", "--scenario", "scen.toml", "--set", "clutter.rate=-1", "--out", "ds"],
+        2,
+        &["clutter.rate"],
+    );
+    fails(tmp.path(), &["sweep", "exp.toml", "--runs", "0", "--out", "o"], 2, &["--runs"]);
+    assert!(!tmp.join("o").exists() && !tmp.join("ds").exists());
+    let o = rfslam(tmp.path(), &["sweep", "missing.toml", "--out", "o"]);
+    assert_ne!(o.code, 0);
+    assert!(o.stderr.contains("missing.toml"), "{}", o.stderr);
+}

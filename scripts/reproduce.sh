@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Full reproductions of the published tables. For each experiment name (default: table1
+# table2) runs `rfslam sweep configs/<name>.toml` into results/runs/<name>/ (resumable: rerun
+# the script after an interruption), then copies summary.csv, report.md and the resolved
+# configuration into results/<name>/, appending results/<name>/discussion.md to the report
+# when it exists. JOBS (default 2) sets the number of parallel jobs.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo build --release -p rfslam-cli
+experiments=("$@")
+[ ${#experiments[@]} -gt 0 ] || experiments=(table1 table2)
+for exp in "${experiments[@]}"; do
+  out="results/runs/$exp"
+  start=$(date +%s)
+  ./target/release/rfslam sweep "configs/$exp.toml" --jobs "${JOBS:-2}" --out "$out" --resume
+  echo "$exp: $(( $(date +%s) - start )) s wall time"
+  mkdir -p "results/$exp"
+  cp "$out/summary.csv" "$out/experiment.resolved.toml" "results/$exp/"
+  cp "$out/report.md" "results/$exp/report.md"
+  if [ -f "results/$exp/discussion.md" ]; then
+    { echo; cat "results/$exp/discussion.md"; } >> "results/$exp/report.md"
+  fi
+done
