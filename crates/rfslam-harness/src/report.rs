@@ -91,8 +91,8 @@ pub struct ReportInfo<'a> {
     pub seed: u64,
     /// Grid keys.
     pub grid_keys: &'a [String],
-    /// Wall time of the sweep invocation that finished it (s), jobs and threads.
-    pub wall: Option<(f64, usize, usize)>,
+    /// Sweep invocations that ran jobs: (jobs, threads, wall seconds).
+    pub invocations: Vec<(usize, usize, f64)>,
 }
 
 /// Renders `report.md`: per grid point a table with ours, the published figure and the ratio
@@ -108,8 +108,16 @@ pub fn render(info: &ReportInfo, rows: &[SummaryRow], published: Option<&Publish
         "- experiment: `{}`; {} Monte Carlo runs per row, master seed {}",
         info.experiment, info.runs, info.seed
     );
-    if let Some((wall, jobs, threads)) = info.wall {
-        let _ = writeln!(s, "- last sweep invocation: {jobs} jobs in {wall:.1} s wall time on {threads} thread(s)");
+    if !info.invocations.is_empty() {
+        let jobs: usize = info.invocations.iter().map(|i| i.0).sum();
+        let wall: f64 = info.invocations.iter().map(|i| i.2).sum();
+        let threads: Vec<String> = info.invocations.iter().map(|i| i.1.to_string()).collect();
+        let _ = writeln!(
+            s,
+            "- {jobs} jobs run in {wall:.1} s wall time over {} sweep invocation(s) with {} thread(s)",
+            info.invocations.len(),
+            threads.join(" / ")
+        );
     }
     let _ = writeln!(
         s,

@@ -222,7 +222,10 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
         return Err(e);
     }
     let wall_s = start.elapsed().as_secs_f64();
-    finish(plan, out, Some((wall_s, todo.len(), threads)))?;
+    if !todo.is_empty() {
+        record_invocation(out, todo.len(), threads, wall_s)?;
+    }
+    finish(plan, out)?;
     Ok(SweepOutcome { ran: todo.len(), skipped, wall_s, out: out.clone() })
 }
 
@@ -243,9 +246,39 @@ fn same_experiment(old: &str, new: &str) -> bool {
     }
 }
 
+/// File listing every sweep invocation that ran jobs in an output directory.
+pub const INVOCATIONS: &str = "invocations.csv";
+
+/// Appends `jobs,threads,wall_s` of this invocation to `invocations.csv`.
+fn record_invocation(out: &Path, jobs: usize, threads: usize, wall_s: f64) -> Result<(), HarnessError> {
+    use std::io::Write;
+    let path = out.join(INVOCATIONS);
+    let new = !path.exists();
+    let mut f =
+        std::fs::OpenOptions::new().create(true).append(true).open(&path).map_err(|e| HarnessError::io(&path, e))?;
+    let mut text = String::new();
+    if new {
+        text.push_str("jobs,threads,wall_s\n");
+    }
+    text.push_str(&format!("{jobs},{threads},{wall_s:.3}\n"));
+    f.write_all(text.as_bytes()).map_err(|e| HarnessError::io(&path, e))
+}
+
+/// The invocations recorded in `out`: (jobs, threads, wall seconds) each.
+pub fn read_invocations(out: &Path) -> Vec<(usize, usize, f64)> {
+    let Ok(text) = std::fs::read_to_string(out.join(INVOCATIONS)) else { return Vec::new() };
+    text.lines()
+        .skip(1)
+        .filter_map(|l| {
+            let mut it = l.split(',');
+            Some((it.next()?.parse().ok()?, it.next()?.parse().ok()?, it.next()?.parse().ok()?))
+        })
+        .collect()
+}
+
 /// Rewrites `runs.csv` in canonical job order and writes `summary.csv` and `report.md`
 /// from every row in it.
-pub fn finish(plan: &Plan, out: &Path, wall: Option<(f64, usize, usize)>) -> Result<(), HarnessError> {
+pub fn finish(plan: &Plan, out: &Path) -> Result<(), HarnessError> {
     let runs_path = out.join("runs.csv");
     let mut rows = read_rows(&runs_path, &plan.grid_keys)?;
     let order: Vec<_> = plan.jobs(&JobFilter::default());
@@ -274,7 +307,7 @@ pub fn finish(plan: &Plan, out: &Path, wall: Option<(f64, usize, usize)>) -> Res
         runs: plan.config.runs,
         seed: plan.config.seed,
         grid_keys: &plan.grid_keys,
-        wall,
+        invocations: read_invocations(out),
     };
     let md = render(&info, &summary, plan.published.as_ref());
     let report = out.join("report.md");
