@@ -208,6 +208,7 @@ fn run(
         }
         (None, None) => return Err(usage("give --dataset DIR or --scenario FILE".into())),
     };
+    registry::check_dataset(entry, &ds).map_err(|e| anyhow!(e))?;
     let models = ds.models();
     let mut f = (entry.build)(&params, &models, particles).map_err(|e| usage(format!("filter `{filter}`: {e}")))?;
 

@@ -71,6 +71,10 @@ pub trait FilterBuild: SlamFilter + Sized + 'static {
     /// The filter's parameters; `Default` gives the published settings.
     type Params: serde::de::DeserializeOwned + serde::Serialize + Default + Clone;
 
+    /// Whether the filter needs the data set's truth labels (an oracle baseline); the
+    /// harness refuses data without them before running.
+    const REQUIRES_TRUTH: bool = false;
+
     /// Checks ranges and consistency of the parameters (with the scenario's models and the
     /// number of particles, which some checks need).
     fn validate(params: &Self::Params, models: &SlamModels, particles: usize) -> Result<(), ParamError>;

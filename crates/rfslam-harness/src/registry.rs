@@ -15,6 +15,8 @@ pub struct FilterEntry {
     /// A baseline that builds no map (dead reckoning): the conformance suite does not
     /// expect it to localise or map.
     pub baseline: bool,
+    /// The filter needs truth labels on every scan (oracle baselines).
+    pub requires_truth: bool,
     /// Parses and validates parameters without building.
     pub validate: fn(&toml::Table, &SlamModels, usize) -> Result<(), ParamError>,
     /// Parses, validates and builds.
@@ -97,6 +99,7 @@ macro_rules! entry {
             name: $name,
             summary: $summary,
             baseline: $baseline,
+            requires_truth: <$ty as FilterBuild>::REQUIRES_TRUTH,
             validate: validate_with::<$ty>,
             build: build_with::<$ty>,
             defaults: defaults_with::<$ty>,
@@ -122,11 +125,29 @@ pub static REGISTRY: &[FilterEntry] = &[
         phd_slam_3::PhdSlam3,
         "PHD-SLAM 3.0 (Kaltiokallio et al. 2024): multi-hypotheses importance density (Murty + partitioned IPL)"
     ),
+    entry!(
+        "fastslam-2.0-oracle",
+        fastslam::OracleFastSlam2,
+        "oracle RBPF of Kaltiokallio et al. 2024: FastSLAM 2.0 with the true associations and the IPL importance density"
+    ),
 ];
 
 /// Looks a filter up by name.
 pub fn find(name: &str) -> Option<&'static FilterEntry> {
     REGISTRY.iter().find(|e| e.name == name)
+}
+
+/// Checks that `dataset` suits the filter `entry`: an oracle needs truth labels on every scan.
+pub fn check_dataset(entry: &FilterEntry, dataset: &rfslam_data::Dataset) -> Result<(), String> {
+    if entry.requires_truth
+        && let Some(k) = dataset.scans.iter().position(|s| s.truth.as_ref().is_none_or(|t| t.len() != s.z.len()))
+    {
+        return Err(format!(
+            "filter `{}` needs the true association of every measurement, but scan {k} of data set `{}` has no truth labels (measurements.csv column `truth`)",
+            entry.name, dataset.meta.name
+        ));
+    }
+    Ok(())
 }
 
 /// The registered names, comma separated (for error messages).

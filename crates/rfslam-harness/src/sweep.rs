@@ -59,6 +59,7 @@ pub fn run_job(plan: &Plan, job: &Job) -> Result<RunRow, HarnessError> {
         .map_err(|e| HarnessError::Data(e.to_string()))?;
     let models = dataset.models();
     let entry = registry::find(&f.name).ok_or_else(|| HarnessError::Run(format!("unknown filter {}", f.name)))?;
+    registry::check_dataset(entry, &dataset).map_err(HarnessError::Run)?;
     let mut filter =
         (entry.build)(&f.params, &models, job.particles).map_err(|e| HarnessError::Run(format!("{}: {e}", f.label)))?;
     let o = run_filter(&dataset, filter.as_mut(), job.seed, &plan.config.metrics, &mut |_| {});
@@ -229,21 +230,35 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
     Ok(SweepOutcome { ran: todo.len(), skipped, wall_s, out: out.clone() })
 }
 
-/// Whether two resolved experiments (`experiment.resolved.toml`) are the same experiment:
-/// equal but for the paths of the files they were read from (the scenario is inlined), so
-/// that `./exp.toml`, an absolute path or another working directory can resume a sweep.
+/// Whether the rows of an earlier sweep (`old`, its `experiment.resolved.toml`) remain valid
+/// for `new`: same scenario, master seed, metrics and grid, and every filter label present
+/// in both has the same filter and parameters. Adding or removing filter entries, particle
+/// counts or runs keeps the finished rows (they are keyed by grid point, label, N and run);
+/// the paths the files were read from do not matter.
 fn same_experiment(old: &str, new: &str) -> bool {
-    let strip = |text: &str| {
-        text.parse::<toml::Table>().ok().map(|mut t| {
-            t.remove("experiment_file");
-            t.remove("scenario_file");
-            t
-        })
-    };
-    match (strip(old), strip(new)) {
-        (Some(a), Some(b)) => a == b,
-        _ => old == new,
+    let (Ok(a), Ok(b)) = (old.parse::<toml::Table>(), new.parse::<toml::Table>()) else { return old == new };
+    for key in ["scenario", "seed", "metrics", "grid"] {
+        if a.get(key) != b.get(key) {
+            return false;
+        }
     }
+    let entries = |t: &toml::Table| -> Vec<(String, toml::Value, toml::Value)> {
+        t.get("filters")
+            .and_then(|f| f.as_array())
+            .map(|fs| {
+                fs.iter()
+                    .filter_map(|f| {
+                        let f = f.as_table()?;
+                        Some((f.get("label")?.as_str()?.to_string(), f.get("name")?.clone(), f.get("params")?.clone()))
+                    })
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let (ea, eb) = (entries(&a), entries(&b));
+    ea.iter().all(|(label, name, params)| {
+        eb.iter().find(|(l, ..)| l == label).is_none_or(|(_, n, p)| n == name && p == params)
+    })
 }
 
 /// File listing every sweep invocation that ran jobs in an output directory.

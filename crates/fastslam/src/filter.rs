@@ -1,0 +1,296 @@
+//! The oracle FastSLAM 2.0 filter (seed 000 §VI-A-2, note 07 §3).
+
+use nalgebra::Matrix3;
+use rfslam_core::gaussian::symmetrise;
+use rfslam_core::ipl::IplSettings;
+use rfslam_core::motion::propagate_with_covariance;
+use rfslam_core::rbpf::{ess, normalise_log_weights, systematic_resample};
+use rfslam_core::{
+    ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, Point2, Pose, RangeBearing, Rng, Scan, SlamFilter,
+    SlamModels, StepReport,
+};
+
+use crate::params::{Params, WeightMode};
+use crate::proposal::{Landmark, ProposalSampler, landmark_update, oid_proposal, sequential_predictive};
+
+/// One particle: log weight, pose and one EKF per landmark id seen so far.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Particle {
+    /// Log weight (normalised after every step).
+    pub log_w: f64,
+    /// Pose `x_k`.
+    pub pose: Pose,
+    /// Landmark EKFs, sorted by id (binary search).
+    pub landmarks: Vec<Landmark>,
+}
+
+impl Particle {
+    /// Index of landmark `id` in [`Particle::landmarks`].
+    #[inline]
+    pub fn find(&self, id: i64) -> Option<usize> {
+        self.landmarks.binary_search_by_key(&id, |l| l.id).ok()
+    }
+}
+
+/// `fastslam-2.0-oracle`: FastSLAM 2.0 given the true associations, with the IPL
+/// approximation of the optimal importance density (the Oracle RBPF of seed 000).
+#[derive(Debug, Clone)]
+pub struct OracleFastSlam2 {
+    params: Params,
+    models: SlamModels,
+    ipl: IplSettings,
+    jitter: Matrix3<f64>,
+    particles: Vec<Particle>,
+    /// `family[n] == family[n - 1]`: particle n is an identical copy of n - 1 (same parent at
+    /// the last resampling), so the proposal is computed once for the group.
+    family: Vec<usize>,
+    best: usize,
+    unlabelled_scans: usize,
+    // reusable buffers
+    spare: Vec<Particle>,
+    parents: Vec<usize>,
+    log_w: Vec<f64>,
+    /// (measurement index, landmark id) of the scan's labelled measurements.
+    obs: Vec<(usize, i64)>,
+    /// Landmark index (in the group's map) of each measurement of a known landmark...
+    known: Vec<usize>,
+    /// ... and that measurement.
+    known_z: Vec<RangeBearing>,
+    /// (measurement index, id) of first sightings.
+    fresh: Vec<(usize, i64)>,
+}
+
+impl OracleFastSlam2 {
+    /// Registered name.
+    pub const NAME: &'static str = "fastslam-2.0-oracle";
+
+    /// A filter with `n` particles at the scenario's initial pose with empty maps.
+    pub fn new(params: Params, models: &SlamModels, n: usize) -> Self {
+        let n = n.max(1);
+        let ipl = IplSettings { max_iterations: params.ipl_iterations, kl_threshold: params.ipl_kl_threshold };
+        let jitter = Matrix3::from_diagonal(&params.q_jitter.into());
+        let p0 = Particle { log_w: -(n as f64).ln(), pose: models.initial_pose, landmarks: Vec::new() };
+        OracleFastSlam2 {
+            params,
+            models: models.clone(),
+            ipl,
+            jitter,
+            particles: vec![p0; n],
+            family: vec![0; n],
+            best: 0,
+            unlabelled_scans: 0,
+            spare: Vec::new(),
+            parents: Vec::new(),
+            log_w: Vec::new(),
+            obs: Vec::new(),
+            known: Vec::new(),
+            known_z: Vec::new(),
+            fresh: Vec::new(),
+        }
+    }
+
+    /// The particles (for inspection and tests).
+    pub fn particle_set(&self) -> &[Particle] {
+        &self.particles
+    }
+
+    /// Index of the particle the estimate comes from.
+    pub fn best_index(&self) -> usize {
+        self.best
+    }
+
+    /// Scans with measurements that were processed as prediction only because they had no
+    /// truth labels (or not one per measurement).
+    pub fn unlabelled_scans(&self) -> usize {
+        self.unlabelled_scans
+    }
+
+    /// Fills `obs` with the labelled measurements of `scan`; `false` if it has no usable
+    /// labels.
+    fn collect_labelled(&mut self, scan: &Scan) -> bool {
+        self.obs.clear();
+        match &scan.truth {
+            Some(t) if t.len() == scan.z.len() => {
+                self.obs.extend(t.iter().enumerate().filter(|(_, id)| **id >= 0).map(|(j, &id)| (j, id)));
+                true
+            }
+            _ => {
+                if !scan.z.is_empty() {
+                    self.unlabelled_scans += 1;
+                }
+                false
+            }
+        }
+    }
+}
+
+impl SlamFilter for OracleFastSlam2 {
+    fn name(&self) -> &str {
+        Self::NAME
+    }
+
+    fn particles(&self) -> usize {
+        self.particles.len()
+    }
+
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
+        let n = self.particles.len();
+        let labelled = self.collect_labelled(scan);
+        let models = &self.models;
+        let r = models.measurement_noise;
+        let importance = self.params.weight == WeightMode::Importance;
+        let mut chol = 0u32;
+        let mut families = 0usize;
+
+        let mut a = 0;
+        while a < n {
+            let mut b = a + 1;
+            while b < n && self.family[b] == self.family[a] {
+                b += 1;
+            }
+            families += 1;
+            // Prediction, association lookup and proposal, shared by the copies a..b.
+            let rep = &self.particles[a];
+            let (x_bar, q) = propagate_with_covariance(&models.motion, &rep.pose, odometry, &models.control_noise);
+            let q = q + self.jitter;
+            self.known.clear();
+            self.known_z.clear();
+            self.fresh.clear();
+            for &(j, id) in &self.obs {
+                match rep.find(id) {
+                    Some(i) => {
+                        self.known.push(i);
+                        self.known_z.push(scan.z[j]);
+                    }
+                    None => self.fresh.push((j, id)),
+                }
+            }
+            let res =
+                oid_proposal(&models.sensor, &r, &x_bar, &q, &rep.landmarks, &self.known, &self.known_z, &self.ipl);
+            if res.lost_definiteness {
+                chol += 1;
+            }
+            let family_ll = match self.params.weight {
+                WeightMode::Importance => 0.0,
+                WeightMode::Predictive => sequential_predictive(
+                    &models.sensor,
+                    &r,
+                    &x_bar,
+                    &q,
+                    &res.mean,
+                    &rep.landmarks,
+                    &self.known,
+                    &self.known_z,
+                )
+                .unwrap_or_else(|| {
+                    chol += 1;
+                    0.0
+                }),
+            };
+            let sampler = ProposalSampler::new(&res.mean, &res.cov, &x_bar, &q);
+
+            for p in &mut self.particles[a..b] {
+                let drawn = sampler.as_ref().map(|s| s.draw(rng));
+                let (x, corr) = drawn.unwrap_or_else(|| {
+                    chol += 1;
+                    (x_bar, 0.0)
+                });
+                p.pose = x;
+                let mut lw = if importance { corr } else { family_ll };
+                for (&i, z) in self.known.iter().zip(&self.known_z) {
+                    match landmark_update(&models.sensor, &r, &x, &mut p.landmarks[i], z) {
+                        Some(ll) if importance => lw += ll,
+                        Some(_) => {}
+                        None => chol += 1,
+                    }
+                }
+                // A failed proposal factorisation leaves the weight as it was.
+                if drawn.is_some() {
+                    p.log_w += lw;
+                }
+                // First sightings: the inverse sensor model at the drawn pose; no weight term.
+                for &(j, id) in &self.fresh {
+                    let z = scan.z[j];
+                    match p.landmarks.binary_search_by_key(&id, |l| l.id) {
+                        Err(pos) => {
+                            let (mean, jz, _) = models.sensor.inverse_with_jacobians(&x, &z);
+                            let cov = symmetrise(&(jz * r * jz.transpose()));
+                            p.landmarks.insert(pos, Landmark { id, mean, cov });
+                        }
+                        // The same new landmark measured twice in one scan: update with the
+                        // second measurement (no weight term either).
+                        Ok(i) => {
+                            if landmark_update(&models.sensor, &r, &x, &mut p.landmarks[i], &z).is_none() {
+                                chol += 1;
+                            }
+                        }
+                    }
+                }
+            }
+            a = b;
+        }
+
+        // Normalise, estimate (highest weight), resample.
+        self.log_w.clear();
+        self.log_w.extend(self.particles.iter().map(|p| p.log_w));
+        normalise_log_weights(&mut self.log_w);
+        for (p, &l) in self.particles.iter_mut().zip(&self.log_w) {
+            p.log_w = l;
+        }
+        let ess_now = ess(&self.log_w);
+        self.best = (0..n).max_by(|&i, &j| self.log_w[i].total_cmp(&self.log_w[j]).then(j.cmp(&i))).unwrap_or(0);
+        let best = &self.particles[self.best];
+        let associations: Vec<Option<Point2>> = match (&scan.truth, labelled) {
+            (Some(t), true) => {
+                // Every labelled landmark exists in the best particle after this update.
+                t.iter().map(|&id| if id >= 0 { best.find(id).map(|i| best.landmarks[i].mean) } else { None }).collect()
+            }
+            _ => vec![None; scan.z.len()],
+        };
+        let components: usize = self.particles.iter().map(|p| p.landmarks.len()).sum();
+        let threshold = self.params.resample_ess_fraction * n as f64;
+        let resampled = n > 1 && ess_now <= threshold;
+        if resampled {
+            systematic_resample(&self.log_w, n, rng, &mut self.parents);
+            self.spare.resize_with(n, Particle::default);
+            let uniform = -(n as f64).ln();
+            for (dst, &parent) in self.spare.iter_mut().zip(&self.parents) {
+                dst.clone_from(&self.particles[parent]);
+                dst.log_w = uniform;
+            }
+            std::mem::swap(&mut self.particles, &mut self.spare);
+            self.family.clone_from(&self.parents);
+            self.best = self.parents.iter().position(|&p| p == self.best).unwrap_or(0);
+        } else {
+            for (i, f) in self.family.iter_mut().enumerate() {
+                *f = i;
+            }
+        }
+        StepReport {
+            ess: ess_now,
+            resampled,
+            components,
+            proposal_components: families,
+            associations: Some(associations),
+            cholesky_failures: chol,
+        }
+    }
+
+    fn estimate(&self) -> Estimate {
+        let p = &self.particles[self.best];
+        Estimate { pose: p.pose, map: p.landmarks.iter().map(|l| MapPoint { position: l.mean, weight: 1.0 }).collect() }
+    }
+}
+
+impl FilterBuild for OracleFastSlam2 {
+    type Params = Params;
+    const REQUIRES_TRUTH: bool = crate::requires_truth_labels();
+
+    fn validate(params: &Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+        params.validate(particles)
+    }
+
+    fn build(params: Params, models: &SlamModels, particles: usize) -> Self {
+        OracleFastSlam2::new(params, models, particles)
+    }
+}

@@ -1,0 +1,78 @@
+//! End to end on a 500-step procedural world with the synthetic experiment's sensor, noise
+//! and clutter (scenarios/procedural.toml cut to 500 steps), N = 1 and N = 10: the oracle
+//! localises far better than dead reckoning, its final map is close to the landmarks it
+//! has seen, and its associations are right.
+
+use std::collections::HashSet;
+
+use fastslam::{OracleFastSlam2, Params};
+use rfslam_core::motion::propagate;
+use rfslam_core::{ControlSegment, FilterBuild, Point2};
+use rfslam_data::{Dataset, ScenarioConfig};
+use rfslam_harness::experiment::MetricsConfig;
+use rfslam_harness::run_filter;
+
+fn scenario() -> ScenarioConfig {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/procedural.toml");
+    let text = std::fs::read_to_string(path).unwrap();
+    assert!(text.contains("steps = 4000"));
+    ScenarioConfig::from_toml_str(&text.replace("steps = 4000", "steps = 500"), "procedural-500.toml").unwrap()
+}
+
+/// Position RMSE of the odometry integrated from the initial pose.
+fn dead_reckoning_rmse(ds: &Dataset) -> f64 {
+    let models = ds.models();
+    let mut pose = models.initial_pose;
+    let mut segments: Vec<ControlSegment> = Vec::new();
+    let mut sq = 0.0;
+    for (k, scan) in ds.scans.iter().enumerate() {
+        ds.segments_for_scan(k, &mut segments);
+        pose = propagate(&models.motion, &pose, &segments);
+        let t = ds.truth_at(scan.t, 0.025).expect("truth");
+        sq += (pose.xy() - t.position).norm_squared();
+    }
+    (sq / ds.scans.len() as f64).sqrt()
+}
+
+/// The true landmarks that were measured at least once.
+fn seen_landmarks(ds: &Dataset) -> Vec<Point2> {
+    let ids: HashSet<i64> = ds.scans.iter().filter_map(|s| s.truth.as_ref()).flatten().copied().collect();
+    ds.landmarks.as_ref().unwrap().iter().filter(|l| ids.contains(&l.id)).map(|l| l.position).collect()
+}
+
+#[test]
+fn oracle_tracks_and_maps_with_one_and_ten_particles() {
+    let sc = scenario();
+    let world = sc.load_world().unwrap();
+    for seed in 1..=3 {
+        let ds = sc.build_dataset(world.as_ref(), seed).unwrap();
+        let dr = dead_reckoning_rmse(&ds);
+        let seen = seen_landmarks(&ds);
+        for n in [1, 10] {
+            let mut f = OracleFastSlam2::build(Params::default(), &ds.models(), n);
+            let o = run_filter(&ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {});
+            assert_eq!(o.steps, 500);
+            assert_eq!(o.cholesky_failures, 0);
+            let est: Vec<Point2> = o.final_estimate.map.iter().map(|m| m.position).collect();
+            assert_eq!(est.len(), seen.len(), "seed {seed} N={n}: one landmark per landmark seen");
+            let g = rfslam_metrics::gospa(&seen, &est, 20.0, 2.0).unwrap();
+            let da = o.da.expect("associations are scored");
+            eprintln!(
+                "seed {seed} N={n}: pos RMSE {:.2} m (dead reckoning {dr:.2} m), GOSPA(seen) {:.2} m, \
+                 GOSPA(all) {:.1} m, ESS {:.0}%, resampled {:.1}%, TPR {:?}",
+                o.pos_rmse_m,
+                g.total,
+                o.gospa_m,
+                o.ess_pct,
+                o.resampling_pct,
+                da.tpr()
+            );
+            assert!(o.pos_rmse_m < 2.0, "seed {seed} N={n}: position RMSE {:.2} m", o.pos_rmse_m);
+            assert!(o.pos_rmse_m < dr / 4.0, "seed {seed} N={n}: {:.2} m vs dead reckoning {dr:.2} m", o.pos_rmse_m);
+            assert!(g.total < 10.0, "seed {seed} N={n}: final-map GOSPA over the seen landmarks {:.2} m", g.total);
+            assert_eq!(g.missed + g.false_count, 0, "seed {seed} N={n}: cardinality errors");
+            assert_eq!(da.tnr(), Some(1.0), "clutter is never associated");
+            assert!(da.tpr().unwrap() > 0.99, "seed {seed} N={n}: TPR {:?}", da.tpr());
+        }
+    }
+}

@@ -1,0 +1,251 @@
+//! Behaviour of `fastslam-2.0-oracle` on hand-made scans: clutter and missed detections
+//! are ignored, a scan without labels is prediction only, the same seed gives the same
+//! output, and the parameters are checked.
+
+use fastslam::{OracleFastSlam2, Params, WeightMode, requires_truth_labels};
+use nalgebra::{Matrix2, Matrix3, Vector3};
+use rand::SeedableRng;
+use rfslam_core::{
+    ClutterIntensity, ClutterModel, ControlSegment, DetectionModel, Estimate, FilterBuild, Fov, Motion, Point2, Pose,
+    RangeBearing, RangeBearingSensor, Rng, Scan, SlamFilter, SlamModels,
+};
+use rfslam_data::ScenarioConfig;
+use rfslam_harness::experiment::MetricsConfig;
+use rfslam_harness::run_filter;
+
+fn models() -> SlamModels {
+    SlamModels {
+        motion: Motion::Velocity,
+        control_noise: Matrix3::from_diagonal(&Vector3::new(0.64, 0.5f64.to_radians().powi(2), 0.0)),
+        sensor: RangeBearingSensor::default(),
+        measurement_noise: Matrix2::new(0.64, 0.0, 0.0, 0.3f64.to_radians().powi(2)),
+        fov: Fov { max_range: 150.0, half_angle: std::f64::consts::FRAC_PI_2 },
+        detection: DetectionModel::Constant { pd: 0.95 },
+        clutter: ClutterModel { rate: 5.0, intensity: ClutterIntensity::Cartesian },
+        initial_pose: Pose::zeros(),
+    }
+}
+
+const ODO: [ControlSegment; 1] = [ControlSegment { dt: 1.0, u: Vector3::new(1.0, 0.0, 0.0) }];
+
+/// Measurement of `m` from `x` (noise-free).
+fn meas(x: &Pose, m: &Point2) -> RangeBearing {
+    RangeBearingSensor::default().predict(x, m)
+}
+
+fn scan(t: f64, z: Vec<RangeBearing>, truth: Option<Vec<i64>>) -> Scan {
+    Scan { t, z, truth }
+}
+
+fn bits(e: &Estimate) -> Vec<u64> {
+    let mut v: Vec<u64> = e.pose.iter().map(|x| x.to_bits()).collect();
+    for m in &e.map {
+        v.extend([m.position.x.to_bits(), m.position.y.to_bits(), m.weight.to_bits()]);
+    }
+    v
+}
+
+const L0: Point2 = Point2::new(25.0, 8.0);
+const L1: Point2 = Point2::new(40.0, -12.0);
+
+/// A filter after one step that saw landmarks 0 and 1 and one clutter measurement.
+fn after_first_step(n: usize) -> (OracleFastSlam2, Rng) {
+    let mut f = OracleFastSlam2::new(Params::default(), &models(), n);
+    let mut rng = Rng::seed_from_u64(5);
+    let x1 = Pose::new(1.0, 0.0, 0.0);
+    let s = scan(1.0, vec![meas(&x1, &L0), RangeBearing::new(60.0, 0.3), meas(&x1, &L1)], Some(vec![0, -1, 1]));
+    let rep = f.step(&ODO, &s, &mut rng);
+    let assoc = rep.associations.expect("associations");
+    assert_eq!(assoc.len(), 3);
+    assert!(assoc[0].is_some_and(|p| (p - L0).norm() < 3.0), "{assoc:?}");
+    assert!(assoc[1].is_none(), "clutter is never associated");
+    assert!(assoc[2].is_some_and(|p| (p - L1).norm() < 3.0), "{assoc:?}");
+    assert_eq!(f.estimate().map.len(), 2);
+    (f, rng)
+}
+
+#[test]
+fn the_oracle_needs_labels() {
+    assert!(requires_truth_labels());
+}
+
+/// A scan of clutter only is prediction only: exactly what an empty scan gives with the
+/// same random stream, and the landmarks stay as they were.
+#[test]
+fn clutter_only_scan_is_prediction_only() {
+    for n in [1, 4] {
+        let (mut f, rng) = after_first_step(n);
+        let (mut g, mut rng_g) = (f.clone(), rng.clone());
+        let mut rng_f = rng;
+        let before = f.estimate().map;
+        let clutter = scan(2.0, vec![RangeBearing::new(30.0, 0.1), RangeBearing::new(80.0, -1.0)], Some(vec![-1, -1]));
+        let rep = f.step(&ODO, &clutter, &mut rng_f);
+        g.step(&ODO, &scan(2.0, vec![], Some(vec![])), &mut rng_g);
+        assert_eq!(bits(&f.estimate()), bits(&g.estimate()), "N={n}");
+        assert_eq!(f.estimate().map, before, "N={n}: landmarks changed without detections");
+        assert_eq!(rep.associations, Some(vec![None, None]));
+        assert_eq!(rep.components, 2 * n);
+        // The pose is a draw from the prediction: about 2 m ahead on the x axis.
+        let p = f.estimate().pose;
+        assert!((p.x - 2.0).abs() < 4.0 && p.y.abs() < 1.0, "N={n}: {p:?}");
+    }
+}
+
+/// A missed detection leaves the landmark's EKF untouched; the detected one is updated.
+#[test]
+fn missed_landmark_is_not_updated() {
+    let (mut f, mut rng) = after_first_step(1);
+    let before = f.particle_set()[0].landmarks.clone();
+    let x2 = Pose::new(2.0, 0.0, 0.0);
+    let rep = f.step(&ODO, &scan(2.0, vec![meas(&x2, &L0)], Some(vec![0])), &mut rng);
+    let after = &f.particle_set()[0].landmarks;
+    assert_eq!(after.len(), 2);
+    assert_eq!(after[1], before[1], "landmark 1 was not detected and must not change");
+    assert_ne!(after[0].mean, before[0].mean, "landmark 0 was detected");
+    assert!(after[0].cov.trace() < before[0].cov.trace(), "a detection shrinks the covariance");
+    assert_eq!(rep.cholesky_failures, 0);
+}
+
+/// A scan without labels (or with a wrong number of them) does not panic: it is prediction
+/// only, counted, with every measurement reported as clutter.
+#[test]
+fn scan_without_labels_is_prediction_only() {
+    let (f0, rng0) = after_first_step(3);
+    let x2 = Pose::new(2.0, 0.0, 0.0);
+    let z = vec![meas(&x2, &L0), meas(&x2, &L1), meas(&x2, &Point2::new(50.0, 30.0))];
+    for truth in [None, Some(vec![0, 1])] {
+        let (mut f, mut rng_f) = (f0.clone(), rng0.clone());
+        let (mut g, mut rng_g) = (f0.clone(), rng0.clone());
+        let rep = f.step(&ODO, &scan(2.0, z.clone(), truth.clone()), &mut rng_f);
+        g.step(&ODO, &scan(2.0, vec![], Some(vec![])), &mut rng_g);
+        assert_eq!(bits(&f.estimate()), bits(&g.estimate()), "{truth:?}");
+        assert_eq!(f.estimate().map.len(), 2);
+        let p = f.estimate().pose;
+        assert!((p.x - 2.0).abs() < 4.0 && p.y.abs() < 1.0, "predicted: {p:?}");
+        assert_eq!(rep.associations, Some(vec![None; 3]));
+        assert_eq!(f.unlabelled_scans(), 1);
+        g.step(&ODO, &scan(3.0, vec![], None), &mut rng_g);
+        assert_eq!(g.unlabelled_scans(), 0, "an empty scan needs no labels");
+    }
+}
+
+/// A brand-new landmark seen twice in one scan is created once and updated once.
+#[test]
+fn duplicate_first_sighting_creates_one_landmark() {
+    let mut f = OracleFastSlam2::new(Params::default(), &models(), 1);
+    let mut rng = Rng::seed_from_u64(1);
+    let x1 = Pose::new(1.0, 0.0, 0.0);
+    let z = meas(&x1, &L0);
+    f.step(&ODO, &scan(1.0, vec![z, z + RangeBearing::new(0.3, 0.0)], Some(vec![0, 0])), &mut rng);
+    let lms = &f.particle_set()[0].landmarks;
+    assert_eq!(lms.len(), 1);
+    let birth = {
+        let (_, jz, _) = RangeBearingSensor::default().inverse_with_jacobians(&f.estimate().pose, &z);
+        jz * models().measurement_noise * jz.transpose()
+    };
+    assert!(lms[0].cov.trace() < birth.trace(), "the second measurement was used");
+}
+
+fn small_dataset(seed: u64) -> rfslam_data::Dataset {
+    let text = r#"name = "small"
+[world]
+kind = "procedural"
+seed = 3
+steps = 120
+extent = 300.0
+landmarks = 25
+[motion]
+model = "velocity"
+sigma_v = 0.8
+sigma_omega_deg = 0.5
+[sensor]
+max_range = 150.0
+half_angle_deg = 90.0
+sigma_range = 0.8
+sigma_bearing_deg = 0.3
+[detection]
+model = "constant"
+pd = 0.95
+[clutter]
+rate = 5.0
+"#;
+    ScenarioConfig::from_toml_str(text, "small.toml").unwrap().build_dataset(None, seed).unwrap()
+}
+
+fn run(ds: &rfslam_data::Dataset, params: &Params, n: usize, seed: u64) -> Vec<Vec<u64>> {
+    let mut f = OracleFastSlam2::build(params.clone(), &ds.models(), n);
+    let mut out = Vec::new();
+    run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |r| out.push(bits(r.estimate)));
+    out
+}
+
+/// Same seed, same output (bit for bit, every step); another filter seed gives another run.
+#[test]
+fn same_seed_same_output() {
+    let ds = small_dataset(2);
+    for weight in [WeightMode::Importance, WeightMode::Predictive] {
+        let params = Params { weight, ..Params::default() };
+        for n in [1, 5] {
+            let a = run(&ds, &params, n, 7);
+            let b = run(&ds, &params, n, 7);
+            assert_eq!(a.len(), ds.scans.len());
+            assert_eq!(a, b, "{weight:?} N={n}");
+            let c = run(&ds, &params, n, 8);
+            assert_ne!(a, c, "{weight:?} N={n}: the filter seed has no effect");
+        }
+    }
+}
+
+#[test]
+fn parameters_are_checked() {
+    let m = models();
+    assert!(OracleFastSlam2::validate(&Params::default(), &m, 1).is_ok());
+    assert_eq!(OracleFastSlam2::validate(&Params::default(), &m, 0).unwrap_err().key, "particles");
+    let bad = |p: Params| OracleFastSlam2::validate(&p, &m, 3).unwrap_err().key;
+    assert_eq!(bad(Params { ipl_iterations: 0, ..Params::default() }), "ipl_iterations");
+    assert_eq!(bad(Params { ipl_kl_threshold: -1.0, ..Params::default() }), "ipl_kl_threshold");
+    assert_eq!(bad(Params { resample_ess_fraction: 1.5, ..Params::default() }), "resample_ess_fraction");
+    assert_eq!(bad(Params { q_jitter: [0.0, f64::NAN, 0.0], ..Params::default() }), "q_jitter");
+    let f = OracleFastSlam2::build(Params::default(), &m, 3);
+    assert_eq!(f.name(), "fastslam-2.0-oracle");
+    assert_eq!(SlamFilter::particles(&f), 3);
+    assert_eq!(f.estimate().pose, m.initial_pose);
+    assert!(f.estimate().map.is_empty());
+}
+
+/// After resampling, copies of one parent share one proposal (one per family in
+/// `proposal_components`) but draw their own poses.
+#[test]
+fn copies_share_the_proposal_but_draw_their_own_poses() {
+    let ds = small_dataset(4);
+    let n = 10;
+    let params = Params { resample_ess_fraction: 0.6, ..Params::default() };
+    let mut f = OracleFastSlam2::build(params, &ds.models(), n);
+    let mut rng = Rng::seed_from_u64(9);
+    let mut segments = Vec::new();
+    let (mut families_before, mut checked) = (None, 0);
+    for (k, s) in ds.scans.iter().enumerate() {
+        ds.segments_for_scan(k, &mut segments);
+        let rep = f.step(&segments, s, &mut rng);
+        if k == 0 {
+            assert_eq!(rep.proposal_components, 1, "all particles start as copies of one");
+        }
+        if let Some(parents) = families_before
+            && !rep.resampled
+        {
+            assert_eq!(rep.proposal_components, parents, "step {k}: one proposal per family");
+            let poses: Vec<_> = f.particle_set().iter().map(|p| p.pose).collect();
+            for i in 0..n {
+                for j in 0..i {
+                    assert_ne!(poses[i], poses[j], "step {k}: copies {i} and {j} drew the same pose");
+                }
+            }
+            checked += 1;
+        }
+        families_before = rep.resampled.then(|| {
+            let ps = f.particle_set();
+            (0..n).filter(|&i| i == 0 || ps[i].pose != ps[i - 1].pose).count()
+        });
+    }
+    assert!(checked > 0, "no resampling followed by a plain step");
+}
