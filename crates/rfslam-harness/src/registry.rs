@@ -121,6 +121,11 @@ pub static REGISTRY: &[FilterEntry] = &[
         "PHD-SLAM 1.0 (Mullane et al. 2011): RB-PHD SLAM, transition density as proposal"
     ),
     entry!(
+        "phd-2.0a",
+        phd_slam_2a::PhdSlam2a,
+        "PHD-SLAM 2.0a (Gao, Battistelli, Chisci 2021): pose conditioned on each gated pair, moment-matched Gaussian proposal"
+    ),
+    entry!(
         "phd-3.0",
         phd_slam_3::PhdSlam3,
         "PHD-SLAM 3.0 (Kaltiokallio et al. 2024): multi-hypotheses importance density (Murty + partitioned IPL)"

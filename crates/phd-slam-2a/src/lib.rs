@@ -1,0 +1,797 @@
+//! `phd-2.0a`: PHD-SLAM 2.0a (Gao, Battistelli, Chisci, "PHD-SLAM 2.0: Efficient SLAM in the
+//! presence of missdetections and clutter", IEEE T-RO 37(5), 2021), the RB-PHD filter whose
+//! importance density conditions the predicted pose on every gated (landmark, measurement)
+//! pair independently and collapses the resulting mixture to one Gaussian, as described by
+//! Kaltiokallio et al., IEEE T-RO 2024 ("seed 000") §VI-A-1 and implemented there. It is a
+//! first-order approximation of the optimal importance density of seed 000 eqs. (25)/(34)
+//! (note 02 §2), used in place of the transition density of eqs. (26)-(27).
+//!
+//! # The importance density (note 02 §3)
+//! For one family of identical particles (00-index §9), with the predicted pose
+//! `x̄ = f(x_{k-1}, u_k)` and covariance `Q` (jitter included, 00-index §4):
+//!
+//! 1. for every detectable component i (active, `pD > 0`), linearised at `x̄`:
+//!    `S_i = G_x Q G_xᵀ + G_m P_i G_mᵀ + R`, `K_i = Q G_xᵀ S_i⁻¹`, and the one-measurement
+//!    EKF covariance `Σ_i = (I − K_i G_x) Q (I − K_i G_x)ᵀ + K_i (G_m P_i G_mᵀ + R) K_iᵀ`
+//!    (Joseph form, algebraically note 02's `(I − K G_x) Q`);
+//! 2. for every measurement j gating with i (`(z_j ⊖ ẑ_i)ᵀ S_i⁻¹ (z_j ⊖ ẑ_i) ≤ T_G`, the gate of
+//!    seed 000 eq. 22 with the pose uncertainty added): the conditional mean
+//!    `μ_ij = x̄ + K_i (z_j ⊖ ẑ_i)` and the log weight
+//!    `ln β_ij = ln pD_i + ln η_i + ℓN(z_j; ẑ_i, S_i) − ln c(z_j)` (the PHD-update weights,
+//!    seed 000 eqs. 20-21 and 38-40 restricted to one detection);
+//! 3. the prior (all measurements clutter / all landmarks missed) `N(x̄, Q)` with `β_0 = 1`;
+//! 4. normalised weights ([`PairNormalisation`]), and moment matching of the
+//!    `1 + Σ_i J_i` Gaussians with headings as wrapped offsets from `x̄` (00-index §3),
+//!    [`moment_match`];
+//! 5. the new pose `x_k ~ N(μ, Σ)` (default; seed 000 samples, eq. 23) or `x_k = μ`
+//!    (`use_mean = true`, what Gao's reference code does, seed 000 footnote 3).
+//!
+//! The particle weight is seed 000 eq. (45) with eq. (46) added by the shared PHD update:
+//! the proposal returns `ln f(x_k | x_{k-1}, u_k) − ln q(x_k) = ℓN(x_k; x̄, Q) − ℓN(x_k; μ, Σ)`
+//! (eqs. 47-48 with `Γ = 1`), headings of both residuals wrapped.
+//!
+//! # Which variant the published tables use
+//! The PHD 2.0a rows of seed 000 Tables I-III were produced by *sampling* from `N(μ, Σ)`
+//! (footnote 3), which is this crate's default. Seed 000 says its figures differ from Gao et
+//! al.'s because Gao's reference code takes the mean instead (`use_mean = true`) and because
+//! seed 000 added artificial clutter.
+//!
+//! # `use_mean`: what the weight correction is
+//! A point mass at `μ` has no density, so `f/q` (eq. 24) is undefined. With `use_mean` the
+//! correction is **0**: the weight update is `w_meas` of eq. (46) alone, as for the bootstrap
+//! (eq. 27), which is note 02 §3 step 9. Justification: the new pose is a deterministic
+//! function of the particle's history and of `Z_k`, so the particle is weighted by the
+//! likelihood of `Z_k` at that pose, exactly as a filter that moves its particles to the
+//! mean and then reweights them would; adding `ℓN(μ; x̄, Q)` would count the motion prior a
+//! second time (it is already inside `μ`), and `ℓN(μ; μ, Σ)` depends only on `|Σ|`, which
+//! would favour families whose proposal happens to be narrow for no reason related to
+//! the data. The resulting filter is **not** a proper importance sampler. Note also that,
+//! with a known initial pose, every particle starts in one family and all copies of a
+//! family receive the same deterministic pose and the same (deterministic) map update, so
+//! with `use_mean` the N particles stay identical and N has no effect.
+//!
+//! # Degenerate cases
+//! - a component whose `S_i` fails Cholesky contributes no pair (counted in
+//!   [`ProposalStats::cholesky_failures`]);
+//! - no gated pair: the proposal is the prior `N(x̄, Q)`, sampled exactly as the bootstrap
+//!   (`phd-1.0`) does, with correction 0, so the filter then coincides with PHD-SLAM 1.0
+//!   (note 02 §7.1);
+//! - a merged `Σ` that fails Cholesky (or a non-finite mean): counted, and the prior is used
+//!   (note 02 §3 step 7), correction 0;
+//! - a non-finite correction is replaced by 0 (as `phd-3.0` does).
+//!
+//! # Reconstructed conventions
+//! Neither Gao et al.'s paper nor their code could be read (note 02, "Not pinned down"):
+//! the pair weights (`β_ij ∝ pD η N / c` with the prior at 1), their normalisation, the single
+//! linearisation at `x̄` without iteration, the arithmetic moment matching (rather than an
+//! information-weighted average), keeping `η_i` in `β_ij`, and the weight correction under
+//! `use_mean` are note 02's derivation (§2-§3), not a transcription of the original.
+//! [`ProposalStats::components`] reports the number of Gaussians merged (`1 +` gated pairs);
+//! one Gaussian is sampled from.
+
+use nalgebra::{Matrix3, Matrix3x2, Vector3};
+use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
+use rfslam_core::angle::wrap;
+use rfslam_core::gaussian::{log_normal, sample, symmetrise};
+use rfslam_core::ipl::pose_diff;
+use rfslam_core::{ParamError, Pose, RangeBearingSensor, Rng, SlamModels};
+use serde::{Deserialize, Serialize};
+
+const LN_2PI: f64 = 1.837_877_066_409_345_5;
+
+/// How the pair weights `β_ij` and the prior weight are normalised (note 02 §3, free choice).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PairNormalisation {
+    /// `β̃_c = β_c / (1 + Σ_ij β_ij)` with `β_0 = 1`: the first-order expansion of the optimal
+    /// importance density (note 02 §2). Many good matches shrink the prior weight.
+    #[default]
+    Global,
+    /// PDA-style per measurement, averaged over the `J` measurements:
+    /// `β̃_ij = β_ij / (J (1 + Σ_i' β_i'j))`, `β̃_0 = (1/J) Σ_j 1 / (1 + Σ_i β_ij)`.
+    PerMeasurement,
+}
+
+/// Parameters of the PHD-SLAM 2.0a importance density (defaults: as seed 000 ran it).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Gao2021Params {
+    /// Take the mean of the merged Gaussian as the new pose instead of sampling it (Gao et
+    /// al.'s reference code, seed 000 footnote 3); the weight correction is then 0.
+    /// Default `false`: sample, as seed 000's tables were made.
+    pub use_mean: bool,
+    /// Normalisation of the pair weights (default [`PairNormalisation::Global`]).
+    pub pair_normalisation: PairNormalisation,
+}
+
+/// One Gaussian of the mixture of the last [`Proposal::propose`] call, before merging.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MixtureTerm {
+    /// `(map component index, measurement index)` of a pair; `None` for the prior.
+    pub pair: Option<(usize, usize)>,
+    /// Normalised weight `β̃`.
+    pub weight: f64,
+    /// Mean (`x̄` for the prior, `μ_ij` for a pair; heading wrapped).
+    pub mean: Pose,
+    /// Covariance (`Q` for the prior, `Σ_i` for a pair).
+    pub cov: Matrix3<f64>,
+}
+
+/// A gated pair of the last call.
+#[derive(Debug, Clone, Copy)]
+struct Pair {
+    /// Map component index.
+    comp: usize,
+    /// Row in the detectable list (index into `row_cov`).
+    row: usize,
+    /// Measurement index.
+    meas: usize,
+    /// `ln β_ij`.
+    log_beta: f64,
+    /// Normalised weight.
+    weight: f64,
+    /// `μ_ij`.
+    mean: Pose,
+}
+
+/// The PHD-SLAM 2.0a importance density (see the crate documentation).
+#[derive(Debug, Clone)]
+pub struct Gao2021Proposal {
+    params: Gao2021Params,
+    // reusable buffers
+    row_cov: Vec<Matrix3<f64>>,
+    pairs: Vec<Pair>,
+    meas_max: Vec<f64>,
+    meas_sum: Vec<f64>,
+    // the last call
+    predicted: Pose,
+    q: Matrix3<f64>,
+    prior_weight: f64,
+    mean: Pose,
+    cov: Matrix3<f64>,
+    fell_back: bool,
+}
+
+impl Gao2021Proposal {
+    /// The mixture of the last call: the prior first, then one term per gated pair (in the
+    /// order of the detectable components, then of the measurements).
+    pub fn mixture(&self) -> impl Iterator<Item = MixtureTerm> + '_ {
+        let prior = MixtureTerm { pair: None, weight: self.prior_weight, mean: self.predicted, cov: self.q };
+        std::iter::once(prior).chain(self.pairs.iter().map(|p| MixtureTerm {
+            pair: Some((p.comp, p.meas)),
+            weight: p.weight,
+            mean: p.mean,
+            cov: self.row_cov[p.row],
+        }))
+    }
+
+    /// The Gaussian `N(μ, Σ)` of the last call, the one sampled from (the prior after a
+    /// fallback).
+    pub fn merged(&self) -> (Pose, Matrix3<f64>) {
+        (self.mean, self.cov)
+    }
+
+    /// Whether the last call fell back to the prior because the merged covariance failed
+    /// Cholesky.
+    pub fn fell_back(&self) -> bool {
+        self.fell_back
+    }
+
+    /// Steps 1-2 of the crate documentation: the gated pairs, their conditional means,
+    /// `Σ_i` per detectable component and `ln β_ij`.
+    fn collect_pairs(&mut self, ctx: &ProposalContext, stats: &mut ProposalStats) {
+        let sensor = &ctx.models.sensor;
+        let r = ctx.models.measurement_noise;
+        let (x_bar, q) = (ctx.predicted, ctx.q);
+        self.pairs.clear();
+        self.row_cov.clear();
+        for (row, &i) in ctx.detectable.iter().enumerate() {
+            let (m, p, log_eta, pd) = (ctx.map.mean[i], ctx.map.cov[i], ctx.map.log_w[i], ctx.pd[row]);
+            let lin = sensor.linearise(&x_bar, &m);
+            let omega = lin.hm * p * lin.hm.transpose() + r;
+            let s = symmetrise(&(lin.hx * q * lin.hx.transpose() + omega));
+            let Some(ch) = s.cholesky() else {
+                stats.cholesky_failures += 1;
+                self.row_cov.push(q);
+                continue;
+            };
+            // K = Q G_x^T S^-1, i.e. K^T = S^-1 (G_x Q) (S and Q symmetric).
+            let k: Matrix3x2<f64> = ch.solve(&(lin.hx * q)).transpose();
+            let a = Matrix3::identity() - k * lin.hx;
+            self.row_cov.push(symmetrise(&(a * q * a.transpose() + k * omega * k.transpose())));
+            let l = ch.l_dirty();
+            let log_det = 2.0 * (l[(0, 0)].ln() + l[(1, 1)].ln());
+            let base = pd.ln() + log_eta - ctx.log_clutter - 0.5 * (2.0 * LN_2PI + log_det);
+            for (j, zj) in ctx.z.iter().enumerate() {
+                let nu = RangeBearingSensor::residual(zj, &lin.z);
+                let maha = nu.dot(&ch.solve(&nu));
+                // Outside the gate, or NaN.
+                if maha.is_nan() || maha > ctx.gate {
+                    continue;
+                }
+                let log_beta = base - 0.5 * maha;
+                if !log_beta.is_finite() {
+                    continue;
+                }
+                let d = k * nu;
+                let mean = Pose::new(x_bar[0] + d[0], x_bar[1] + d[1], wrap(x_bar[2] + d[2]));
+                self.pairs.push(Pair { comp: i, row, meas: j, log_beta, weight: 0.0, mean });
+            }
+        }
+    }
+
+    /// Step 4 (weights): normalised `β̃` of the prior and of every pair, in the log domain.
+    fn normalise(&mut self, n_meas: usize) {
+        if self.pairs.is_empty() {
+            self.prior_weight = 1.0;
+            return;
+        }
+        match self.params.pair_normalisation {
+            PairNormalisation::Global => {
+                let mx = self.pairs.iter().fold(0.0f64, |m, p| m.max(p.log_beta));
+                let sum = (-mx).exp() + self.pairs.iter().map(|p| (p.log_beta - mx).exp()).sum::<f64>();
+                let log_z = mx + sum.ln();
+                self.prior_weight = (-log_z).exp();
+                for p in &mut self.pairs {
+                    p.weight = (p.log_beta - log_z).exp();
+                }
+            }
+            PairNormalisation::PerMeasurement => {
+                // ln D_j = ln(1 + sum_i beta_ij), by log-sum-exp per measurement.
+                self.meas_max.clear();
+                self.meas_max.resize(n_meas, 0.0);
+                for p in &self.pairs {
+                    self.meas_max[p.meas] = self.meas_max[p.meas].max(p.log_beta);
+                }
+                self.meas_sum.clear();
+                self.meas_sum.extend(self.meas_max.iter().map(|m| (-m).exp()));
+                for p in &self.pairs {
+                    self.meas_sum[p.meas] += (p.log_beta - self.meas_max[p.meas]).exp();
+                }
+                // meas_sum <- ln D_j
+                for (s, m) in self.meas_sum.iter_mut().zip(&self.meas_max) {
+                    *s = m + s.ln();
+                }
+                let inv_j = 1.0 / n_meas as f64;
+                self.prior_weight = inv_j * self.meas_sum.iter().map(|ld| (-ld).exp()).sum::<f64>();
+                for p in &mut self.pairs {
+                    p.weight = inv_j * (p.log_beta - self.meas_sum[p.meas]).exp();
+                }
+            }
+        }
+    }
+}
+
+/// Moment matching of a weighted set of pose Gaussians `(w_c, μ_c, Σ_c)` into one
+/// (note 02 §3 step 6, 00-index §3): every mean is expressed as the offset
+/// `μ_c ⊖ reference` (heading wrapped), the offsets are averaged, the result is added back
+/// to `reference` (heading wrapped), and the spread term uses the same offsets:
+/// `Σ = Σ_c w̃_c [Σ_c + (δ_c − δ̄)(δ_c − δ̄)ᵀ]`. Weights need not be normalised. Returns
+/// `None` if the weights do not sum to a positive finite number.
+pub fn moment_match<'a, I>(reference: &Pose, terms: I) -> Option<(Pose, Matrix3<f64>)>
+where
+    I: IntoIterator<Item = (f64, &'a Pose, &'a Matrix3<f64>)>,
+    I::IntoIter: Clone,
+{
+    let terms = terms.into_iter();
+    let mut wsum = 0.0;
+    let mut offset = Vector3::zeros();
+    for (w, m, _) in terms.clone() {
+        wsum += w;
+        offset += w * pose_diff(m, reference);
+    }
+    if !(wsum > 0.0 && wsum.is_finite()) {
+        return None;
+    }
+    offset /= wsum;
+    let mut cov = Matrix3::zeros();
+    for (w, m, c) in terms {
+        let d = pose_diff(m, reference) - offset;
+        cov += w * (c + d * d.transpose());
+    }
+    cov /= wsum;
+    let mean = Pose::new(reference[0] + offset[0], reference[1] + offset[1], wrap(reference[2] + offset[2]));
+    Some((mean, symmetrise(&cov)))
+}
+
+impl Proposal for Gao2021Proposal {
+    const NAME: &'static str = "phd-2.0a";
+    type Params = Gao2021Params;
+
+    fn validate(_: &Gao2021Params) -> Result<(), ParamError> {
+        Ok(())
+    }
+
+    fn new(params: &Gao2021Params, _models: &SlamModels) -> Self {
+        Gao2021Proposal {
+            params: params.clone(),
+            row_cov: Vec::new(),
+            pairs: Vec::new(),
+            meas_max: Vec::new(),
+            meas_sum: Vec::new(),
+            predicted: Pose::zeros(),
+            q: Matrix3::zeros(),
+            prior_weight: 1.0,
+            mean: Pose::zeros(),
+            cov: Matrix3::zeros(),
+            fell_back: false,
+        }
+    }
+
+    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+        out.clear();
+        let mut stats = ProposalStats::default();
+        let (x_bar, q) = (ctx.predicted, ctx.q);
+        self.predicted = x_bar;
+        self.q = q;
+        self.collect_pairs(ctx, &mut stats);
+        self.normalise(ctx.z.len());
+        stats.components = 1 + self.pairs.len();
+
+        // Step 4 (merging) with the fallback of step 7.
+        self.fell_back = false;
+        let merged = if self.pairs.is_empty() {
+            None
+        } else {
+            let prior = std::iter::once((self.prior_weight, &self.predicted, &self.q));
+            let row_cov = &self.row_cov;
+            let pairs = self.pairs.iter().map(|p| (p.weight, &p.mean, &row_cov[p.row]));
+            match moment_match(&x_bar, prior.chain(pairs)) {
+                Some((m, c)) if m.iter().all(|v| v.is_finite()) && c.cholesky().is_some() => Some((m, c)),
+                _ => {
+                    stats.cholesky_failures += 1;
+                    self.fell_back = true;
+                    None
+                }
+            }
+        };
+        let (mean, cov) = merged.unwrap_or((x_bar, q));
+        self.mean = mean;
+        self.cov = cov;
+
+        // Step 7: the new poses; eqs. (45), (47), (48) with one Gaussian for the correction.
+        for _ in 0..n {
+            if self.params.use_mean {
+                out.push(PoseSample { pose: mean, log_correction: 0.0, component: 0 });
+                continue;
+            }
+            let Some(mut x) = sample(&mean, &cov, rng) else {
+                // Only the prior can get here (a merged covariance passed Cholesky above).
+                stats.cholesky_failures += 1;
+                out.push(PoseSample { pose: mean, log_correction: 0.0, component: 0 });
+                continue;
+            };
+            x[2] = wrap(x[2]);
+            let log_correction = if merged.is_none() {
+                0.0 // q = f
+            } else {
+                let log_f = log_normal(&pose_diff(&x, &x_bar), &q);
+                let log_q = log_normal(&pose_diff(&x, &mean), &cov);
+                match (log_f, log_q) {
+                    (Some(a), Some(b)) if (a - b).is_finite() => a - b,
+                    (None, _) | (_, None) => {
+                        stats.cholesky_failures += 1;
+                        0.0
+                    }
+                    _ => 0.0,
+                }
+            };
+            out.push(PoseSample { pose: x, log_correction, component: 0 });
+        }
+        stats
+    }
+}
+
+/// PHD-SLAM 2.0a.
+pub type PhdSlam2a = RbPhd<Gao2021Proposal>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Matrix2, Matrix2x3};
+    use rand::SeedableRng;
+    use rbphd::GmMap;
+    use rfslam_core::{ClutterIntensity, ClutterModel, DetectionModel, Fov, Motion, Point2, RangeBearing};
+    use std::f64::consts::PI;
+
+    const GATE: f64 = 41.4465;
+
+    fn models() -> SlamModels {
+        SlamModels {
+            motion: Motion::Velocity,
+            control_noise: Matrix3::from_diagonal(&Vector3::new(0.64, (0.5f64).to_radians().powi(2), 0.0)),
+            sensor: RangeBearingSensor::default(),
+            measurement_noise: Matrix2::new(0.64, 0.0, 0.0, (0.3f64).to_radians().powi(2)),
+            fov: Fov { max_range: 150.0, half_angle: std::f64::consts::FRAC_PI_2 },
+            detection: DetectionModel::Constant { pd: 0.95 },
+            clutter: ClutterModel { rate: 5.0, intensity: ClutterIntensity::Cartesian },
+            initial_pose: Pose::zeros(),
+        }
+    }
+
+    /// A full-rank predicted covariance with correlations.
+    fn q_full() -> Matrix3<f64> {
+        let a = Matrix3::new(0.3, 0.0, 0.0, 0.1, 0.2, 0.0, 0.002, -0.001, 0.01);
+        a * a.transpose()
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn ctx<'a>(
+        m: &'a SlamModels,
+        z: &'a [RangeBearing],
+        x_bar: Pose,
+        q: Matrix3<f64>,
+        map: &'a GmMap,
+        detectable: &'a [usize],
+        pd: &'a [f64],
+        log_clutter: f64,
+    ) -> ProposalContext<'a> {
+        ProposalContext {
+            models: m,
+            z,
+            prior_pose: x_bar,
+            predicted: x_bar,
+            q,
+            map,
+            detectable,
+            pd,
+            log_clutter,
+            gate: GATE,
+        }
+    }
+
+    fn proposal(use_mean: bool, norm: PairNormalisation) -> Gao2021Proposal {
+        Gao2021Proposal::new(&Gao2021Params { use_mean, pair_normalisation: norm }, &models())
+    }
+
+    /// Jacobians of the sensor by central differences (independent of `linearise`).
+    fn numeric_jacobians(x: &Pose, m: &Point2) -> (Matrix2x3<f64>, Matrix2<f64>) {
+        let s = RangeBearingSensor::default();
+        let h = 1e-6;
+        let mut hx = Matrix2x3::zeros();
+        for c in 0..3 {
+            let (mut a, mut b) = (*x, *x);
+            a[c] += h;
+            b[c] -= h;
+            hx.set_column(c, &(RangeBearingSensor::residual(&s.predict(&a, m), &s.predict(&b, m)) / (2.0 * h)));
+        }
+        let mut hm = Matrix2::zeros();
+        for c in 0..2 {
+            let (mut a, mut b) = (*m, *m);
+            a[c] += h;
+            b[c] -= h;
+            hm.set_column(c, &(RangeBearingSensor::residual(&s.predict(x, &a), &s.predict(x, &b)) / (2.0 * h)));
+        }
+        (hx, hm)
+    }
+
+    /// Test 1 (note 02 §7.2): one landmark, one measurement. The conditioned component is the
+    /// Kalman posterior of the pose under the linearised model `z = ẑ + G_x (x − x̄) +
+    /// G_m (m − m̂) + v`, computed here in information form with numerical Jacobians:
+    /// `Σ = (Q⁻¹ + G_xᵀ Ω⁻¹ G_x)⁻¹`, `μ = x̄ + Σ G_xᵀ Ω⁻¹ ν`. Its weight is `β / (1 + β)` with
+    /// `β = pD η N(ν; 0, S) / c`; with `c → 0` the merged Gaussian is that posterior.
+    #[test]
+    fn one_pair_is_the_kalman_posterior() {
+        let m = models();
+        let x_bar = Pose::new(2.0, -1.0, 0.3);
+        let q = q_full();
+        let mut map = GmMap::default();
+        let lm = Point2::new(30.0, 20.0);
+        let p = Matrix2::new(0.5, 0.1, 0.1, 0.3);
+        map.push(0.8f64.ln(), lm, p);
+        let x_true = x_bar + Vector3::new(0.2, -0.15, 0.004);
+        let z = [m.sensor.predict(&x_true, &lm) + RangeBearing::new(0.3, -0.001)];
+        let log_c = -4.0;
+        let c = ctx(&m, &z, x_bar, q, &map, &[0], &[0.9], log_c);
+        let mut prop = proposal(false, PairNormalisation::Global);
+        let mut out = Vec::new();
+        let stats = prop.propose(&c, 1, &mut Rng::seed_from_u64(1), &mut out);
+        assert_eq!(stats.components, 2);
+        assert_eq!(stats.cholesky_failures, 0);
+
+        let (hx, hm) = numeric_jacobians(&x_bar, &lm);
+        let omega = hm * p * hm.transpose() + m.measurement_noise;
+        let omega_inv = omega.try_inverse().unwrap();
+        let nu = RangeBearingSensor::residual(&z[0], &m.sensor.predict(&x_bar, &lm));
+        let sigma = (q.try_inverse().unwrap() + hx.transpose() * omega_inv * hx).try_inverse().unwrap();
+        let mu = x_bar + sigma * hx.transpose() * omega_inv * nu;
+        let s = hx * q * hx.transpose() + omega;
+        let log_beta = 0.9f64.ln() + 0.8f64.ln() - log_c + log_normal(&nu, &s).unwrap();
+        let beta = log_beta.exp();
+
+        let terms: Vec<MixtureTerm> = prop.mixture().collect();
+        assert_eq!(terms.len(), 2);
+        assert_eq!(terms[0].pair, None);
+        assert_eq!((terms[0].mean, terms[0].cov), (x_bar, q));
+        let t = terms[1];
+        assert_eq!(t.pair, Some((0, 0)));
+        for k in 0..3 {
+            assert!((t.mean[k] - mu[k]).abs() < 1e-7, "mean[{k}] {} vs {}", t.mean[k], mu[k]);
+            for l in 0..3 {
+                let tol = 1e-6 * sigma[(k, k)].max(sigma[(l, l)]);
+                assert!(
+                    (t.cov[(k, l)] - sigma[(k, l)]).abs() < tol,
+                    "cov[{k},{l}] {} vs {}",
+                    t.cov[(k, l)],
+                    sigma[(k, l)]
+                );
+            }
+        }
+        assert!((t.weight - beta / (1.0 + beta)).abs() < 1e-6, "{} vs {}", t.weight, beta / (1.0 + beta));
+        assert!((terms[0].weight - 1.0 / (1.0 + beta)).abs() < 1e-6);
+        assert!(beta > 0.1 && beta < 1e3, "a weight test with both terms mattering: beta = {beta}");
+
+        // c -> 0: the prior's weight vanishes and the merged Gaussian is the posterior.
+        let c = ctx(&m, &z, x_bar, q, &map, &[0], &[0.9], -300.0);
+        prop.propose(&c, 1, &mut Rng::seed_from_u64(1), &mut out);
+        let (mean, cov) = prop.merged();
+        assert!((pose_diff(&mean, &mu)).norm() < 1e-7);
+        assert!((cov - sigma).norm() < 1e-6 * sigma.norm());
+    }
+
+    /// Test 2 (note 02 §7.1): when no measurement gates the proposal is the prior, sampled
+    /// with the same random numbers as the bootstrap (`phd-1.0`), and the correction is 0.
+    #[test]
+    fn no_gated_pair_is_the_prior() {
+        let m = models();
+        let x_bar = Pose::new(5.0, 3.0, -0.7);
+        let q = q_full();
+        let mut map = GmMap::default();
+        map.push(0.0, Point2::new(40.0, -10.0), Matrix2::identity() * 0.2);
+        // Far from the landmark's prediction in both range and bearing.
+        let zhat = m.sensor.predict(&x_bar, &map.mean[0]);
+        let z = [zhat + RangeBearing::new(30.0, 0.0), zhat + RangeBearing::new(0.0, 0.5)];
+        for (map, det, pd) in [(&map, &[0usize][..], &[0.95][..]), (&GmMap::default(), &[][..], &[][..])] {
+            let c = ctx(&m, &z, x_bar, q, map, det, pd, -9.0);
+            for norm in [PairNormalisation::Global, PairNormalisation::PerMeasurement] {
+                let mut prop = proposal(false, norm);
+                let mut out = Vec::new();
+                let mut rng = Rng::seed_from_u64(7);
+                let mut reference = rng.clone();
+                let stats = prop.propose(&c, 50, &mut rng, &mut out);
+                assert_eq!(stats.components, 1);
+                assert_eq!(stats.cholesky_failures, 0);
+                let terms: Vec<MixtureTerm> = prop.mixture().collect();
+                assert_eq!(terms, vec![MixtureTerm { pair: None, weight: 1.0, mean: x_bar, cov: q }]);
+                assert_eq!(prop.merged(), (x_bar, q));
+                assert!(!prop.fell_back());
+                for s in &out {
+                    let mut x = sample(&x_bar, &q, &mut reference).unwrap();
+                    x[2] = wrap(x[2]);
+                    assert_eq!(s.pose, x, "same draws as the transition density");
+                    assert_eq!(s.log_correction, 0.0);
+                }
+                assert_eq!(rng, reference);
+            }
+        }
+    }
+
+    /// Test 3a: moment matching of two components with headings either side of +-pi.
+    #[test]
+    fn moment_matching_wraps_headings() {
+        let a = Pose::new(0.0, 0.0, PI - 0.001);
+        let b = Pose::new(2.0, 0.0, -PI + 0.001);
+        let c = Matrix3::identity() * 1e-4;
+        let (mean, cov) = moment_match(&a, [(1.0, &a, &c), (1.0, &b, &c)]).unwrap();
+        assert!(mean[2].abs() > PI - 1e-9, "mean heading {} must be near +-pi", mean[2]);
+        assert!((mean[0] - 1.0).abs() < 1e-12);
+        assert!((cov[(2, 2)] - (1e-4 + 1e-6)).abs() < 1e-12, "spread of +-0.001 rad: {}", cov[(2, 2)]);
+        assert!((cov[(0, 0)] - (1e-4 + 1.0)).abs() < 1e-12);
+        // Any reference gives the same result.
+        let (m2, c2) = moment_match(&b, [(1.0, &a, &c), (1.0, &b, &c)]).unwrap();
+        assert!(pose_diff(&mean, &m2).norm() < 1e-12 && (cov - c2).norm() < 1e-12);
+        assert!(moment_match(&a, [(0.0, &a, &c)]).is_none());
+    }
+
+    /// Test 3b (note 02 §7.5) through the proposal: predicted heading pi - 0.0005 and a pair
+    /// whose conditioned heading crosses +pi; with weights 1/2 each the merged heading is
+    /// near +-pi (a naive average of the absolute headings would give about 0).
+    #[test]
+    fn merged_heading_across_pi() {
+        let m = models();
+        let x_bar = Pose::new(0.0, 0.0, PI - 0.0005);
+        let q = Matrix3::from_diagonal(&Vector3::new(1e-6, 1e-6, 1e-4));
+        let mut map = GmMap::default();
+        let lm = Point2::new(-30.0, 1.0);
+        map.push(0.0, lm, Matrix2::identity() * 1e-6);
+        // bearing residual -0.002: the heading is pulled up by about 0.002, across +pi.
+        let z = [m.sensor.predict(&x_bar, &lm) + RangeBearing::new(0.0, -0.002)];
+        let mut prop = proposal(false, PairNormalisation::Global);
+        let mut out = Vec::new();
+        let c = ctx(&m, &z, x_bar, q, &map, &[0], &[0.95], 0.0);
+        prop.propose(&c, 1, &mut Rng::seed_from_u64(3), &mut out);
+        let w = prop.mixture().nth(1).unwrap().weight;
+        let log_beta = (w / (1.0 - w)).ln();
+        // Shift the clutter level so that beta = 1: weights 1/2 and 1/2.
+        let c = ctx(&m, &z, x_bar, q, &map, &[0], &[0.95], log_beta);
+        prop.propose(&c, 1, &mut Rng::seed_from_u64(3), &mut out);
+        let terms: Vec<MixtureTerm> = prop.mixture().collect();
+        assert!((terms[0].weight - 0.5).abs() < 1e-9 && (terms[1].weight - 0.5).abs() < 1e-9);
+        let pair_heading = terms[1].mean[2];
+        assert!(pair_heading < -PI + 0.01, "the conditioned heading crossed +pi: {pair_heading}");
+        let (mean, _) = prop.merged();
+        let expected = wrap(x_bar[2] + 0.5 * pose_diff(&terms[1].mean, &x_bar)[2]);
+        assert!(mean[2].abs() > PI - 0.01, "merged heading {} must be near +-pi", mean[2]);
+        assert!(wrap(mean[2] - expected).abs() < 1e-12);
+    }
+
+    /// Two landmarks, four measurements (two near landmark 0, one of landmark 1, one
+    /// clutter): a mixture with real spread.
+    fn busy_scene(m: &SlamModels) -> (Pose, Matrix3<f64>, GmMap, Vec<RangeBearing>) {
+        let x_bar = Pose::new(10.0, 5.0, 0.2);
+        let q = q_full();
+        let mut map = GmMap::default();
+        map.push(0.0, Point2::new(40.0, 20.0), Matrix2::new(0.3, 0.05, 0.05, 0.2));
+        map.push(0.5f64.ln(), Point2::new(35.0, -10.0), Matrix2::identity() * 0.4);
+        let x_true = x_bar + Vector3::new(0.3, -0.2, 0.01);
+        let z = vec![
+            m.sensor.predict(&x_true, &map.mean[0]) + RangeBearing::new(0.4, 0.002),
+            m.sensor.predict(&x_true, &map.mean[1]),
+            m.sensor.predict(&x_true, &map.mean[0]) + RangeBearing::new(-1.5, -0.01),
+            RangeBearing::new(70.0, -1.0),
+        ];
+        (x_bar, q, map, z)
+    }
+
+    /// Test 4: the empirical mean and covariance of many draws match the merged Gaussian,
+    /// each correction is `ℓN(x; x̄, Q) − ℓN(x; μ, Σ)`, and `use_mean` returns exactly the
+    /// mean with correction 0 and no random draw.
+    #[test]
+    fn sampling_matches_merged_gaussian_and_use_mean_returns_it() {
+        let m = models();
+        let (x_bar, q, map, z) = busy_scene(&m);
+        let c = ctx(&m, &z, x_bar, q, &map, &[0, 1], &[0.95, 0.9], -4.0);
+        let mut prop = proposal(false, PairNormalisation::Global);
+        let mut out = Vec::new();
+        let n = 200_000;
+        let stats = prop.propose(&c, n, &mut Rng::seed_from_u64(11), &mut out);
+        assert_eq!(stats.cholesky_failures, 0);
+        assert!(stats.components >= 4, "prior and at least three pairs: {}", stats.components);
+        let terms: Vec<MixtureTerm> = prop.mixture().collect();
+        let wsum: f64 = terms.iter().map(|t| t.weight).sum();
+        assert!((wsum - 1.0).abs() < 1e-12);
+        assert!(terms.iter().all(|t| t.pair.is_none_or(|(_, j)| j != 3)), "clutter gates nothing");
+        // The merged moments by hand (no heading near +-pi here, so plain sums).
+        let mu: Vector3<f64> = terms.iter().map(|t| t.weight * t.mean).sum();
+        let sig: Matrix3<f64> =
+            terms.iter().map(|t| t.weight * (t.cov + (t.mean - mu) * (t.mean - mu).transpose())).sum();
+        let (mean, cov) = prop.merged();
+        assert!((mean - mu).norm() < 1e-9 && (cov - sig).norm() < 1e-9 * sig.norm());
+        let spread = sig - terms.iter().map(|t| t.weight * t.cov).sum::<Matrix3<f64>>();
+        assert!(spread.trace() > 1e-3, "the test needs a spread term: {}", spread.trace());
+
+        let mut emp_mean = Vector3::zeros();
+        for s in &out {
+            emp_mean += pose_diff(&s.pose, &mean);
+        }
+        emp_mean /= n as f64;
+        let mut emp_cov = Matrix3::zeros();
+        for s in &out {
+            let d = pose_diff(&s.pose, &mean) - emp_mean;
+            emp_cov += d * d.transpose();
+        }
+        emp_cov /= (n - 1) as f64;
+        for k in 0..3 {
+            let se = (cov[(k, k)] / n as f64).sqrt();
+            assert!(emp_mean[k].abs() < 5.0 * se, "mean[{k}] off by {} (se {se})", emp_mean[k]);
+            for l in 0..3 {
+                let se = ((cov[(k, k)] * cov[(l, l)] + cov[(k, l)].powi(2)) / n as f64).sqrt();
+                let e = emp_cov[(k, l)] - cov[(k, l)];
+                assert!(e.abs() < 5.0 * se, "cov[{k},{l}] {} vs {} (se {se})", emp_cov[(k, l)], cov[(k, l)]);
+            }
+        }
+        for s in out.iter().take(20) {
+            let expected = log_normal(&pose_diff(&s.pose, &x_bar), &q).unwrap()
+                - log_normal(&pose_diff(&s.pose, &mean), &cov).unwrap();
+            assert!((s.log_correction - expected).abs() < 1e-9);
+            assert!(s.log_correction != 0.0);
+        }
+
+        let mut prop = proposal(true, PairNormalisation::Global);
+        let mut rng = Rng::seed_from_u64(11);
+        let before = rng.clone();
+        prop.propose(&c, 5, &mut rng, &mut out);
+        assert_eq!(out.len(), 5);
+        assert_eq!(prop.merged(), (mean, cov));
+        for s in &out {
+            assert_eq!(s.pose, mean, "use_mean returns exactly the mean");
+            assert_eq!(s.log_correction, 0.0);
+        }
+        assert_eq!(rng, before, "use_mean draws nothing");
+    }
+
+    /// Note 02 §7.4: two identical measurements of one landmark with `c → 0` give two
+    /// identical pair components of weight 1/2 each; the merged covariance is `Σ_i`.
+    #[test]
+    fn duplicated_measurement_has_no_spread() {
+        let m = models();
+        let x_bar = Pose::new(1.0, 2.0, -0.4);
+        let q = q_full();
+        let mut map = GmMap::default();
+        let lm = Point2::new(20.0, -5.0);
+        map.push(0.0, lm, Matrix2::identity() * 0.3);
+        let zz = m.sensor.predict(&(x_bar + Vector3::new(0.2, 0.1, -0.003)), &lm);
+        let z = [zz, zz];
+        let c = ctx(&m, &z, x_bar, q, &map, &[0], &[0.95], -300.0);
+        let mut prop = proposal(false, PairNormalisation::Global);
+        prop.propose(&c, 1, &mut Rng::seed_from_u64(5), &mut Vec::new());
+        let terms: Vec<MixtureTerm> = prop.mixture().collect();
+        assert_eq!(terms.len(), 3);
+        assert!(terms[0].weight < 1e-100);
+        assert!((terms[1].weight - 0.5).abs() < 1e-12 && (terms[2].weight - 0.5).abs() < 1e-12);
+        let (mean, cov) = prop.merged();
+        assert!(pose_diff(&mean, &terms[1].mean).norm() < 1e-12);
+        assert!((cov - terms[1].cov).norm() < 1e-12 * cov.norm());
+    }
+
+    /// The per-measurement normalisation: a measurement that gates nothing adds `1/J` to the
+    /// prior; one gating pair per measurement gets `β / (J (1 + β))`.
+    #[test]
+    fn per_measurement_normalisation() {
+        let m = models();
+        let x_bar = Pose::new(0.0, 0.0, 0.0);
+        let q = q_full();
+        let mut map = GmMap::default();
+        map.push(0.0, Point2::new(25.0, 5.0), Matrix2::identity() * 0.3);
+        let z = [m.sensor.predict(&x_bar, &map.mean[0]) + RangeBearing::new(0.5, 0.0), RangeBearing::new(90.0, 1.2)];
+        let c = ctx(&m, &z, x_bar, q, &map, &[0], &[0.95], -3.0);
+        let mut global = proposal(false, PairNormalisation::Global);
+        global.propose(&c, 1, &mut Rng::seed_from_u64(5), &mut Vec::new());
+        let w = global.mixture().nth(1).unwrap().weight;
+        let beta = w / (1.0 - w);
+        let mut per = proposal(false, PairNormalisation::PerMeasurement);
+        per.propose(&c, 1, &mut Rng::seed_from_u64(5), &mut Vec::new());
+        let t: Vec<MixtureTerm> = per.mixture().collect();
+        assert_eq!(t.len(), 2);
+        assert!((t[0].weight - 0.5 * (1.0 / (1.0 + beta) + 1.0)).abs() < 1e-12);
+        assert!((t[1].weight - 0.5 * beta / (1.0 + beta)).abs() < 1e-12);
+        // A busier scene: the weights still sum to 1.
+        let (x_bar, q, map, z) = busy_scene(&m);
+        let c = ctx(&m, &z, x_bar, q, &map, &[0, 1], &[0.95, 0.9], -4.0);
+        per.propose(&c, 1, &mut Rng::seed_from_u64(5), &mut Vec::new());
+        assert!((per.mixture().map(|t| t.weight).sum::<f64>() - 1.0).abs() < 1e-12);
+    }
+
+    /// Degenerate covariances are counted, never unwrapped: a predicted covariance that is
+    /// not positive definite (every draw falls back to `x̄`, correction 0), and a landmark
+    /// whose innovation covariance fails Cholesky (it contributes no pair).
+    #[test]
+    fn degenerate_covariances_are_counted() {
+        let m = models();
+        let mut nan_map = GmMap::default();
+        nan_map.push(0.0, Point2::new(20.0, 0.0), Matrix2::new(f64::NAN, 0.0, 0.0, 0.3));
+        let z = [m.sensor.predict(&Pose::zeros(), &nan_map.mean[0])];
+        let c = ctx(&m, &z, Pose::zeros(), q_full(), &nan_map, &[0], &[0.95], -3.0);
+        let mut prop = proposal(false, PairNormalisation::Global);
+        let stats = prop.propose(&c, 2, &mut Rng::seed_from_u64(1), &mut Vec::new());
+        assert_eq!((stats.components, stats.cholesky_failures), (1, 1));
+        assert_eq!(prop.merged(), (Pose::zeros(), q_full()));
+
+        let x_bar = Pose::new(0.0, 0.0, 0.0);
+        let q = Matrix3::from_diagonal(&Vector3::new(0.1, -0.1, 1e-4)); // not PSD
+        let map = GmMap::default();
+        let z = [RangeBearing::new(10.0, 0.0)];
+        let c = ctx(&m, &z, x_bar, q, &map, &[], &[], -3.0);
+        let mut prop = proposal(false, PairNormalisation::Global);
+        let mut out = Vec::new();
+        let stats = prop.propose(&c, 3, &mut Rng::seed_from_u64(1), &mut out);
+        assert_eq!(stats.cholesky_failures, 3);
+        assert!(out.iter().all(|s| s.pose == x_bar && s.log_correction == 0.0));
+    }
+
+    /// Parameters: defaults, TOML keys, unknown keys rejected.
+    #[test]
+    fn parameters_parse() {
+        let p: rbphd::PhdParams<Gao2021Params> =
+            toml::from_str("use_mean = true\npair_normalisation = \"per_measurement\"\ngate = 20.0").unwrap();
+        assert!(p.proposal.use_mean);
+        assert_eq!(p.proposal.pair_normalisation, PairNormalisation::PerMeasurement);
+        assert_eq!(p.common.gate, 20.0);
+        let d = Gao2021Params::default();
+        assert!(!d.use_mean);
+        assert_eq!(d.pair_normalisation, PairNormalisation::Global);
+        assert!(toml::from_str::<rbphd::PhdParams<Gao2021Params>>("use_means = true").is_err());
+        assert!(toml::from_str::<rbphd::PhdParams<Gao2021Params>>("pair_normalisation = \"x\"").is_err());
+        assert_eq!(<Gao2021Proposal as Proposal>::NAME, "phd-2.0a");
+    }
+}
