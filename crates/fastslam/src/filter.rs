@@ -4,7 +4,7 @@ use nalgebra::Matrix3;
 use rfslam_core::gaussian::symmetrise;
 use rfslam_core::ipl::IplSettings;
 use rfslam_core::motion::propagate_with_covariance;
-use rfslam_core::rbpf::{ess, normalise_log_weights, systematic_resample};
+use rfslam_core::rbpf::{LogWeighted, Population};
 use rfslam_core::{
     ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, Point2, Pose, RangeBearing, Rng, Scan, SlamFilter,
     SlamModels, StepReport,
@@ -41,15 +41,12 @@ pub struct OracleFastSlam2 {
     ipl: IplSettings,
     jitter: Matrix3<f64>,
     particles: Vec<Particle>,
-    /// `family[n] == family[n - 1]`: particle n is an identical copy of n - 1 (same parent at
-    /// the last resampling), so the proposal is computed once for the group.
-    family: Vec<usize>,
+    /// Normalisation, resampling and the families of identical copies.
+    population: Population,
     best: usize,
     unlabelled_scans: usize,
     // reusable buffers
     spare: Vec<Particle>,
-    parents: Vec<usize>,
-    log_w: Vec<f64>,
     /// (measurement index, landmark id) of the scan's labelled measurements.
     obs: Vec<(usize, i64)>,
     /// Landmark index (in the group's map) of each measurement of a known landmark...
@@ -76,12 +73,10 @@ impl OracleFastSlam2 {
             ipl,
             jitter,
             particles: vec![p0; n],
-            family: vec![0; n],
+            population: Population::new(n),
             best: 0,
             unlabelled_scans: 0,
             spare: Vec::new(),
-            parents: Vec::new(),
-            log_w: Vec::new(),
             obs: Vec::new(),
             known: Vec::new(),
             known_z: Vec::new(),
@@ -145,7 +140,7 @@ impl SlamFilter for OracleFastSlam2 {
         let mut a = 0;
         while a < n {
             let mut b = a + 1;
-            while b < n && self.family[b] == self.family[a] {
+            while b < n && self.population.family()[b] == self.population.family()[a] {
                 b += 1;
             }
             families += 1;
@@ -231,14 +226,8 @@ impl SlamFilter for OracleFastSlam2 {
         }
 
         // Normalise, estimate (highest weight), resample.
-        self.log_w.clear();
-        self.log_w.extend(self.particles.iter().map(|p| p.log_w));
-        normalise_log_weights(&mut self.log_w);
-        for (p, &l) in self.particles.iter_mut().zip(&self.log_w) {
-            p.log_w = l;
-        }
-        let ess_now = ess(&self.log_w);
-        self.best = (0..n).max_by(|&i, &j| self.log_w[i].total_cmp(&self.log_w[j]).then(j.cmp(&i))).unwrap_or(0);
+        let (ess_now, best) = self.population.normalise(&mut self.particles);
+        self.best = best;
         let best = &self.particles[self.best];
         let associations: Vec<Option<Point2>> = match (&scan.truth, labelled) {
             (Some(t), true) => {
@@ -249,23 +238,9 @@ impl SlamFilter for OracleFastSlam2 {
         };
         let components: usize = self.particles.iter().map(|p| p.landmarks.len()).sum();
         let threshold = self.params.resample_ess_fraction * n as f64;
-        let resampled = n > 1 && ess_now <= threshold;
-        if resampled {
-            systematic_resample(&self.log_w, n, rng, &mut self.parents);
-            self.spare.resize_with(n, Particle::default);
-            let uniform = -(n as f64).ln();
-            for (dst, &parent) in self.spare.iter_mut().zip(&self.parents) {
-                dst.clone_from(&self.particles[parent]);
-                dst.log_w = uniform;
-            }
-            std::mem::swap(&mut self.particles, &mut self.spare);
-            self.family.clone_from(&self.parents);
-            self.best = self.parents.iter().position(|&p| p == self.best).unwrap_or(0);
-        } else {
-            for (i, f) in self.family.iter_mut().enumerate() {
-                *f = i;
-            }
-        }
+        let (resampled, best) =
+            self.population.resample(&mut self.particles, &mut self.spare, ess_now, threshold, self.best, rng);
+        self.best = best;
         StepReport {
             ess: ess_now,
             resampled,
@@ -292,5 +267,15 @@ impl FilterBuild for OracleFastSlam2 {
 
     fn build(params: Params, models: &SlamModels, particles: usize) -> Self {
         OracleFastSlam2::new(params, models, particles)
+    }
+}
+
+impl LogWeighted for Particle {
+    fn log_weight(&self) -> f64 {
+        self.log_w
+    }
+
+    fn set_log_weight(&mut self, log_w: f64) {
+        self.log_w = log_w;
     }
 }

@@ -2,7 +2,7 @@
 
 use nalgebra::Matrix3;
 use rfslam_core::motion::propagate_with_covariance;
-use rfslam_core::rbpf::{ess, normalise_log_weights, systematic_resample};
+use rfslam_core::rbpf::{LogWeighted, Population};
 use rfslam_core::{
     ControlSegment, Estimate, FilterBuild, Fov, MapPoint, ParamError, Point2, Pose, RangeBearing, Rng, Scan,
     SlamFilter, SlamModels, StepReport,
@@ -35,9 +35,8 @@ pub struct RbPhd<P: Proposal> {
     models: SlamModels,
     proposal: P,
     particles: Vec<Particle>,
-    /// `family[n] == family[n - 1]`: particle n is an identical copy of n - 1 (same parent
-    /// at the last resampling, not yet moved), so the importance density is shared.
-    family: Vec<usize>,
+    /// Normalisation, resampling and the families of identical copies.
+    population: Population,
     best: usize,
     log_clutter: f64,
     fov_active: Fov,
@@ -45,8 +44,6 @@ pub struct RbPhd<P: Proposal> {
     has_associations: bool,
     // reusable buffers
     spare: Vec<Particle>,
-    parents: Vec<usize>,
-    log_w: Vec<f64>,
     samples: Vec<PoseSample>,
     active: Vec<usize>,
     is_active: Vec<bool>,
@@ -77,15 +74,13 @@ impl<P: Proposal> RbPhd<P> {
             models: models.clone(),
             proposal,
             particles: vec![p0; n],
-            family: (0..n).map(|_| 0).collect(),
+            population: Population::new(n),
             best: 0,
             log_clutter,
             fov_active,
             estimate_threshold,
             has_associations: false,
             spare: Vec::new(),
-            parents: Vec::new(),
-            log_w: Vec::new(),
             samples: Vec::new(),
             active: Vec::new(),
             is_active: Vec::new(),
@@ -142,7 +137,7 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
         let mut a = 0;
         while a < n {
             let mut b = a + 1;
-            while b < n && self.family[b] == self.family[a] {
+            while b < n && self.population.family()[b] == self.population.family()[a] {
                 b += 1;
             }
             for p in &mut self.particles[a..b] {
@@ -227,34 +222,14 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
         }
 
         // Normalise, estimate (highest weight), resample.
-        self.log_w.clear();
-        self.log_w.extend(self.particles.iter().map(|p| p.log_w));
-        normalise_log_weights(&mut self.log_w);
-        for (p, &l) in self.particles.iter_mut().zip(&self.log_w) {
-            p.log_w = l;
-        }
-        let ess_now = ess(&self.log_w);
-        self.best = (0..n).max_by(|&i, &j| self.log_w[i].total_cmp(&self.log_w[j]).then(j.cmp(&i))).unwrap_or(0);
+        let (ess_now, best) = self.population.normalise(&mut self.particles);
+        self.best = best;
         let components: usize = self.particles.iter().map(|p| p.map.len()).sum();
         let associations = self.has_associations.then(|| self.particles[self.best].associations.clone());
         let threshold = self.params.resample_ess.unwrap_or(self.params.resample_ess_fraction * n as f64);
-        let resampled = n > 1 && ess_now <= threshold;
-        if resampled {
-            systematic_resample(&self.log_w, n, rng, &mut self.parents);
-            self.spare.resize_with(n, Particle::default);
-            let uniform = -(n as f64).ln();
-            for (dst, &parent) in self.spare.iter_mut().zip(&self.parents) {
-                dst.clone_from(&self.particles[parent]);
-                dst.log_w = uniform;
-            }
-            std::mem::swap(&mut self.particles, &mut self.spare);
-            self.family.clone_from(&self.parents);
-            self.best = self.parents.iter().position(|&p| p == self.best).unwrap_or(0);
-        } else {
-            for (i, f) in self.family.iter_mut().enumerate() {
-                *f = i;
-            }
-        }
+        let (resampled, best) =
+            self.population.resample(&mut self.particles, &mut self.spare, ess_now, threshold, self.best, rng);
+        self.best = best;
         StepReport {
             ess: ess_now,
             resampled,
@@ -287,5 +262,15 @@ impl<P: Proposal> FilterBuild for RbPhd<P> {
     fn build(params: Self::Params, models: &SlamModels, particles: usize) -> Self {
         let proposal = P::new(&params.proposal, models);
         RbPhd::new(params.common, proposal, models, particles)
+    }
+}
+
+impl LogWeighted for Particle {
+    fn log_weight(&self) -> f64 {
+        self.log_w
+    }
+
+    fn set_log_weight(&mut self, log_w: f64) {
+        self.log_w = log_w;
     }
 }

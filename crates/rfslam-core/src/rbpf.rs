@@ -62,6 +62,83 @@ pub fn systematic_resample<R: rand::Rng + ?Sized>(
     }
 }
 
+/// A particle carrying a log weight.
+pub trait LogWeighted {
+    /// `ln w`.
+    fn log_weight(&self) -> f64;
+    /// Sets `ln w`.
+    fn set_log_weight(&mut self, log_w: f64);
+}
+
+/// The population bookkeeping every RBPF of rfslam shares: normalisation, ESS, the
+/// highest-weight particle, systematic resampling with uniform weights, and the families of
+/// identical copies that resampling leaves (`family()[n] == family()[n - 1]`: particle n is
+/// an unmoved copy of particle n - 1, so a proposal can be computed once for both).
+#[derive(Debug, Clone, Default)]
+pub struct Population {
+    log_w: Vec<f64>,
+    parents: Vec<usize>,
+    family: Vec<usize>,
+}
+
+impl Population {
+    /// `n` particles that start as copies of one (all in one family).
+    pub fn new(n: usize) -> Self {
+        Population { log_w: Vec::with_capacity(n), parents: Vec::with_capacity(n), family: vec![0; n] }
+    }
+
+    /// Family tag of each particle.
+    pub fn family(&self) -> &[usize] {
+        &self.family
+    }
+
+    /// Normalises the particles' log weights in place; returns the ESS (`1 / sum w^2`) and
+    /// the index of the highest-weight particle (lowest index on ties).
+    pub fn normalise<P: LogWeighted>(&mut self, particles: &mut [P]) -> (f64, usize) {
+        self.log_w.clear();
+        self.log_w.extend(particles.iter().map(|p| p.log_weight()));
+        normalise_log_weights(&mut self.log_w);
+        for (p, &l) in particles.iter_mut().zip(&self.log_w) {
+            p.set_log_weight(l);
+        }
+        let n = particles.len();
+        let best = (0..n).max_by(|&i, &j| self.log_w[i].total_cmp(&self.log_w[j]).then(j.cmp(&i))).unwrap_or(0);
+        (ess(&self.log_w), best)
+    }
+
+    /// After [`Population::normalise`]: when `n > 1` and `ess <= threshold`, replaces the
+    /// particles by systematic resampling (copies made with `clone_from` into `spare`, so no
+    /// allocation once warm), sets uniform weights and records the families; otherwise every
+    /// particle is its own family. Returns whether it resampled and the new index of `best`.
+    pub fn resample<P: LogWeighted + Clone + Default, R: rand::Rng + ?Sized>(
+        &mut self,
+        particles: &mut Vec<P>,
+        spare: &mut Vec<P>,
+        ess: f64,
+        threshold: f64,
+        best: usize,
+        rng: &mut R,
+    ) -> (bool, usize) {
+        let n = particles.len();
+        if n > 1 && ess <= threshold {
+            systematic_resample(&self.log_w, n, rng, &mut self.parents);
+            spare.resize_with(n, P::default);
+            let uniform = -(n as f64).ln();
+            for (dst, &parent) in spare.iter_mut().zip(&self.parents) {
+                dst.clone_from(&particles[parent]);
+                dst.set_log_weight(uniform);
+            }
+            std::mem::swap(particles, spare);
+            self.family.clone_from(&self.parents);
+            (true, self.parents.iter().position(|&p| p == best).unwrap_or(0))
+        } else {
+            self.family.clear();
+            self.family.extend(0..n);
+            (false, best)
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
