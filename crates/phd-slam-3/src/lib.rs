@@ -14,7 +14,8 @@
 
 use nalgebra::Matrix3;
 use rand::RngExt;
-use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
+pub use rbphd::MissedCost;
+use rbphd::{CostMatrixBuffers, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
 use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
 use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
@@ -22,22 +23,6 @@ use rfslam_core::ipl::{IplSettings, ipl_update, pose_diff};
 use rfslam_core::rbpf::log_sum_exp;
 use rfslam_core::{ParamError, Pose, RangeBearing, RangeBearingSensor, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
-
-/// How the missed-detection entries of the cost matrix (and the missed factors of eq. 44)
-/// treat the component weight `eta_i` (note 05 §1).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum MissedCost {
-    /// `-ln((1 - pD) eta)`, as eqs. (31)/(40)/(44) print it and as the public code that
-    /// produced the tables computes it (eta is then a row constant and cancels).
-    #[default]
-    Paper,
-    /// `-ln(1 - pD)`: the earlier public code (low-weight components cost about `-ln eta` more
-    /// to associate).
-    NoEta,
-    /// `-ln(1 - pD min(eta, 1))`: a Bernoulli-style missed term.
-    Bernoulli,
-}
 
 /// Parameters of the multi-hypotheses importance density (defaults: seed 000 §VI).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -93,8 +78,7 @@ pub struct MhProposal {
     /// Cost-matrix row -> map component index, of the last call.
     rows: Vec<usize>,
     n_meas: usize,
-    det_cost: Vec<f64>,
-    miss_cost: Vec<f64>,
+    cost: CostMatrixBuffers,
     pairs_z: Vec<RangeBearing>,
     pairs_row: Vec<usize>,
     log_w: Vec<f64>,
@@ -114,11 +98,7 @@ impl MhProposal {
     }
 
     fn log_missed(&self, pd: f64, log_eta: f64) -> f64 {
-        match self.params.missed_cost {
-            MissedCost::Paper => (1.0 - pd).ln() + log_eta,
-            MissedCost::NoEta => (1.0 - pd).ln(),
-            MissedCost::Bernoulli => (1.0 - pd * log_eta.exp().min(1.0)).ln(),
-        }
+        self.params.missed_cost.log_missed(pd, log_eta)
     }
 
     fn component_slot(&mut self) -> &mut Component {
@@ -159,8 +139,7 @@ impl Proposal for MhProposal {
             n_components: 0,
             rows: Vec::new(),
             n_meas: 0,
-            det_cost: Vec::new(),
-            miss_cost: Vec::new(),
+            cost: CostMatrixBuffers::default(),
             pairs_z: Vec::new(),
             pairs_row: Vec::new(),
             log_w: Vec::new(),
@@ -182,40 +161,13 @@ impl Proposal for MhProposal {
         self.n_components = 0;
 
         // 1. Cost matrix, eqs. (29)-(31), at the predicted pose.
-        self.det_cost.clear();
-        self.miss_cost.clear();
-        for (row, &i) in self.rows.iter().enumerate() {
-            let (mi, pi, lw, pd) = (ctx.map.mean[i], ctx.map.cov[i], ctx.map.log_w[i], ctx.pd[row]);
-            let lin = sensor.linearise(&x_bar, &mi);
-            let s = symmetrise(&(lin.hm * pi * lin.hm.transpose() + lin.hx * q * lin.hx.transpose() + r));
-            let ch = s.cholesky();
-            if ch.is_none() {
-                stats.cholesky_failures += 1;
-            }
-            let log_det = ch.as_ref().map(|c| 2.0 * (c.l_dirty()[(0, 0)].ln() + c.l_dirty()[(1, 1)].ln()));
-            for zj in ctx.z {
-                let cost = match (&ch, log_det) {
-                    (Some(c), Some(ld)) => {
-                        let nu = RangeBearingSensor::residual(zj, &lin.z);
-                        let maha = nu.dot(&c.solve(&nu));
-                        if maha <= ctx.gate {
-                            -(pd.ln() + lw - ctx.log_clutter - 0.5 * (2.0 * LN_2PI + ld + maha))
-                        } else {
-                            f64::INFINITY
-                        }
-                    }
-                    _ => f64::INFINITY,
-                };
-                self.det_cost.push(cost);
-            }
-            self.miss_cost.push(-self.log_missed(pd, lw));
-        }
+        stats.cholesky_failures += self.cost.fill(ctx, self.params.missed_cost);
 
         // 2. Ranked associations (Murty), then the all-missed one.
         self.ranked.clear();
         if m > 0
             && nz > 0
-            && let Ok(cm) = CostMatrix::with_missed_diagonal(&self.det_cost, &self.miss_cost, m, nz)
+            && let Ok(cm) = CostMatrix::with_missed_diagonal(&self.cost.detection, &self.cost.missed, m, nz)
         {
             let opts = MurtyOptions {
                 max_count: self.params.max_assignments,
@@ -365,8 +317,6 @@ impl Proposal for MhProposal {
         true
     }
 }
-
-const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
 /// PHD-SLAM 3.0.
 pub type PhdSlam3 = RbPhd<MhProposal>;

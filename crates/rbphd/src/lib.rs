@@ -5,11 +5,13 @@
 //! resampling, with the importance density computed once per group of copies of one parent.
 //! A variant is a [`Proposal`] (the importance density of eq. 23) plus its defaults.
 
+pub mod association;
 pub mod filter;
 pub mod gm;
 pub mod params;
 pub mod proposal;
 
+pub use association::{CostMatrixBuffers, MissedCost};
 pub use filter::{Particle, RbPhd};
 pub use gm::GmMap;
 pub use params::{PhdParams, RbPhdParams};
