@@ -26,7 +26,7 @@ pub use filter::{FilterBuild, ParamError, SlamFilter, SlamModels};
 pub use motion::{AckermannModel, Motion, MotionModel, OdometryModel, VelocityModel};
 pub use rng::Rng;
 pub use sensor::RangeBearingSensor;
-pub use types::{Control, ControlSegment, Estimate, MapPoint, Scan, StepReport};
+pub use types::{Control, ControlSegment, Estimate, MapPoint, Scan, StepReport, TRUTH_UNKNOWN};
 
 /// Robot pose `x = [px, py, theta]` (m, m, rad), heading wrapped to `[-pi, pi)`.
 pub type Pose = nalgebra::Vector3<f64>;

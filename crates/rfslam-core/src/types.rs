@@ -28,10 +28,18 @@ pub struct Scan {
     pub t: f64,
     /// Measurements `z = [range (m), bearing (rad, relative to heading, wrapped)]`.
     pub z: Vec<RangeBearing>,
-    /// Truth labels, one per measurement when known: the landmark id, `-1` for clutter.
-    /// Filters must not use them except the oracle baseline.
+    /// Truth labels, one per measurement when any is known: the landmark id, `-1` for
+    /// clutter, or [`TRUTH_UNKNOWN`] for a measurement whose origin is not known (a real
+    /// detection of an unidentified landmark next to labelled artificial clutter, as in the
+    /// Victoria Park import). `None` when nothing is known. Filters must not use them
+    /// except the oracle baseline.
     pub truth: Option<Vec<i64>>,
 }
+
+/// The truth label of a measurement whose origin is unknown (written as an empty `truth`
+/// cell in `measurements.csv`): neither a landmark id (`>= 0`) nor clutter (`-1`).
+/// Data-association scores skip such measurements.
+pub const TRUTH_UNKNOWN: i64 = -2;
 
 /// A landmark of a filter's map estimate.
 #[derive(Debug, Clone, Copy, PartialEq)]

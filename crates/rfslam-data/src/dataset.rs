@@ -5,7 +5,9 @@ use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
 use rfslam_core::angle::wrap;
-use rfslam_core::{Control, ControlSegment, DetectionModel, Motion, Point2, Pose, RangeBearing, Scan, SlamModels};
+use rfslam_core::{
+    Control, ControlSegment, DetectionModel, Motion, Point2, Pose, RangeBearing, Scan, SlamModels, TRUTH_UNKNOWN,
+};
 use serde::{Deserialize, Serialize};
 
 use crate::config::{ClutterConfig, ModelConfig, MotionConfig, SensorConfig};
@@ -222,7 +224,7 @@ impl Dataset {
             }
             for (i, z) in s.z.iter().enumerate() {
                 if labelled {
-                    let label = s.truth.as_ref().map(|t| t[i]);
+                    let label = s.truth.as_ref().map(|t| t[i]).filter(|&l| l != TRUTH_UNKNOWN);
                     w.line(format_args!("{k},{},{},{}", z[0], z[1], Opt(label)))?;
                 } else {
                     w.line(format_args!("{k},{},{}", z[0], z[1]))?;
@@ -418,7 +420,7 @@ fn read_measurements(path: &Path, scans: &mut [Scan], ids: Option<&HashSet<i64>>
         let label = r.opt_i64(3)?;
         if let Some(id) = label {
             if id < -1 {
-                return Err(r.err(3, format!("truth {id}: use a landmark id >= 0, or -1 for clutter")));
+                return Err(r.err(3, format!("truth {id}: use a landmark id >= 0, -1 for clutter, or empty")));
             }
             if let Some(ids) = ids
                 && id >= 0
@@ -433,19 +435,19 @@ fn read_measurements(path: &Path, scans: &mut [Scan], ids: Option<&HashSet<i64>>
         let scan = &mut scans[k];
         if current != Some(k) {
             current = Some(k);
-            scan.truth = label.map(|_| Vec::new());
+            scan.truth = Some(Vec::new());
         }
-        match (&mut scan.truth, label) {
-            (Some(t), Some(id)) => t.push(id),
-            (None, None) => {}
-            (Some(_), None) => {
-                return Err(r.err(3, format!("empty, but earlier rows of scan {k} have truth labels")));
-            }
-            (None, Some(_)) => {
-                return Err(r.err(3, format!("has a label, but earlier rows of scan {k} have none")));
-            }
+        // Every row's label for now (empty cells as TRUTH_UNKNOWN); a scan with no label
+        // at all gets `truth = None` below.
+        if let Some(t) = &mut scan.truth {
+            t.push(label.unwrap_or(TRUTH_UNKNOWN));
         }
         scan.z.push(z);
+    }
+    for s in scans.iter_mut() {
+        if s.truth.as_ref().is_some_and(|t| !t.is_empty() && t.iter().all(|&l| l == TRUTH_UNKNOWN)) {
+            s.truth = None;
+        }
     }
     // Scans without measurements are labelled (with no labels) when the file has a truth
     // column and some labelled row, or a truth column and no rows at all.
@@ -757,6 +759,14 @@ mod tests {
         d2.write(tmp.path()).unwrap();
         assert!(!tmp.path().join(files::LANDMARKS).exists());
         assert_eq!(Dataset::read(tmp.path()).unwrap(), d2);
+        // A detection of unknown origin beside labelled clutter (the Victoria Park import)
+        // is an empty cell, read back as TRUTH_UNKNOWN.
+        let mut d3 = example();
+        d3.scans[0].truth = Some(vec![TRUTH_UNKNOWN, -1]);
+        d3.write(tmp.path()).unwrap();
+        let text = std::fs::read_to_string(tmp.path().join(files::MEASUREMENTS)).unwrap();
+        assert!(text.lines().nth(1).unwrap().ends_with(','), "{text}");
+        assert_eq!(Dataset::read(tmp.path()).unwrap(), d3);
     }
 
     #[test]
@@ -836,8 +846,8 @@ mod tests {
         assert!(e.contains("measurements.csv:5: column `scan`") && e.contains("scan order"), "{e}");
         let e = broken(files::MEASUREMENTS, |t| t.replace(",7\n", ",8\n"));
         assert!(e.contains("measurements.csv:4: column `truth`: landmark id 8 is not in landmarks.csv"), "{e}");
-        let e = broken(files::MEASUREMENTS, |t| t.replace(",-1\n", ",\n"));
-        assert!(e.contains("measurements.csv:3: column `truth`") && e.contains("scan 0"), "{e}");
+        let e = broken(files::MEASUREMENTS, |t| t.replace(",-1\n", ",-2\n"));
+        assert!(e.contains("measurements.csv:3: column `truth`: truth -2: use a landmark id >= 0"), "{e}");
         let e = broken(files::MEASUREMENTS, |t| t.replace(",7\n", ",x\n"));
         assert!(e.contains("measurements.csv:4: column `truth`: `x` is not an integer"), "{e}");
         let e = broken(files::MEASUREMENTS, |t| t.replace("0.1,-1", "inf,-1"));

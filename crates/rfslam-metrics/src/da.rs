@@ -1,6 +1,6 @@
 //! Data-association accuracy: true-positive and true-negative ratios (seed 000 §VI-A-1).
 
-use rfslam_core::Point2;
+use rfslam_core::{Point2, TRUTH_UNKNOWN};
 
 use crate::MetricError;
 
@@ -44,7 +44,9 @@ impl DaCounts {
 /// Scores one step's data association.
 ///
 /// For measurement `j`: `truth[j] >= 0` is the id of the landmark that generated it (a
-/// positive), `truth[j] == -1` marks clutter (a negative). `assigned[j]` is the world
+/// positive), `truth[j] == -1` marks clutter (a negative) and
+/// [`TRUTH_UNKNOWN`](rfslam_core::TRUTH_UNKNOWN) a measurement of unknown origin, which is
+/// not scored (a real detection of the Victoria Park import). `assigned[j]` is the world
 /// position of the map component the filter associated `z_j` with, or `None` when the
 /// filter treated `z_j` as clutter (no component took it).
 ///
@@ -54,7 +56,7 @@ impl DaCounts {
 /// - A negative is a **true negative** when it is unassigned.
 ///
 /// `landmarks` lists the true landmarks as `(id, position)`. Errors if `truth` and
-/// `assigned` differ in length or a label is below -1.
+/// `assigned` differ in length or a label is below -1 other than `TRUTH_UNKNOWN`.
 pub fn score_associations(
     truth: &[i64],
     assigned: &[Option<Point2>],
@@ -66,6 +68,7 @@ pub fn score_associations(
     let mut counts = DaCounts::default();
     for (index, (&label, a)) in truth.iter().zip(assigned).enumerate() {
         match label {
+            TRUTH_UNKNOWN => {}
             -1 => {
                 counts.negatives += 1;
                 counts.true_neg += usize::from(a.is_none());
@@ -133,9 +136,12 @@ mod tests {
         assert_eq!(c.tpr(), Some(0.0));
         assert!(matches!(score_associations(&[1, 2], &[None], &[]), Err(MetricError::LengthMismatch { .. })));
         assert_eq!(
-            score_associations(&[0, -2], &[None, None], &[]),
-            Err(MetricError::InvalidLabel { index: 1, label: -2 })
+            score_associations(&[0, -3], &[None, None], &[]),
+            Err(MetricError::InvalidLabel { index: 1, label: -3 })
         );
+        // Unknown origin: counted neither as a positive nor as a negative.
+        let c = score_associations(&[TRUTH_UNKNOWN, -1], &[Some(Point2::zeros()), None], &[]).unwrap();
+        assert_eq!(c, DaCounts { true_pos: 0, positives: 0, true_neg: 1, negatives: 1 });
         let nan = score_associations(&[0], &[Some(Point2::new(f64::NAN, 0.0))], &[(0, Point2::zeros())]);
         assert_eq!(nan.unwrap().true_pos, 0);
     }
