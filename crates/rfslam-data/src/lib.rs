@@ -11,6 +11,9 @@
 //!   MATLAB `Environment_SLAM.mat` (own MAT v5 reader, [`mat`]) or procedurally.
 //! - [`simulate()`]: the PHD-SLAM papers' synthetic generator (world + models + run seed ->
 //!   data set with truth labels).
+//! - [`VictoriaPark`]: the Victoria Park recording (`measurements.dat`, `inputs.dat`,
+//!   `gps.dat`) imported into a data set with the artificial clutter of PHD-SLAM 3.0
+//!   Section VI-B ([`victoria_park`]).
 //! - [`ScenarioConfig`]: scenario files (world + models) as the harness uses them.
 //! - [`find_data`]: external data through `RFSLAM_DATA`, `../shared/data`, `./data`.
 //!
@@ -28,6 +31,7 @@ pub mod locate;
 pub mod mat;
 pub mod scenario;
 pub mod simulate;
+pub mod victoria_park;
 pub mod world;
 
 #[cfg(test)]
@@ -40,4 +44,5 @@ pub use locate::{DATA_ENV, data_dirs, find_data};
 pub use mat::{MatArray, MatError, MatFile};
 pub use scenario::{ScenarioConfig, WorldSpec};
 pub use simulate::simulate;
+pub use victoria_park::VictoriaPark;
 pub use world::{ProceduralParams, World};

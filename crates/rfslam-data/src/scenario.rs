@@ -5,7 +5,7 @@
 //! description = "PHD-SLAM 3.0, Tables I and II"
 //!
 //! [world]
-//! kind = "environment"          # or "mat", "procedural", "dataset"
+//! kind = "environment"          # or "mat", "procedural", "dataset", "victoria-park"
 //! path = "phd-slam-synthetic"   # relative paths are looked up with find_data
 //!
 //! [motion]
@@ -29,7 +29,7 @@
 
 use std::path::{Path, PathBuf};
 
-use rfslam_core::{DetectionModel, SlamModels};
+use rfslam_core::{DetectionModel, Pose, SlamModels};
 use serde::{Deserialize, Serialize};
 
 use crate::config::{ClutterConfig, ModelConfig, MotionConfig, SensorConfig, need, only_keys};
@@ -37,6 +37,7 @@ use crate::dataset::{Dataset, DatasetMeta};
 use crate::error::{ConfigError, DataError};
 use crate::locate::find_data;
 use crate::simulate::simulate;
+use crate::victoria_park::VictoriaPark;
 use crate::world::{ProceduralParams, World};
 
 /// The `[world]` table of a scenario, tagged by `kind`.
@@ -63,6 +64,22 @@ pub enum WorldSpec {
         /// Directory; relative paths are looked up with [`find_data`].
         path: String,
     },
+    /// The Victoria Park recording (`measurements.dat`, `inputs.dat`, `gps.dat`), imported
+    /// per run with artificial clutter ([`VictoriaPark::import`], PHD-SLAM 3.0 Section VI-B).
+    /// The filter starts at `(initial_x, initial_y, initial_heading_deg)` (default the
+    /// origin heading along +x, the frame of `gps.dat`) and the GPS truth is moved into the
+    /// frame of that pose.
+    #[serde(rename = "victoria-park")]
+    VictoriaPark {
+        /// Directory; relative paths are looked up with [`find_data`].
+        path: String,
+        /// `x` of the initial pose (m).
+        initial_x: f64,
+        /// `y` of the initial pose (m).
+        initial_y: f64,
+        /// Heading of the initial pose (deg).
+        initial_heading_deg: f64,
+    },
 }
 
 /// The `[world]` table as written.
@@ -78,6 +95,9 @@ struct RawWorld {
     max_turn_rate_deg: Option<f64>,
     extent: Option<f64>,
     landmarks: Option<usize>,
+    initial_x: Option<f64>,
+    initial_y: Option<f64>,
+    initial_heading_deg: Option<f64>,
 }
 
 #[derive(Deserialize, Clone, Copy)]
@@ -87,6 +107,8 @@ enum WorldKind {
     Mat,
     Procedural,
     Dataset,
+    #[serde(rename = "victoria-park")]
+    VictoriaPark,
 }
 
 impl TryFrom<RawWorld> for WorldSpec {
@@ -102,6 +124,9 @@ impl TryFrom<RawWorld> for WorldSpec {
             ("max_turn_rate_deg", r.max_turn_rate_deg.is_some()),
             ("extent", r.extent.is_some()),
             ("landmarks", r.landmarks.is_some()),
+            ("initial_x", r.initial_x.is_some()),
+            ("initial_y", r.initial_y.is_some()),
+            ("initial_heading_deg", r.initial_heading_deg.is_some()),
         ];
         let with_path = |name: &str| -> Result<String, String> {
             only_keys("world", name, &given, &["path"])?;
@@ -111,6 +136,16 @@ impl TryFrom<RawWorld> for WorldSpec {
             WorldKind::Environment => WorldSpec::Environment { path: with_path("environment")? },
             WorldKind::Mat => WorldSpec::Mat { path: with_path("mat")? },
             WorldKind::Dataset => WorldSpec::Dataset { path: with_path("dataset")? },
+            WorldKind::VictoriaPark => {
+                let name = "victoria-park";
+                only_keys("world", name, &given, &["path", "initial_x", "initial_y", "initial_heading_deg"])?;
+                WorldSpec::VictoriaPark {
+                    path: need("world", name, "path", r.path.clone())?,
+                    initial_x: r.initial_x.unwrap_or(0.0),
+                    initial_y: r.initial_y.unwrap_or(0.0),
+                    initial_heading_deg: r.initial_heading_deg.unwrap_or(0.0),
+                }
+            }
             WorldKind::Procedural => {
                 let keys = ["seed", "steps", "dt", "speed", "max_turn_rate_deg", "extent", "landmarks"];
                 only_keys("world", "procedural", &given, &keys)?;
@@ -137,6 +172,17 @@ impl WorldSpec {
             WorldSpec::Mat { .. } => "mat",
             WorldSpec::Procedural(_) => "procedural",
             WorldSpec::Dataset { .. } => "dataset",
+            WorldSpec::VictoriaPark { .. } => "victoria-park",
+        }
+    }
+
+    /// The initial pose of a Victoria Park world (heading in rad); `None` for other kinds.
+    pub fn victoria_park_initial_pose(&self) -> Option<Pose> {
+        match *self {
+            WorldSpec::VictoriaPark { initial_x, initial_y, initial_heading_deg, .. } => {
+                Some(Pose::new(initial_x, initial_y, initial_heading_deg.to_radians()))
+            }
+            _ => None,
         }
     }
 }
@@ -200,7 +246,9 @@ impl ScenarioConfig {
     }
 
     /// Checks every value (keys as in the file: `sensor.sigma_range`, `world.steps`).
-    /// Worlds of kind environment, mat and procedural are driven by velocity controls.
+    /// Worlds of kind environment, mat and procedural are driven by velocity controls,
+    /// Victoria Park by Ackermann controls (and its sensor has no offset: the Ackermann
+    /// model tracks the laser).
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.models().validate()?;
         match &self.world {
@@ -210,14 +258,32 @@ impl ScenarioConfig {
                     return Err(ConfigError::new("world.path", "must not be empty"));
                 }
             }
+            WorldSpec::VictoriaPark { path, initial_x, initial_y, initial_heading_deg } => {
+                if path.trim().is_empty() {
+                    return Err(ConfigError::new("world.path", "must not be empty"));
+                }
+                for (k, v) in [("x", initial_x), ("y", initial_y), ("heading_deg", initial_heading_deg)] {
+                    if !v.is_finite() {
+                        return Err(ConfigError::new(format!("world.initial_{k}"), "must be finite"));
+                    }
+                }
+                if self.sensor.offset != [0.0, 0.0] {
+                    return Err(ConfigError::new(
+                        "sensor.offset",
+                        "must be [0, 0] for victoria-park: the Ackermann model tracks the laser (motion.a, motion.b)",
+                    ));
+                }
+            }
         }
-        if !matches!(self.world, WorldSpec::Dataset { .. }) && !matches!(self.motion, MotionConfig::Velocity { .. }) {
+        let (needed, what) = match self.world {
+            WorldSpec::Dataset { .. } => return Ok(()),
+            WorldSpec::VictoriaPark { .. } => (matches!(self.motion, MotionConfig::Ackermann { .. }), "ackermann"),
+            _ => (matches!(self.motion, MotionConfig::Velocity { .. }), "velocity"),
+        };
+        if !needed {
             return Err(ConfigError::new(
                 "motion.model",
-                format!(
-                    "must be \"velocity\": a world of kind \"{}\" is driven by velocity controls",
-                    self.world.kind()
-                ),
+                format!("must be \"{what}\": a world of kind \"{}\" is driven by {what} controls", self.world.kind()),
             ));
         }
         Ok(())
@@ -230,7 +296,7 @@ impl ScenarioConfig {
             WorldSpec::Environment { path } => World::from_csv_dir(&find_data(path)?).map(Some),
             WorldSpec::Mat { path } => World::from_mat(&find_data(path)?).map(Some),
             WorldSpec::Procedural(p) => World::procedural(p, p.seed).map(Some),
-            WorldSpec::Dataset { .. } => Ok(None),
+            WorldSpec::Dataset { .. } | WorldSpec::VictoriaPark { .. } => Ok(None),
         }
     }
 
@@ -243,11 +309,15 @@ impl ScenarioConfig {
     }
 
     /// The models the filters are built with: the scenario's tables, starting at the
-    /// world's first pose (or the data set's initial pose). `world` is the loaded world
-    /// (loaded here when `None` and the scenario has one).
+    /// world's first pose (or the data set's initial pose, or Victoria Park's
+    /// `world.initial_*`). `world` is the loaded world (loaded here when `None` and the
+    /// scenario has one).
     pub fn models_for(&self, world: Option<&World>) -> Result<SlamModels, DataError> {
         let models = self.models();
         models.validate().map_err(DataError::config)?;
+        if let Some(x0) = self.world.victoria_park_initial_pose() {
+            return Ok(models.to_models(x0));
+        }
         if let Some(dir) = self.dataset_dir() {
             let meta = DatasetMeta::read(&dir?)?;
             check_same_motion(&self.motion, &meta.models.motion, &meta.name)?;
@@ -267,9 +337,15 @@ impl ScenarioConfig {
     }
 
     /// The data set of Monte Carlo run `run_seed`: [`simulate()`] on the world (loaded here
-    /// when `world` is `None`), or, for `kind = "dataset"`, the recorded data set with the
-    /// scenario's model tables as its models (its measurements as they are).
+    /// when `world` is `None`); for `kind = "dataset"`, the recorded data set with the
+    /// scenario's model tables as its models (its measurements as they are); for
+    /// `kind = "victoria-park"`, the recording imported with the run's clutter
+    /// ([`VictoriaPark::import`]; the files are read on every call).
     pub fn build_dataset(&self, world: Option<&World>, run_seed: u64) -> Result<Dataset, DataError> {
+        if let WorldSpec::VictoriaPark { path, .. } = &self.world {
+            let x0 = self.world.victoria_park_initial_pose().unwrap_or_else(Pose::zeros);
+            return VictoriaPark::read(&find_data(path)?)?.import(&self.models(), x0, run_seed);
+        }
         if let Some(dir) = self.dataset_dir() {
             let mut d = Dataset::read(&dir?)?;
             check_same_motion(&self.motion, &d.meta.models.motion, &d.meta.name)?;
@@ -441,6 +517,65 @@ rate = 5.0
             .replace("phd-slam-synthetic\"", "phd-slam-synthetic/Environment_SLAM.mat\"");
         let sc = ScenarioConfig::from_toml_str(&mat, "mat.toml").unwrap();
         assert_eq!(sc.load_world().unwrap().unwrap().landmarks.len(), 160);
+    }
+
+    fn victoria_park_scenario() -> String {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/victoria-park.toml");
+        std::fs::read_to_string(path).unwrap()
+    }
+
+    #[test]
+    fn victoria_park_scenario_parses_validates_and_round_trips() {
+        let text = victoria_park_scenario();
+        let sc = ScenarioConfig::from_toml_str(&text, "victoria-park.toml").unwrap();
+        assert_eq!(sc.world.kind(), "victoria-park");
+        assert_eq!(sc.world.victoria_park_initial_pose(), Some(Pose::zeros()));
+        assert_eq!(sc.detection, DetectionModel::RangeLinear { pd0: 0.7 });
+        assert!(sc.load_world().unwrap().is_none());
+        let m = sc.models_for(None).unwrap();
+        assert_eq!(m.initial_pose, Pose::zeros());
+        assert!((m.fov.half_angle - 85f64.to_radians()).abs() < 1e-15 && m.fov.max_range == 50.0);
+        let q = m.control_noise;
+        assert!((q[(0, 0)] - 1.0).abs() < 1e-15 && (q[(1, 1)] - 4f64.to_radians().powi(2)).abs() < 1e-15);
+        let text2 = sc.to_toml_string().unwrap();
+        assert_eq!(ScenarioConfig::from_toml_str(&text2, "x.toml").unwrap(), sc);
+        // Another initial pose: the defaults are only defaults.
+        let moved = text.replace("initial_heading_deg = 0.0", "initial_heading_deg = 35.5");
+        let sc = ScenarioConfig::from_toml_str(&moved, "vp.toml").unwrap();
+        let x0 = sc.models_for(None).unwrap().initial_pose;
+        assert!((x0[2] - 35.5f64.to_radians()).abs() < 1e-15);
+
+        let e = err(&text
+            .replace("model = \"ackermann\"", "model = \"velocity\"\nsigma_omega_deg = 1.0")
+            .replace("l = 2.83", "")
+            .replace("h = 0.75", "")
+            .replace("a = 3.78", "")
+            .replace("b = 0.5 ", "")
+            .replace("sigma_steer_deg = 4.0", ""));
+        assert!(e.contains("motion.model must be \"ackermann\""), "{e}");
+        let e = err(&text.replace("offset = [0.0, 0.0]", "offset = [3.78, 0.5]"));
+        assert!(e.contains("sensor.offset must be [0, 0] for victoria-park"), "{e}");
+        let e = err(&text.replace("initial_x = 0.0", "initial_x = nan"));
+        assert!(e.contains("world.initial_x must be finite"), "{e}");
+        let e = err(&text.replace("initial_x = 0.0", "steps = 3"));
+        assert!(e.contains("`world.steps` is not a key of world kind \"victoria-park\""), "{e}");
+        let e = err(&PROCEDURAL.replace("steps = 200", "initial_x = 1.0"));
+        assert!(e.contains("`world.initial_x` is not a key of world kind \"procedural\""), "{e}");
+    }
+
+    #[test]
+    fn victoria_park_scenario_builds_per_run_data_sets() {
+        let Some(dir) = shared_data("victoria-park") else { return };
+        let text = victoria_park_scenario()
+            .replace("path = \"victoria-park\"", &format!("path = {:?}", dir.display().to_string()));
+        let sc = ScenarioConfig::from_toml_str(&text, "vp.toml").unwrap();
+        let a = sc.build_dataset(None, 4).unwrap();
+        assert_eq!(a.scans.len(), 7230);
+        assert_eq!(a.models(), sc.models_for(None).unwrap());
+        assert_eq!(a.meta.initial_t, 0.852);
+        let b = sc.build_dataset(None, 5).unwrap();
+        assert_ne!(a.scans, b.scans);
+        assert_eq!(a.odometry, b.odometry);
     }
 
     #[test]
