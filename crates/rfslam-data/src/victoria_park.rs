@@ -358,7 +358,7 @@ mod tests {
 
      1.077   60.00000    1.50000    0.20000
      1.077   10.00000    3.10000    0.20000
-     1.077    8.00000    1.57080    0.30000
+     1.077    8.00000    1.60000    0.30000
      1.302   15.00000    2.00000    0.25000
 ";
     const INPUTS: &str = "\
@@ -408,7 +408,7 @@ mod tests {
         let (t, z) = vp.scan(1).unwrap();
         assert_eq!(t, 1.077);
         assert_eq!(z.len(), 3);
-        assert_eq!(z[2], RangeBearing::new(8.0, 1.5708));
+        assert_eq!(z[2], RangeBearing::new(8.0, 1.6));
         assert!(vp.scan(3).is_none());
         assert_eq!(vp.inputs.len(), 4);
         assert_eq!(vp.inputs[1].u, Control::new(2.5, 0.05, 0.0));
@@ -425,7 +425,7 @@ mod tests {
         assert_eq!(d.meta.initial_t, 0.852);
         assert_eq!(d.meta.initial_pose, Pose::zeros());
         // Scan 1: 60 m is beyond 50 m and 3.1 - pi/2 = 87.9 deg beyond 85 deg: one detection left.
-        assert_eq!(d.scans[1].z, vec![RangeBearing::new(8.0, wrap(1.5708 - FRAC_PI_2))]);
+        assert_eq!(d.scans[1].z, vec![RangeBearing::new(8.0, wrap(1.6 - FRAC_PI_2))]);
         assert_eq!(d.scans[1].truth, Some(vec![TRUTH_UNKNOWN]));
         // Vehicle-frame bearings: left of the heading is positive.
         let mut b: Vec<f64> = d.scans[0].z.iter().map(|z| z[1]).collect();
