@@ -6,6 +6,8 @@
 //! - [`sensor`]: the range-bearing sensor (eq. 50), its Jacobians and inverse;
 //! - [`detection`]: field of view, detection probability, Poisson clutter;
 //! - [`gaussian`]: log densities and sampling by Cholesky, failures returned not unwrapped;
+//! - [`ipl`], [`joint_ipl`]: the IPL importance densities (partitioned, seed 000 Algorithm 1;
+//!   joint on pose and landmarks, PHD-SLAM 2.0b);
 //! - [`rbpf`]: log-sum-exp, ESS, systematic resampling;
 //! - [`filter`]: the [`SlamFilter`] trait and the [`SlamModels`] a filter is built with;
 //! - [`rng`]: the random generator and seed derivation.
@@ -15,6 +17,7 @@ pub mod detection;
 pub mod filter;
 pub mod gaussian;
 pub mod ipl;
+pub mod joint_ipl;
 pub mod motion;
 pub mod rbpf;
 pub mod rng;

@@ -126,6 +126,11 @@ pub static REGISTRY: &[FilterEntry] = &[
         "PHD-SLAM 2.0a (Gao, Battistelli, Chisci 2021): pose conditioned on each gated pair, moment-matched Gaussian proposal"
     ),
     entry!(
+        "phd-2.0b",
+        phd_slam_2b::PhdSlam2b,
+        "PHD-SLAM 2.0b (Kaltiokallio et al. 2022): joint pose-and-map IPL importance density on the best association"
+    ),
+    entry!(
         "phd-3.0",
         phd_slam_3::PhdSlam3,
         "PHD-SLAM 3.0 (Kaltiokallio et al. 2024): multi-hypotheses importance density (Murty + partitioned IPL)"

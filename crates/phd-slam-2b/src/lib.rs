@@ -1,0 +1,413 @@
+//! `phd-2.0b`: PHD-SLAM 2.0b (Kaltiokallio, Hostettler, Yin, Talvitie, Valkama, Wymeersch,
+//! "Towards real-time radio-SLAM via optimal importance sampling", IEEE SPAWC 2022; as
+//! described by seed 000 §II, §V-B and §VI-A, note 03): the RB-PHD filter whose importance
+//! density approximates the optimal one for the **joint** pose-and-map state conditioned on
+//! the single most likely data association, then marginalised to the pose.
+//!
+//! Per particle (or group of identical copies):
+//! 1. the cost matrix of seed 000 eqs. (29)-(31) at the predicted pose `x_bar`, gated
+//!    ([`rbphd::CostMatrixBuffers`], shared with PHD-SLAM 3.0; missed entries without `eta`
+//!    by default, see [`JointParams::missed_cost`]);
+//! 2. the best assignment (Murty's algorithm with `Gamma = 1`, i.e. one rectangular
+//!    assignment); the detected rows `D` and their measurements;
+//! 3. the joint IPL ([`rfslam_core::joint_ipl`]) on `y = [x; m_D]` of dimension
+//!    `3 + 2|D|`, cost O(|D|^3) per iteration, and its pose marginal `N(mu, Sigma)`;
+//! 4. the pose drawn from it and the weight correction `ln f(x | x_{k-1}, u) - ln q(x)` of
+//!    eq. (45) (one Gaussian, Gamma = 1 in eqs. 47-48). With no detected row the proposal is
+//!    the transition density (correction 0), exactly as PHD-SLAM 1.0.
+//!
+//! The association is recorded for the TPR/TNR of seed 000 §VI-A-1. Known failure mode
+//! (seed 000 Fig. 2): a wrong best association pulls the proposal away and nothing corrects
+//! it.
+
+use nalgebra::{Matrix2, Matrix3};
+use rbphd::{CostMatrixBuffers, MissedCost, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
+use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
+use rfslam_core::angle::wrap;
+use rfslam_core::gaussian::{log_normal, sample};
+use rfslam_core::ipl::pose_diff;
+use rfslam_core::joint_ipl::{JointIpl, JointIplSettings, KlOn};
+use rfslam_core::{ParamError, Point2, Pose, RangeBearing, Rng, SlamModels};
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the joint importance density (defaults: seed 000 §VI, shared with 3.0).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct JointParams {
+    /// Maximum IPL iterations `L` (5).
+    pub ipl_iterations: usize,
+    /// IPL convergence threshold on the KL divergence between iterates (1e-3).
+    pub ipl_kl_threshold: f64,
+    /// Whether the KL test is on the joint density (default) or the pose marginal.
+    pub ipl_kl_on: KlOn,
+    /// Missed-detection convention of the cost matrix (note 05 §1). Default `no_eta`:
+    /// `-ln(1 - pD)`, the convention of the public PHD-SLAM code of 2022, when 2.0b was
+    /// published (note 00-index, "Which public code"). With the 2023 convention `paper`
+    /// (`eta` in both entries, so it cancels) a birth component of weight 1e-6 competes for a
+    /// measurement on equal terms with a confirmed landmark; 3.0 survives that through its
+    /// mixture weights and all-missed component, but 2.0b's single association does not
+    /// (measured on the Table II scenario: results/table2/report.md).
+    pub missed_cost: MissedCost,
+}
+
+impl Default for JointParams {
+    fn default() -> Self {
+        JointParams {
+            ipl_iterations: 5,
+            ipl_kl_threshold: 1e-3,
+            ipl_kl_on: KlOn::Joint,
+            missed_cost: MissedCost::NoEta,
+        }
+    }
+}
+
+/// The joint pose-and-map IPL importance density on the best association.
+#[derive(Clone)]
+pub struct JointProposal {
+    params: JointParams,
+    murty: Murty,
+    ranked: Vec<Assignment>,
+    cost: CostMatrixBuffers,
+    ipl: JointIpl,
+    /// Map component of each cost-matrix row (the detectable components), last call.
+    rows: Vec<usize>,
+    /// Measurement associated with each row (`None`: missed), last call.
+    phi: Vec<Option<usize>>,
+    n_meas: usize,
+    m_bar: Vec<Point2>,
+    p_m: Vec<Matrix2<f64>>,
+    z: Vec<RangeBearing>,
+    /// The proposal `N(mean, cov)` of the last call.
+    mean: Pose,
+    cov: Matrix3<f64>,
+}
+
+impl JointProposal {
+    /// The best association of the last call (measurement index per detectable component,
+    /// `None` = missed) and the pose proposal `N(mean, cov)`.
+    pub fn last(&self) -> (&[Option<usize>], &Pose, &Matrix3<f64>) {
+        (&self.phi, &self.mean, &self.cov)
+    }
+}
+
+impl Proposal for JointProposal {
+    const NAME: &'static str = "phd-2.0b";
+    type Params = JointParams;
+
+    fn validate(p: &JointParams) -> Result<(), ParamError> {
+        if p.ipl_iterations == 0 {
+            return Err(ParamError::new("ipl_iterations", "must be at least 1"));
+        }
+        if p.ipl_kl_threshold.is_nan() || p.ipl_kl_threshold < 0.0 {
+            return Err(ParamError::new("ipl_kl_threshold", "must be >= 0"));
+        }
+        Ok(())
+    }
+
+    fn new(params: &JointParams, _models: &SlamModels) -> Self {
+        JointProposal {
+            params: params.clone(),
+            murty: Murty::new(),
+            ranked: Vec::new(),
+            cost: CostMatrixBuffers::default(),
+            ipl: JointIpl::default(),
+            rows: Vec::new(),
+            phi: Vec::new(),
+            n_meas: 0,
+            m_bar: Vec::new(),
+            p_m: Vec::new(),
+            z: Vec::new(),
+            mean: Pose::zeros(),
+            cov: Matrix3::zeros(),
+        }
+    }
+
+    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+        let (x_bar, q) = (ctx.predicted, ctx.q);
+        let nz = ctx.z.len();
+        let mut stats = ProposalStats { components: 1, cholesky_failures: 0 };
+        self.rows.clear();
+        self.rows.extend_from_slice(ctx.detectable);
+        self.n_meas = nz;
+        let m = self.rows.len();
+
+        // 1-2. Cost matrix at x_bar and the best assignment.
+        stats.cholesky_failures += self.cost.fill(ctx, self.params.missed_cost);
+        self.phi.clear();
+        self.phi.resize(m, None);
+        if m > 0
+            && nz > 0
+            && let Ok(cm) = CostMatrix::with_missed_diagonal(&self.cost.detection, &self.cost.missed, m, nz)
+            && self.murty.k_best(&cm, &MurtyOptions { max_count: 1, max_log_ratio: None }, &mut self.ranked).is_ok()
+            && let Some(best) = self.ranked.first()
+        {
+            for (row, c) in best.col_for_row.iter().enumerate() {
+                self.phi[row] = c.filter(|&c| c < nz);
+            }
+        }
+
+        // 3. Joint IPL on the pose and the detected landmarks, pose marginal.
+        self.m_bar.clear();
+        self.p_m.clear();
+        self.z.clear();
+        for (row, j) in self.phi.iter().enumerate() {
+            if let Some(j) = j {
+                let i = self.rows[row];
+                self.m_bar.push(ctx.map.mean[i]);
+                self.p_m.push(ctx.map.cov[i]);
+                self.z.push(ctx.z[*j]);
+            }
+        }
+        out.clear();
+        if self.z.is_empty() {
+            // The transition density (PHD-SLAM 1.0's draw).
+            self.mean = x_bar;
+            self.cov = q;
+            for _ in 0..n {
+                let pose = match sample(&x_bar, &q, rng) {
+                    Some(mut x) => {
+                        x[2] = wrap(x[2]);
+                        x
+                    }
+                    None => {
+                        stats.cholesky_failures += 1;
+                        x_bar
+                    }
+                };
+                out.push(PoseSample { pose, log_correction: 0.0, component: 0 });
+            }
+            return stats;
+        }
+        let settings = JointIplSettings {
+            max_iterations: self.params.ipl_iterations,
+            kl_threshold: self.params.ipl_kl_threshold,
+            kl_on: self.params.ipl_kl_on,
+        };
+        let sensor = &ctx.models.sensor;
+        let res = self.ipl.update(
+            &x_bar,
+            &q,
+            &self.m_bar,
+            &self.p_m,
+            &self.z,
+            &ctx.models.measurement_noise,
+            |_, x, mm| {
+                let l = sensor.linearise(x, mm);
+                (l.z, l.hx, l.hm)
+            },
+            &settings,
+        );
+        if res.lost_definiteness {
+            stats.cholesky_failures += 1;
+        }
+        self.mean = res.mean;
+        self.cov = res.cov;
+
+        // 4. Sample and weight, eq. (45) with one Gaussian.
+        for _ in 0..n {
+            let Some(mut x) = sample(&res.mean, &res.cov, rng) else {
+                // Keep the predicted mean and leave the weight (the public code's fallback).
+                stats.cholesky_failures += 1;
+                out.push(PoseSample { pose: x_bar, log_correction: 0.0, component: 0 });
+                continue;
+            };
+            x[2] = wrap(x[2]);
+            let log_prior = log_normal(&pose_diff(&x, &x_bar), &q).unwrap_or(f64::NEG_INFINITY);
+            let log_q = log_normal(&pose_diff(&x, &res.mean), &res.cov).unwrap_or(f64::NEG_INFINITY);
+            let corr = log_prior - log_q;
+            out.push(PoseSample { pose: x, log_correction: if corr.is_finite() { corr } else { 0.0 }, component: 0 });
+        }
+        stats
+    }
+
+    fn associations(&self, _component: usize, out: &mut Vec<Option<usize>>) -> bool {
+        out.clear();
+        out.resize(self.n_meas, None);
+        for (row, j) in self.phi.iter().enumerate() {
+            if let Some(j) = j {
+                out[*j] = Some(self.rows[row]);
+            }
+        }
+        true
+    }
+}
+
+/// PHD-SLAM 2.0b.
+pub type PhdSlam2b = RbPhd<JointProposal>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+    use nalgebra::Vector3;
+    use rand::SeedableRng;
+    use rbphd::GmMap;
+    use rfslam_core::{ClutterIntensity, ClutterModel, DetectionModel, Fov, Motion, RangeBearingSensor};
+
+    fn models() -> SlamModels {
+        SlamModels {
+            motion: Motion::Velocity,
+            control_noise: Matrix3::from_diagonal(&Vector3::new(0.64, (0.5f64).to_radians().powi(2), 0.0)),
+            sensor: RangeBearingSensor::default(),
+            measurement_noise: Matrix2::new(0.64, 0.0, 0.0, (0.3f64).to_radians().powi(2)),
+            fov: Fov { max_range: 150.0, half_angle: std::f64::consts::FRAC_PI_2 },
+            detection: DetectionModel::Constant { pd: 0.95 },
+            clutter: ClutterModel { rate: 5.0, intensity: ClutterIntensity::Cartesian },
+            initial_pose: Pose::zeros(),
+        }
+    }
+
+    fn ctx<'a>(
+        m: &'a SlamModels,
+        map: &'a GmMap,
+        z: &'a [RangeBearing],
+        det: &'a [usize],
+        pd: &'a [f64],
+        x_bar: Pose,
+        q: Matrix3<f64>,
+    ) -> ProposalContext<'a> {
+        ProposalContext {
+            models: m,
+            z,
+            prior_pose: x_bar,
+            predicted: x_bar,
+            q,
+            map,
+            detectable: det,
+            pd,
+            log_clutter: m.clutter.intensity(&m.fov).ln(),
+            gate: 41.4465,
+        }
+    }
+
+    /// Note 03 §6.3: with no map the proposal is the transition density, the correction is
+    /// exactly 0 and the draws are PHD-SLAM 1.0's for the same random numbers.
+    #[test]
+    fn no_association_is_the_transition_density() {
+        let m = models();
+        let map = GmMap::default();
+        let q = Matrix3::from_diagonal(&Vector3::new(0.5, 0.5, 1e-4));
+        let x_bar = Pose::new(1.0, 0.0, 0.2);
+        let z = [RangeBearing::new(10.0, 0.1)];
+        let c = ctx(&m, &map, &z, &[], &[], x_bar, q);
+        let mut p = JointProposal::new(&JointParams::default(), &m);
+        let mut out = Vec::new();
+        let stats = p.propose(&c, 3, &mut Rng::seed_from_u64(2), &mut out);
+        assert_eq!(stats.components, 1);
+        let mut rng = Rng::seed_from_u64(2);
+        for s in &out {
+            let mut x = sample(&x_bar, &q, &mut rng).unwrap();
+            x[2] = wrap(x[2]);
+            assert_eq!(s.pose, x);
+            assert_eq!(s.log_correction, 0.0);
+        }
+        let mut assoc = Vec::new();
+        assert!(p.associations(0, &mut assoc));
+        assert_eq!(assoc, vec![None]);
+    }
+
+    /// One landmark measured from the true pose: the best association is the landmark's
+    /// measurement (the clutter one is left out), the proposal is the joint IPL's pose
+    /// marginal, it is tighter than the prior and pulled towards the truth, and the weight
+    /// correction is `ln N(x; x_bar, Q) - ln N(x; mu, Sigma)` for every draw.
+    #[test]
+    fn one_landmark_proposal() {
+        let m = models();
+        let sensor = m.sensor;
+        let truth = Pose::new(0.0, 0.0, 0.0);
+        let x_bar = Pose::new(0.8, -0.5, 0.01);
+        let q = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 1e-4));
+        let mut map = GmMap::default();
+        let lm = Point2::new(30.0, 12.0);
+        map.push(0.0, lm, Matrix2::identity() * 0.01);
+        let z = [RangeBearing::new(80.0, -0.9), sensor.predict(&truth, &lm)];
+        let c = ctx(&m, &map, &z, &[0], &[0.95], x_bar, q);
+        let mut p = JointProposal::new(&JointParams::default(), &m);
+        let mut out = Vec::new();
+        let stats = p.propose(&c, 50, &mut Rng::seed_from_u64(5), &mut out);
+        assert_eq!(stats.cholesky_failures, 0);
+        let (phi, mean, cov) = p.last();
+        assert_eq!(phi, &[Some(1)]);
+        let expected = JointIpl::default().update(
+            &x_bar,
+            &q,
+            &[lm],
+            &[Matrix2::identity() * 0.01],
+            &[z[1]],
+            &m.measurement_noise,
+            |_, x, mm| {
+                let l = sensor.linearise(x, mm);
+                (l.z, l.hx, l.hm)
+            },
+            &JointIplSettings::default(),
+        );
+        assert_relative_eq!(*mean, expected.mean, epsilon = 1e-12);
+        assert!(cov.trace() < q.trace() / 2.0);
+        // The pose moves towards one from which z is seen as measured (a Kalman-type
+        // shrinkage of the residual, R and Q being comparable here).
+        let pred = sensor.predict(mean, &lm);
+        assert!((pred - z[1]).norm() < 0.6 * (sensor.predict(&x_bar, &lm) - z[1]).norm());
+        for s in &out {
+            let lp = log_normal(&pose_diff(&s.pose, &x_bar), &q).unwrap();
+            let lq = log_normal(&pose_diff(&s.pose, mean), cov).unwrap();
+            assert_relative_eq!(s.log_correction, lp - lq, epsilon = 1e-9);
+        }
+        let mut assoc = Vec::new();
+        assert!(p.associations(0, &mut assoc));
+        assert_eq!(assoc, vec![None, Some(0)]);
+    }
+
+    /// The association is honoured and follows the measurements: two landmarks 4 m apart
+    /// seen from the true pose; swapping the map components or the measurements swaps the
+    /// best association and leaves the proposal near the truth (the pairing is by position,
+    /// not by index).
+    #[test]
+    fn association_follows_the_measurements() {
+        let m = models();
+        let sensor = m.sensor;
+        let truth = Pose::new(0.0, 0.0, 0.0);
+        let q = Matrix3::from_diagonal(&Vector3::new(4.0, 4.0, 1e-4));
+        let (a, b) = (Point2::new(40.0, 2.0), Point2::new(40.0, -2.0));
+        let z = [sensor.predict(&truth, &a), sensor.predict(&truth, &b)];
+        let run = |first: Point2, second: Point2| {
+            let mut map = GmMap::default();
+            map.push(0.0, first, Matrix2::identity() * 0.01);
+            map.push(0.0, second, Matrix2::identity() * 0.01);
+            let x_bar = Pose::new(0.0, 1.0, 0.0);
+            let c = ctx(&m, &map, &z, &[0, 1], &[0.95, 0.95], x_bar, q);
+            let mut p = JointProposal::new(&JointParams::default(), &m);
+            let mut out = Vec::new();
+            p.propose(&c, 1, &mut Rng::seed_from_u64(1), &mut out);
+            let (phi, mean, _) = p.last();
+            (phi.to_vec(), *mean)
+        };
+        let (phi_ok, mean_ok) = run(a, b);
+        let (phi_bad, mean_bad) = run(b, a);
+        assert_eq!(phi_ok, vec![Some(0), Some(1)]);
+        assert_eq!(phi_bad, vec![Some(1), Some(0)], "the swapped map is paired by position");
+        assert!((mean_ok - truth).xy().norm() < 0.5, "{mean_ok:?}");
+        assert!((mean_bad - truth).xy().norm() < 0.5, "{mean_bad:?}");
+        let mut map = GmMap::default();
+        map.push(0.0, a, Matrix2::identity() * 0.01);
+        map.push(0.0, b, Matrix2::identity() * 0.01);
+        let x_bar = Pose::new(0.0, 0.0, 0.0);
+        let c = ctx(&m, &map, &z, &[0, 1], &[0.95, 0.95], x_bar, q);
+        let mut p = JointProposal::new(&JointParams::default(), &m);
+        let mut out = Vec::new();
+        p.propose(&c, 1, &mut Rng::seed_from_u64(1), &mut out);
+        let forced = [z[1], z[0]];
+        let c = ctx(&m, &map, &forced, &[0, 1], &[0.95, 0.95], x_bar, q);
+        let mut p2 = JointProposal::new(&JointParams::default(), &m);
+        p2.propose(&c, 1, &mut Rng::seed_from_u64(1), &mut out);
+        let (phi2, mean2, _) = p2.last();
+        assert_eq!(phi2, &[Some(1), Some(0)], "the association follows the measurements");
+        assert!((mean2 - truth).xy().norm() < 0.5);
+    }
+
+    #[test]
+    fn bad_params_rejected() {
+        assert!(JointProposal::validate(&JointParams { ipl_iterations: 0, ..Default::default() }).is_err());
+        assert!(JointProposal::validate(&JointParams { ipl_kl_threshold: f64::NAN, ..Default::default() }).is_err());
+        assert!(JointProposal::validate(&JointParams::default()).is_ok());
+    }
+}
