@@ -5,6 +5,8 @@
 //!   uses OSPA with `c = 0.5 m`, `p = 1`). Both use the optimal assignment of
 //!   [`rfslam_assign`].
 //! - [`PoseErrors`]: position and wrapped-heading RMSE over steps, poolable across runs.
+//! - [`Se2AlignedRmse`]: position RMSE after the best rigid (SE(2)) alignment of the
+//!   estimated trajectory to the truth, accumulated in constant memory.
 //! - [`DaCounts`] / [`score_associations`]: data-association true-positive and
 //!   true-negative ratios (seed 000 §VI-A-1).
 //! - [`RunningMean`] / [`EssStats`]: mean effective sample size and resampling rate.
@@ -20,5 +22,5 @@ mod stats;
 pub use da::{DaCounts, score_associations};
 pub use error::MetricError;
 pub use ospa::{Gospa, Ospa, gospa, ospa};
-pub use pose::PoseErrors;
+pub use pose::{PoseErrors, Se2AlignedRmse, Se2Alignment};
 pub use stats::{EssStats, RunningMean};
