@@ -6,7 +6,7 @@ use std::time::Instant;
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{ControlSegment, Estimate, SlamFilter, StepReport};
 use rfslam_data::Dataset;
-use rfslam_metrics::{DaCounts, PoseErrors, gospa};
+use rfslam_metrics::{DaCounts, PoseErrors, Se2AlignedRmse, gospa};
 
 use crate::experiment::MetricsConfig;
 
@@ -25,8 +25,14 @@ pub struct StepRecord<'a> {
 /// The scores of one job.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JobOutcome {
-    /// Position RMSE over the scored steps (m).
+    /// Position RMSE over the scored steps (m), in the frame of the truth: what the papers
+    /// report.
     pub pos_rmse_m: f64,
+    /// Position RMSE over the same steps after the best rigid (SE(2)) alignment of the
+    /// estimated positions to the true ones ([`Se2AlignedRmse`]): the error with the frame
+    /// question (where the filter's frame sits in the truth's) removed. Never above
+    /// `pos_rmse_m`; NaN without scored steps.
+    pub pos_rmse_se2_m: f64,
     /// Heading RMSE over the scored steps with a true heading (deg, wrapped error).
     pub head_rmse_deg: f64,
     /// GOSPA of the final map (m), NaN without landmark ground truth.
@@ -67,6 +73,7 @@ pub fn run_filter(
     let mut rng = stream(&[run_seed, purpose::FILTER, filter.particles() as u64]);
     let mut segments: Vec<ControlSegment> = Vec::new();
     let mut errors = PoseErrors::default();
+    let mut aligned = Se2AlignedRmse::new();
     let mut da: Option<DaCounts> = None;
     let landmarks: Vec<(i64, rfslam_core::Point2)> =
         dataset.landmarks.as_ref().map(|l| l.iter().map(|l| (l.id, l.position)).collect()).unwrap_or_default();
@@ -85,6 +92,7 @@ pub fn run_filter(
         chol += report.cholesky_failures as u64;
         if let Some(truth) = dataset.truth_at(scan.t, metrics.truth_tolerance_s) {
             errors.push(&estimate.pose, truth.position, truth.heading);
+            aligned.push(rfslam_core::Point2::new(estimate.pose.x, estimate.pose.y), truth.position);
         }
         if let (Some(assoc), Some(labels)) = (&report.associations, &scan.truth)
             && !landmarks.is_empty()
@@ -112,6 +120,7 @@ pub fn run_filter(
     let s = steps.max(1) as f64;
     JobOutcome {
         pos_rmse_m: errors.pos_rmse().unwrap_or(f64::NAN),
+        pos_rmse_se2_m: aligned.rmse().unwrap_or(f64::NAN),
         head_rmse_deg: errors.head_rmse_deg().unwrap_or(f64::NAN),
         gospa_m: g,
         gospa_loc_m: gl,

@@ -56,6 +56,7 @@ impl PublishedTable {
 
 const REPORT_COLUMNS: &[(&str, &str)] = &[
     ("pos_rmse_m", "pos RMSE [m]"),
+    ("pos_rmse_se2_m", "pos RMSE, SE(2)-aligned [m]"),
     ("head_rmse_deg", "head RMSE [deg]"),
     ("gospa_m", "GOSPA [m]"),
     ("ess_pct", "ESS [%]"),
@@ -95,8 +96,20 @@ pub struct ReportInfo<'a> {
     pub invocations: Vec<(usize, usize, f64)>,
 }
 
+/// Whether the report shows the SE(2)-aligned position RMSE: only where it adds
+/// information, i.e. when the truth is positions only (no row has a heading RMSE, as with
+/// GPS) and the rows have the aligned figure. Such a truth lives in a frame the filter
+/// cannot know exactly (where it starts, which way is +x), and the aligned RMSE separates
+/// that frame error from the filter's own; with full simulated ground truth (Tables I and II)
+/// the frame is exact and the column is left out.
+fn shows_aligned(rows: &[SummaryRow]) -> bool {
+    rows.iter().any(|r| r.pos_rmse_se2_m.is_finite()) && !rows.iter().any(|r| r.head_rmse_deg.is_finite())
+}
+
 /// Renders `report.md`: per grid point a table with ours, the published figure and the ratio
-/// ours / published for every column the published table has.
+/// ours / published for every column the published table has. The SE(2)-aligned position
+/// RMSE, which no paper reports, is a column of its own only for position-only truth
+/// (see `shows_aligned`).
 pub fn render(info: &ReportInfo, rows: &[SummaryRow], published: Option<&PublishedTable>) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# {}\n", info.name);
@@ -123,6 +136,13 @@ pub fn render(info: &ReportInfo, rows: &[SummaryRow], published: Option<&Publish
         s,
         "- position and heading RMSE over all steps of all runs (± std of the per-run RMSE); GOSPA of the final map (mean ± std); ms per recursion is the mean wall time of one filter step on one core of this machine"
     );
+    let aligned = shows_aligned(rows);
+    if aligned {
+        let _ = writeln!(
+            s,
+            "- pos RMSE is in the frame of the truth, as the papers compute it; pos RMSE, SE(2)-aligned is the position RMSE after the best rigid (rotation + translation, least squares) fit of each run's estimated positions to its true ones at the scored steps: not a published figure, it removes the frame of the truth (start pose, heading) from the error"
+        );
+    }
     if let Some(p) = published {
         let _ = writeln!(s, "- published figures: `{}`; ratio = ours / published", p.source);
     }
@@ -131,6 +151,9 @@ pub fn render(info: &ReportInfo, rows: &[SummaryRow], published: Option<&Publish
     let used: Vec<&(&str, &str)> = REPORT_COLUMNS
         .iter()
         .filter(|(c, _)| {
+            if *c == "pos_rmse_se2_m" {
+                return aligned;
+            }
             rows.iter().any(|r| r.get(c).is_some_and(|x| !x.is_nan()))
                 || published.is_some_and(|p| p.columns.iter().any(|pc| pc == c))
         })
@@ -167,6 +190,7 @@ pub fn render(info: &ReportInfo, rows: &[SummaryRow], published: Option<&Publish
                 let ours = r.get(c).unwrap_or(f64::NAN);
                 let std = match *c {
                     "pos_rmse_m" => Some(r.pos_std_m),
+                    "pos_rmse_se2_m" => Some(r.pos_std_se2_m),
                     "head_rmse_deg" => Some(r.head_std_deg),
                     "gospa_m" => Some(r.gospa_std_m),
                     "time_ms" => Some(r.time_std_ms),
@@ -190,4 +214,77 @@ pub fn render(info: &ReportInfo, rows: &[SummaryRow], published: Option<&Publish
         let _ = writeln!(s);
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(filter: &str, head: f64) -> SummaryRow {
+        SummaryRow {
+            filter: filter.into(),
+            particles: 1,
+            grid: vec![],
+            pos_rmse_m: 6.5,
+            pos_std_m: 0.5,
+            head_rmse_deg: head,
+            head_std_deg: 0.1,
+            gospa_m: f64::NAN,
+            gospa_std_m: f64::NAN,
+            ess_pct: 100.0,
+            resampling_pct: 0.0,
+            time_ms: 0.08,
+            time_std_ms: 0.001,
+            runs: 3,
+            tpr: f64::NAN,
+            tnr: f64::NAN,
+            pos_rmse_se2_m: 3.25,
+            pos_std_se2_m: 0.25,
+        }
+    }
+
+    fn info() -> ReportInfo<'static> {
+        ReportInfo {
+            name: "t",
+            description: None,
+            experiment: "e.toml",
+            runs: 3,
+            seed: 1,
+            grid_keys: &[],
+            invocations: vec![],
+        }
+    }
+
+    fn published() -> PublishedTable {
+        let mut vals = HashMap::new();
+        vals.insert("pos_rmse_m".to_string(), 3.25);
+        PublishedTable {
+            source: "p.csv".into(),
+            columns: vec!["pos_rmse_m".into()],
+            rows: HashMap::from([(("phd-3.0".to_string(), 1), vals)]),
+        }
+    }
+
+    #[test]
+    fn aligned_column_only_for_position_only_truth() {
+        // GPS-like truth (no heading): the aligned RMSE is a column of its own, with its std,
+        // and no published figure or ratio.
+        let md = render(&info(), &[row("phd-3.0", f64::NAN)], Some(&published()));
+        let head = md.lines().find(|l| l.starts_with("| filter")).unwrap();
+        assert_eq!(
+            head,
+            "| filter | N | runs | pos RMSE [m] | published | ratio | pos RMSE, SE(2)-aligned [m] | ESS [%] | resampling [%] | ms / recursion |"
+        );
+        let line = md.lines().find(|l| l.starts_with("| phd-3.0")).unwrap();
+        assert!(line.starts_with("| phd-3.0 | 1 | 3 | 6.50 ± 0.5000 | 3.25 | 2.00 | 3.25 ± 0.2500 |"), "{line}");
+        assert!(md.contains("SE(2)-aligned is the position RMSE after the best rigid"), "{md}");
+        // Full simulated truth (with heading): the layout of Tables I and II, no aligned column.
+        let md = render(&info(), &[row("phd-3.0", 0.4)], Some(&published()));
+        assert!(!md.contains("SE(2)"), "{md}");
+        let head = md.lines().find(|l| l.starts_with("| filter")).unwrap();
+        assert!(
+            head.starts_with("| filter | N | runs | pos RMSE [m] | published | ratio | head RMSE [deg] |"),
+            "{head}"
+        );
+    }
 }

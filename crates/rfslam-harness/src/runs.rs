@@ -29,7 +29,13 @@ pub const RUN_COLUMNS: &[&str] = &[
     "da_positives",
     "da_negatives",
     "cholesky_failures",
+    "pos_rmse_se2_m",
 ];
+
+/// The columns of a `runs.csv` written before `pos_rmse_se2_m` existed (a prefix of
+/// [`RUN_COLUMNS`]); [`read_rows`] still reads such a file, with that column NaN, so an
+/// older sweep can be resumed.
+const LEGACY_RUN_COLUMNS: usize = 20;
 
 /// One row of `runs.csv`.
 #[derive(Debug, Clone, PartialEq)]
@@ -74,6 +80,9 @@ pub struct RunRow {
     pub da_negatives: u64,
     /// Covariances that failed Cholesky.
     pub cholesky_failures: u64,
+    /// Position RMSE after the best rigid SE(2) alignment of the estimated to the true
+    /// positions of the run (m; `JobOutcome::pos_rmse_se2_m`); NaN when not available.
+    pub pos_rmse_se2_m: f64,
     /// Grid values, as written in the experiment (TOML literals).
     pub grid: Vec<String>,
 }
@@ -121,6 +130,7 @@ impl RunRow {
             self.da_positives.to_string(),
             self.da_negatives.to_string(),
             self.cholesky_failures.to_string(),
+            fmt_f(self.pos_rmse_se2_m),
         ];
         v.extend(self.grid.iter().cloned());
         v
@@ -128,10 +138,16 @@ impl RunRow {
 
     /// Parses a record written by [`RunRow::fields`]; `None` for a malformed (e.g. truncated) one.
     pub fn parse(rec: &csv::StringRecord, n_grid: usize) -> Option<RunRow> {
-        if rec.len() != RUN_COLUMNS.len() + n_grid {
+        Self::parse_with(rec, RUN_COLUMNS.len(), n_grid)
+    }
+
+    /// Parses a record of a file with the first `n_fixed` of [`RUN_COLUMNS`] (the current
+    /// set, or the legacy one without `pos_rmse_se2_m`); missing columns are NaN.
+    fn parse_with(rec: &csv::StringRecord, n_fixed: usize, n_grid: usize) -> Option<RunRow> {
+        if rec.len() != n_fixed + n_grid {
             return None;
         }
-        let g = |i: usize| rec.get(i).unwrap_or("");
+        let g = |i: usize| if i < n_fixed { rec.get(i).unwrap_or("") } else { "" };
         Some(RunRow {
             run: g(0).parse().ok()?,
             filter: g(1).to_string(),
@@ -153,7 +169,8 @@ impl RunRow {
             da_positives: g(17).parse().ok()?,
             da_negatives: g(18).parse().ok()?,
             cholesky_failures: g(19).parse().ok()?,
-            grid: (0..n_grid).map(|i| g(RUN_COLUMNS.len() + i).to_string()).collect(),
+            pos_rmse_se2_m: parse_f(g(20))?,
+            grid: (0..n_grid).map(|i| rec.get(n_fixed + i).unwrap_or("").to_string()).collect(),
         })
     }
 }
@@ -161,7 +178,8 @@ impl RunRow {
 /// Reads the complete rows of an existing `runs.csv`; a truncated last line (a sweep killed
 /// while writing) is dropped. Every row is written with its line end in one write, so a
 /// last line without one is truncated even when it still parses (cut inside its last
-/// field). The header must match `grid_keys`.
+/// field). The header must match `grid_keys`; a file of an older version without the
+/// `pos_rmse_se2_m` column is read with that column NaN.
 pub fn read_rows(path: &Path, grid_keys: &[String]) -> Result<Vec<RunRow>, HarnessError> {
     let mut text = std::fs::read(path).map_err(|e| HarnessError::Resume(format!("{}: {e}", path.display())))?;
     let complete = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
@@ -171,18 +189,25 @@ pub fn read_rows(path: &Path, grid_keys: &[String]) -> Result<Vec<RunRow>, Harne
     let mut rdr = csv::ReaderBuilder::new().flexible(true).from_reader(text.as_slice());
     let hdr = rdr.headers().map_err(|e| HarnessError::Resume(format!("{}: {e}", path.display())))?.clone();
     let want = header(grid_keys);
-    if hdr.iter().collect::<Vec<_>>() != want.iter().map(|s| s.as_str()).collect::<Vec<_>>() {
+    let legacy: Vec<&str> =
+        RUN_COLUMNS[..LEGACY_RUN_COLUMNS].iter().copied().chain(grid_keys.iter().map(|s| s.as_str())).collect();
+    let got: Vec<&str> = hdr.iter().collect();
+    let n_fixed = if got == want.iter().map(|s| s.as_str()).collect::<Vec<_>>() {
+        RUN_COLUMNS.len()
+    } else if got == legacy {
+        LEGACY_RUN_COLUMNS
+    } else {
         return Err(HarnessError::Resume(format!(
             "{}: its columns are not those of this experiment (expected {}); use another --out",
             path.display(),
             want.join(",")
         )));
-    }
+    };
     let mut rows = Vec::new();
     for rec in rdr.records() {
         match rec {
             Ok(r) => {
-                if let Some(row) = RunRow::parse(&r, grid_keys.len()) {
+                if let Some(row) = RunRow::parse_with(&r, n_fixed, grid_keys.len()) {
                     rows.push(row);
                 }
             }
@@ -252,4 +277,78 @@ pub fn group(rows: &[RunRow]) -> Vec<(GroupKey, Vec<&RunRow>)> {
             (k, v)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(run: usize) -> RunRow {
+        RunRow {
+            run,
+            filter: "phd-3.0".into(),
+            particles: 1,
+            seed: 1 + run as u64,
+            pos_rmse_m: 6.97,
+            head_rmse_deg: f64::NAN,
+            gospa_m: f64::NAN,
+            ess_pct: 100.0,
+            resampling_pct: 0.0,
+            time_ms_per_step: 0.076,
+            steps: 7230,
+            scored_steps: 1050,
+            gospa_loc_m: f64::NAN,
+            gospa_missed: 0,
+            gospa_false: 0,
+            tpr: f64::NAN,
+            tnr: f64::NAN,
+            da_positives: 0,
+            da_negatives: 0,
+            cholesky_failures: 0,
+            pos_rmse_se2_m: 3.52,
+            grid: vec!["5.0".into()],
+        }
+    }
+
+    fn same(a: &RunRow, b: &RunRow) -> bool {
+        a.fields() == b.fields()
+    }
+
+    #[test]
+    fn rows_round_trip_with_the_aligned_column() {
+        let dir = std::env::temp_dir().join(format!("rfslam-runs-rt-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("runs.csv");
+        let keys = vec!["scenario.clutter.rate".to_string()];
+        write_rows(&path, &keys, &[row(0), row(1)]).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.lines().next().unwrap().ends_with(",cholesky_failures,pos_rmse_se2_m,scenario.clutter.rate"));
+        let back = read_rows(&path, &keys).unwrap();
+        assert_eq!(back.len(), 2);
+        assert!(same(&back[0], &row(0)) && same(&back[1], &row(1)));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn legacy_file_without_the_aligned_column_is_read_with_nan() {
+        let dir = std::env::temp_dir().join(format!("rfslam-runs-legacy-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("runs.csv");
+        let keys = vec!["scenario.clutter.rate".to_string()];
+        // The header and row of a runs.csv written before pos_rmse_se2_m existed.
+        let mut fields = row(0).fields();
+        fields.remove(LEGACY_RUN_COLUMNS);
+        let hdr: Vec<&str> =
+            RUN_COLUMNS[..LEGACY_RUN_COLUMNS].iter().copied().chain(["scenario.clutter.rate"]).collect();
+        std::fs::write(&path, format!("{}\n{}\n", hdr.join(","), fields.join(","))).unwrap();
+        let back = read_rows(&path, &keys).unwrap();
+        assert_eq!(back.len(), 1);
+        assert!(back[0].pos_rmse_se2_m.is_nan());
+        assert_eq!(back[0].grid, vec!["5.0".to_string()]);
+        assert_eq!(back[0].pos_rmse_m, 6.97);
+        // Any other header is still refused.
+        std::fs::write(&path, "run,filter\n0,x\n").unwrap();
+        assert!(read_rows(&path, &keys).is_err());
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }

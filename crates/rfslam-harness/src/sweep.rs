@@ -88,6 +88,7 @@ pub fn run_job(plan: &Plan, job: &Job) -> Result<RunRow, HarnessError> {
         da_positives: pos as u64,
         da_negatives: neg as u64,
         cholesky_failures: o.cholesky_failures,
+        pos_rmse_se2_m: o.pos_rmse_se2_m,
         grid: point.values.iter().map(|v| v.to_string()).collect(),
     })
 }
