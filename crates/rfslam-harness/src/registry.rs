@@ -147,13 +147,40 @@ pub fn find(name: &str) -> Option<&'static FilterEntry> {
     REGISTRY.iter().find(|e| e.name == name)
 }
 
-/// Checks that `dataset` suits the filter `entry`: an oracle needs truth labels on every scan.
+/// Checks that `dataset` suits the filter `entry`. A filter with
+/// [`FilterEntry::requires_truth`] (the oracle, which is told the true association of every
+/// measurement) is refused when a scan has no truth labels, or when any measurement's label
+/// is not an association it could be told: [`rfslam_core::TRUTH_UNKNOWN`] (an unknown origin,
+/// such as the real tree detections of the Victoria Park import beside its labelled
+/// artificial clutter) or anything else below `-1`. The error names the first such scan.
 pub fn check_dataset(entry: &FilterEntry, dataset: &rfslam_data::Dataset) -> Result<(), String> {
-    if entry.requires_truth
-        && let Some(k) = dataset.scans.iter().position(|s| s.truth.as_ref().is_none_or(|t| t.len() != s.z.len()))
-    {
+    if !entry.requires_truth {
+        return Ok(());
+    }
+    if let Some(k) = dataset.scans.iter().position(|s| s.truth.as_ref().is_none_or(|t| t.len() != s.z.len())) {
         return Err(format!(
             "filter `{}` needs the true association of every measurement, but scan {k} of data set `{}` has no truth labels (measurements.csv column `truth`)",
+            entry.name, dataset.meta.name
+        ));
+    }
+    let unknown = |l: &i64| *l < -1;
+    let first = dataset.scans.iter().enumerate().find_map(|(k, s)| {
+        let labels = s.truth.as_deref().unwrap_or_default();
+        labels.iter().position(unknown).map(|j| (k, s.t, j, labels[j]))
+    });
+    if let Some((k, t, j, label)) = first {
+        let total: usize = dataset
+            .scans
+            .iter()
+            .map(|s| s.truth.as_deref().unwrap_or_default().iter().filter(|l| unknown(l)).count())
+            .sum();
+        let what = if label == rfslam_core::TRUTH_UNKNOWN {
+            "an unknown origin (an empty `truth` cell in measurements.csv, e.g. a real detection of an unidentified landmark)".to_string()
+        } else {
+            format!("the label {label}, which is neither a landmark id nor clutter (-1)")
+        };
+        return Err(format!(
+            "filter `{}` needs the true association of every measurement, but measurement {j} of scan {k} (t = {t} s) of data set `{}` has {what}; {total} measurement(s) of the data set have no usable label",
             entry.name, dataset.meta.name
         ));
     }
@@ -163,4 +190,69 @@ pub fn check_dataset(entry: &FilterEntry, dataset: &rfslam_data::Dataset) -> Res
 /// The registered names, comma separated (for error messages).
 pub fn names() -> String {
     REGISTRY.iter().map(|e| e.name).collect::<Vec<_>>().join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rfslam_data::{Dataset, ScenarioConfig};
+
+    /// A short labelled procedural data set (clutter and detections, every label known).
+    fn labelled() -> Dataset {
+        let text = r#"name = "registry-test"
+[world]
+kind = "procedural"
+steps = 30
+extent = 300.0
+landmarks = 40
+[motion]
+model = "velocity"
+sigma_v = 0.1
+sigma_omega_deg = 0.1
+[sensor]
+max_range = 150.0
+half_angle_deg = 90.0
+sigma_range = 0.8
+sigma_bearing_deg = 0.3
+[detection]
+model = "constant"
+pd = 0.9
+[clutter]
+rate = 2.0
+"#;
+        let sc = ScenarioConfig::from_toml_str(text, "registry-test.toml").expect("valid scenario");
+        sc.build_dataset(None, 1).expect("dataset")
+    }
+
+    fn oracle() -> &'static FilterEntry {
+        REGISTRY.iter().find(|e| e.requires_truth).expect("an oracle is registered")
+    }
+
+    #[test]
+    fn oracle_accepts_fully_labelled_data() {
+        let ds = labelled();
+        assert!(ds.scans.iter().all(|s| s.truth.as_ref().is_some_and(|t| t.len() == s.z.len())));
+        assert_eq!(check_dataset(oracle(), &ds), Ok(()));
+    }
+
+    #[test]
+    fn oracle_refuses_a_measurement_of_unknown_origin() {
+        let mut ds = labelled();
+        let k = ds.scans.iter().position(|s| s.z.len() >= 2).expect("a scan with two measurements");
+        let labels = ds.scans[k].truth.as_mut().expect("labelled");
+        labels[1] = rfslam_core::TRUTH_UNKNOWN;
+        let err = check_dataset(oracle(), &ds).expect_err("an unknown origin must be refused");
+        assert!(err.contains(&format!("measurement 1 of scan {k} ")), "{err}");
+        assert!(err.contains("unknown origin"), "{err}");
+        assert!(err.contains(&format!("data set `{}`", ds.meta.name)), "{err}");
+        assert!(err.contains(oracle().name), "{err}");
+        // A filter that does not use the labels runs on such data (Victoria Park).
+        for e in REGISTRY.iter().filter(|e| !e.requires_truth) {
+            assert_eq!(check_dataset(e, &ds), Ok(()), "{}", e.name);
+        }
+        // Missing labels on a whole scan are still reported as such, first.
+        ds.scans[k].truth = None;
+        let err = check_dataset(oracle(), &ds).expect_err("no labels");
+        assert!(err.contains(&format!("scan {k} ")) && err.contains("no truth labels"), "{err}");
+    }
 }
