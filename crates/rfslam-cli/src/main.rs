@@ -1,4 +1,5 @@
-//! `rfslam`: simulate data sets, run one filter, sweep Monte Carlo experiments, list filters.
+//! `rfslam`: simulate data sets, run one filter, sweep Monte Carlo experiments (whole or in
+//! shards, merged afterwards), list filters.
 //!
 //! Exit codes: 0 success; 2 bad usage or configuration (detected before anything runs);
 //! 1 a failure while running (missing data, I/O, a filter error).
@@ -12,7 +13,7 @@ use rfslam_data::Dataset;
 use rfslam_harness::experiment::{
     MetricsConfig, load_scenario_table, parse_cli_value, scenario_from_table, set_dotted,
 };
-use rfslam_harness::{HarnessError, JobFilter, Plan, SweepOptions, registry};
+use rfslam_harness::{HarnessError, JobFilter, Plan, Shard, SweepOptions, registry};
 
 #[derive(Parser)]
 #[command(name = "rfslam", version, about = "Random-finite-set SLAM filters and their Monte Carlo harness")]
@@ -63,7 +64,8 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
-    /// Run every (grid point, filter, particles, run) job of an experiment in parallel.
+    /// Run every (grid point, filter, particles, run) job of an experiment in parallel, or one
+    /// shard of them (`--shard I/N`, merged afterwards with `rfslam merge`).
     Sweep {
         /// Experiment TOML file.
         experiment: PathBuf,
@@ -85,9 +87,27 @@ enum Command {
         /// Continue an interrupted sweep in --out: run only the jobs missing from runs.csv.
         #[arg(long)]
         resume: bool,
+        /// Run only shard I of N (I = 1..N): job k (0-based) of the canonical job order
+        /// (grid point, filter, particles, run; after --runs, --filters, --particles) belongs
+        /// to shard (k mod N) + 1. Each shard needs its own --out (default
+        /// results/runs/<experiment name>/shard-I-of-N); combine them with `rfslam merge`.
+        #[arg(long, value_name = "I/N")]
+        shard: Option<Shard>,
         /// No progress output.
         #[arg(long)]
         quiet: bool,
+    },
+    /// Combine the directories of a sharded sweep (`rfslam sweep --shard I/N`) into the runs.csv,
+    /// summary.csv and report.md of the whole sweep. Refuses directories of different
+    /// experiments; lists missing jobs and conflicting duplicates and then writes nothing; a
+    /// job found twice with identical rows (but for the wall time) is kept once, with a warning.
+    Merge {
+        /// The shards' output directories (any order).
+        #[arg(required = true, value_name = "DIR")]
+        dirs: Vec<PathBuf>,
+        /// Output directory of the merged sweep.
+        #[arg(long)]
+        out: PathBuf,
     },
     /// List the registered filters.
     Filters,
@@ -289,7 +309,22 @@ fn main() -> ExitCode {
         Command::Run { dataset, scenario, filter, particles, seed, set, out } => {
             run(dataset.as_deref(), scenario.as_deref(), &filter, particles, seed, &set, &out)
         }
-        Command::Sweep { experiment, runs, filters, particles, jobs, out, resume, quiet } => (|| {
+        Command::Merge { dirs, out } => (|| {
+            let o = rfslam_harness::merge(&dirs, &out)?;
+            for d in &o.identical_duplicates {
+                eprintln!("warning: duplicated job with identical rows, kept once: {d}");
+            }
+            println!(
+                "merged {} shard directories ({} jobs) -> {}/runs.csv, {}/summary.csv, {}/report.md",
+                o.shards,
+                o.jobs,
+                o.out.display(),
+                o.out.display(),
+                o.out.display()
+            );
+            Ok(())
+        })(),
+        Command::Sweep { experiment, runs, filters, particles, jobs, out, resume, shard, quiet } => (|| {
             let mut plan = Plan::load(&experiment)?;
             if let Some(r) = runs {
                 if r == 0 {
@@ -324,11 +359,21 @@ fn main() -> ExitCode {
                     )));
                 }
             }
-            let out = out.unwrap_or_else(|| PathBuf::from("results/runs").join(&plan.config.name));
-            let opts = SweepOptions { out, jobs, resume, select: JobFilter { filters, particles }, quiet };
+            let out = out.unwrap_or_else(|| {
+                let dir = PathBuf::from("results/runs").join(&plan.config.name);
+                match shard {
+                    Some(s) => dir.join(format!("shard-{}-of-{}", s.index(), s.count())),
+                    None => dir,
+                }
+            });
+            let opts = SweepOptions { out, jobs, resume, select: JobFilter { filters, particles }, quiet, shard };
             let o = rfslam_harness::sweep(&plan, &opts)?;
+            let part = match shard {
+                Some(s) => format!(" [shard {s}: {} jobs]", o.total),
+                None => String::new(),
+            };
             println!(
-                "{} jobs run ({} already done) in {:.1} s -> {}/summary.csv, {}/report.md",
+                "{} jobs run ({} already done){part} in {:.1} s -> {}/summary.csv, {}/report.md",
                 o.ran,
                 o.skipped,
                 o.wall_s,

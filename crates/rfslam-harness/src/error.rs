@@ -34,13 +34,20 @@ pub enum HarnessError {
     /// A filter failed during a run.
     #[error("{0}")]
     Run(String),
+    /// The directories given to `rfslam merge` are not the shards of one sweep (not shard
+    /// directories, different experiments, numbers of shards or selections): bad usage.
+    #[error("{0}")]
+    Shards(String),
+    /// The shards' rows do not make one complete sweep (missing or conflicting jobs).
+    #[error("{0}")]
+    Merge(String),
 }
 
 impl HarnessError {
     /// Whether the error is bad input detected before anything ran (exit code 2) rather
     /// than a failure while running (exit code 1).
     pub fn is_usage(&self) -> bool {
-        matches!(self, HarnessError::Config { .. })
+        matches!(self, HarnessError::Config { .. } | HarnessError::Shards(_))
     }
 
     /// An I/O error at `path`.

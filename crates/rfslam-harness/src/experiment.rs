@@ -84,6 +84,76 @@ pub struct ExperimentConfig {
     pub grid: BTreeMap<String, Vec<toml::Value>>,
 }
 
+/// The identity of a job as written in `runs.csv`: (grid values as TOML literals, filter
+/// label, particles, run). Same as [`crate::runs::RunRow::key`].
+pub type JobKey = (Vec<String>, String, usize, usize);
+
+impl ExperimentConfig {
+    /// Grid keys in the order of the grid columns (sorted).
+    pub fn grid_keys(&self) -> Vec<String> {
+        self.grid.keys().cloned().collect()
+    }
+
+    /// Number of grid points (1 without a grid): the product of the value counts.
+    pub fn n_points(&self) -> usize {
+        self.grid.values().map(Vec::len).product()
+    }
+
+    /// The value of each grid key at point `p` (cartesian product, last key fastest).
+    pub fn point_values(&self, p: usize) -> Vec<toml::Value> {
+        let mut idx = p;
+        let mut values = vec![toml::Value::Boolean(false); self.grid.len()];
+        for (ki, vs) in self.grid.values().enumerate().rev() {
+            let n = vs.len().max(1);
+            if let Some(v) = vs.get(idx % n) {
+                values[ki] = v.clone();
+            }
+            idx /= n;
+        }
+        values
+    }
+
+    /// Every job in canonical order — grid point, filter entry, particle count (as listed),
+    /// run — restricted by `sel`. Run `r` has run seed `seed + r`. This order defines the
+    /// row order of `runs.csv` and the shards of `rfslam sweep --shard`.
+    pub fn jobs(&self, sel: &JobFilter) -> Vec<Job> {
+        let mut jobs = Vec::new();
+        for pi in 0..self.n_points() {
+            for (fi, f) in self.filters.iter().enumerate() {
+                if let Some(names) = &sel.filters
+                    && !names.iter().any(|n| n == f.label() || *n == f.name)
+                {
+                    continue;
+                }
+                for &n in &f.particles {
+                    if let Some(ps) = &sel.particles
+                        && !ps.contains(&n)
+                    {
+                        continue;
+                    }
+                    for r in 0..self.runs {
+                        jobs.push(Job {
+                            point: pi,
+                            filter: fi,
+                            particles: n,
+                            run: r,
+                            seed: self.seed.wrapping_add(r as u64),
+                        });
+                    }
+                }
+            }
+        }
+        jobs
+    }
+
+    /// The identity of `job` as written in `runs.csv`.
+    pub fn job_key(&self, job: &Job) -> JobKey {
+        let grid = self.point_values(job.point).iter().map(|v| v.to_string()).collect();
+        let label = self.filters.get(job.filter).map(|f| f.label().to_string()).unwrap_or_default();
+        (grid, label, job.particles, job.run)
+    }
+}
+
 /// A filter entry at one grid point.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ResolvedFilter {
@@ -331,16 +401,8 @@ impl Plan {
 
         let mut points = Vec::new();
         let mut worlds: Vec<(String, Arc<World>)> = Vec::new();
-        let n_points: usize = grid_keys.iter().map(|k| config.grid[k].len()).product();
-        for p in 0..n_points {
-            // decode point index, last key fastest
-            let mut idx = p;
-            let mut values = vec![toml::Value::Boolean(false); grid_keys.len()];
-            for (ki, k) in grid_keys.iter().enumerate().rev() {
-                let n = config.grid[k].len();
-                values[ki] = config.grid[k][idx % n].clone();
-                idx /= n;
-            }
+        for p in 0..config.n_points() {
+            let values = config.point_values(p);
             let mut sc_table = scenario_table.clone();
             let mut filters: Vec<ResolvedFilter> = config
                 .filters
@@ -438,35 +500,15 @@ impl Plan {
         Ok(Plan { path: path.to_path_buf(), config, scenario_path, scenario_table, grid_keys, points, published })
     }
 
-    /// Every job of the plan in canonical order (point, filter, particles, run), restricted by `sel`.
+    /// Every job of the plan in canonical order (point, filter, particles, run), restricted by
+    /// `sel` (see [`ExperimentConfig::jobs`]).
     pub fn jobs(&self, sel: &JobFilter) -> Vec<Job> {
-        let mut jobs = Vec::new();
-        for (pi, p) in self.points.iter().enumerate() {
-            for (fi, f) in p.filters.iter().enumerate() {
-                if let Some(names) = &sel.filters
-                    && !names.iter().any(|n| *n == f.label || *n == f.name)
-                {
-                    continue;
-                }
-                for &n in &f.particles {
-                    if let Some(ps) = &sel.particles
-                        && !ps.contains(&n)
-                    {
-                        continue;
-                    }
-                    for r in 0..self.config.runs {
-                        jobs.push(Job {
-                            point: pi,
-                            filter: fi,
-                            particles: n,
-                            run: r,
-                            seed: self.config.seed.wrapping_add(r as u64),
-                        });
-                    }
-                }
-            }
-        }
-        jobs
+        self.config.jobs(sel)
+    }
+
+    /// The identity of `job` as written in `runs.csv` (see [`ExperimentConfig::job_key`]).
+    pub fn job_key(&self, job: &Job) -> JobKey {
+        self.config.job_key(job)
     }
 
     /// The resolved experiment (scenario inlined, defaults filled, seeds listed), written next

@@ -4,6 +4,7 @@
 //! - [`experiment`]: experiment TOML -> validated [`experiment::Plan`] of jobs;
 //! - [`job`]: one filter over one data set, scored (with an observer hook);
 //! - [`sweep`]: parallel, deterministic, resumable execution; `runs.csv`;
+//! - [`shard`]: `sweep --shard I/N` (disjoint parts of a sweep) and `merge`;
 //! - [`summary`], [`report`]: `summary.csv` with seed 000's columns and `report.md` beside
 //!   the published figures.
 
@@ -14,10 +15,12 @@ pub mod locate;
 pub mod registry;
 pub mod report;
 pub mod runs;
+pub mod shard;
 pub mod summary;
 pub mod sweep;
 
 pub use error::HarnessError;
 pub use experiment::{ExperimentConfig, JobFilter, Plan};
 pub use job::{JobOutcome, StepRecord, run_filter};
+pub use shard::{MergeOutcome, Shard, merge};
 pub use sweep::{SweepOptions, SweepOutcome, sweep};

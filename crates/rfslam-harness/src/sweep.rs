@@ -4,8 +4,11 @@
 //! Determinism: a job's data depend only on (scenario, run seed) and its filter's random
 //! draws only on (run seed, particle count), so rows are identical whatever `--jobs` is;
 //! `runs.csv` is rewritten in canonical job order at the end.
+//!
+//! With [`SweepOptions::shard`] only that shard's jobs run (see [`crate::shard`]); the
+//! directory then also records which shard it holds.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -14,11 +17,12 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::error::HarnessError;
-use crate::experiment::{Job, JobFilter, Plan};
+use crate::experiment::{ExperimentConfig, Job, JobFilter, JobKey, Plan};
 use crate::job::run_filter;
 use crate::registry;
-use crate::report::{ReportInfo, render};
+use crate::report::{PublishedTable, ReportInfo, render};
 use crate::runs::{RunRow, RunsAppender, read_rows, write_rows};
+use crate::shard::{Shard, ShardRecord, resolved_difference};
 use crate::summary::{summarise, write_summary};
 
 /// Options of one sweep invocation.
@@ -34,6 +38,8 @@ pub struct SweepOptions {
     pub select: JobFilter,
     /// Progress output: `None` = automatic (a bar on a terminal, lines otherwise).
     pub quiet: bool,
+    /// Run only this shard of the selected jobs (`--shard I/N`).
+    pub shard: Option<Shard>,
 }
 
 /// What a sweep did.
@@ -43,6 +49,8 @@ pub struct SweepOutcome {
     pub ran: usize,
     /// Jobs found finished in `runs.csv` and skipped.
     pub skipped: usize,
+    /// Jobs of this invocation's part of the sweep (the shard's, or all selected ones).
+    pub total: usize,
     /// Wall time (s).
     pub wall_s: f64,
     /// Output directory.
@@ -160,6 +168,7 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
                 runs_path.display()
             )));
         }
+        check_shard_dir(out, &resolved, plan, opts)?;
         if let Ok(old) = std::fs::read_to_string(&resolved_path)
             && !same_experiment(&old, &resolved)
         {
@@ -171,21 +180,26 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
         previous = read_rows(&runs_path, &plan.grid_keys)?;
     }
     std::fs::write(&resolved_path, &resolved).map_err(|e| HarnessError::io(&resolved_path, e))?;
+    match opts.shard {
+        Some(shard) => ShardRecord::new(shard, plan, &opts.select).write(out)?,
+        None => {
+            // A fresh unsharded sweep in a directory that once began a shard.
+            let stale = out.join(crate::shard::SHARD_FILE);
+            if stale.exists() {
+                std::fs::remove_file(&stale).map_err(|e| HarnessError::io(&stale, e))?;
+            }
+        }
+    }
     // Rewrite what was complete (drops a truncated last line) and append from there.
     write_rows(&runs_path, &plan.grid_keys, &previous)?;
 
-    let all_jobs = plan.jobs(&opts.select);
-    let done: HashSet<_> = previous.iter().map(|r| r.key()).collect();
-    let key_of = |j: &Job| {
-        let p = &plan.points[j.point];
-        (
-            p.values.iter().map(|v| v.to_string()).collect::<Vec<_>>(),
-            p.filters[j.filter].label.clone(),
-            j.particles,
-            j.run,
-        )
+    let selected = plan.jobs(&opts.select);
+    let all_jobs = match opts.shard {
+        Some(shard) => shard.select(&selected),
+        None => selected,
     };
-    let todo: Vec<Job> = all_jobs.iter().filter(|j| !done.contains(&key_of(j))).copied().collect();
+    let done: HashSet<_> = previous.iter().map(|r| r.key()).collect();
+    let todo: Vec<Job> = all_jobs.iter().filter(|j| !done.contains(&plan.job_key(j))).copied().collect();
     let skipped = all_jobs.len() - todo.len();
 
     let threads =
@@ -228,7 +242,48 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
         record_invocation(out, todo.len(), threads, wall_s)?;
     }
     finish(plan, out)?;
-    Ok(SweepOutcome { ran: todo.len(), skipped, wall_s, out: out.clone() })
+    Ok(SweepOutcome { ran: todo.len(), skipped, total: all_jobs.len(), wall_s, out: out.clone() })
+}
+
+/// On resuming in `out`: the directory must hold the same part of the sweep as asked for —
+/// no shard record for an unsharded sweep; for `--shard I/N` the record of that shard with
+/// the same selection, and exactly the same resolved experiment (a shard's jobs depend on
+/// the whole selected job list: unlike an unsharded resume, runs and entries may not change).
+fn check_shard_dir(out: &Path, resolved: &str, plan: &Plan, opts: &SweepOptions) -> Result<(), HarnessError> {
+    let held = ShardRecord::read(out)?;
+    let dir = out.display();
+    match (held, opts.shard) {
+        (None, None) => Ok(()),
+        (Some(h), None) => Err(HarnessError::Resume(format!(
+            "{dir} holds shard {}/{} of a sharded sweep: resume it with --shard {}/{}, or choose another --out",
+            h.shard, h.shards, h.shard, h.shards
+        ))),
+        (None, Some(s)) => Err(HarnessError::Resume(format!(
+            "{dir} holds an unsharded sweep: shard {s} needs a directory of its own (another --out)"
+        ))),
+        (Some(h), Some(s)) => {
+            if (h.shard, h.shards) != (s.index(), s.count()) {
+                return Err(HarnessError::Resume(format!(
+                    "{dir} holds shard {}/{}, not {s}: give each shard its own --out",
+                    h.shard, h.shards
+                )));
+            }
+            let want = ShardRecord::new(s, plan, &opts.select);
+            if h.selection != want.selection {
+                return Err(HarnessError::Resume(format!(
+                    "{dir} holds shard {s} of another selection of jobs (--filters / --particles): resume with the options it was started with"
+                )));
+            }
+            let old = out.join(crate::shard::RESOLVED_FILE);
+            let old = std::fs::read_to_string(&old).map_err(|e| HarnessError::io(&old, e))?;
+            match resolved_difference(&old, resolved) {
+                None => Ok(()),
+                Some(d) => Err(HarnessError::Resume(format!(
+                    "{dir} holds shard {s} of a different experiment (it differs at {d}): a shard resumes only the experiment it began, with the same --runs"
+                ))),
+            }
+        }
+    }
 }
 
 /// Whether the rows of an earlier sweep (`old`, its `experiment.resolved.toml`) remain valid
@@ -292,40 +347,63 @@ pub fn read_invocations(out: &Path) -> Vec<(usize, usize, f64)> {
         .collect()
 }
 
-/// Rewrites `runs.csv` in canonical job order and writes `summary.csv` and `report.md`
-/// from every row in it.
-pub fn finish(plan: &Plan, out: &Path) -> Result<(), HarnessError> {
-    let runs_path = out.join("runs.csv");
-    let mut rows = read_rows(&runs_path, &plan.grid_keys)?;
-    let order: Vec<_> = plan.jobs(&JobFilter::default());
-    let rank = |r: &RunRow| {
-        order
-            .iter()
-            .position(|j| {
-                let p = &plan.points[j.point];
-                p.filters[j.filter].label == r.filter
-                    && j.particles == r.particles
-                    && j.run == r.run
-                    && p.values.iter().map(|v| v.to_string()).collect::<Vec<_>>() == r.grid
-            })
-            .unwrap_or(usize::MAX)
-    };
-    let mut keyed: Vec<(usize, RunRow)> = rows.drain(..).map(|r| (rank(&r), r)).collect();
+/// What writing the outputs of a sweep needs to know about its experiment.
+pub struct OutputContext<'a> {
+    /// The experiment (name, description, runs, seed, filters, grid).
+    pub config: &'a ExperimentConfig,
+    /// The experiment file as named to the sweep (for the report).
+    pub experiment: String,
+    /// The published table the report sets ours beside.
+    pub published: Option<&'a PublishedTable>,
+}
+
+impl Plan {
+    /// The context in which this plan's outputs are written.
+    pub fn output_context(&self) -> OutputContext<'_> {
+        OutputContext {
+            config: &self.config,
+            experiment: self.path.display().to_string(),
+            published: self.published.as_ref(),
+        }
+    }
+}
+
+/// Writes the outputs of a sweep from its rows: `runs.csv` in canonical job order (rows of
+/// jobs the experiment no longer has last, in their order), `summary.csv` and `report.md`
+/// (with `invocations`). The one code path of `sweep` and `merge`.
+pub fn write_outputs(
+    ctx: &OutputContext,
+    rows: Vec<RunRow>,
+    invocations: Vec<(usize, usize, f64)>,
+    out: &Path,
+) -> Result<(), HarnessError> {
+    let grid_keys = ctx.config.grid_keys();
+    let rank: HashMap<JobKey, usize> =
+        ctx.config.jobs(&JobFilter::default()).iter().enumerate().map(|(i, j)| (ctx.config.job_key(j), i)).collect();
+    let mut keyed: Vec<(usize, RunRow)> =
+        rows.into_iter().map(|r| (rank.get(&r.key()).copied().unwrap_or(usize::MAX), r)).collect();
     keyed.sort_by_key(|(k, _)| *k);
     let rows: Vec<RunRow> = keyed.into_iter().map(|(_, r)| r).collect();
-    write_rows(&runs_path, &plan.grid_keys, &rows)?;
+    write_rows(&out.join("runs.csv"), &grid_keys, &rows)?;
     let summary = summarise(&rows);
-    write_summary(&out.join("summary.csv"), &plan.grid_keys, &summary)?;
+    write_summary(&out.join("summary.csv"), &grid_keys, &summary)?;
     let info = ReportInfo {
-        name: &plan.config.name,
-        description: plan.config.description.as_deref(),
-        experiment: &plan.path.display().to_string(),
-        runs: plan.config.runs,
-        seed: plan.config.seed,
-        grid_keys: &plan.grid_keys,
-        invocations: read_invocations(out),
+        name: &ctx.config.name,
+        description: ctx.config.description.as_deref(),
+        experiment: &ctx.experiment,
+        runs: ctx.config.runs,
+        seed: ctx.config.seed,
+        grid_keys: &grid_keys,
+        invocations,
     };
-    let md = render(&info, &summary, plan.published.as_ref());
+    let md = render(&info, &summary, ctx.published);
     let report = out.join("report.md");
     std::fs::write(&report, md).map_err(|e| HarnessError::io(&report, e))
+}
+
+/// Rewrites `runs.csv` in canonical job order and writes `summary.csv` and `report.md`
+/// from every row in it ([`write_outputs`]).
+pub fn finish(plan: &Plan, out: &Path) -> Result<(), HarnessError> {
+    let rows = read_rows(&out.join("runs.csv"), &plan.grid_keys)?;
+    write_outputs(&plan.output_context(), rows, read_invocations(out), out)
 }
