@@ -48,6 +48,10 @@ pub struct JointParams {
     /// mixture weights and all-missed component, but 2.0b's single association does not
     /// (measured on the Table II scenario: results/table2/report.md).
     pub missed_cost: MissedCost,
+    /// Include the predicted pose covariance `G_x Q G_x^T` in the innovation covariance of
+    /// the cost matrix (note 03 §2.2; default true). `false` ranks the associations as a
+    /// landmark update at a known pose would.
+    pub cost_pose_covariance: bool,
 }
 
 impl Default for JointParams {
@@ -57,6 +61,7 @@ impl Default for JointParams {
             ipl_kl_threshold: 1e-3,
             ipl_kl_on: KlOn::Joint,
             missed_cost: MissedCost::NoEta,
+            cost_pose_covariance: true,
         }
     }
 }
@@ -132,7 +137,7 @@ impl Proposal for JointProposal {
         let m = self.rows.len();
 
         // 1-2. Cost matrix at x_bar and the best assignment.
-        stats.cholesky_failures += self.cost.fill(ctx, self.params.missed_cost);
+        stats.cholesky_failures += self.cost.fill_with(ctx, self.params.missed_cost, self.params.cost_pose_covariance);
         self.phi.clear();
         self.phi.resize(m, None);
         if m > 0

@@ -56,7 +56,15 @@ impl CostMatrixBuffers {
     /// Mahalanobis distance is within the gate. Returns the number of `S_i` that failed
     /// Cholesky (their rows can only be missed).
     pub fn fill(&mut self, ctx: &ProposalContext, missed: MissedCost) -> u32 {
-        let (sensor, r, x_bar, q) = (&ctx.models.sensor, ctx.models.measurement_noise, ctx.predicted, ctx.q);
+        self.fill_with(ctx, missed, true)
+    }
+
+    /// [`CostMatrixBuffers::fill`], with the predicted pose covariance term `G_x Q G_x^T`
+    /// left out of `S_i` when `pose_uncertainty` is false (the innovation covariance of a
+    /// landmark update at a known pose).
+    pub fn fill_with(&mut self, ctx: &ProposalContext, missed: MissedCost, pose_uncertainty: bool) -> u32 {
+        let (sensor, r, x_bar) = (&ctx.models.sensor, ctx.models.measurement_noise, ctx.predicted);
+        let q = if pose_uncertainty { ctx.q } else { nalgebra::Matrix3::zeros() };
         let mut failures = 0;
         self.detection.clear();
         self.missed.clear();

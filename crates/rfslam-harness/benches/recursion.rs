@@ -1,4 +1,5 @@
-//! One filter recursion (`SlamFilter::step`) of each PHD-SLAM variant at N = 1 and N = 100,
+//! One filter recursion (`SlamFilter::step`) of each PHD-SLAM variant and of the oracle
+//! FastSLAM 2.0 at N = 1 and N = 100,
 //! from a warmed-up state (1000 steps into a run: a map of the landmarks seen so far), on
 //! the papers' synthetic environment when it is found (else the procedural world).
 //! Compare with seed 000 Table II's time column (one recursion, one core).
@@ -45,7 +46,10 @@ fn recursion(c: &mut Criterion) {
     let ds = dataset();
     for n in [1, 100] {
         bench_filter::<phd_slam_1::PhdSlam1>(c, "phd-1.0", &ds, n);
+        bench_filter::<phd_slam_2a::PhdSlam2a>(c, "phd-2.0a", &ds, n);
+        bench_filter::<phd_slam_2b::PhdSlam2b>(c, "phd-2.0b", &ds, n);
         bench_filter::<phd_slam_3::PhdSlam3>(c, "phd-3.0", &ds, n);
+        bench_filter::<fastslam::OracleFastSlam2>(c, "fastslam-2.0-oracle", &ds, n);
     }
 }
 
