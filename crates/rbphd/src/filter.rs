@@ -11,6 +11,7 @@ use rfslam_core::{
 use crate::gm::{GmMap, ReduceScratch, ReduceSettings, UpdateScratch, UpdateSettings, phd_update, reduce};
 use crate::params::{PhdParams, RbPhdParams};
 use crate::proposal::{PoseSample, Proposal, ProposalContext};
+use crate::weighting::{MultiFeatureSettings, StrategyInput, StrategyScratch, Weighting, strategy_log_weight};
 
 /// One particle: weight, pose, GM-PHD map and the measurements to be born next step.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -54,6 +55,8 @@ pub struct RbPhd<P: Proposal> {
     upd: UpdateScratch,
     red: ReduceScratch,
     assoc_idx: Vec<Option<usize>>,
+    mf: MultiFeatureSettings,
+    strategy: StrategyScratch,
 }
 
 impl<P: Proposal> RbPhd<P> {
@@ -66,6 +69,7 @@ impl<P: Proposal> RbPhd<P> {
         // A zero clutter rate makes c(z) = 0; keep ln c finite so unexplained measurements
         // do not produce NaN weights.
         let log_clutter = clutter.intensity(&models.fov).max(1e-300).ln();
+        let mf = params.multi_feature();
         let fov_active = models.fov.enlarged(params.fov_buffer_range, params.fov_buffer_deg.to_radians());
         let estimate_threshold = params.estimate_threshold(models);
         let p0 = Particle { log_w: -(n as f64).ln(), pose: models.initial_pose, ..Default::default() };
@@ -91,6 +95,8 @@ impl<P: Proposal> RbPhd<P> {
             upd: UpdateScratch::default(),
             red: ReduceScratch::default(),
             assoc_idx: Vec::new(),
+            mf,
+            strategy: StrategyScratch::default(),
         }
     }
 
@@ -204,7 +210,28 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                     &mut self.updated,
                 );
                 chol += out.cholesky_failures;
-                p.log_w += out.log_likelihood;
+                // The particle weight: eq. (46) from the update, or a strategy of Leung et al.
+                // evaluated on the predicted and the (unpruned) updated map.
+                match self.params.weighting {
+                    Weighting::Exact => p.log_w += out.log_likelihood,
+                    w => {
+                        let input = StrategyInput {
+                            predicted: &p.map,
+                            active: &self.active,
+                            updated: &self.updated,
+                            pose: &pose,
+                            z: &scan.z,
+                            sensor: &models.sensor,
+                            r: &models.measurement_noise,
+                            log_clutter: self.log_clutter,
+                            clutter_rate: models.clutter.rate,
+                        };
+                        let pd = |m: &Point2| models.detection.pd(&models.fov, &pose, m);
+                        let o = strategy_log_weight(w, &input, pd, &self.mf, &mut self.strategy);
+                        chol += o.cholesky_failures;
+                        p.log_w += o.log_weight;
+                    }
+                }
                 p.birth.clear();
                 p.birth.extend(scan.z.iter().zip(&self.upd.gated).filter(|(_, g)| !**g).map(|(z, _)| *z));
                 // Set-aside components stay as they are (dropped if already below the
@@ -256,12 +283,26 @@ impl<P: Proposal> FilterBuild for RbPhd<P> {
 
     fn validate(params: &Self::Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
         params.common.validate(particles)?;
-        P::validate(&params.proposal)
+        P::validate(&params.proposal)?;
+        if let Some(w) = P::weighting(&params.proposal)
+            && params.common.weighting != Weighting::Exact
+            && params.common.weighting != w
+        {
+            return Err(ParamError::new(
+                "weighting",
+                format!("{} sets the weighting through its own parameter; leave `weighting` out", P::NAME),
+            ));
+        }
+        Ok(())
     }
 
     fn build(params: Self::Params, models: &SlamModels, particles: usize) -> Self {
         let proposal = P::new(&params.proposal, models);
-        RbPhd::new(params.common, proposal, models, particles)
+        let mut common = params.common;
+        if let Some(w) = P::weighting(&params.proposal) {
+            common.weighting = w;
+        }
+        RbPhd::new(common, proposal, models, particles)
     }
 }
 

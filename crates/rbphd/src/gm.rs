@@ -92,6 +92,13 @@ pub struct UpdateScratch {
     pub gated: Vec<bool>,
 }
 
+impl UpdateScratch {
+    /// `ln D_j = ln(c(z_j) + sum_i a_ij)` of measurement `j` in the last update.
+    pub fn log_d_of(&self, j: usize) -> f64 {
+        self.log_d[j]
+    }
+}
+
 /// Result of one GM-PHD update.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UpdateOutcome {

@@ -3,16 +3,20 @@
 //! scan's unexplained measurements; the gated GM-PHD update with the particle weight of
 //! eq. (46); pruning and merging; components outside the field of view set aside untouched;
 //! resampling, with the importance density computed once per group of copies of one parent.
-//! A variant is a [`Proposal`] (the importance density of eq. 23) plus its defaults.
+//! A variant is a [`Proposal`] (the importance density of eq. 23) plus its defaults; the
+//! particle weighting is chosen by [`Weighting`] (seed 000 eq. 46 by default, or the
+//! empty-set, single-feature and multi-feature strategies of Leung, Inostroza, Adams).
 
 pub mod association;
 pub mod filter;
 pub mod gm;
 pub mod params;
 pub mod proposal;
+pub mod weighting;
 
 pub use association::{CostMatrixBuffers, MissedCost};
 pub use filter::{Particle, RbPhd};
 pub use gm::GmMap;
 pub use params::{PhdParams, RbPhdParams};
 pub use proposal::{PoseSample, Proposal, ProposalContext, ProposalStats};
+pub use weighting::{MfTerms, MultiFeatureSettings, Weighting};

@@ -5,6 +5,8 @@ use rfslam_core::{DetectionModel, ParamError, SlamModels};
 use serde::de::{DeserializeOwned, Error as _};
 use serde::{Deserialize, Deserializer, Serialize};
 
+use crate::weighting::{MfTerms, MultiFeatureSettings, Weighting};
+
 /// The RB-PHD settings of seed 000 (§VI, and the public code where the paper is silent).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -36,10 +38,29 @@ pub struct RbPhdParams {
     /// Clutter intensity units, overriding the scenario's: `"cartesian"` (the published
     /// code: rate / FOV area) or `"measurement"` (rate / (max_range 2 half_angle)).
     pub clutter_intensity: Option<rfslam_core::ClutterIntensity>,
+    /// Particle weighting (module [`crate::weighting`]): `"exact"` (seed 000 eq. 46, the
+    /// default), or the strategies of Leung, Inostroza, Adams: `"empty"` (eqs. 20-22),
+    /// `"single"` (eq. 23), `"multi"` (eqs. 24-27).
+    pub weighting: Weighting,
+    /// Multi-feature strategy: a component becomes a feature when its weight exceeds this
+    /// (0.75).
+    pub mf_weight_threshold: f64,
+    /// Multi-feature strategy: at most this many features (15).
+    pub mf_max_features: usize,
+    /// Multi-feature strategy: likelihoods below this fraction of their peak count as zero
+    /// (0.01).
+    pub mf_likelihood_ratio: f64,
+    /// Multi-feature strategy: least squared Mahalanobis distance between two features,
+    /// under the sum of their covariances (9).
+    pub mf_separation: f64,
+    /// Multi-feature strategy: `"highest"` keeps the highest-order terms (eqs. 26-27),
+    /// `"all"` every term of the expansion of eq. (24).
+    pub mf_terms: MfTerms,
 }
 
 impl Default for RbPhdParams {
     fn default() -> Self {
+        let mf = MultiFeatureSettings::default();
         RbPhdParams {
             birth_weight: 1e-6,
             gate: 41.4465,
@@ -53,6 +74,12 @@ impl Default for RbPhdParams {
             q_jitter: [1e-9, 1e-9, 1e-18],
             exact_pd_term: false,
             clutter_intensity: None,
+            weighting: Weighting::Exact,
+            mf_weight_threshold: mf.weight_threshold,
+            mf_max_features: mf.max_features,
+            mf_likelihood_ratio: mf.likelihood_ratio,
+            mf_separation: mf.separation,
+            mf_terms: mf.terms,
         }
     }
 }
@@ -71,6 +98,12 @@ pub const COMMON_KEYS: &[&str] = &[
     "q_jitter",
     "exact_pd_term",
     "clutter_intensity",
+    "weighting",
+    "mf_weight_threshold",
+    "mf_max_features",
+    "mf_likelihood_ratio",
+    "mf_separation",
+    "mf_terms",
 ];
 
 impl RbPhdParams {
@@ -100,10 +133,23 @@ impl RbPhdParams {
         if self.q_jitter.iter().any(|j| !(*j >= 0.0 && j.is_finite())) {
             return Err(ParamError::new("q_jitter", "entries must be >= 0"));
         }
+        self.multi_feature().validate()?;
         if particles == 0 {
             return Err(ParamError::new("particles", "at least one particle"));
         }
         Ok(())
+    }
+
+    /// The multi-feature strategy's settings.
+    pub fn multi_feature(&self) -> MultiFeatureSettings {
+        MultiFeatureSettings {
+            weight_threshold: self.mf_weight_threshold,
+            max_features: self.mf_max_features,
+            likelihood_ratio: self.mf_likelihood_ratio,
+            separation: self.mf_separation,
+            terms: self.mf_terms,
+            ..MultiFeatureSettings::default()
+        }
     }
 
     /// The map estimate threshold: the parameter, else `(1 - pD)^2` (Victoria Park's

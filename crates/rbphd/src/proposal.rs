@@ -6,6 +6,7 @@ use serde::Serialize;
 use serde::de::DeserializeOwned;
 
 use crate::gm::GmMap;
+use crate::weighting::Weighting;
 
 /// What a proposal sees for one particle (or one group of identical copies).
 pub struct ProposalContext<'a> {
@@ -74,5 +75,13 @@ pub trait Proposal: Send + Sized + 'static {
     /// explicit association.
     fn associations(&self, _component: usize, _out: &mut Vec<Option<usize>>) -> bool {
         false
+    }
+
+    /// A variant that fixes the particle weighting through its own parameters (`rbphd-mf`:
+    /// `strategy`) returns it here; it then overrides [`crate::RbPhdParams::weighting`],
+    /// which must be left at its default or agree. `None` (the default): the shared
+    /// `weighting` parameter decides.
+    fn weighting(_params: &Self::Params) -> Option<Weighting> {
+        None
     }
 }
