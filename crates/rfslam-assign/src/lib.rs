@@ -11,7 +11,9 @@
 //!   the shortest augmenting path method (Jonker–Volgenant, laid out as in Crouse 2016);
 //! - [`Murty`]: the k best assignments in non-decreasing cost (Murty 1968, with the dual
 //!   inheritance speed-up of Miller, Stone & Cox 1997), with the likelihood-ratio early
-//!   stop used by seed 000 (Cox & Miller 1995).
+//!   stop used by seed 000 (Cox & Miller 1995);
+//! - [`gibbs`]: the Gibbs sampler of the efficient delta-GLMB filter (Vo, Vo, Hoang 2017)
+//!   that draws association / survival / birth decisions for delta-GLMB-SLAM and LMB-SLAM.
 //!
 //! Costs are *negative log-likelihoods*: lower is better, an assignment's likelihood is
 //! `gamma = exp(-cost)` (eq. 32).
@@ -20,11 +22,13 @@
 
 mod cost;
 mod error;
+pub mod gibbs;
 mod lap;
 mod murty;
 
 pub use cost::CostMatrix;
 pub use error::AssignError;
+pub use gibbs::{GibbsSampler, GibbsTable};
 pub use lap::{Assignment, LapSolver, solve_lap};
 pub use murty::{Murty, MurtyOptions, MurtyStats, SEED000_MAX_LOG_RATIO};
 
