@@ -1,3 +1,7 @@
+//! The FastSLAM family: `fastslam-2.0-oracle` (below), and the baselines of Leung,
+//! Inostroza, Adams with unknown association and an existence filter, `fastslam-1.0` and
+//! `mh-fastslam` ([`baselines`], [`da`]).
+//!
 //! `fastslam-2.0-oracle`: FastSLAM 2.0 with known data association and the iterated
 //! posterior linearisation (IPL) approximation of the optimal importance density — the
 //! "Oracle RBPF" of Kaltiokallio et al., T-RO 2024 (seed 000, §VI-A-2 and Table II),
@@ -64,10 +68,13 @@
 //! per group (00-index §9). Landmarks are kept in a `Vec` sorted by id: binary-search
 //! lookup, and no allocation per step once the maps have grown.
 
+pub mod baselines;
+pub mod da;
 pub mod filter;
 pub mod params;
 pub mod proposal;
 
+pub use baselines::{FastSlam1, FastSlam1Params, MhFastSlam, MhParams};
 pub use filter::{OracleFastSlam2, Particle};
 pub use params::{Params, WeightMode};
 pub use proposal::Landmark;
