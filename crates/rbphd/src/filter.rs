@@ -61,14 +61,13 @@ pub struct RbPhd<P: Proposal> {
 
 impl<P: Proposal> RbPhd<P> {
     /// A filter with `n` particles at the scenario's initial pose, empty maps.
+    /// The filter assumes the scenario's models with the overrides of
+    /// [`RbPhdParams::filter_models`].
     pub fn new(params: RbPhdParams, proposal: P, models: &SlamModels, n: usize) -> Self {
-        let clutter = match params.clutter_intensity {
-            Some(units) => rfslam_core::ClutterModel { rate: models.clutter.rate, intensity: units },
-            None => models.clutter,
-        };
+        let models = &params.filter_models(models);
         // A zero clutter rate makes c(z) = 0; keep ln c finite so unexplained measurements
         // do not produce NaN weights.
-        let log_clutter = clutter.intensity(&models.fov).max(1e-300).ln();
+        let log_clutter = models.clutter.intensity(&models.fov).max(1e-300).ln();
         let mf = params.multi_feature();
         let fov_active = models.fov.enlarged(params.fov_buffer_range, params.fov_buffer_deg.to_radians());
         let estimate_threshold = params.estimate_threshold(models);
@@ -297,7 +296,7 @@ impl<P: Proposal> FilterBuild for RbPhd<P> {
     }
 
     fn build(params: Self::Params, models: &SlamModels, particles: usize) -> Self {
-        let proposal = P::new(&params.proposal, models);
+        let proposal = P::new(&params.proposal, &params.common.filter_models(models));
         let mut common = params.common;
         if let Some(w) = P::weighting(&params.proposal) {
             common.weighting = w;

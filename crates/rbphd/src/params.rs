@@ -38,6 +38,13 @@ pub struct RbPhdParams {
     /// Clutter intensity units, overriding the scenario's: `"cartesian"` (the published
     /// code: rate / FOV area) or `"measurement"` (rate / (max_range 2 half_angle)).
     pub clutter_intensity: Option<rfslam_core::ClutterIntensity>,
+    /// The filter's detection probability, overriding the scenario's (the peak `pD` of a
+    /// range-linear model): the model mismatch of seed 000's sensitivity analysis (Fig. 5a),
+    /// where the data keep their own `pD`.
+    pub detection_pd: Option<f64>,
+    /// The filter's clutter rate `lambda` (mean false measurements per scan), overriding the
+    /// scenario's (seed 000 Fig. 5b).
+    pub clutter_rate: Option<f64>,
     /// Particle weighting (module [`crate::weighting`]): `"exact"` (seed 000 eq. 46, the
     /// default), or the strategies of Leung, Inostroza, Adams: `"empty"` (eqs. 20-22),
     /// `"single"` (eq. 23), `"multi"` (eqs. 24-27).
@@ -74,6 +81,8 @@ impl Default for RbPhdParams {
             q_jitter: [1e-9, 1e-9, 1e-18],
             exact_pd_term: false,
             clutter_intensity: None,
+            detection_pd: None,
+            clutter_rate: None,
             weighting: Weighting::Exact,
             mf_weight_threshold: mf.weight_threshold,
             mf_max_features: mf.max_features,
@@ -98,6 +107,8 @@ pub const COMMON_KEYS: &[&str] = &[
     "q_jitter",
     "exact_pd_term",
     "clutter_intensity",
+    "detection_pd",
+    "clutter_rate",
     "weighting",
     "mf_weight_threshold",
     "mf_max_features",
@@ -107,6 +118,25 @@ pub const COMMON_KEYS: &[&str] = &[
 ];
 
 impl RbPhdParams {
+    /// The models the filter assumes: the scenario's, with [`RbPhdParams::detection_pd`],
+    /// [`RbPhdParams::clutter_rate`] and [`RbPhdParams::clutter_intensity`] applied.
+    pub fn filter_models(&self, models: &SlamModels) -> SlamModels {
+        let mut m = models.clone();
+        if let Some(pd) = self.detection_pd {
+            m.detection = match m.detection {
+                DetectionModel::Constant { .. } => DetectionModel::Constant { pd },
+                DetectionModel::RangeLinear { .. } => DetectionModel::RangeLinear { pd0: pd },
+            };
+        }
+        if let Some(rate) = self.clutter_rate {
+            m.clutter.rate = rate;
+        }
+        if let Some(units) = self.clutter_intensity {
+            m.clutter.intensity = units;
+        }
+        m
+    }
+
     /// Checks ranges.
     pub fn validate(&self, particles: usize) -> Result<(), ParamError> {
         let pos = |k: &str, v: f64| {
@@ -132,6 +162,16 @@ impl RbPhdParams {
         }
         if self.q_jitter.iter().any(|j| !(*j >= 0.0 && j.is_finite())) {
             return Err(ParamError::new("q_jitter", "entries must be >= 0"));
+        }
+        if let Some(pd) = self.detection_pd
+            && !(pd > 0.0 && pd <= 1.0)
+        {
+            return Err(ParamError::new("detection_pd", format!("must be in (0, 1] (got {pd})")));
+        }
+        if let Some(c) = self.clutter_rate
+            && !(c >= 0.0 && c.is_finite())
+        {
+            return Err(ParamError::new("clutter_rate", format!("must be >= 0 (got {c})")));
         }
         self.multi_feature().validate()?;
         if particles == 0 {
@@ -192,5 +232,51 @@ impl<'de, PP: DeserializeOwned> Deserialize<'de> for PhdParams<PP> {
         let proposal =
             toml::Value::Table(rest).try_into().map_err(|e: toml::de::Error| D::Error::custom(e.message()))?;
         Ok(PhdParams { common, proposal })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Matrix2, Matrix3};
+    use rfslam_core::{ClutterIntensity, ClutterModel, Fov, Motion, Pose, RangeBearingSensor};
+
+    fn models(detection: DetectionModel) -> SlamModels {
+        SlamModels {
+            motion: Motion::Velocity,
+            control_noise: Matrix3::identity(),
+            sensor: RangeBearingSensor::default(),
+            measurement_noise: Matrix2::identity(),
+            fov: Fov { max_range: 50.0, half_angle: 1.0 },
+            detection,
+            clutter: ClutterModel { rate: 5.0, intensity: ClutterIntensity::Cartesian },
+            initial_pose: Pose::zeros(),
+        }
+    }
+
+    /// The sensitivity overrides change what the filter assumes and nothing else.
+    #[test]
+    fn filter_models_apply_the_overrides() {
+        let base = models(DetectionModel::Constant { pd: 0.95 });
+        assert_eq!(RbPhdParams::default().filter_models(&base), base);
+        let p = RbPhdParams { detection_pd: Some(0.4), clutter_rate: Some(20.0), ..Default::default() };
+        let m = p.filter_models(&base);
+        assert_eq!(m.detection, DetectionModel::Constant { pd: 0.4 });
+        assert_eq!(m.clutter.rate, 20.0);
+        assert_eq!(
+            (m.fov, m.measurement_noise, m.clutter.intensity),
+            (base.fov, base.measurement_noise, base.clutter.intensity)
+        );
+        let vp = p.filter_models(&models(DetectionModel::RangeLinear { pd0: 0.7 }));
+        assert_eq!(vp.detection, DetectionModel::RangeLinear { pd0: 0.4 });
+    }
+
+    #[test]
+    fn overrides_are_validated() {
+        for (pd, rate) in [(Some(0.0), None), (Some(1.5), None), (None, Some(-1.0)), (None, Some(f64::NAN))] {
+            let p = RbPhdParams { detection_pd: pd, clutter_rate: rate, ..Default::default() };
+            let e = p.validate(1).unwrap_err();
+            assert!(e.to_string().contains(if pd.is_some() { "detection_pd" } else { "clutter_rate" }), "{e}");
+        }
     }
 }
