@@ -27,6 +27,7 @@ pub mod config;
 mod csvio;
 pub mod dataset;
 pub mod error;
+pub mod glmb_sim;
 pub mod locate;
 pub mod mat;
 pub mod scenario;

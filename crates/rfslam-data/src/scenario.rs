@@ -80,6 +80,11 @@ pub enum WorldSpec {
         /// Heading of the initial pose (deg).
         initial_heading_deg: f64,
     },
+    /// The simulated world of delta-GLMB-SLAM 2.0 (Moratuwage et al. 2019, §4.1): 23
+    /// landmarks beside a racetrack driven at 1 m/s with a loop closure
+    /// ([`crate::glmb_sim::glmb_sim_world`]); no keys.
+    #[serde(rename = "glmb-sim")]
+    GlmbSim,
 }
 
 /// The `[world]` table as written.
@@ -109,6 +114,8 @@ enum WorldKind {
     Dataset,
     #[serde(rename = "victoria-park")]
     VictoriaPark,
+    #[serde(rename = "glmb-sim")]
+    GlmbSim,
 }
 
 impl TryFrom<RawWorld> for WorldSpec {
@@ -146,6 +153,10 @@ impl TryFrom<RawWorld> for WorldSpec {
                     initial_heading_deg: r.initial_heading_deg.unwrap_or(0.0),
                 }
             }
+            WorldKind::GlmbSim => {
+                only_keys("world", "glmb-sim", &given, &[])?;
+                WorldSpec::GlmbSim
+            }
             WorldKind::Procedural => {
                 let keys = ["seed", "steps", "dt", "speed", "max_turn_rate_deg", "extent", "landmarks"];
                 only_keys("world", "procedural", &given, &keys)?;
@@ -173,6 +184,7 @@ impl WorldSpec {
             WorldSpec::Procedural(_) => "procedural",
             WorldSpec::Dataset { .. } => "dataset",
             WorldSpec::VictoriaPark { .. } => "victoria-park",
+            WorldSpec::GlmbSim => "glmb-sim",
         }
     }
 
@@ -253,6 +265,7 @@ impl ScenarioConfig {
         self.models().validate()?;
         match &self.world {
             WorldSpec::Procedural(p) => p.validate().map_err(|e| e.prefixed("world"))?,
+            WorldSpec::GlmbSim => {}
             WorldSpec::Environment { path } | WorldSpec::Mat { path } | WorldSpec::Dataset { path } => {
                 if path.trim().is_empty() {
                     return Err(ConfigError::new("world.path", "must not be empty"));
@@ -296,6 +309,7 @@ impl ScenarioConfig {
             WorldSpec::Environment { path } => World::from_csv_dir(&find_data(path)?).map(Some),
             WorldSpec::Mat { path } => World::from_mat(&find_data(path)?).map(Some),
             WorldSpec::Procedural(p) => World::procedural(p, p.seed).map(Some),
+            WorldSpec::GlmbSim => Ok(Some(crate::glmb_sim::glmb_sim_world())),
             WorldSpec::Dataset { .. } | WorldSpec::VictoriaPark { .. } => Ok(None),
         }
     }
