@@ -1,0 +1,306 @@
+//! The Rao-Blackwellised particle filters: `glmb-1.0`, `glmb-2.0` and `lmb-slam`.
+
+use nalgebra::Matrix3;
+use rfslam_core::angle::wrap;
+use rfslam_core::gaussian::{log_normal, sample, symmetrise};
+use rfslam_core::motion::propagate_with_covariance;
+use rfslam_core::rbpf::{LogWeighted, Population};
+use rfslam_core::{
+    ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, Pose, RangeBearing, Rng, Scan, SlamFilter, SlamModels,
+    StepReport,
+};
+
+use crate::map::{
+    GlmbMap, GlmbSettings, LmbMap, Track, UpdateModels, Workspace, birth_label, glmb_update, lmb_update,
+    optimal_proposal,
+};
+use crate::params::Params;
+
+/// Which filter of the family.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Variant {
+    /// delta-GLMB-SLAM 1.0: transition density as proposal.
+    Glmb1,
+    /// delta-GLMB-SLAM 2.0: the optimal-kernel proposal of eqs. (30)-(33).
+    Glmb2,
+    /// LMB-SLAM (Deusch et al. 2015): transition density as proposal, LMB map.
+    Lmb,
+}
+
+/// One particle: pose `x_k`, its map (delta-GLMB or LMB) and `r_U` of the last scan's
+/// measurements (adaptive birth).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Particle {
+    /// Log weight (normalised after every step).
+    pub log_w: f64,
+    /// Pose.
+    pub pose: Pose,
+    /// delta-GLMB map (glmb-1.0, glmb-2.0).
+    pub glmb: GlmbMap,
+    /// LMB map (lmb-slam).
+    pub lmb: LmbMap,
+    /// `r_U(z_j)` of the previous scan.
+    pub ru: Vec<f64>,
+}
+
+impl LogWeighted for Particle {
+    fn log_weight(&self) -> f64 {
+        self.log_w
+    }
+
+    fn set_log_weight(&mut self, log_w: f64) {
+        self.log_w = log_w;
+    }
+}
+
+/// The filter shared by the three variants.
+#[derive(Debug, Clone)]
+pub struct GlmbSlam {
+    variant: Variant,
+    params: Params,
+    models: SlamModels,
+    jitter: Matrix3<f64>,
+    log_kappa: f64,
+    particles: Vec<Particle>,
+    population: Population,
+    spare: Vec<Particle>,
+    best: usize,
+    step: u64,
+    prev_z: Vec<RangeBearing>,
+    ws: Workspace,
+}
+
+impl GlmbSlam {
+    /// A filter with `n` particles at the initial pose with empty maps.
+    pub fn new(variant: Variant, params: Params, models: &SlamModels, n: usize) -> Self {
+        let n = n.max(1);
+        let jitter = Matrix3::from_diagonal(&params.q_jitter.into());
+        let log_kappa = models.clutter.intensity(&models.fov).max(params.min_clutter_intensity).ln();
+        let p0 = Particle { log_w: -(n as f64).ln(), pose: models.initial_pose, ..Default::default() };
+        GlmbSlam {
+            variant,
+            params,
+            models: models.clone(),
+            jitter,
+            log_kappa,
+            particles: vec![p0; n],
+            population: Population::new(n),
+            spare: Vec::new(),
+            best: 0,
+            step: 0,
+            prev_z: Vec::new(),
+            ws: Workspace::default(),
+        }
+    }
+
+    /// The particles (for inspection and tests).
+    pub fn particle_set(&self) -> &[Particle] {
+        &self.particles
+    }
+
+    /// Index of the particle the estimate comes from.
+    pub fn best_index(&self) -> usize {
+        self.best
+    }
+
+    fn step_impl(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
+        self.step += 1;
+        let models = &self.models;
+        let p = &self.params;
+        let um = UpdateModels {
+            sensor: &models.sensor,
+            r: models.measurement_noise,
+            fov: models.fov,
+            detection: models.detection,
+            log_kappa: self.log_kappa,
+            survival: p.survival_fov,
+            gate: p.gate,
+        };
+        let settings =
+            GlmbSettings { sweeps: p.gibbs_sweeps, prune: p.hypothesis_prune, max_hypotheses: p.max_hypotheses };
+        let mut chol = 0u32;
+        let mut proposal_components = 0usize;
+        let ws = &mut self.ws;
+        for part in &mut self.particles {
+            // Adaptive birth from the previous scan at the previous pose (eq. 27).
+            ws.births.clear();
+            for (j, zj) in self.prev_z.iter().enumerate() {
+                let (mean, jz, _) = models.sensor.inverse_with_jacobians(&part.pose, zj);
+                let cov = symmetrise(&(jz * models.measurement_noise * jz.transpose()));
+                let explained = part.ru.get(j).is_some_and(|&r| r >= p.explained_threshold);
+                let rb = if explained { p.birth_existing } else { p.birth_new };
+                if rb > 0.0 {
+                    ws.births.push((Track { label: birth_label(self.step, j), mean, cov }, rb.ln()));
+                }
+            }
+            // Proposal: transition density (eq. 32) or the optimal kernel (eqs. 30-31).
+            let (x_bar, q) = propagate_with_covariance(&models.motion, &part.pose, odometry, &models.control_noise);
+            let q = symmetrise(&(q + self.jitter));
+            let (x, corr) = if self.variant == Variant::Glmb2 && !scan.z.is_empty() {
+                let (mu, sig, n_comp, c) = optimal_proposal(
+                    &part.glmb,
+                    &x_bar,
+                    &q,
+                    &scan.z,
+                    &um,
+                    p.proposal_hypotheses,
+                    p.proposal_sweeps,
+                    ws,
+                    rng,
+                );
+                chol += c;
+                proposal_components += n_comp;
+                match sample(&mu, &sig, rng) {
+                    Some(x) => {
+                        let x = Pose::new(x[0], x[1], wrap(x[2]));
+                        let dq = Pose::new(x[0] - x_bar[0], x[1] - x_bar[1], wrap(x[2] - x_bar[2]));
+                        let dp = Pose::new(x[0] - mu[0], x[1] - mu[1], wrap(x[2] - mu[2]));
+                        match (log_normal(&dq, &q), log_normal(&dp, &sig)) {
+                            (Some(lf), Some(lq)) => (x, lf - lq),
+                            _ => {
+                                chol += 1;
+                                (x, 0.0)
+                            }
+                        }
+                    }
+                    None => {
+                        chol += 1;
+                        (draw_prior(&x_bar, &q, rng, &mut chol), 0.0)
+                    }
+                }
+            } else {
+                (draw_prior(&x_bar, &q, rng, &mut chol), 0.0)
+            };
+            part.pose = x;
+            // Joint prediction and update of the map at x (eqs. 11-16), weight (eq. 22).
+            let (log_dw, c) = match self.variant {
+                Variant::Lmb => lmb_update(&mut part.lmb, &x, &scan.z, &um, p.gibbs_sweeps, p.existence_prune, ws, rng),
+                _ => glmb_update(&mut part.glmb, &x, &scan.z, &um, &settings, ws, rng),
+            };
+            chol += c;
+            part.log_w += log_dw + corr;
+            part.ru.clear();
+            part.ru.extend_from_slice(&ws.ru);
+        }
+        self.prev_z.clear();
+        self.prev_z.extend_from_slice(&scan.z);
+
+        let (ess, best) = self.population.normalise(&mut self.particles);
+        self.best = best;
+        let components = match self.variant {
+            Variant::Lmb => self.particles.iter().map(|p| p.lmb.tracks.len()).sum(),
+            _ => self.particles.iter().map(|p| p.glmb.hyps.len()).sum(),
+        };
+        let n = self.particles.len();
+        let threshold = self.params.resample_ess_fraction * n as f64;
+        let (resampled, best) =
+            self.population.resample(&mut self.particles, &mut self.spare, ess, threshold, self.best, rng);
+        self.best = best;
+        StepReport { ess, resampled, components, proposal_components, associations: None, cholesky_failures: chol }
+    }
+
+    fn estimate_impl(&self) -> Estimate {
+        let p = &self.particles[self.best];
+        let map = match self.variant {
+            Variant::Lmb => p
+                .lmb
+                .tracks
+                .iter()
+                .zip(&p.lmb.r)
+                .filter(|(_, r)| **r > self.params.existence_estimate)
+                .map(|(t, r)| MapPoint { position: t.mean, weight: *r })
+                .collect(),
+            _ => {
+                let h = p.glmb.map_hypothesis();
+                let w = p.glmb.hyps[h].log_w.exp();
+                p.glmb
+                    .members_of(h)
+                    .iter()
+                    .map(|&t| MapPoint { position: p.glmb.tracks[t as usize].mean, weight: w })
+                    .collect()
+            }
+        };
+        Estimate { pose: p.pose, map }
+    }
+}
+
+/// `x ~ N(x_bar, Q)` (heading wrapped); the mean on a Cholesky failure (counted).
+fn draw_prior(x_bar: &Pose, q: &Matrix3<f64>, rng: &mut Rng, chol: &mut u32) -> Pose {
+    match sample(x_bar, q, rng) {
+        Some(x) => Pose::new(x[0], x[1], wrap(x[2])),
+        None => {
+            *chol += 1;
+            *x_bar
+        }
+    }
+}
+
+macro_rules! variant_filter {
+    ($(#[$doc:meta])* $ty:ident, $variant:expr, $name:literal) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone)]
+        pub struct $ty(pub GlmbSlam);
+
+        impl $ty {
+            /// Registered name.
+            pub const NAME: &'static str = $name;
+
+            /// A filter with `n` particles at the scenario's initial pose with empty maps.
+            pub fn new(params: Params, models: &SlamModels, n: usize) -> Self {
+                $ty(GlmbSlam::new($variant, params, models, n))
+            }
+        }
+
+        impl SlamFilter for $ty {
+            fn name(&self) -> &str {
+                Self::NAME
+            }
+
+            fn particles(&self) -> usize {
+                self.0.particles.len()
+            }
+
+            fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
+                self.0.step_impl(odometry, scan, rng)
+            }
+
+            fn estimate(&self) -> Estimate {
+                self.0.estimate_impl()
+            }
+        }
+
+        impl FilterBuild for $ty {
+            type Params = Params;
+
+            fn validate(params: &Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+                params.validate(particles)
+            }
+
+            fn build(params: Params, models: &SlamModels, particles: usize) -> Self {
+                $ty::new(params, models, particles)
+            }
+        }
+    };
+}
+
+variant_filter!(
+    /// `glmb-1.0`: delta-GLMB-SLAM 1.0 (Moratuwage et al., ICCAIS 2018): the transition density
+    /// as proposal, Gibbs joint prediction and update of each particle's delta-GLMB map.
+    Glmb1,
+    Variant::Glmb1,
+    "glmb-1.0"
+);
+variant_filter!(
+    /// `glmb-2.0`: delta-GLMB-SLAM 2.0 (Moratuwage et al., Sensors 2019): the optimal-kernel
+    /// proposal of eqs. (30)-(33), Gibbs joint prediction and update.
+    Glmb2,
+    Variant::Glmb2,
+    "glmb-2.0"
+);
+variant_filter!(
+    /// `lmb-slam`: LMB-SLAM (Deusch et al., IEEE SPL 2015) as compared in seed 001: the
+    /// transition density as proposal, Gibbs update of the LMB map then LMB collapse.
+    LmbSlam,
+    Variant::Lmb,
+    "lmb-slam"
+);

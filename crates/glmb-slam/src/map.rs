@@ -1,0 +1,720 @@
+//! The per-particle landmark maps and their joint prediction and update.
+//!
+//! - [`GlmbMap`]: a Gaussian delta-GLMB density (seed 001 eqs. 10, 23): a table of labelled
+//!   Gaussian tracks and hypotheses `(ln w_h, I_h)` that reference them.
+//! - [`glmb_update`]: the efficient joint prediction and update (seed 001 eqs. 11-16, Vo,
+//!   Vo, Hoang 2017) at a given pose, with the decisions drawn by the Gibbs sampler.
+//! - [`LmbMap`], [`lmb_update`]: LMB-SLAM (Deusch et al. 2015): the same update from a
+//!   single prior hypothesis, collapsed back to a labelled multi-Bernoulli.
+//!
+//! Landmarks are static: the survival transition of eqs. (7)-(8) keeps the density, so a
+//! surviving, undetected track keeps its Gaussian and its table entry. `p_S = 1` and
+//! `p_D = 0` outside the FOV (eqs. 5, 7-9): such a track has `eta = (0, 1, 0...)` and is
+//! left out of the sampler (it survives unchanged in every child hypothesis).
+
+use nalgebra::{Matrix2, Matrix3, Matrix3x2};
+use rand::Rng;
+use rfslam_assign::gibbs::{DEAD, GibbsSampler, GibbsTable, MISSED};
+use rfslam_core::angle::wrap;
+use rfslam_core::gaussian::symmetrise;
+use rfslam_core::rbpf::log_sum_exp;
+use rfslam_core::sensor::RangeBearingSensor;
+use rfslam_core::{DetectionModel, Fov, Point2, Pose, RangeBearing};
+
+const LN_2PI: f64 = 1.837_877_066_409_345_5;
+const NONE: u32 = u32::MAX;
+
+/// A labelled landmark density `N(m; mean, cov)` with label `(birth step, measurement)`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Track {
+    /// Label `l = (k << 20) | j`: born at step `k` from measurement `j` of scan `k - 1`.
+    pub label: u64,
+    /// Mean (m).
+    pub mean: Point2,
+    /// Covariance (m^2).
+    pub cov: Matrix2<f64>,
+}
+
+/// The label of the birth track of measurement `j` at step `k`.
+pub fn birth_label(k: u64, j: usize) -> u64 {
+    (k << 20) | j as u64
+}
+
+/// One hypothesis `(I_h, w_h)`: its tracks are `members[start..start + len]` (indices into
+/// [`GlmbMap::tracks`], sorted).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Hypothesis {
+    /// `ln w_h` (normalised over the map's hypotheses).
+    pub log_w: f64,
+    /// First member.
+    pub start: u32,
+    /// Number of members `|I_h|`.
+    pub len: u32,
+}
+
+/// A Gaussian delta-GLMB map density (seed 001 eq. 23), hypotheses sorted by weight.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GlmbMap {
+    /// Track table.
+    pub tracks: Vec<Track>,
+    /// Hypotheses, heaviest first.
+    pub hyps: Vec<Hypothesis>,
+    /// Track indices of every hypothesis.
+    pub members: Vec<u32>,
+}
+
+impl Default for GlmbMap {
+    /// The empty map: one hypothesis (no landmark) of weight 1.
+    fn default() -> Self {
+        GlmbMap { tracks: Vec::new(), hyps: vec![Hypothesis { log_w: 0.0, start: 0, len: 0 }], members: Vec::new() }
+    }
+}
+
+impl GlmbMap {
+    /// Track indices of hypothesis `h`.
+    pub fn members_of(&self, h: usize) -> &[u32] {
+        let hy = self.hyps[h];
+        &self.members[hy.start as usize..(hy.start + hy.len) as usize]
+    }
+
+    /// The map estimate of seed 001 §3.1: the MAP cardinality `n = argmax rho(n)` with
+    /// `rho(n) = sum_{|I_h| = n} w_h`, then the heaviest hypothesis of that cardinality.
+    /// Returns its index.
+    pub fn map_hypothesis(&self) -> usize {
+        let max_n = self.hyps.iter().map(|h| h.len as usize).max().unwrap_or(0);
+        let mut best_n = 0;
+        let mut best_rho = f64::NEG_INFINITY;
+        for n in 0..=max_n {
+            let rho: f64 = self.hyps.iter().filter(|h| h.len as usize == n).map(|h| h.log_w.exp()).sum();
+            if rho > best_rho {
+                best_rho = rho;
+                best_n = n;
+            }
+        }
+        // hyps are sorted by weight: the first of cardinality best_n is the heaviest.
+        self.hyps.iter().position(|h| h.len as usize == best_n).unwrap_or(0)
+    }
+}
+
+/// A labelled multi-Bernoulli map `{(r_l, N(m; mean_l, P_l))}` (LMB-SLAM).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LmbMap {
+    /// Tracks.
+    pub tracks: Vec<Track>,
+    /// Existence probability of each track.
+    pub r: Vec<f64>,
+}
+
+/// The scan-level models of an update.
+#[derive(Debug, Clone, Copy)]
+pub struct UpdateModels<'a> {
+    /// Sensor.
+    pub sensor: &'a RangeBearingSensor,
+    /// Measurement noise `R`.
+    pub r: Matrix2<f64>,
+    /// Field of view.
+    pub fov: Fov,
+    /// `p_D(m | x)` inside the FOV, 0 outside (eq. 5).
+    pub detection: DetectionModel,
+    /// `ln kappa(z)` (uniform clutter intensity).
+    pub log_kappa: f64,
+    /// `p_S` inside the FOV (1 outside, eqs. 7-9).
+    pub survival: f64,
+    /// Gate on the squared Mahalanobis distance.
+    pub gate: f64,
+}
+
+/// The single-target EKF update of one track by one gated measurement (eq. 16 with the
+/// linearised likelihood of eq. 26): `ln q = ln N(z; h(m, x), H_m P H_m^T + R)` and the
+/// updated Gaussian.
+#[derive(Debug, Clone, Copy)]
+pub struct Lik {
+    /// Measurement index (0-based).
+    pub j: u32,
+    /// `ln q`.
+    pub log_q: f64,
+    /// Updated mean.
+    pub mean: Point2,
+    /// Updated covariance (Joseph form).
+    pub cov: Matrix2<f64>,
+}
+
+/// A sampler-table row: a track in the FOV (or a birth).
+#[derive(Debug, Clone, Copy)]
+struct Row {
+    /// Track index (existing rows) or birth index (birth rows).
+    src: u32,
+    pd: f64,
+    /// `ln r` of the track (0 for a delta-GLMB track, `ln r_B` for a birth).
+    log_r: f64,
+    /// `p_S` (1 for births).
+    ps: f64,
+    lik_start: u32,
+    lik_end: u32,
+}
+
+/// Reusable buffers of the updates (one per filter; no allocation once warm).
+#[derive(Debug, Clone, Default)]
+pub struct Workspace {
+    /// Birth tracks of this step for the current particle, with `ln r_B` (filled by the
+    /// caller before an update).
+    pub births: Vec<(Track, f64)>,
+    /// After an update: `r_U(z_j)`, the probability that measurement `j` was assigned to a
+    /// track (adaptive birth, note 08 §6).
+    pub ru: Vec<f64>,
+    rows: Vec<Row>,
+    row_of: Vec<u32>,
+    liks: Vec<Lik>,
+    table: GibbsTable,
+    gibbs: GibbsSampler,
+    table_rows: Vec<u32>,
+    new_tracks: Vec<Track>,
+    new_hyps: Vec<Hypothesis>,
+    new_members: Vec<u32>,
+    hyp_meas: Vec<(u32, u32)>,
+    meas: Vec<u32>,
+    remap_old: Vec<u32>,
+    remap_lik: Vec<u32>,
+    remap_birth: Vec<u32>,
+    order: Vec<u32>,
+    keep: Vec<Hypothesis>,
+    keep_members: Vec<u32>,
+    acc: Vec<f64>,
+    comps: Vec<(f64, Pose, Matrix3<f64>)>,
+    r_new: Vec<f64>,
+}
+
+/// `ln N(z; h, S)` for every gated `z_j` and the EKF updates, for a track `(mean, cov)` seen
+/// from `x`; with `pose_cov = Some(Q)` the pose-marginalised likelihood
+/// (`S = H_x Q H_x^T + H_m P H_m^T + R`, note 08 §7) and no update. Appends to `liks`;
+/// returns `false` if `S` failed Cholesky (then nothing is appended).
+#[allow(clippy::too_many_arguments)]
+fn likelihoods(
+    m: &UpdateModels,
+    x: &Pose,
+    mean: &Point2,
+    cov: &Matrix2<f64>,
+    pose_cov: Option<&Matrix3<f64>>,
+    z: &[RangeBearing],
+    liks: &mut Vec<Lik>,
+) -> bool {
+    let lin = m.sensor.linearise(x, mean);
+    let ph = cov * lin.hm.transpose();
+    let mut s = lin.hm * ph + m.r;
+    if let Some(q) = pose_cov {
+        s += lin.hx * q * lin.hx.transpose();
+    }
+    let Some(ch) = symmetrise(&s).cholesky() else { return false };
+    let l = ch.l_dirty();
+    let log_det = 2.0 * (l[(0, 0)].ln() + l[(1, 1)].ln());
+    let gain = ch.solve(&ph.transpose()).transpose();
+    let ikh = Matrix2::identity() - gain * lin.hm;
+    let mut upd_cov = None;
+    for (j, zj) in z.iter().enumerate() {
+        let nu = RangeBearingSensor::residual(zj, &lin.z);
+        let Some(y) = l.solve_lower_triangular(&nu) else { continue };
+        let maha = y.norm_squared();
+        if maha.is_nan() || maha > m.gate {
+            continue;
+        }
+        let log_q = -0.5 * (2.0 * LN_2PI + log_det + maha);
+        let (mean_u, cov_u) = if pose_cov.is_some() {
+            (*mean, *cov)
+        } else {
+            let c = *upd_cov
+                .get_or_insert_with(|| symmetrise(&(ikh * cov * ikh.transpose() + gain * m.r * gain.transpose())));
+            (mean + gain * nu, c)
+        };
+        liks.push(Lik { j: j as u32, log_q, mean: mean_u, cov: cov_u });
+    }
+    true
+}
+
+impl Workspace {
+    /// Builds the sampler rows at pose `x`: the given tracks inside the FOV (with existence
+    /// `r` from `log_r`), then every birth. Returns the Cholesky failures.
+    fn build_rows(
+        &mut self,
+        m: &UpdateModels,
+        x: &Pose,
+        tracks: &[Track],
+        log_r: Option<&[f64]>,
+        pose_cov: Option<&Matrix3<f64>>,
+        z: &[RangeBearing],
+    ) -> u32 {
+        let mut chol = 0;
+        self.rows.clear();
+        self.liks.clear();
+        self.row_of.clear();
+        self.row_of.resize(tracks.len(), NONE);
+        let items = tracks.iter().map(|t| (t, None)).chain(self.births.iter().map(|(t, lr)| (t, Some(*lr))));
+        for (idx, (t, birth_lr)) in items.enumerate() {
+            let pd = m.detection.pd(&m.fov, x, &t.mean);
+            let is_birth = birth_lr.is_some();
+            if pd <= 0.0 && !is_birth {
+                continue; // out of the FOV: p_S = 1, p_D = 0, deterministic
+            }
+            let start = self.liks.len() as u32;
+            if pd > 0.0 && !likelihoods(m, x, &t.mean, &t.cov, pose_cov, z, &mut self.liks) {
+                chol += 1;
+            }
+            let (src, lr, ps) = match birth_lr {
+                Some(lr) => ((idx - tracks.len()) as u32, lr, 1.0),
+                None => {
+                    self.row_of[idx] = self.rows.len() as u32;
+                    (idx as u32, log_r.map_or(0.0, |l| l[idx]), m.survival)
+                }
+            };
+            self.rows.push(Row { src, pd, log_r: lr, ps, lik_start: start, lik_end: self.liks.len() as u32 });
+        }
+        chol
+    }
+
+    /// Adds row `r` to the table (eqs. 12-15 for one label: `1 - r p_S`, `r p_S (1 - p_D)`,
+    /// `r p_S p_D q / kappa`).
+    fn push_row(&mut self, r: usize, log_kappa: f64) {
+        let row = self.rows[r];
+        let rps = row.log_r.exp() * row.ps;
+        self.table.push(DEAD, (1.0 - rps).ln());
+        let lrps = row.log_r + row.ps.ln();
+        self.table.push(MISSED, lrps + (1.0 - row.pd).ln());
+        let det = lrps + row.pd.ln() - log_kappa;
+        for e in row.lik_start..row.lik_end {
+            let l = self.liks[e as usize];
+            self.table.push(l.j as i32 + 1, det + l.log_q);
+        }
+        self.table.end_row();
+        self.table_rows.push(r as u32);
+    }
+
+    /// `ln eta` of state `s` of the sampler over the current table (`-inf` if impossible).
+    fn state_log_weight(&self, s: usize) -> f64 {
+        self.gibbs.sample(s).iter().enumerate().map(|(i, &g)| self.table.entry(i, g)).sum()
+    }
+
+    /// The index of the likelihood entry of row `r` for measurement option `g >= 1`.
+    fn lik_of(&self, r: usize, g: i32) -> usize {
+        let row = self.rows[r];
+        (row.lik_start..row.lik_end).find(|&e| self.liks[e as usize].j as i32 == g - 1).unwrap_or(0) as usize
+    }
+}
+
+/// Settings of [`glmb_update`].
+#[derive(Debug, Clone, Copy)]
+pub struct GlmbSettings {
+    /// Gibbs sweeps shared among the prior hypotheses.
+    pub sweeps: usize,
+    /// Prune threshold on normalised hypothesis weights.
+    pub prune: f64,
+    /// Maximum number of hypotheses kept.
+    pub max_hypotheses: usize,
+}
+
+/// The joint prediction and update of the efficient delta-GLMB filter (seed 001 eqs. 11-16)
+/// of `map` at pose `x` with the births in `ws.births` and the scan `z`.
+///
+/// For every prior hypothesis `h` the table `eta` over its in-FOV tracks and the births is
+/// sampled for `T_h = max(1, ceil(sweeps w_h))` sweeps; each distinct state `gamma` gives a
+/// child `(I+, w_h prod_i eta_i(gamma_i))` (eq. 12) whose tracks are the cached EKF updates
+/// (eq. 16). Returns `ln Delta w = ln sum_children w` (the normalising constant of eq. 11
+/// relative to the all-clutter likelihood `e^{-<kappa,1>} kappa^Z`: the particle's weight
+/// factor, eq. 22) and the Cholesky failures. Children with equal track sets are merged,
+/// then weights below `prune` are removed (the heaviest is always kept), at most
+/// `max_hypotheses` are kept, and the weights are renormalised. `ws.ru` receives `r_U(z_j)`.
+/// If no child is possible the map is left as it was and `-inf` is returned.
+pub fn glmb_update<R: Rng + ?Sized>(
+    map: &mut GlmbMap,
+    x: &Pose,
+    z: &[RangeBearing],
+    m: &UpdateModels,
+    s: &GlmbSettings,
+    ws: &mut Workspace,
+    rng: &mut R,
+) -> (f64, u32) {
+    let chol = ws.build_rows(m, x, &map.tracks, None, None, z);
+    ws.new_tracks.clear();
+    ws.new_hyps.clear();
+    ws.new_members.clear();
+    ws.hyp_meas.clear();
+    ws.meas.clear();
+    ws.remap_old.clear();
+    ws.remap_old.resize(map.tracks.len(), NONE);
+    ws.remap_lik.clear();
+    ws.remap_lik.resize(ws.liks.len(), NONE);
+    ws.remap_birth.clear();
+    ws.remap_birth.resize(ws.births.len(), NONE);
+    let first_birth_row = ws.rows.len() - ws.births.len();
+
+    for h in 0..map.hyps.len() {
+        let hy = map.hyps[h];
+        let members = &map.members[hy.start as usize..(hy.start + hy.len) as usize];
+        ws.table.clear(z.len());
+        ws.table_rows.clear();
+        for &t in members {
+            let r = ws.row_of[t as usize];
+            if r != NONE {
+                ws.push_row(r as usize, m.log_kappa);
+            }
+        }
+        for r in first_birth_row..ws.rows.len() {
+            ws.push_row(r, m.log_kappa);
+        }
+        let sweeps = ((s.sweeps as f64 * hy.log_w.exp()).ceil() as usize).max(1);
+        ws.gibbs.run(&ws.table, if ws.table.rows() == 0 { 0 } else { sweeps }, rng);
+        ws.gibbs.distinct();
+        for smp in 0..ws.gibbs.len() {
+            let lw = hy.log_w + ws.state_log_weight(smp);
+            if lw == f64::NEG_INFINITY || lw.is_nan() {
+                continue;
+            }
+            let start = ws.new_members.len();
+            let meas_start = ws.meas.len();
+            // Out-of-FOV members survive unchanged.
+            for &t in members {
+                if ws.row_of[t as usize] == NONE {
+                    let id = remap(&mut ws.remap_old[t as usize], &mut ws.new_tracks, map.tracks[t as usize]);
+                    ws.new_members.push(id);
+                }
+            }
+            for i in 0..ws.table_rows.len() {
+                let g = ws.gibbs.sample(smp)[i];
+                let r = ws.table_rows[i] as usize;
+                let row = ws.rows[r];
+                let birth = r >= first_birth_row;
+                let id = match g {
+                    DEAD => continue,
+                    MISSED if birth => {
+                        let b = row.src as usize;
+                        remap(&mut ws.remap_birth[b], &mut ws.new_tracks, ws.births[b].0)
+                    }
+                    MISSED => {
+                        let t = row.src as usize;
+                        remap(&mut ws.remap_old[t], &mut ws.new_tracks, map.tracks[t])
+                    }
+                    g => {
+                        let e = ws.lik_of(r, g);
+                        let l = ws.liks[e];
+                        let label = if birth {
+                            ws.births[row.src as usize].0.label
+                        } else {
+                            map.tracks[row.src as usize].label
+                        };
+                        ws.meas.push(g as u32 - 1);
+                        remap(&mut ws.remap_lik[e], &mut ws.new_tracks, Track { label, mean: l.mean, cov: l.cov })
+                    }
+                };
+                ws.new_members.push(id);
+            }
+            ws.new_members[start..].sort_unstable();
+            ws.new_hyps.push(Hypothesis { log_w: lw, start: start as u32, len: (ws.new_members.len() - start) as u32 });
+            ws.hyp_meas.push((meas_start as u32, ws.meas.len() as u32));
+        }
+    }
+
+    let log_dw = {
+        ws.acc.clear();
+        ws.acc.extend(ws.new_hyps.iter().map(|h| h.log_w));
+        log_sum_exp(&ws.acc)
+    };
+    ws.ru.clear();
+    ws.ru.resize(z.len(), 0.0);
+    if !log_dw.is_finite() {
+        return (f64::NEG_INFINITY, chol);
+    }
+    for (h, &(a, b)) in ws.new_hyps.iter_mut().zip(&ws.hyp_meas) {
+        h.log_w -= log_dw;
+        let w = h.log_w.exp();
+        for &j in &ws.meas[a as usize..b as usize] {
+            ws.ru[j as usize] += w;
+        }
+    }
+
+    // Merge children with the same track set.
+    ws.order.clear();
+    ws.order.extend(0..ws.new_hyps.len() as u32);
+    {
+        let (hyps, mem) = (&ws.new_hyps, &ws.new_members);
+        let key = |i: u32| {
+            let h = hyps[i as usize];
+            &mem[h.start as usize..(h.start + h.len) as usize]
+        };
+        ws.order.sort_unstable_by(|&a, &b| key(a).cmp(key(b)));
+        let mut i = 0;
+        while i < ws.order.len() {
+            let mut k = i + 1;
+            while k < ws.order.len() && key(ws.order[k]) == key(ws.order[i]) {
+                k += 1;
+            }
+            if k > i + 1 {
+                // The merged weight goes to the first; the others are removed.
+                let lw = log_sum_exp_iter(ws.order[i..k].iter().map(|&o| hyps[o as usize].log_w));
+                ws.keep.push(Hypothesis { log_w: lw, start: ws.order[i], len: 0 });
+                ws.keep_members.extend_from_slice(&ws.order[i + 1..k]);
+            }
+            i = k;
+        }
+    }
+    for h in ws.keep.drain(..) {
+        ws.new_hyps[h.start as usize].log_w = h.log_w;
+    }
+    for o in ws.keep_members.drain(..) {
+        ws.new_hyps[o as usize].log_w = f64::NEG_INFINITY;
+    }
+
+    // Prune, cap, renormalise.
+    ws.order.clear();
+    ws.order.extend(0..ws.new_hyps.len() as u32);
+    let hyps = &ws.new_hyps;
+    ws.order.sort_unstable_by(|&a, &b| hyps[b as usize].log_w.total_cmp(&hyps[a as usize].log_w).then(a.cmp(&b)));
+    let ln_prune = s.prune.ln();
+    let mut kept = 0;
+    for (rank, &o) in ws.order.iter().enumerate() {
+        let lw = hyps[o as usize].log_w;
+        if rank == 0 || (lw >= ln_prune && lw > f64::NEG_INFINITY && rank < s.max_hypotheses) {
+            kept = rank + 1;
+        } else {
+            break;
+        }
+    }
+    ws.order.truncate(kept);
+    let z_kept = log_sum_exp_iter(ws.order.iter().map(|&o| hyps[o as usize].log_w));
+
+    // Garbage-collect the track table: keep only referenced tracks.
+    ws.remap_old.clear();
+    ws.remap_old.resize(ws.new_tracks.len(), NONE);
+    map.tracks.clear();
+    map.hyps.clear();
+    map.members.clear();
+    for &o in &ws.order {
+        let h = ws.new_hyps[o as usize];
+        let start = map.members.len();
+        for &t in &ws.new_members[h.start as usize..(h.start + h.len) as usize] {
+            let id = remap(&mut ws.remap_old[t as usize], &mut map.tracks, ws.new_tracks[t as usize]);
+            map.members.push(id);
+        }
+        map.members[start..].sort_unstable();
+        map.hyps.push(Hypothesis { log_w: h.log_w - z_kept, start: start as u32, len: h.len });
+    }
+    (log_dw, chol)
+}
+
+/// `slot` if set, else appends `t` to `tracks` and records its index in `slot`.
+#[inline]
+fn remap(slot: &mut u32, tracks: &mut Vec<Track>, t: Track) -> u32 {
+    if *slot == NONE {
+        *slot = tracks.len() as u32;
+        tracks.push(t);
+    }
+    *slot
+}
+
+fn log_sum_exp_iter(it: impl Iterator<Item = f64> + Clone) -> f64 {
+    let max = it.clone().fold(f64::NEG_INFINITY, f64::max);
+    if max == f64::NEG_INFINITY {
+        return max;
+    }
+    max + it.map(|l| (l - max).exp()).sum::<f64>().ln()
+}
+
+/// LMB-SLAM's update (Deusch et al. 2015; note 08 §8): the LMB `map` is one prior hypothesis
+/// with `eta_i = (1 - r_i p_S, r_i p_S (1 - p_D), r_i p_S p_D q_ij / kappa)`, sampled with
+/// `sweeps` Gibbs sweeps, then collapsed back to an LMB ([`collapse`]); tracks with
+/// `r < prune` are removed. Returns `ln Delta w` and the Cholesky failures; `ws.ru`
+/// receives `r_U(z_j)`.
+#[allow(clippy::too_many_arguments)]
+pub fn lmb_update<R: Rng + ?Sized>(
+    map: &mut LmbMap,
+    x: &Pose,
+    z: &[RangeBearing],
+    m: &UpdateModels,
+    sweeps: usize,
+    prune: f64,
+    ws: &mut Workspace,
+    rng: &mut R,
+) -> (f64, u32) {
+    ws.acc.clear();
+    ws.acc.extend(map.r.iter().map(|r| r.ln()));
+    let log_r = std::mem::take(&mut ws.acc);
+    let chol = ws.build_rows(m, x, &map.tracks, Some(&log_r), None, z);
+    ws.acc = log_r;
+    ws.table.clear(z.len());
+    ws.table_rows.clear();
+    for r in 0..ws.rows.len() {
+        ws.push_row(r, m.log_kappa);
+    }
+    ws.gibbs.run(&ws.table, if ws.rows.is_empty() { 0 } else { sweeps }, rng);
+    ws.gibbs.distinct();
+    ws.acc.clear();
+    for smp in 0..ws.gibbs.len() {
+        let lw = ws.state_log_weight(smp);
+        ws.acc.push(lw);
+    }
+    let log_dw = log_sum_exp(&ws.acc);
+    ws.ru.clear();
+    ws.ru.resize(z.len(), 0.0);
+    if !log_dw.is_finite() {
+        return (f64::NEG_INFINITY, chol);
+    }
+    // Per row: weight of "missed" and of each likelihood entry.
+    let n_rows = ws.rows.len();
+    let n_liks = ws.liks.len();
+    let mut acc = std::mem::take(&mut ws.acc);
+    let base = acc.len();
+    acc.resize(base + n_rows + n_liks, 0.0);
+    for smp in 0..ws.gibbs.len() {
+        let w = (acc[smp] - log_dw).exp();
+        for i in 0..n_rows {
+            match ws.gibbs.sample(smp)[i] {
+                DEAD => {}
+                MISSED => acc[base + i] += w,
+                g => {
+                    let e = ws.lik_of(i, g);
+                    acc[base + n_rows + e] += w;
+                    ws.ru[g as usize - 1] += w;
+                }
+            }
+        }
+    }
+    // Collapse (keep out-of-FOV tracks unchanged).
+    ws.new_tracks.clear();
+    ws.comps.clear();
+    ws.r_new.clear();
+    for (t, tr) in map.tracks.iter().enumerate() {
+        if ws.row_of[t] == NONE {
+            ws.new_tracks.push(*tr);
+            ws.r_new.push(map.r[t]);
+        }
+    }
+    for i in 0..n_rows {
+        let row = ws.rows[i];
+        let prior =
+            if i >= n_rows - ws.births.len() { ws.births[row.src as usize].0 } else { map.tracks[row.src as usize] };
+        let parts = std::iter::once((acc[base + i], prior.mean, prior.cov)).chain(
+            (row.lik_start..row.lik_end)
+                .map(|e| (acc[base + n_rows + e as usize], ws.liks[e as usize].mean, ws.liks[e as usize].cov)),
+        );
+        let (r, mean, cov) = collapse(parts);
+        if r >= prune {
+            ws.new_tracks.push(Track { label: prior.label, mean, cov });
+            ws.r_new.push(r.min(1.0));
+        }
+    }
+    map.tracks.clear();
+    map.tracks.extend_from_slice(&ws.new_tracks);
+    map.r.clear();
+    map.r.extend_from_slice(&ws.r_new);
+    acc.clear();
+    ws.acc = acc;
+    (log_dw, chol)
+}
+
+/// Collapses weighted Gaussians `(w_k, m_k, P_k)` of one label into a Bernoulli component:
+/// `r = sum w_k` and the moment-matched Gaussian (mean `sum w_k m_k / r`, covariance
+/// `sum w_k (P_k + (m_k - mean)(m_k - mean)^T) / r`), which preserves the existence
+/// probability and the first two moments of the mixture (note 08 §8).
+pub fn collapse(parts: impl Iterator<Item = (f64, Point2, Matrix2<f64>)> + Clone) -> (f64, Point2, Matrix2<f64>) {
+    let r: f64 = parts.clone().map(|p| p.0).sum();
+    if r <= 0.0 {
+        let (_, m, p) = parts.clone().next().unwrap_or((0.0, Point2::zeros(), Matrix2::identity()));
+        return (0.0, m, p);
+    }
+    let mean = parts.clone().fold(Point2::zeros(), |a, (w, m, _)| a + m * w) / r;
+    let cov = parts.fold(Matrix2::zeros(), |a, (w, m, p)| {
+        let d = m - mean;
+        a + (p + d * d.transpose()) * w
+    }) / r;
+    (r, mean, symmetrise(&cov))
+}
+
+/// The glmb-2.0 proposal (seed 001 eqs. 30-32; note 08 §7): the pose-marginalised update of
+/// the `n_hyp` heaviest hypotheses at the predicted pose `x_bar` (covariance `q`), each
+/// distinct sampled association `gamma` giving the pose Gaussian conditioned on its
+/// detections (sequential EKF) with weight `w_h prod_i eta_i(gamma_i)`, moment-matched into
+/// one Gaussian `(mean, cov)`. Uses `ws.births`. Returns `(mean, cov, components,
+/// cholesky failures)`.
+#[allow(clippy::too_many_arguments)]
+pub fn optimal_proposal<R: Rng + ?Sized>(
+    map: &GlmbMap,
+    x_bar: &Pose,
+    q: &Matrix3<f64>,
+    z: &[RangeBearing],
+    m: &UpdateModels,
+    n_hyp: usize,
+    sweeps: usize,
+    ws: &mut Workspace,
+    rng: &mut R,
+) -> (Pose, Matrix3<f64>, usize, u32) {
+    let mut chol = ws.build_rows(m, x_bar, &map.tracks, None, Some(q), z);
+    let first_birth_row = ws.rows.len() - ws.births.len();
+    ws.comps.clear();
+    for h in 0..map.hyps.len().min(n_hyp) {
+        let hy = map.hyps[h];
+        ws.table.clear(z.len());
+        ws.table_rows.clear();
+        for &t in &map.members[hy.start as usize..(hy.start + hy.len) as usize] {
+            let r = ws.row_of[t as usize];
+            if r != NONE {
+                ws.push_row(r as usize, m.log_kappa);
+            }
+        }
+        for r in first_birth_row..ws.rows.len() {
+            ws.push_row(r, m.log_kappa);
+        }
+        ws.gibbs.run(&ws.table, if ws.table.rows() == 0 { 0 } else { sweeps }, rng);
+        ws.gibbs.distinct();
+        for smp in 0..ws.gibbs.len() {
+            let lw = hy.log_w + ws.state_log_weight(smp);
+            if lw.is_nan() || lw == f64::NEG_INFINITY {
+                continue;
+            }
+            let mut mu = *x_bar;
+            let mut sig = *q;
+            for i in 0..ws.table_rows.len() {
+                let g = ws.gibbs.sample(smp)[i];
+                if g <= 0 {
+                    continue;
+                }
+                let r = ws.table_rows[i] as usize;
+                let row = ws.rows[r];
+                let t = if r >= first_birth_row { ws.births[row.src as usize].0 } else { map.tracks[row.src as usize] };
+                if !pose_ekf(m, &mut mu, &mut sig, &t, &z[g as usize - 1]) {
+                    chol += 1;
+                }
+            }
+            ws.comps.push((lw, mu, sig));
+        }
+    }
+    let n = ws.comps.len();
+    if n == 0 {
+        return (*x_bar, *q, 0, chol);
+    }
+    let max = ws.comps.iter().map(|c| c.0).fold(f64::NEG_INFINITY, f64::max);
+    let total: f64 = ws.comps.iter().map(|c| (c.0 - max).exp()).sum();
+    // Offsets from x_bar with the heading wrapped (00-index §3).
+    let off = |p: &Pose| Pose::new(p[0] - x_bar[0], p[1] - x_bar[1], wrap(p[2] - x_bar[2]));
+    let d_mean = ws.comps.iter().fold(Pose::zeros(), |a, c| a + off(&c.1) * ((c.0 - max).exp() / total));
+    let cov = ws.comps.iter().fold(Matrix3::zeros(), |a, c| {
+        let d = off(&c.1) - d_mean;
+        a + (c.2 + d * d.transpose()) * ((c.0 - max).exp() / total)
+    });
+    let mean = Pose::new(x_bar[0] + d_mean[0], x_bar[1] + d_mean[1], wrap(x_bar[2] + d_mean[2]));
+    (mean, symmetrise(&cov), n, chol)
+}
+
+/// One EKF update of the pose `(mu, sig)` by measurement `z` of landmark `t`, the landmark
+/// uncertainty entering as noise `H_m P H_m^T + R` (Joseph form). `false` on a Cholesky
+/// failure (the pose is left unchanged).
+fn pose_ekf(m: &UpdateModels, mu: &mut Pose, sig: &mut Matrix3<f64>, t: &Track, z: &RangeBearing) -> bool {
+    let lin = m.sensor.linearise(mu, &t.mean);
+    let noise = lin.hm * t.cov * lin.hm.transpose() + m.r;
+    let ph: Matrix3x2<f64> = *sig * lin.hx.transpose();
+    let s = symmetrise(&(lin.hx * ph + noise));
+    let Some(ch) = s.cholesky() else { return false };
+    let gain: Matrix3x2<f64> = ch.solve(&ph.transpose()).transpose();
+    let nu = RangeBearingSensor::residual(z, &lin.z);
+    let dx = gain * nu;
+    *mu = Pose::new(mu[0] + dx[0], mu[1] + dx[1], wrap(mu[2] + dx[2]));
+    let ikh = Matrix3::identity() - gain * lin.hx;
+    *sig = symmetrise(&(ikh * *sig * ikh.transpose() + gain * noise * gain.transpose()));
+    true
+}

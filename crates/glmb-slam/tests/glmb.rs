@@ -1,0 +1,172 @@
+//! Closed-form checks of the delta-GLMB and LMB updates, the LMB collapse, and a short
+//! end-to-end run of the three filters (fast enough for CI).
+
+use glmb_slam::map::{
+    GlmbMap, GlmbSettings, Hypothesis, LmbMap, Track, UpdateModels, Workspace, collapse, glmb_update, lmb_update,
+};
+use nalgebra::Matrix2;
+use rand::SeedableRng;
+use rfslam_core::gaussian::log_normal;
+use rfslam_core::sensor::RangeBearingSensor;
+use rfslam_core::{DetectionModel, Fov, Point2, Pose, RangeBearing};
+
+const PD: f64 = 0.7;
+const KAPPA: f64 = 0.3;
+
+fn models(sensor: &RangeBearingSensor, survival: f64) -> UpdateModels<'_> {
+    UpdateModels {
+        sensor,
+        r: Matrix2::from_diagonal(&nalgebra::Vector2::new(0.05f64.powi(2), 0.5f64.to_radians().powi(2))),
+        fov: Fov { max_range: 3.0, half_angle: std::f64::consts::PI },
+        detection: DetectionModel::Constant { pd: PD },
+        log_kappa: KAPPA.ln(),
+        survival,
+        gate: 1e6,
+    }
+}
+
+fn track() -> Track {
+    Track { label: 7, mean: Point2::new(1.5, 0.4), cov: Matrix2::new(0.01, 0.002, 0.002, 0.02) }
+}
+
+/// `q_j = N(z_j; h(m, x), H_m P H_m^T + R)` by hand.
+fn q(m: &UpdateModels, x: &Pose, t: &Track, z: &RangeBearing) -> f64 {
+    let lin = m.sensor.linearise(x, &t.mean);
+    let s = lin.hm * t.cov * lin.hm.transpose() + m.r;
+    log_normal(&RangeBearingSensor::residual(z, &lin.z), &s).unwrap().exp()
+}
+
+fn scan() -> Vec<RangeBearing> {
+    vec![RangeBearing::new(1.57, 0.27), RangeBearing::new(1.50, 0.24), RangeBearing::new(1.62, 0.25)]
+}
+
+/// One track, known pose, `p_S = 1`, no birth: the children are "missed" and "detected by
+/// z_j"; `Delta w = (1 - p_D) + p_D sum_j q_j / kappa` (note 08 §11.1) and the posterior
+/// hypothesis weights are those of the Bernoulli filter.
+#[test]
+fn one_landmark_update_matches_closed_form() {
+    let sensor = RangeBearingSensor::default();
+    let m = models(&sensor, 1.0);
+    let x = Pose::new(0.0, 0.0, 0.0);
+    let z = scan();
+    let t = track();
+    let mut map =
+        GlmbMap { tracks: vec![t], hyps: vec![Hypothesis { log_w: 0.0, start: 0, len: 1 }], members: vec![0] };
+    let mut ws = Workspace::default();
+    let mut rng = rfslam_core::Rng::seed_from_u64(1);
+    let s = GlmbSettings { sweeps: 500, prune: 0.0, max_hypotheses: 100 };
+    let (log_dw, chol) = glmb_update(&mut map, &x, &z, &m, &s, &mut ws, &mut rng);
+    assert_eq!(chol, 0);
+    let qs: Vec<f64> = z.iter().map(|zj| q(&m, &x, &t, zj)).collect();
+    let dw = (1.0 - PD) + PD * qs.iter().sum::<f64>() / KAPPA;
+    assert!((log_dw - dw.ln()).abs() < 1e-9, "{log_dw} vs {}", dw.ln());
+    // Expected posterior weights, sorted.
+    let mut expected: Vec<f64> =
+        std::iter::once((1.0 - PD) / dw).chain(qs.iter().map(|qj| PD * qj / KAPPA / dw)).collect();
+    expected.retain(|w| *w >= 0.0);
+    expected.sort_by(|a, b| b.total_cmp(a));
+    let got: Vec<f64> = map.hyps.iter().map(|h| h.log_w.exp()).collect();
+    assert_eq!(got.len(), expected.len());
+    for (g, e) in got.iter().zip(&expected) {
+        assert!((g - e).abs() < 1e-9, "{got:?} vs {expected:?}");
+    }
+    // Every child has the one label; r_U(z_j) is the detection probability of z_j.
+    assert!(map.hyps.iter().all(|h| h.len == 1));
+    assert!(map.tracks.iter().all(|tr| tr.label == 7));
+    for (j, qj) in qs.iter().enumerate() {
+        assert!((ws.ru[j] - PD * qj / KAPPA / dw).abs() < 1e-9);
+    }
+}
+
+/// With one birth track (`r_B`), no other track and one measurement:
+/// `rho(1) = (r_B (1 - p_D) + r_B p_D q / kappa) / (1 - r_B + ...)` and `ln Delta w` is the log
+/// of that denominator (note 08 §11.3).
+#[test]
+fn birth_cardinality_matches_closed_form() {
+    let sensor = RangeBearingSensor::default();
+    let m = models(&sensor, 0.95);
+    let x = Pose::new(0.0, 0.0, 0.0);
+    let z = vec![RangeBearing::new(1.56, 0.26)];
+    let t = track();
+    let rb: f64 = 0.2;
+    let mut map = GlmbMap::default();
+    let mut ws = Workspace::default();
+    ws.births.push((t, rb.ln()));
+    let mut rng = rfslam_core::Rng::seed_from_u64(2);
+    let s = GlmbSettings { sweeps: 300, prune: 0.0, max_hypotheses: 100 };
+    let (log_dw, _) = glmb_update(&mut map, &x, &z, &m, &s, &mut ws, &mut rng);
+    let qz = q(&m, &x, &t, &z[0]);
+    let alive = rb * (1.0 - PD) + rb * PD * qz / KAPPA;
+    let denom = 1.0 - rb + alive;
+    assert!((log_dw - denom.ln()).abs() < 1e-9);
+    let rho1: f64 = map.hyps.iter().filter(|h| h.len == 1).map(|h| h.log_w.exp()).sum();
+    assert!((rho1 - alive / denom).abs() < 1e-9, "{rho1} vs {}", alive / denom);
+}
+
+/// The LMB update of one track: `r' = r p_S ((1 - p_D) + p_D sum q / kappa) / Delta w`.
+#[test]
+fn lmb_update_matches_bernoulli_filter() {
+    let sensor = RangeBearingSensor::default();
+    let m = models(&sensor, 0.95);
+    let x = Pose::new(0.0, 0.0, 0.0);
+    let z = scan();
+    let t = track();
+    let r = 0.6;
+    let mut map = LmbMap { tracks: vec![t], r: vec![r] };
+    let mut ws = Workspace::default();
+    let mut rng = rfslam_core::Rng::seed_from_u64(3);
+    let (log_dw, _) = lmb_update(&mut map, &x, &z, &m, 500, 0.0, &mut ws, &mut rng);
+    let sq: f64 = z.iter().map(|zj| q(&m, &x, &t, zj)).sum();
+    let alive = r * 0.95 * ((1.0 - PD) + PD * sq / KAPPA);
+    let dw = 1.0 - r * 0.95 + alive;
+    assert!((log_dw - dw.ln()).abs() < 1e-9);
+    assert_eq!(map.r.len(), 1);
+    assert!((map.r[0] - alive / dw).abs() < 1e-9, "{} vs {}", map.r[0], alive / dw);
+    assert_eq!(map.tracks[0].label, 7);
+}
+
+/// The collapse keeps `sum w` as the existence probability and the mixture's mean and
+/// covariance.
+#[test]
+fn lmb_collapse_preserves_existence_and_moments() {
+    let parts = [
+        (0.2, Point2::new(1.0, 2.0), Matrix2::new(0.1, 0.01, 0.01, 0.2)),
+        (0.35, Point2::new(1.2, 1.9), Matrix2::new(0.05, 0.0, 0.0, 0.05)),
+        (0.15, Point2::new(0.9, 2.3), Matrix2::new(0.3, -0.02, -0.02, 0.1)),
+    ];
+    let (r, mean, cov) = collapse(parts.iter().copied());
+    let total: f64 = parts.iter().map(|p| p.0).sum();
+    assert!((r - total).abs() < 1e-15);
+    let m1 = parts.iter().fold(Point2::zeros(), |a, p| a + p.1 * p.0) / total;
+    let m2 = parts.iter().fold(Matrix2::zeros(), |a, p| a + (p.2 + p.1 * p.1.transpose()) * p.0) / total;
+    assert!((mean - m1).norm() < 1e-12);
+    assert!((cov + mean * mean.transpose() - m2).norm() < 1e-12);
+}
+
+/// The three filters on a short version of the glmb-sim scenario (low noise, clutter 2):
+/// they build a map and beat dead reckoning's final-map error.
+#[test]
+fn short_run_end_to_end() {
+    use rfslam_harness::experiment::MetricsConfig;
+    use rfslam_harness::{registry, run_filter};
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/glmb-sim.toml")).unwrap();
+    let mut table: toml::Table = toml::from_str(&text).unwrap();
+    let motion = table["motion"].as_table_mut().unwrap();
+    motion.insert("sigma_omega_deg".into(), 0.3.into());
+    table["clutter"].as_table_mut().unwrap().insert("rate".into(), 2.0.into());
+    let sc: rfslam_data::ScenarioConfig = toml::Value::Table(table).try_into().unwrap();
+    let ds = sc.build_dataset(None, 1).unwrap();
+    let metrics = MetricsConfig::default();
+    let mut dr = (registry::find("dead-reckoning").unwrap().build)(&toml::Table::new(), &ds.models(), 1).unwrap();
+    let o_dr = run_filter(&ds, dr.as_mut(), 1, &metrics, &mut |_| {});
+    for name in ["glmb-1.0", "glmb-2.0", "lmb-slam"] {
+        let mut f = (registry::find(name).unwrap().build)(&toml::Table::new(), &ds.models(), 5).unwrap();
+        let mut landmarks = 0;
+        let o = run_filter(&ds, f.as_mut(), 1, &metrics, &mut |r| landmarks = r.estimate.map.len());
+        assert_eq!(o.steps, ds.scans.len());
+        assert_eq!(o.cholesky_failures, 0, "{name}");
+        assert!(landmarks >= 8, "{name}: {landmarks} landmarks at the end");
+        assert!(o.gospa_m < o_dr.gospa_m, "{name}: GOSPA {} vs empty map {}", o.gospa_m, o_dr.gospa_m);
+        assert!(o.pos_rmse_m < 3.0, "{name}: position RMSE {}", o.pos_rmse_m);
+    }
+}
