@@ -1,0 +1,49 @@
+//! One recursion (`SlamFilter::step`) of glmb-1.0, glmb-2.0 and lmb-slam with 10 particles on
+//! the glmb-sim scenario at clutter 15 per scan, from a warmed-up state (120 steps in, after
+//! the first lap: a map of most landmarks and the loop closure ahead). Target (issue 7):
+//! glmb-2.0 at most 5 ms per recursion on one core.
+
+use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
+use rfslam_core::rng::{purpose, stream};
+use rfslam_core::{ControlSegment, FilterBuild};
+use rfslam_data::{Dataset, ScenarioConfig};
+
+const WARM: usize = 120;
+
+fn dataset() -> Dataset {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/glmb-sim.toml");
+    let text = std::fs::read_to_string(path).expect("scenario");
+    let mut table: toml::Table = toml::from_str(&text).expect("toml");
+    table["clutter"].as_table_mut().expect("clutter").insert("rate".into(), 15.0.into());
+    let sc: ScenarioConfig = toml::Value::Table(table).try_into().expect("scenario");
+    sc.build_dataset(None, 1).expect("dataset")
+}
+
+fn bench_filter<F: FilterBuild + Clone>(c: &mut Criterion, name: &str, ds: &Dataset, n: usize) {
+    let mut f = F::build(F::Params::default(), &ds.models(), n);
+    let mut rng = stream(&[1, purpose::FILTER, n as u64]);
+    let mut segs: Vec<ControlSegment> = Vec::new();
+    for k in 0..WARM {
+        ds.segments_for_scan(k, &mut segs);
+        f.step(&segs, &ds.scans[k], &mut rng);
+    }
+    ds.segments_for_scan(WARM, &mut segs);
+    let scan = &ds.scans[WARM];
+    c.bench_function(&format!("{name} N={n} clutter 15 one recursion"), |b| {
+        b.iter_batched_ref(|| (f.clone(), rng.clone()), |(f, r)| f.step(&segs, scan, r), BatchSize::SmallInput)
+    });
+}
+
+fn recursion(c: &mut Criterion) {
+    let ds = dataset();
+    bench_filter::<glmb_slam::Glmb1>(c, "glmb-1.0", &ds, 10);
+    bench_filter::<glmb_slam::Glmb2>(c, "glmb-2.0", &ds, 10);
+    bench_filter::<glmb_slam::LmbSlam>(c, "lmb-slam", &ds, 10);
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(30).warm_up_time(std::time::Duration::from_secs(1)).measurement_time(std::time::Duration::from_secs(3));
+    targets = recursion
+}
+criterion_main!(benches);
