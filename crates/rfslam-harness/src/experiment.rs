@@ -382,7 +382,8 @@ impl Plan {
             let ok = if let Some(rest) = k.strip_prefix("scenario.") {
                 !rest.is_empty()
             } else if let Some(rest) = k.strip_prefix("filter.") {
-                match rest.split_once('.') {
+                let names: Vec<&str> = config.filters.iter().flat_map(|f| [f.label(), f.name.as_str()]).collect();
+                match split_filter_key(rest, &names) {
                     Some((who, key)) if !key.is_empty() => {
                         if !config.filters.iter().any(|f| f.label() == who || f.name == who) {
                             return Err(err(&gkey, format!("no filter entry is labelled or named `{who}`")));
@@ -401,6 +402,7 @@ impl Plan {
 
         let mut points = Vec::new();
         let mut worlds: Vec<(String, Arc<World>)> = Vec::new();
+        let names: Vec<&str> = config.filters.iter().flat_map(|f| [f.label(), f.name.as_str()]).collect();
         for p in 0..config.n_points() {
             let values = config.point_values(p);
             let mut sc_table = scenario_table.clone();
@@ -418,7 +420,7 @@ impl Plan {
                 let gkey = format!("grid.\"{k}\"");
                 if let Some(rest) = k.strip_prefix("scenario.") {
                     set_dotted(&mut sc_table, rest, v.clone()).map_err(|m| err(&gkey, m))?;
-                } else if let Some((who, key)) = k.strip_prefix("filter.").and_then(|r| r.split_once('.')) {
+                } else if let Some((who, key)) = k.strip_prefix("filter.").and_then(|r| split_filter_key(r, &names)) {
                     for f in filters.iter_mut().filter(|f| f.label == who || f.name == who) {
                         set_dotted(&mut f.params, key, v.clone()).map_err(|m| err(&gkey, m))?;
                     }
@@ -471,7 +473,7 @@ impl Plan {
                     (entry.validate)(&f.params, &models, n).map_err(|e| {
                         let set_by = grid_keys.iter().find(|g| {
                             g.strip_prefix("filter.")
-                                .and_then(|r| r.split_once('.'))
+                                .and_then(|r| split_filter_key(r, &names))
                                 .is_some_and(|(who, set)| (who == f.label || who == f.name) && covers(set, &e.key))
                         });
                         match set_by {
@@ -548,5 +550,35 @@ impl Plan {
         }
         root.insert("grid".into(), toml::Value::Table(grid));
         toml::to_string_pretty(&root).unwrap_or_default()
+    }
+}
+
+/// Splits the `<label or name>.<key>` part of a `filter.` grid key. Labels and names may
+/// contain dots (`phd-3.0`), so the longest of `names` that is followed by a dot wins; with
+/// none, the split is at the first dot (an unknown filter, reported by the caller).
+fn split_filter_key<'a>(rest: &'a str, names: &[&str]) -> Option<(&'a str, &'a str)> {
+    names
+        .iter()
+        .filter(|n| rest.len() > n.len() + 1 && rest.starts_with(**n) && rest.as_bytes()[n.len()] == b'.')
+        .max_by_key(|n| n.len())
+        .map(|n| rest.split_at(n.len()))
+        .map(|(who, key)| (who, &key[1..]))
+        .or_else(|| rest.split_once('.'))
+}
+
+#[cfg(test)]
+mod filter_key_tests {
+    use super::split_filter_key;
+
+    #[test]
+    fn dotted_labels_split_at_the_longest_known_name() {
+        let names = ["phd-3.0", "phd-3", "fastslam-2.0-oracle"];
+        assert_eq!(split_filter_key("phd-3.0.detection_pd", &names), Some(("phd-3.0", "detection_pd")));
+        assert_eq!(split_filter_key("phd-3.merge", &names), Some(("phd-3", "merge")));
+        assert_eq!(split_filter_key("fastslam-2.0-oracle.a.b", &names), Some(("fastslam-2.0-oracle", "a.b")));
+        // Unknown filters split at the first dot, for the caller's error message.
+        assert_eq!(split_filter_key("glmb.x", &names), Some(("glmb", "x")));
+        assert_eq!(split_filter_key("phd-3.0.", &names), Some(("phd-3", "0.")));
+        assert_eq!(split_filter_key("nodot", &names), None);
     }
 }
