@@ -267,6 +267,7 @@ fn run(
         "seed": seed,
         "steps": o.steps,
         "pos_rmse_m": num(o.pos_rmse_m),
+        "pos_rmse_se2_m": num(o.pos_rmse_se2_m),
         "head_rmse_deg": num(o.head_rmse_deg),
         "gospa_m": num(o.gospa_m),
         "gospa_loc_m": num(o.gospa_loc_m),

@@ -10,6 +10,7 @@ const METRICS_KEYS: &[&str] = &[
     "particles",
     "steps",
     "pos_rmse_m",
+    "pos_rmse_se2_m",
     "head_rmse_deg",
     "gospa_m",
     "gospa_loc_m",
