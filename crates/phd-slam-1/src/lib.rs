@@ -4,8 +4,7 @@
 //! eq. (45) cancel and the weight update is the measurement term alone (eq. 27), computed
 //! with eq. (46) as the tables of seed 000 were (note 01 §2).
 
-use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
-use rfslam_core::gaussian::sample;
+use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, sample_transition};
 use rfslam_core::{ParamError, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
 
@@ -31,22 +30,7 @@ impl Proposal for TransitionProposal {
     }
 
     fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
-        out.clear();
-        let mut stats = ProposalStats { components: 1, cholesky_failures: 0 };
-        for _ in 0..n {
-            let pose = match sample(&ctx.predicted, &ctx.q, rng) {
-                Some(mut x) => {
-                    x[2] = rfslam_core::angle::wrap(x[2]);
-                    x
-                }
-                None => {
-                    stats.cholesky_failures += 1;
-                    ctx.predicted
-                }
-            };
-            out.push(PoseSample { pose, log_correction: 0.0, component: 0 });
-        }
-        stats
+        sample_transition(ctx, n, rng, out)
     }
 }
 

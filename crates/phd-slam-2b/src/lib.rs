@@ -21,7 +21,9 @@
 //! it.
 
 use nalgebra::{Matrix2, Matrix3};
-use rbphd::{CostMatrixBuffers, MissedCost, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
+use rbphd::{
+    CostMatrixBuffers, MissedCost, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, sample_transition,
+};
 use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
 use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample};
@@ -163,26 +165,15 @@ impl Proposal for JointProposal {
                 self.z.push(ctx.z[*j]);
             }
         }
-        out.clear();
         if self.z.is_empty() {
             // The transition density (PHD-SLAM 1.0's draw).
             self.mean = x_bar;
             self.cov = q;
-            for _ in 0..n {
-                let pose = match sample(&x_bar, &q, rng) {
-                    Some(mut x) => {
-                        x[2] = wrap(x[2]);
-                        x
-                    }
-                    None => {
-                        stats.cholesky_failures += 1;
-                        x_bar
-                    }
-                };
-                out.push(PoseSample { pose, log_correction: 0.0, component: 0 });
-            }
+            let t = sample_transition(ctx, n, rng, out);
+            stats.cholesky_failures += t.cholesky_failures;
             return stats;
         }
+        out.clear();
         let settings = JointIplSettings {
             max_iterations: self.params.ipl_iterations,
             kl_threshold: self.params.ipl_kl_threshold,

@@ -20,8 +20,7 @@
 //! parameter is the shared RB-PHD table ([`rbphd::RbPhdParams`]), including the
 //! multi-feature settings `mf_*`; `weighting` must be left out (or agree with `strategy`).
 
-use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, Weighting};
-use rfslam_core::gaussian::sample;
+use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, Weighting, sample_transition};
 use rfslam_core::{ParamError, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
 
@@ -74,22 +73,7 @@ impl Proposal for BootstrapProposal {
     }
 
     fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
-        out.clear();
-        let mut stats = ProposalStats { components: 1, cholesky_failures: 0 };
-        for _ in 0..n {
-            let pose = match sample(&ctx.predicted, &ctx.q, rng) {
-                Some(mut x) => {
-                    x[2] = rfslam_core::angle::wrap(x[2]);
-                    x
-                }
-                None => {
-                    stats.cholesky_failures += 1;
-                    ctx.predicted
-                }
-            };
-            out.push(PoseSample { pose, log_correction: 0.0, component: 0 });
-        }
-        stats
+        sample_transition(ctx, n, rng, out)
     }
 
     fn weighting(params: &MfParams) -> Option<Weighting> {

@@ -18,5 +18,5 @@ pub use association::{CostMatrixBuffers, MissedCost};
 pub use filter::{Particle, RbPhd};
 pub use gm::GmMap;
 pub use params::{PhdParams, RbPhdParams};
-pub use proposal::{PoseSample, Proposal, ProposalContext, ProposalStats};
+pub use proposal::{PoseSample, Proposal, ProposalContext, ProposalStats, sample_transition};
 pub use weighting::{MfTerms, MultiFeatureSettings, Weighting};

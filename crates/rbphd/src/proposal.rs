@@ -85,3 +85,27 @@ pub trait Proposal: Send + Sized + 'static {
         None
     }
 }
+
+/// Draws `n` poses from the transition density `N(f(x_{k-1}, u_k), Q_{k-1})` (seed 000
+/// eqs. 1, 26) into `out` (cleared first), headings wrapped, weight corrections 0: the
+/// bootstrap proposal of PHD-SLAM 1.0 and of the multi-feature filter, and the fallback of
+/// proposals that find nothing to condition on. A `Q` that fails Cholesky keeps the
+/// predicted pose and is counted.
+pub fn sample_transition(ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+    out.clear();
+    let mut stats = ProposalStats { components: 1, cholesky_failures: 0 };
+    for _ in 0..n {
+        let pose = match rfslam_core::gaussian::sample(&ctx.predicted, &ctx.q, rng) {
+            Some(mut x) => {
+                x[2] = rfslam_core::angle::wrap(x[2]);
+                x
+            }
+            None => {
+                stats.cholesky_failures += 1;
+                ctx.predicted
+            }
+        };
+        out.push(PoseSample { pose, log_correction: 0.0, component: 0 });
+    }
+    stats
+}
