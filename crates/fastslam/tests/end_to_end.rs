@@ -6,33 +6,11 @@
 use std::collections::HashSet;
 
 use fastslam::{OracleFastSlam2, Params};
-use rfslam_core::motion::propagate;
-use rfslam_core::{ControlSegment, FilterBuild, Point2};
-use rfslam_data::{Dataset, ScenarioConfig};
+use rfslam_core::{FilterBuild, Point2};
+use rfslam_data::Dataset;
 use rfslam_harness::experiment::MetricsConfig;
+use rfslam_harness::fixtures::{dead_reckoning_rmse, procedural_500};
 use rfslam_harness::run_filter;
-
-fn scenario() -> ScenarioConfig {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/procedural.toml");
-    let text = std::fs::read_to_string(path).unwrap();
-    assert!(text.contains("steps = 4000"));
-    ScenarioConfig::from_toml_str(&text.replace("steps = 4000", "steps = 500"), "procedural-500.toml").unwrap()
-}
-
-/// Position RMSE of the odometry integrated from the initial pose.
-fn dead_reckoning_rmse(ds: &Dataset) -> f64 {
-    let models = ds.models();
-    let mut pose = models.initial_pose;
-    let mut segments: Vec<ControlSegment> = Vec::new();
-    let mut sq = 0.0;
-    for (k, scan) in ds.scans.iter().enumerate() {
-        ds.segments_for_scan(k, &mut segments);
-        pose = propagate(&models.motion, &pose, &segments);
-        let t = ds.truth_at(scan.t, 0.025).expect("truth");
-        sq += (pose.xy() - t.position).norm_squared();
-    }
-    (sq / ds.scans.len() as f64).sqrt()
-}
 
 /// The true landmarks that were measured at least once.
 fn seen_landmarks(ds: &Dataset) -> Vec<Point2> {
@@ -42,7 +20,7 @@ fn seen_landmarks(ds: &Dataset) -> Vec<Point2> {
 
 #[test]
 fn oracle_tracks_and_maps_with_one_and_ten_particles() {
-    let sc = scenario();
+    let sc = procedural_500();
     let world = sc.load_world().unwrap();
     for seed in 1..=3 {
         let ds = sc.build_dataset(world.as_ref(), seed).unwrap();

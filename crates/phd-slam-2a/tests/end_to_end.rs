@@ -5,33 +5,11 @@
 
 use phd_slam_2a::{Gao2021Params, PairNormalisation, PhdSlam2a};
 use rbphd::PhdParams;
-use rfslam_core::motion::propagate;
-use rfslam_core::{ControlSegment, FilterBuild};
+use rfslam_core::FilterBuild;
 use rfslam_data::{Dataset, ScenarioConfig};
 use rfslam_harness::experiment::MetricsConfig;
+use rfslam_harness::fixtures::{dead_reckoning_rmse, procedural_500};
 use rfslam_harness::{JobOutcome, registry, run_filter};
-
-fn procedural_500() -> ScenarioConfig {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/procedural.toml");
-    let text = std::fs::read_to_string(path).unwrap();
-    assert!(text.contains("steps = 4000"));
-    ScenarioConfig::from_toml_str(&text.replace("steps = 4000", "steps = 500"), "procedural-500.toml").unwrap()
-}
-
-/// Position RMSE of the odometry integrated from the initial pose.
-fn dead_reckoning_rmse(ds: &Dataset) -> f64 {
-    let models = ds.models();
-    let mut pose = models.initial_pose;
-    let mut segments: Vec<ControlSegment> = Vec::new();
-    let mut sq = 0.0;
-    for (k, scan) in ds.scans.iter().enumerate() {
-        ds.segments_for_scan(k, &mut segments);
-        pose = propagate(&models.motion, &pose, &segments);
-        let t = ds.truth_at(scan.t, 0.025).expect("truth");
-        sq += (pose.xy() - t.position).norm_squared();
-    }
-    (sq / ds.scans.len() as f64).sqrt()
-}
 
 fn run(ds: &Dataset, params: Gao2021Params, n: usize, seed: u64) -> JobOutcome {
     let params = PhdParams { proposal: params, ..Default::default() };

@@ -10,6 +10,7 @@
 
 pub mod error;
 pub mod experiment;
+pub mod fixtures;
 pub mod job;
 pub mod locate;
 pub mod registry;
