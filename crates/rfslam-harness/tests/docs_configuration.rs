@@ -1,0 +1,162 @@
+//! docs/configuration.md names every key the code accepts: every experiment and scenario
+//! key, the tags of the tagged tables (world kinds, motion and detection models, clutter
+//! intensities), every registered filter and every parameter key of each.
+//!
+//! The key lists come from the code itself, cheaply: serde's "unknown field `x`, expected
+//! one of `a`, `b`" error for a probe key in each table (the tables deny unknown fields),
+//! its "unknown variant" error for a probe tag, and for the filters the registry's default
+//! parameter table plus the unknown-field error of its `validate` (which also lists the
+//! keys whose default is "none") plus `rbphd::COMMON_KEYS` for the PHD variants, whose
+//! probe error lists only the importance density's own keys.
+
+use std::collections::BTreeSet;
+
+use rfslam_core::Pose;
+use rfslam_data::{ModelConfig, ScenarioConfig};
+use rfslam_harness::experiment::ExperimentConfig;
+use rfslam_harness::registry::REGISTRY;
+
+const PROBE: &str = "zz_not_a_key";
+
+fn doc() -> String {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/configuration.md");
+    std::fs::read_to_string(path).expect("docs/configuration.md exists")
+}
+
+/// The backquoted words of `message` but the probe.
+fn quoted(message: &str) -> BTreeSet<String> {
+    message.split('`').skip(1).step_by(2).filter(|w| *w != PROBE && !w.is_empty()).map(String::from).collect()
+}
+
+/// The keys serde lists when `text` (with a probe key or tag in it) fails to parse as `T`.
+fn listed<T: serde::de::DeserializeOwned + std::fmt::Debug>(text: &str) -> BTreeSet<String> {
+    let e = toml::from_str::<T>(text).expect_err("the probe must be rejected");
+    let msg = e.message().to_string();
+    assert!(msg.contains("expected one of") || msg.contains("expected"), "no list in: {msg}");
+    quoted(&msg)
+}
+
+const SCENARIO: &str = r#"name = "s"
+[world]
+kind = "procedural"
+[motion]
+model = "velocity"
+sigma_v = 0.8
+sigma_omega_deg = 0.5
+[sensor]
+max_range = 150.0
+half_angle_deg = 90.0
+sigma_range = 0.8
+sigma_bearing_deg = 0.3
+[detection]
+model = "constant"
+pd = 0.95
+[clutter]
+rate = 5.0
+"#;
+
+const EXPERIMENT: &str = r#"name = "e"
+scenario = "s.toml"
+runs = 1
+seed = 1
+[metrics]
+gospa_c = 20.0
+[[filters]]
+name = "phd-1.0"
+particles = [1]
+"#;
+
+/// `text` with `line` inserted after the line `after`.
+fn with(text: &str, after: &str, line: &str) -> String {
+    assert!(text.contains(after), "{after}");
+    text.replacen(after, &format!("{after}\n{line}"), 1)
+}
+
+fn missing(doc: &str, what: &str, words: &BTreeSet<String>, form: impl Fn(&str) -> String) -> Vec<String> {
+    words.iter().filter(|w| !doc.contains(&form(w))).map(|w| format!("{what} {}", form(w))).collect()
+}
+
+#[test]
+fn every_experiment_and_scenario_key_is_documented() {
+    let doc = doc();
+    let key = |w: &str| format!("`{w}`");
+    let tag = |w: &str| format!("\"{w}\"");
+    let mut gaps = Vec::new();
+
+    // Experiment: top level, [metrics], [[filters]].
+    let top = listed::<ExperimentConfig>(&format!("{PROBE} = 1\n{EXPERIMENT}"));
+    assert!(top.contains("scenario") && top.contains("grid"), "{top:?}");
+    gaps.extend(missing(&doc, "experiment key", &top, key));
+    let metrics = listed::<ExperimentConfig>(&with(EXPERIMENT, "[metrics]", &format!("{PROBE} = 1")));
+    assert!(metrics.contains("gospa_c"), "{metrics:?}");
+    gaps.extend(missing(&doc, "[metrics] key", &metrics, key));
+    let filters = listed::<ExperimentConfig>(&with(EXPERIMENT, "[[filters]]", &format!("{PROBE} = 1")));
+    assert!(filters.contains("particles"), "{filters:?}");
+    gaps.extend(missing(&doc, "[[filters]] key", &filters, key));
+
+    // Scenario: top level and each table; tags of the tagged tables.
+    let top = listed::<ScenarioConfig>(&format!("{PROBE} = 1\n{SCENARIO}"));
+    assert!(top.contains("world") && top.contains("clutter"), "{top:?}");
+    gaps.extend(missing(&doc, "scenario key", &top, key));
+    for table in ["[world]", "[motion]", "[sensor]", "[detection]", "[clutter]"] {
+        let keys = listed::<ScenarioConfig>(&with(SCENARIO, table, &format!("{PROBE} = 1")));
+        assert!(keys.len() >= 2, "{table}: {keys:?}");
+        gaps.extend(missing(&doc, &format!("{table} key"), &keys, key));
+    }
+    for (line, table) in [
+        ("kind = \"procedural\"", "world kind"),
+        ("model = \"velocity\"", "motion model"),
+        ("model = \"constant\"", "detection model"),
+    ] {
+        let probe = line.split('=').next().unwrap_or_default().trim();
+        let tags = listed::<ScenarioConfig>(&SCENARIO.replacen(line, &format!("{probe} = \"{PROBE}\""), 1));
+        assert!(tags.len() >= 2, "{table}: {tags:?}");
+        gaps.extend(missing(&doc, table, &tags, tag));
+    }
+    let intensities = listed::<ScenarioConfig>(&with(SCENARIO, "rate = 5.0", &format!("intensity = \"{PROBE}\"")));
+    assert!(intensities.contains("cartesian"), "{intensities:?}");
+    gaps.extend(missing(&doc, "clutter intensity", &intensities, tag));
+
+    assert!(gaps.is_empty(), "docs/configuration.md does not mention:\n{}", gaps.join("\n"));
+}
+
+/// Every parameter key a registered filter accepts.
+fn filter_keys(entry: &rfslam_harness::registry::FilterEntry) -> BTreeSet<String> {
+    let models = ModelConfig::phd_slam_synthetic().to_models(Pose::zeros());
+    let mut keys: BTreeSet<String> = (entry.defaults)().keys().cloned().collect();
+    let probe = toml::Table::from_iter([(PROBE.to_string(), toml::Value::Integer(1))]);
+    let e = (entry.validate)(&probe, &models, 1).expect_err("an unknown parameter must be rejected");
+    assert!(e.to_string().contains(PROBE), "{}: {e}", entry.name);
+    keys.extend(quoted(&e.to_string()));
+    if keys.contains("birth_weight") {
+        keys.extend(rbphd::params::COMMON_KEYS.iter().map(|k| k.to_string()));
+    }
+    keys
+}
+
+#[test]
+fn every_registered_filter_and_parameter_is_documented() {
+    let doc = doc();
+    let mut gaps = Vec::new();
+    for entry in REGISTRY {
+        if !doc.contains(&format!("`{}`", entry.name)) {
+            gaps.push(format!("filter `{}`", entry.name));
+        }
+        for k in filter_keys(entry) {
+            if !doc.contains(&format!("`{k}`")) {
+                gaps.push(format!("parameter `{k}` of `{}`", entry.name));
+            }
+        }
+    }
+    assert!(gaps.is_empty(), "docs/configuration.md does not mention:\n{}", gaps.join("\n"));
+}
+
+/// The probes see what they should: a filter with optional keys lists them too.
+#[test]
+fn probes_find_optional_keys() {
+    let fs1 = REGISTRY.iter().find(|e| e.name == "fastslam-1.0").expect("registered");
+    assert!(filter_keys(fs1).contains("new_landmark_log_likelihood"));
+    let phd3 = REGISTRY.iter().find(|e| e.name == "phd-3.0").expect("registered");
+    let k = filter_keys(phd3);
+    assert!(k.contains("resample_ess") && k.contains("max_assignments"), "{k:?}");
+}
