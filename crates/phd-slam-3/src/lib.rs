@@ -11,17 +11,22 @@
 //!    for its weight;
 //! 4. a component drawn from the categorical of the weights, the pose from its Gaussian, and
 //!    the weight correction `ln f - ln q` of eqs. (45), (47), (48).
+//!
+//! The statistical linear regression of Algorithm 1 (eq. 42) and the linearisation of the
+//! component weight (eq. 44) are a type parameter, [`PoseSlr`]: phd-3.0 is
+//! `MhProposal<TaylorSlr>` (the paper's first-order Taylor expansion); `phd-3.0-sp`
+//! (crate `phd-slam-3sp`) plugs in sigma points.
 
-use nalgebra::Matrix3;
+use nalgebra::{Matrix2, Matrix3};
 use rand::RngExt;
 pub use rbphd::MissedCost;
 use rbphd::{CostMatrixBuffers, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
 use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
 use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
-use rfslam_core::ipl::{IplSettings, ipl_update, pose_diff};
+use rfslam_core::ipl::{IplSettings, Linearised, ipl_update_slr, pose_diff};
 use rfslam_core::rbpf::log_sum_exp;
-use rfslam_core::{ParamError, Pose, RangeBearing, RangeBearingSensor, Rng, SlamModels};
+use rfslam_core::{ParamError, Point2, Pose, RangeBearing, RangeBearingSensor, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
 
 /// Parameters of the multi-hypotheses importance density (defaults: seed 000 §VI).
@@ -55,6 +60,77 @@ impl Default for MhParams {
     }
 }
 
+/// How the multi-hypotheses importance density linearises the sensor `g(m, x)` in the pose:
+/// the statistical linear regression of Algorithm 1 step 5 (seed 000 eq. 42, put in the
+/// form of eq. 43 as [`rfslam_core::ipl::ipl_update_slr`] takes it), and the detected
+/// factor `N(z; g(m_i, mu_t), S_t,i)` of the component weight, eq. (44).
+pub trait PoseSlr: Clone + Send + 'static {
+    /// Eq. (42) for the landmark `N(m, p)` under the linearisation density
+    /// `pi = N(m_pi, p_pi)`, as `(mu~^z, B, Omega)` (see [`rfslam_core::ipl::ipl_update_slr`]);
+    /// `None` if it cannot be formed (a covariance failed Cholesky).
+    #[allow(clippy::too_many_arguments)]
+    fn linearise(
+        &self,
+        sensor: &RangeBearingSensor,
+        r: &Matrix2<f64>,
+        m_pi: &Pose,
+        p_pi: &Matrix3<f64>,
+        m: &Point2,
+        p: &Matrix2<f64>,
+    ) -> Option<Linearised>;
+
+    /// The detected factor of eq. (44), `ln N(z; mu^z, S)` for the landmark `N(m, p)` and
+    /// the component `N(mean, cov)`; `None` if `S` fails Cholesky.
+    #[allow(clippy::too_many_arguments)]
+    fn log_likelihood(
+        &self,
+        sensor: &RangeBearingSensor,
+        r: &Matrix2<f64>,
+        mean: &Pose,
+        cov: &Matrix3<f64>,
+        m: &Point2,
+        p: &Matrix2<f64>,
+        z: &RangeBearing,
+    ) -> Option<f64>;
+}
+
+/// The first-order Taylor SLR of seed 000 (phd-3.0): `(g(m, m_pi), G_x, G_m P G_m^T + R)`
+/// at the linearisation point, and eq. (44) with `S = G_x Sigma G_x^T + G_m P G_m^T + R`
+/// at the component mean.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TaylorSlr;
+
+impl PoseSlr for TaylorSlr {
+    fn linearise(
+        &self,
+        sensor: &RangeBearingSensor,
+        r: &Matrix2<f64>,
+        m_pi: &Pose,
+        _p_pi: &Matrix3<f64>,
+        m: &Point2,
+        p: &Matrix2<f64>,
+    ) -> Option<Linearised> {
+        let lin = sensor.linearise(m_pi, m);
+        Some((lin.z, lin.hx, lin.hm * p * lin.hm.transpose() + r))
+    }
+
+    fn log_likelihood(
+        &self,
+        sensor: &RangeBearingSensor,
+        r: &Matrix2<f64>,
+        mean: &Pose,
+        cov: &Matrix3<f64>,
+        m: &Point2,
+        p: &Matrix2<f64>,
+        z: &RangeBearing,
+    ) -> Option<f64> {
+        let lin = sensor.linearise(mean, m);
+        let s = symmetrise(&(lin.hx * cov * lin.hx.transpose() + lin.hm * p * lin.hm.transpose() + r));
+        let nu = RangeBearingSensor::residual(z, &lin.z);
+        log_normal(&nu, &s)
+    }
+}
+
 /// One component of the GM-ID: association, moments and log weight.
 #[derive(Debug, Clone, Default)]
 struct Component {
@@ -67,10 +143,12 @@ struct Component {
     chol_ok: bool,
 }
 
-/// The multi-hypotheses importance density of seed 000 Section V.
+/// The multi-hypotheses importance density of seed 000 Section V, with the statistical
+/// linear regression `S` (default: the paper's Taylor expansion).
 #[derive(Clone)]
-pub struct MhProposal {
+pub struct MhProposal<S: PoseSlr = TaylorSlr> {
     params: MhParams,
+    slr: S,
     murty: Murty,
     ranked: Vec<Assignment>,
     components: Vec<Component>,
@@ -86,7 +164,7 @@ pub struct MhProposal {
     terms: Vec<f64>,
 }
 
-impl MhProposal {
+impl<S: PoseSlr> MhProposal<S> {
     /// The mixture of the last [`Proposal::propose`] call, in Murty's order (the all-missed
     /// component last): for each component its association (measurement index per
     /// detectable component, `None` = missed), mean, covariance and normalised log weight.
@@ -110,11 +188,9 @@ impl MhProposal {
     }
 }
 
-impl Proposal for MhProposal {
-    const NAME: &'static str = "phd-3.0";
-    type Params = MhParams;
-
-    fn validate(p: &MhParams) -> Result<(), ParamError> {
+impl<S: PoseSlr> MhProposal<S> {
+    /// Checks the parameters (errors name the key).
+    pub fn validate_params(p: &MhParams) -> Result<(), ParamError> {
         if p.max_assignments == 0 {
             return Err(ParamError::new("max_assignments", "must be at least 1"));
         }
@@ -130,9 +206,11 @@ impl Proposal for MhProposal {
         Ok(())
     }
 
-    fn new(params: &MhParams, _models: &SlamModels) -> Self {
+    /// The importance density with parameters `params` and the SLR `slr`.
+    pub fn with_slr(params: &MhParams, slr: S) -> Self {
         MhProposal {
             params: params.clone(),
+            slr,
             murty: Murty::new(),
             ranked: Vec::new(),
             components: Vec::new(),
@@ -147,7 +225,14 @@ impl Proposal for MhProposal {
         }
     }
 
-    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+    /// [`Proposal::propose`]: Algorithm 2 steps 2-9 for one particle (or group of copies).
+    pub fn propose_mh(
+        &mut self,
+        ctx: &ProposalContext,
+        n: usize,
+        rng: &mut Rng,
+        out: &mut Vec<PoseSample>,
+    ) -> ProposalStats {
         let models = ctx.models;
         let r = models.measurement_noise;
         let sensor = &models.sensor;
@@ -199,15 +284,14 @@ impl Proposal for MhProposal {
                     self.pairs_z.push(ctx.z[*j]);
                 }
             }
-            let (rows, pairs_row) = (&self.rows, &self.pairs_row);
-            let res = ipl_update(
+            let (rows, pairs_row, slr) = (&self.rows, &self.pairs_row, &self.slr);
+            let res = ipl_update_slr(
                 &x_bar,
                 &q,
                 &self.pairs_z,
-                |k, x_pi| {
+                |k, m_pi, p_pi| {
                     let i = rows[pairs_row[k]];
-                    let lin = sensor.linearise(x_pi, &ctx.map.mean[i]);
-                    (lin.z, lin.hx, lin.hm * ctx.map.cov[i] * lin.hm.transpose() + r)
+                    slr.linearise(sensor, &r, m_pi, p_pi, &ctx.map.mean[i], &ctx.map.cov[i])
                 },
                 &ipl,
             );
@@ -222,12 +306,8 @@ impl Proposal for MhProposal {
                 match j {
                     None => log_w += self.log_missed(pd, lw),
                     Some(j) => {
-                        let lin = sensor.linearise(&res.mean, &ctx.map.mean[i]);
-                        let s = symmetrise(
-                            &(lin.hx * res.cov * lin.hx.transpose() + lin.hm * ctx.map.cov[i] * lin.hm.transpose() + r),
-                        );
-                        let nu = RangeBearingSensor::residual(&ctx.z[*j], &lin.z);
-                        match log_normal(&nu, &s) {
+                        let (m_i, p_i) = (&ctx.map.mean[i], &ctx.map.cov[i]);
+                        match self.slr.log_likelihood(sensor, &r, &res.mean, &res.cov, m_i, p_i, &ctx.z[*j]) {
                             Some(l) => log_w += pd.ln() + lw - ctx.log_clutter + l,
                             None => {
                                 stats.cholesky_failures += 1;
@@ -304,7 +384,8 @@ impl Proposal for MhProposal {
         stats
     }
 
-    fn associations(&self, component: usize, out: &mut Vec<Option<usize>>) -> bool {
+    /// [`Proposal::associations`].
+    pub fn associations_mh(&self, component: usize, out: &mut Vec<Option<usize>>) -> bool {
         out.clear();
         out.resize(self.n_meas, None);
         if let Some(c) = self.components[..self.n_components].get(component) {
@@ -315,6 +396,27 @@ impl Proposal for MhProposal {
             }
         }
         true
+    }
+}
+
+impl Proposal for MhProposal {
+    const NAME: &'static str = "phd-3.0";
+    type Params = MhParams;
+
+    fn validate(p: &MhParams) -> Result<(), ParamError> {
+        Self::validate_params(p)
+    }
+
+    fn new(params: &MhParams, _models: &SlamModels) -> Self {
+        Self::with_slr(params, TaylorSlr)
+    }
+
+    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+        self.propose_mh(ctx, n, rng, out)
+    }
+
+    fn associations(&self, component: usize, out: &mut Vec<Option<usize>>) -> bool {
+        self.associations_mh(component, out)
     }
 }
 

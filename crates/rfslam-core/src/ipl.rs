@@ -69,7 +69,7 @@ pub fn kl_divergence(m0: &Pose, p0: &Matrix3<f64>, m1: &Pose, p1: &Matrix3<f64>)
 /// Algorithm 1 for one mixture component: the prior `N(x_bar, q)` conditioned on the
 /// measurements `z[0..n]` of its associated landmarks, `linearise(k, x_pi)` giving the
 /// linearised sensor of association `k` at the linearisation point. With `n = 0` the result
-/// is the prior.
+/// is the prior. This is the first-order Taylor SLR; [`ipl_update_slr`] takes any SLR.
 pub fn ipl_update<F>(
     x_bar: &Pose,
     q: &Matrix3<f64>,
@@ -79,6 +79,28 @@ pub fn ipl_update<F>(
 ) -> IplResult
 where
     F: FnMut(usize, &Pose) -> Linearised,
+{
+    ipl_update_slr(x_bar, q, z, |k, m_pi, _| Some(linearise(k, m_pi)), settings)
+}
+
+/// Algorithm 1 with a general statistical linear regression: `slr(k, m_pi, p_pi)` returns,
+/// for association `k` and the linearisation density `pi = N(m_pi, p_pi)`, the moments of
+/// eq. (42) in the form `(z_tilde, B, Omega)`: `z_tilde = mu~^z` (42a), `B = Sigma~^zx
+/// (Sigma~^xx)^-1` (43a) and `Omega = Sigma~^zz - B Sigma~^xx B^T` (42b minus the part that
+/// `B` explains), so that eq. (43b)-(43c) become `mu^z = z_tilde + B (m_s - m_pi)` and
+/// `Sigma^zz = B P_s B^T + Omega`. The Taylor SLR is `(g(m_pi), G_x, G_m P G_m^T + R)`; a
+/// sigma-point SLR evaluates the expectations of (42) with sigma points of `pi`. `None`
+/// (e.g. a covariance that failed Cholesky) stops the iteration as a loss of definiteness,
+/// keeping the last accepted iterate.
+pub fn ipl_update_slr<F>(
+    x_bar: &Pose,
+    q: &Matrix3<f64>,
+    z: &[RangeBearing],
+    mut slr: F,
+    settings: &IplSettings,
+) -> IplResult
+where
+    F: FnMut(usize, &Pose, &Matrix3<f64>) -> Option<Linearised>,
 {
     let (mut m_pi, mut p_pi) = (*x_bar, *q);
     let mut accepted = 0;
@@ -90,7 +112,10 @@ where
         let (mut m_s, mut p_s) = (*x_bar, *q);
         let mut ok = true;
         for (k, zk) in z.iter().enumerate() {
-            let (z_hat, a, omega) = linearise(k, &m_pi);
+            let Some((z_hat, a, omega)) = slr(k, &m_pi, &p_pi) else {
+                ok = false;
+                break;
+            };
             let mu_z = z_hat + a * pose_diff(&m_s, &m_pi);
             let nu = RangeBearing::new(zk[0] - mu_z[0], wrap(zk[1] - mu_z[1]));
             let s = symmetrise(&(a * p_s * a.transpose() + omega));
