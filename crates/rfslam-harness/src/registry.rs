@@ -136,6 +136,11 @@ pub static REGISTRY: &[FilterEntry] = &[
         "PHD-SLAM 3.0 (Kaltiokallio et al. 2024): multi-hypotheses importance density (Murty + partitioned IPL)"
     ),
     entry!(
+        "phd-3.0-sp",
+        phd_slam_3sp::PhdSlam3Sp,
+        "PHD-SLAM 3.0 with sigma points (cubature rule by default) in Algorithm 1's statistical linear regression (eq. 42)"
+    ),
+    entry!(
         "rbphd-mf",
         rbphd_mf::RbPhdMf,
         "RB-PHD SLAM (Leung, Inostroza, Adams): bootstrap proposal, empty-set / single-feature / multi-feature particle weighting (`strategy`)"

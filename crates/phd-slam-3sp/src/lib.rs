@@ -1,0 +1,435 @@
+//! `phd-3.0-sp`: PHD-SLAM 3.0 (Kaltiokallio et al., IEEE T-RO 2024, "seed 000") whose
+//! statistical linear regression (SLR) in the iterated posterior linearisation of
+//! Algorithm 1 uses sigma points instead of the first-order Taylor expansion, as Section V-B
+//! allows ("Taylor series expansion or sigma points can be used", after eq. 42).
+//!
+//! Everything else is phd-3.0's code: the cost matrix (eqs. 29-31), Murty's ranked
+//! associations, the mixture (41), sampling and the weight correction (45), (47)-(48) come
+//! from [`phd_slam_3::MhProposal`], here with the SLR [`SigmaPointSlr`] in place of
+//! [`phd_slam_3::TaylorSlr`]; the map update, births, pruning and resampling are
+//! [`rbphd`]'s.
+//!
+//! # What "SLR with sigma points" covers
+//!
+//! For an associated landmark `i` with predicted density `N(m_i, P_i)` and the linearisation
+//! density `pi = N(mu~_{l-1}, Sigma~_{l-1})` of iteration `l`:
+//!
+//! - **Step 5, eq. (42a)-(42c)** (the linearisation moments) are computed with sigma points
+//!   of `pi` in the 3-D pose space: `mu~^z = E_pi[g(m_i, x)]` (42a),
+//!   `Sigma~^zx = E_pi[(g - mu~^z)(x - mu~^x)^T]` (42c) and `Sigma~^zz = Cov_pi[g] +
+//!   E_pi[G_m P_i G_m^T] + R` (42b), where the second term, the landmark's uncertainty under
+//!   the affine approximation of eq. (38), is also averaged over the sigma points (`G_m` at
+//!   each point). This is `slr_space = "pose"`, the default, eq. (42) as printed.
+//!   With `slr_space = "joint"` the landmark is integrated too: sigma points of
+//!   `pi(x) N(m; m_i, P_i)` in the 5-D joint space give `Sigma~^zz = Cov[g] + R` directly,
+//!   without the affine approximation (38) (the integral of eq. 37 by sigma points).
+//! - **Step 6, eq. (43)** is unchanged: `B_l = Sigma~^zx (Sigma~^xx)^-1` (43a), and
+//!   [`rfslam_core::ipl::ipl_update_slr`] forms (43b)-(43c) from `(mu~^z, B_l, Omega)` with
+//!   `Omega = Sigma~^zz - B_l Sigma~^xx B_l^T`; the cross-covariance is `Sigma_l^xz =
+//!   Sigma~_l^xx B_l^T` (the running posterior's; eq. 43d as printed is a typo).
+//! - **Step 7** (the partitioned Kalman update, one landmark at a time) and the iteration
+//!   with its KL stopping rule are unchanged.
+//! - **Eq. (44)**, the detected factor of the component weight, uses the same SLR at the
+//!   component: `N(z; E[g], Cov[g] + E[G_m P_i G_m^T] + R)` under `N(mu_k^t, Sigma_k^t)`
+//!   instead of `g` and `G_x` evaluated at `mu_k^t`.
+//! - Not covered: the GM-PHD map update (eqs. 20-22) stays the EKF-style update of
+//!   [`rbphd`] for every variant (Section IV-B names the unscented and cubature Kalman
+//!   filters as alternatives there, but that update is conditioned on a sampled pose and
+//!   lives in the shared machinery, so it is left to a variant of its own).
+//!
+//! The rule is a scaled unscented transform ([`sigma::SigmaRule`]) whose default
+//! `(alpha, beta, kappa) = (1, 0, 0)` is the third-degree cubature rule: six points at
+//! `+-sqrt(3)` standard deviations with equal positive weights. It is chosen because with
+//! positive weights `Omega` is the regression's residual covariance plus `R`, so the
+//! innovation covariance of eq. (43c) cannot lose definiteness; it has no tuning parameter;
+//! and in three dimensions it is also Julier's unscented transform (`kappa = 3 - n = 0`),
+//! which matches the Gaussian's fourth moments along its axes. Other rules are parameters
+//! (`sigma_alpha`, `sigma_beta`, `sigma_kappa`).
+//!
+//! Bearings: each sigma point's predicted bearing is wrapped relative to the bearing
+//! predicted at the density's mean before averaging ([`sigma::sigma_moments`]), so a
+//! landmark seen near +-pi is averaged across the cut. Every Cholesky (of `Sigma~^xx`, of
+//! the innovation covariance) that fails is handled (the iteration keeps its last accepted
+//! iterate, a component weight becomes zero) and counted in `StepReport::cholesky_failures`.
+
+pub mod sigma;
+
+use nalgebra::{Matrix2, Matrix2x3, Matrix3, Matrix5, SMatrix, Vector2, Vector5};
+use phd_slam_3::{MhParams, MhProposal, PoseSlr};
+use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
+use rfslam_core::angle::wrap;
+use rfslam_core::gaussian::{log_normal, symmetrise};
+use rfslam_core::ipl::Linearised;
+use rfslam_core::{ParamError, Point2, Pose, RangeBearing, RangeBearingSensor, Rng, SlamModels};
+use serde::de::Error as _;
+use serde::{Deserialize, Deserializer, Serialize};
+
+pub use sigma::{Moments, SigmaRule, sigma_moments};
+
+/// Where the sigma points live (see the crate docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SlrSpace {
+    /// The 3-D pose space; the landmark enters through `E_pi[G_m P G_m^T]` (eq. 42b).
+    #[default]
+    Pose,
+    /// The 5-D joint space of pose and landmark (no affine approximation in the landmark).
+    Joint,
+}
+
+/// The sigma-point settings of `phd-3.0-sp`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SigmaParams {
+    /// Unscented-transform spread `alpha` (1: the cubature rule).
+    pub sigma_alpha: f64,
+    /// Unscented-transform `beta` (0: the cubature rule).
+    pub sigma_beta: f64,
+    /// Unscented-transform `kappa` (0: the cubature rule).
+    pub sigma_kappa: f64,
+    /// `"pose"` (eq. 42 as printed, the default) or `"joint"`.
+    pub slr_space: SlrSpace,
+}
+
+impl Default for SigmaParams {
+    fn default() -> Self {
+        let r = SigmaRule::CUBATURE;
+        SigmaParams { sigma_alpha: r.alpha, sigma_beta: r.beta, sigma_kappa: r.kappa, slr_space: SlrSpace::Pose }
+    }
+}
+
+/// Keys of [`SigmaParams`].
+pub const SIGMA_KEYS: &[&str] = &["sigma_alpha", "sigma_beta", "sigma_kappa", "slr_space"];
+
+impl SigmaParams {
+    /// The rule.
+    pub fn rule(&self) -> SigmaRule {
+        SigmaRule { alpha: self.sigma_alpha, beta: self.sigma_beta, kappa: self.sigma_kappa }
+    }
+
+    /// Dimension of the sigma-point space.
+    pub fn dimension(&self) -> usize {
+        match self.slr_space {
+            SlrSpace::Pose => 3,
+            SlrSpace::Joint => 5,
+        }
+    }
+
+    /// Checks ranges (errors name the key).
+    pub fn validate(&self) -> Result<(), ParamError> {
+        if !(self.sigma_alpha > 0.0 && self.sigma_alpha.is_finite()) {
+            return Err(ParamError::new("sigma_alpha", format!("must be > 0 (got {})", self.sigma_alpha)));
+        }
+        if !self.sigma_beta.is_finite() {
+            return Err(ParamError::new("sigma_beta", "must be finite"));
+        }
+        let n = self.dimension();
+        if !(self.sigma_kappa.is_finite() && self.rule().spread2(n) > 0.0) {
+            return Err(ParamError::new(
+                "sigma_kappa",
+                format!("must be finite and > -{n} (the dimension of slr_space) (got {})", self.sigma_kappa),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The parameters of `phd-3.0-sp`'s proposal: phd-3.0's [`MhParams`] and the
+/// [`SigmaParams`], one flat table.
+#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+pub struct SpParams {
+    /// phd-3.0's settings (Murty, IPL iterations and threshold, missed-detection cost).
+    #[serde(flatten)]
+    pub mh: MhParams,
+    /// The sigma-point rule.
+    #[serde(flatten)]
+    pub sigma: SigmaParams,
+}
+
+impl<'de> Deserialize<'de> for SpParams {
+    /// Splits the table into the [`SIGMA_KEYS`] and the rest (phd-3.0's keys; an unknown key
+    /// is reported by [`MhParams`]'s `deny_unknown_fields`).
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let all = toml::Table::deserialize(d)?;
+        let (mut sigma, mut mh) = (toml::Table::new(), toml::Table::new());
+        for (k, v) in all {
+            if SIGMA_KEYS.contains(&k.as_str()) {
+                sigma.insert(k, v);
+            } else {
+                mh.insert(k, v);
+            }
+        }
+        let conv = |e: toml::de::Error| D::Error::custom(e.message());
+        Ok(SpParams {
+            mh: toml::Value::Table(mh).try_into().map_err(conv)?,
+            sigma: toml::Value::Table(sigma).try_into().map_err(conv)?,
+        })
+    }
+}
+
+/// The sigma-point SLR of Algorithm 1 (eqs. 42-43) and eq. (44) (see the crate docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SigmaPointSlr {
+    /// The rule.
+    pub rule: SigmaRule,
+    /// Pose or joint space.
+    pub space: SlrSpace,
+}
+
+impl Default for SigmaPointSlr {
+    fn default() -> Self {
+        SigmaPointSlr { rule: SigmaRule::CUBATURE, space: SlrSpace::Pose }
+    }
+}
+
+/// Bearing index of a [`RangeBearing`].
+const BEARING: Option<usize> = Some(1);
+
+impl SigmaPointSlr {
+    /// The SLR of `g(m, x)` for `x ~ N(mean, cov)` and the landmark `N(m, p)`: `E[g]`,
+    /// `Sigma~^zz` of eq. (42b) including `R`, and `Sigma~^zx` of eq. (42c) (2 x 3).
+    /// `None` if a covariance fails Cholesky.
+    #[allow(clippy::too_many_arguments)]
+    pub fn moments(
+        &self,
+        sensor: &RangeBearingSensor,
+        r: &Matrix2<f64>,
+        mean: &Pose,
+        cov: &Matrix3<f64>,
+        m: &Point2,
+        p: &Matrix2<f64>,
+    ) -> Option<(RangeBearing, Matrix2<f64>, Matrix2x3<f64>)> {
+        match self.space {
+            SlrSpace::Pose => {
+                let mo = sigma_moments::<3, 2, _>(mean, cov, &self.rule, BEARING, |x| {
+                    let lin = sensor.linearise(x, m);
+                    (lin.z, lin.hm * p * lin.hm.transpose())
+                })?;
+                Some((mo.mean, mo.cov + mo.extra + r, mo.cross))
+            }
+            SlrSpace::Joint => {
+                let v = Vector5::new(mean[0], mean[1], mean[2], m[0], m[1]);
+                let mut c = Matrix5::zeros();
+                c.fixed_view_mut::<3, 3>(0, 0).copy_from(cov);
+                c.fixed_view_mut::<2, 2>(3, 3).copy_from(p);
+                let mo = sigma_moments::<5, 2, _>(&v, &c, &self.rule, BEARING, |v| {
+                    let x = Pose::new(v[0], v[1], v[2]);
+                    (sensor.predict(&x, &Point2::new(v[3], v[4])), SMatrix::zeros())
+                })?;
+                Some((mo.mean, mo.cov + r, mo.cross.fixed_view::<2, 3>(0, 0).into_owned()))
+            }
+        }
+    }
+}
+
+impl PoseSlr for SigmaPointSlr {
+    /// Eq. (42) by sigma points of `pi = N(m_pi, p_pi)`, returned as `(mu~^z, B, Omega)`
+    /// with `B = Sigma~^zx (Sigma~^xx)^-1` (43a) and `Omega = Sigma~^zz - B Sigma~^xx B^T`.
+    fn linearise(
+        &self,
+        sensor: &RangeBearingSensor,
+        r: &Matrix2<f64>,
+        m_pi: &Pose,
+        p_pi: &Matrix3<f64>,
+        m: &Point2,
+        p: &Matrix2<f64>,
+    ) -> Option<Linearised> {
+        let (mu_z, s_zz, s_zx) = self.moments(sensor, r, m_pi, p_pi, m, p)?;
+        let b = p_pi.cholesky()?.solve(&s_zx.transpose()).transpose();
+        let omega = symmetrise(&(s_zz - b * p_pi * b.transpose()));
+        Some((mu_z, b, omega))
+    }
+
+    /// Eq. (44)'s detected factor with the SLR moments at the component `N(mean, cov)`.
+    fn log_likelihood(
+        &self,
+        sensor: &RangeBearingSensor,
+        r: &Matrix2<f64>,
+        mean: &Pose,
+        cov: &Matrix3<f64>,
+        m: &Point2,
+        p: &Matrix2<f64>,
+        z: &RangeBearing,
+    ) -> Option<f64> {
+        let (mu_z, s_zz, _) = self.moments(sensor, r, mean, cov, m, p)?;
+        let nu = Vector2::new(z[0] - mu_z[0], wrap(z[1] - mu_z[1]));
+        log_normal(&nu, &s_zz)
+    }
+}
+
+/// The importance density of `phd-3.0-sp`: phd-3.0's [`MhProposal`] with [`SigmaPointSlr`].
+#[derive(Clone)]
+pub struct SpProposal(MhProposal<SigmaPointSlr>);
+
+impl SpProposal {
+    /// The underlying multi-hypotheses proposal (its [`MhProposal::mixture`]).
+    pub fn inner(&self) -> &MhProposal<SigmaPointSlr> {
+        &self.0
+    }
+}
+
+impl Proposal for SpProposal {
+    const NAME: &'static str = "phd-3.0-sp";
+    type Params = SpParams;
+
+    fn validate(p: &SpParams) -> Result<(), ParamError> {
+        MhProposal::<SigmaPointSlr>::validate_params(&p.mh)?;
+        p.sigma.validate()
+    }
+
+    fn new(p: &SpParams, _models: &SlamModels) -> Self {
+        SpProposal(MhProposal::with_slr(&p.mh, SigmaPointSlr { rule: p.sigma.rule(), space: p.sigma.slr_space }))
+    }
+
+    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+        self.0.propose_mh(ctx, n, rng, out)
+    }
+
+    fn associations(&self, component: usize, out: &mut Vec<Option<usize>>) -> bool {
+        self.0.associations_mh(component, out)
+    }
+}
+
+/// PHD-SLAM 3.0 with the sigma-point SLR: registered as `phd-3.0-sp`.
+pub type PhdSlam3Sp = RbPhd<SpProposal>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+    use phd_slam_3::TaylorSlr;
+    use rfslam_core::ipl::{IplSettings, ipl_update, ipl_update_slr};
+
+    fn r() -> Matrix2<f64> {
+        Matrix2::new(0.64, 0.0, 0.0, 0.3f64.to_radians().powi(2))
+    }
+
+    /// A linear measurement function `z = A x + C m + e`: the sigma-point SLR is exactly the
+    /// Taylor one (`B = A`, `Omega = C P C^T + R`), so Algorithm 1 gives the same posterior.
+    #[test]
+    fn sigma_slr_equals_taylor_for_a_linear_sensor() {
+        let a = Matrix2x3::new(1.0, 0.5, -0.2, 0.0, 1.0, 0.7);
+        let c = Matrix2::new(-1.0, 0.0, 0.3, -1.0);
+        let (lm, pm) = (Vector2::new(4.0, 1.0), Matrix2::new(0.2, 0.05, 0.05, 0.1));
+        let x_bar = Pose::new(1.0, -2.0, 0.3);
+        let q = Matrix3::new(0.5, 0.1, 0.0, 0.1, 0.4, 0.02, 0.0, 0.02, 0.05);
+        let z = [RangeBearing::new(0.9, -1.3), RangeBearing::new(1.4, -0.9)];
+        let omega = c * pm * c.transpose() + r();
+        let taylor = ipl_update(&x_bar, &q, &z, |_, x| (a * x + c * lm, a, omega), &IplSettings::default());
+        for rule in [SigmaRule::CUBATURE, SigmaRule { alpha: 0.5, beta: 2.0, kappa: 1.0 }] {
+            let sp = ipl_update_slr(
+                &x_bar,
+                &q,
+                &z,
+                |_, m_pi, p_pi| {
+                    let mo = sigma_moments::<3, 2, _>(m_pi, p_pi, &rule, None, |x| {
+                        (a * x + c * lm, c * pm * c.transpose())
+                    })?;
+                    let b = p_pi.cholesky()?.solve(&mo.cross.transpose()).transpose();
+                    assert_relative_eq!(b, a, epsilon = 1e-10);
+                    Some((mo.mean, b, symmetrise(&(mo.cov + mo.extra + r() - b * p_pi * b.transpose()))))
+                },
+                &IplSettings::default(),
+            );
+            assert_relative_eq!(sp.mean, taylor.mean, epsilon = 1e-10);
+            assert_relative_eq!(sp.cov, taylor.cov, epsilon = 1e-10);
+            assert_eq!(sp.iterations, taylor.iterations);
+        }
+    }
+
+    /// Near-linear: a landmark 800 m away seen from a pose known to centimetres. The
+    /// range-bearing SLR of both spaces is the Taylor linearisation to within 1e-4 relative,
+    /// and so is eq. (44)'s factor.
+    #[test]
+    fn sigma_slr_is_close_to_taylor_when_nearly_linear() {
+        let sensor = RangeBearingSensor::default();
+        let x = Pose::new(3.0, -1.0, 0.4);
+        let p_pi = Matrix3::from_diagonal(&nalgebra::Vector3::new(1e-4, 2e-4, 1e-8));
+        let m = Point2::new(600.0, 520.0);
+        let pm = Matrix2::identity() * 1e-3;
+        let (tz, tb, to) = TaylorSlr.linearise(&sensor, &r(), &x, &p_pi, &m, &pm).unwrap();
+        let z = sensor.predict(&x, &m) + RangeBearing::new(0.5, 1e-3);
+        let tl = TaylorSlr.log_likelihood(&sensor, &r(), &x, &p_pi, &m, &pm, &z).unwrap();
+        for space in [SlrSpace::Pose, SlrSpace::Joint] {
+            let slr = SigmaPointSlr { space, ..Default::default() };
+            let (sz, sb, so) = slr.linearise(&sensor, &r(), &x, &p_pi, &m, &pm).unwrap();
+            assert_relative_eq!(sz, tz, max_relative = 1e-6);
+            assert_relative_eq!(sb, tb, max_relative = 1e-4, epsilon = 1e-9);
+            assert_relative_eq!(so, to, max_relative = 1e-4, epsilon = 1e-12);
+            let sl = slr.log_likelihood(&sensor, &r(), &x, &p_pi, &m, &pm, &z).unwrap();
+            assert_relative_eq!(sl, tl, max_relative = 1e-4);
+        }
+    }
+
+    /// A landmark straight behind the robot (bearing +-pi) with a heading uncertainty of
+    /// 3 degrees: the sigma points' bearings straddle the cut. Wrapped before averaging, the
+    /// mean bearing stays at pi and the SLR is close to Taylor's; averaged naively it would
+    /// be near 0 with a variance of about pi^2.
+    #[test]
+    fn bearing_is_wrapped_across_pi() {
+        let sensor = RangeBearingSensor::default();
+        let x = Pose::new(0.0, 0.0, 0.0);
+        let p_pi = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.01, 0.01, 3f64.to_radians().powi(2)));
+        let m = Point2::new(-40.0, 1e-3);
+        let pm = Matrix2::identity() * 0.05;
+        let (tz, tb, to) = TaylorSlr.linearise(&sensor, &r(), &x, &p_pi, &m, &pm).unwrap();
+        for space in [SlrSpace::Pose, SlrSpace::Joint] {
+            let slr = SigmaPointSlr { space, ..Default::default() };
+            let (sz, sb, so) = slr.linearise(&sensor, &r(), &x, &p_pi, &m, &pm).unwrap();
+            assert!(rfslam_core::angle::diff(sz[1], tz[1]).abs() < 1e-3, "{sz:?} vs {tz:?}");
+            assert!(sz[1].abs() > 3.1, "mean bearing {} should be near +-pi", sz[1]);
+            assert_relative_eq!(sb, tb, max_relative = 1e-2, epsilon = 1e-4);
+            assert_relative_eq!(so, to, max_relative = 1e-2, epsilon = 1e-9);
+            let (_, s_zz, _) = slr.moments(&sensor, &r(), &x, &p_pi, &m, &pm).unwrap();
+            assert!(s_zz[(1, 1)] < 0.01, "bearing variance {}", s_zz[(1, 1)]);
+            // A measurement on the other side of the cut is a small innovation.
+            let z = RangeBearing::new(40.0, -std::f64::consts::PI + 0.01);
+            let l = slr.log_likelihood(&sensor, &r(), &x, &p_pi, &m, &pm, &z).unwrap();
+            assert!(l > -10.0, "log-likelihood {l}");
+        }
+    }
+
+    /// A linearisation density that fails Cholesky is reported (`None`), not unwrapped.
+    #[test]
+    fn cholesky_failure_is_none() {
+        let sensor = RangeBearingSensor::default();
+        let bad = Matrix3::new(1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0);
+        let slr = SigmaPointSlr::default();
+        let (x, m, pm) = (Pose::zeros(), Point2::new(10.0, 0.0), Matrix2::identity());
+        assert!(slr.linearise(&sensor, &r(), &x, &bad, &m, &pm).is_none());
+        assert!(slr.log_likelihood(&sensor, &r(), &x, &bad, &m, &pm, &RangeBearing::new(10.0, 0.0)).is_none());
+        let res = ipl_update_slr(
+            &x,
+            &bad,
+            &[RangeBearing::new(10.0, 0.0)],
+            |_, m_pi, p_pi| slr.linearise(&sensor, &r(), m_pi, p_pi, &m, &pm),
+            &IplSettings::default(),
+        );
+        assert!(res.lost_definiteness);
+        assert_eq!((res.mean, res.cov, res.iterations), (x, bad, 0));
+    }
+
+    /// One flat parameter table: defaults round-trip, phd-3.0's keys pass through, errors
+    /// name the key.
+    #[test]
+    fn parameters_parse_and_validate() {
+        let d = SpParams::default();
+        let t: toml::Table = toml::Value::try_from(&d).unwrap().try_into().unwrap();
+        assert!(t.contains_key("sigma_alpha") && t.contains_key("max_assignments"), "{t:?}");
+        let back: SpParams = toml::Value::Table(t).try_into().unwrap();
+        assert_eq!(back, d);
+        let p: SpParams = toml::from_str("max_assignments = 10\nslr_space = \"joint\"\nsigma_kappa = 1.0").unwrap();
+        assert_eq!((p.mh.max_assignments, p.sigma.slr_space, p.sigma.sigma_kappa), (10, SlrSpace::Joint, 1.0));
+        assert!(toml::from_str::<SpParams>("sigma_gamma = 1.0").unwrap_err().to_string().contains("sigma_gamma"));
+        assert!(toml::from_str::<SpParams>("slr_space = \"both\"").is_err());
+        let bad = |s: &str| SpProposal::validate(&toml::from_str::<SpParams>(s).unwrap()).unwrap_err().key;
+        assert_eq!(bad("sigma_alpha = 0.0"), "sigma_alpha");
+        assert_eq!(bad("sigma_kappa = -3.0"), "sigma_kappa");
+        assert_eq!(bad("slr_space = \"joint\"\nsigma_kappa = -5.0"), "sigma_kappa");
+        assert_eq!(bad("ipl_iterations = 0"), "ipl_iterations");
+        assert!(
+            SpProposal::validate(&toml::from_str::<SpParams>("slr_space = \"pose\"\nsigma_kappa = -2.5").unwrap())
+                .is_ok()
+        );
+    }
+}
