@@ -82,9 +82,13 @@ pub enum WorldSpec {
     },
     /// The simulated world of delta-GLMB-SLAM 2.0 (Moratuwage et al. 2019, §4.1): 23
     /// landmarks beside a racetrack driven at 1 m/s with a loop closure
-    /// ([`crate::glmb_sim::glmb_sim_world`]); no keys.
+    /// ([`crate::glmb_sim::glmb_sim_world`]), driven by the scenario's `velocity` or
+    /// `ackermann` controls; key `dt`: the control and scan period (s, default 1).
     #[serde(rename = "glmb-sim")]
-    GlmbSim,
+    GlmbSim {
+        /// Control and scan period (s).
+        dt: f64,
+    },
 }
 
 /// The `[world]` table as written.
@@ -154,8 +158,8 @@ impl TryFrom<RawWorld> for WorldSpec {
                 }
             }
             WorldKind::GlmbSim => {
-                only_keys("world", "glmb-sim", &given, &[])?;
-                WorldSpec::GlmbSim
+                only_keys("world", "glmb-sim", &given, &["dt"])?;
+                WorldSpec::GlmbSim { dt: r.dt.unwrap_or(1.0) }
             }
             WorldKind::Procedural => {
                 let keys = ["seed", "steps", "dt", "speed", "max_turn_rate_deg", "extent", "landmarks"];
@@ -184,7 +188,7 @@ impl WorldSpec {
             WorldSpec::Procedural(_) => "procedural",
             WorldSpec::Dataset { .. } => "dataset",
             WorldSpec::VictoriaPark { .. } => "victoria-park",
-            WorldSpec::GlmbSim => "glmb-sim",
+            WorldSpec::GlmbSim { .. } => "glmb-sim",
         }
     }
 
@@ -265,7 +269,11 @@ impl ScenarioConfig {
         self.models().validate()?;
         match &self.world {
             WorldSpec::Procedural(p) => p.validate().map_err(|e| e.prefixed("world"))?,
-            WorldSpec::GlmbSim => {}
+            WorldSpec::GlmbSim { dt } => {
+                if !(dt.is_finite() && *dt > 0.0 && *dt <= 10.0) {
+                    return Err(ConfigError::new("world.dt", format!("must be in (0, 10] s (got {dt})")));
+                }
+            }
             WorldSpec::Environment { path } | WorldSpec::Mat { path } | WorldSpec::Dataset { path } => {
                 if path.trim().is_empty() {
                     return Err(ConfigError::new("world.path", "must not be empty"));
@@ -291,6 +299,13 @@ impl ScenarioConfig {
         let (needed, what) = match self.world {
             WorldSpec::Dataset { .. } => return Ok(()),
             WorldSpec::VictoriaPark { .. } => (matches!(self.motion, MotionConfig::Ackermann { .. }), "ackermann"),
+            WorldSpec::GlmbSim { .. } if matches!(self.motion, MotionConfig::Odometry2d { .. }) => {
+                return Err(ConfigError::new(
+                    "motion.model",
+                    "must be \"velocity\" or \"ackermann\": a world of kind \"glmb-sim\" is driven by their controls",
+                ));
+            }
+            WorldSpec::GlmbSim { .. } => return Ok(()),
             _ => (matches!(self.motion, MotionConfig::Velocity { .. }), "velocity"),
         };
         if !needed {
@@ -309,7 +324,7 @@ impl ScenarioConfig {
             WorldSpec::Environment { path } => World::from_csv_dir(&find_data(path)?).map(Some),
             WorldSpec::Mat { path } => World::from_mat(&find_data(path)?).map(Some),
             WorldSpec::Procedural(p) => World::procedural(p, p.seed).map(Some),
-            WorldSpec::GlmbSim => Ok(Some(crate::glmb_sim::glmb_sim_world())),
+            WorldSpec::GlmbSim { dt } => Ok(crate::glmb_sim::glmb_sim_world(self.motion.motion(), *dt)),
             WorldSpec::Dataset { .. } | WorldSpec::VictoriaPark { .. } => Ok(None),
         }
     }
