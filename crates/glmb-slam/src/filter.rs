@@ -14,7 +14,7 @@ use crate::map::{
     GlmbMap, GlmbSettings, LmbMap, Track, UpdateModels, Workspace, birth_label, glmb_update, lmb_update,
     optimal_proposal,
 };
-use crate::params::Params;
+use crate::params::{Params, ProposalWeight};
 
 /// Which filter of the family.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -103,7 +103,8 @@ impl GlmbSlam {
         self.best
     }
 
-    fn step_impl(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
+    /// One recursion (what `SlamFilter::step` of the three variants calls).
+    pub fn step_impl(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
         self.step += 1;
         let models = &self.models;
         let p = &self.params;
@@ -136,8 +137,10 @@ impl GlmbSlam {
             // Proposal: transition density (eq. 32) or the optimal kernel (eqs. 30-31).
             let (x_bar, q) = propagate_with_covariance(&models.motion, &part.pose, odometry, &models.control_noise);
             let q = symmetrise(&(q + self.jitter));
+            // `marginal`: the weight of eq. (33), replacing the update's `ln Delta w(x_k)`.
+            let mut marginal = None;
             let (x, corr) = if self.variant == Variant::Glmb2 && !scan.z.is_empty() {
-                let (mu, sig, n_comp, c) = optimal_proposal(
+                let (mu, sig, n_comp, c, log_c) = optimal_proposal(
                     &part.glmb,
                     &x_bar,
                     &q,
@@ -150,6 +153,9 @@ impl GlmbSlam {
                 );
                 chol += c;
                 proposal_components += n_comp;
+                if p.proposal_weight == ProposalWeight::Marginal && log_c.is_finite() {
+                    marginal = Some(log_c);
+                }
                 match sample(&mu, &sig, rng) {
                     Some(x) => {
                         let x = Pose::new(x[0], x[1], wrap(x[2]));
@@ -164,7 +170,9 @@ impl GlmbSlam {
                         }
                     }
                     None => {
+                        // The draw fell back to the transition density: weight by Delta w(x_k).
                         chol += 1;
+                        marginal = None;
                         (draw_prior(&x_bar, &q, rng, &mut chol), 0.0)
                     }
                 }
@@ -178,7 +186,10 @@ impl GlmbSlam {
                 _ => glmb_update(&mut part.glmb, &x, &scan.z, &um, &settings, ws, rng),
             };
             chol += c;
-            part.log_w += log_dw + corr;
+            part.log_w += match marginal {
+                Some(log_c) => log_c,
+                None => log_dw + corr,
+            };
             part.ru.clear();
             part.ru.extend_from_slice(&ws.ru);
         }
@@ -199,7 +210,8 @@ impl GlmbSlam {
         StepReport { ess, resampled, components, proposal_components, associations: None, cholesky_failures: chol }
     }
 
-    fn estimate_impl(&self) -> Estimate {
+    /// The estimate (what `SlamFilter::estimate` of the three variants returns).
+    pub fn estimate_impl(&self) -> Estimate {
         let p = &self.particles[self.best];
         let map = match self.variant {
             Variant::Lmb => p

@@ -32,9 +32,13 @@
 //!   sampled (`proposal_sweeps` sweeps each); every distinct association gives the pose
 //!   Gaussian conditioned on its detections (sequential EKF, landmark covariance as extra
 //!   noise), weighted `w_h prod eta`; the mixture is moment-matched (heading offsets wrapped)
-//!   to one Gaussian from which `x_k` is drawn. The weight is the proper importance weight
-//!   `ln Delta w(x_k) + ln N(x_k; x_bar, Q) - ln N(x_k; mu, Sigma)` (note 08 §7: the paper
-//!   re-evaluates the integral at the sampled pose).
+//!   to one Gaussian from which `x_k` is drawn. The particle weight is eq. (33): the
+//!   predicted likelihood of the scan with the pose integrated out, i.e. the proposal's
+//!   normalising constant (the sum of the mixture weights, divided by the prior weight of
+//!   the hypotheses searched), which does not depend on the drawn pose, as in FastSLAM 2.0
+//!   (`proposal_weight = "marginal"`, default). `proposal_weight = "sampled"` gives the plain
+//!   importance weight `ln Delta w(x_k) + ln N(x_k; x_bar, Q) - ln N(x_k; mu, Sigma)` (note 08
+//!   §7), which the first version used; with 10 particles its variance is larger.
 //! - `lmb-slam` ([`map::lmb_update`]): the LMB is one prior hypothesis (`eta` with `r p_S`),
 //!   sampled with `gibbs_sweeps` sweeps, collapsed back to an LMB (existence = marginal
 //!   probability of being alive; one moment-matched Gaussian per label), tracks with
@@ -53,4 +57,4 @@ pub mod map;
 pub mod params;
 
 pub use filter::{Glmb1, Glmb2, GlmbSlam, LmbSlam, Particle, Variant};
-pub use params::Params;
+pub use params::{Params, ProposalWeight};

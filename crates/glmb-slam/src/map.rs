@@ -631,7 +631,11 @@ pub fn collapse(parts: impl Iterator<Item = (f64, Point2, Matrix2<f64>)> + Clone
 /// distinct sampled association `gamma` giving the pose Gaussian conditioned on its
 /// detections (sequential EKF) with weight `w_h prod_i eta_i(gamma_i)`, moment-matched into
 /// one Gaussian `(mean, cov)`. Uses `ws.births`. Returns `(mean, cov, components,
-/// cholesky failures)`.
+/// cholesky failures, ln c)` where `c` is the proposal's normalising constant (eq. 30),
+/// `sum_{(h, gamma)} w_h prod_i eta_i(gamma_i)` over the distinct associations found, divided
+/// by the prior weight of the hypotheses searched: the approximation of the integral of
+/// eq. (33), `integral g(Z | M, x) p(M) q(x | x_{k-1}, u) dM dx`, relative to the all-clutter
+/// likelihood (as `ln Delta w` of [`glmb_update`]).
 #[allow(clippy::too_many_arguments)]
 pub fn optimal_proposal<R: Rng + ?Sized>(
     map: &GlmbMap,
@@ -643,12 +647,14 @@ pub fn optimal_proposal<R: Rng + ?Sized>(
     sweeps: usize,
     ws: &mut Workspace,
     rng: &mut R,
-) -> (Pose, Matrix3<f64>, usize, u32) {
+) -> (Pose, Matrix3<f64>, usize, u32, f64) {
     let mut chol = ws.build_rows(m, x_bar, &map.tracks, None, Some(q), z);
+    let mut searched = f64::NEG_INFINITY;
     let first_birth_row = ws.rows.len() - ws.births.len();
     ws.comps.clear();
     for h in 0..map.hyps.len().min(n_hyp) {
         let hy = map.hyps[h];
+        searched = log_add(searched, hy.log_w);
         ws.table.clear(z.len());
         ws.table_rows.clear();
         for &t in &map.members[hy.start as usize..(hy.start + hy.len) as usize] {
@@ -686,10 +692,11 @@ pub fn optimal_proposal<R: Rng + ?Sized>(
     }
     let n = ws.comps.len();
     if n == 0 {
-        return (*x_bar, *q, 0, chol);
+        return (*x_bar, *q, 0, chol, f64::NEG_INFINITY);
     }
     let max = ws.comps.iter().map(|c| c.0).fold(f64::NEG_INFINITY, f64::max);
     let total: f64 = ws.comps.iter().map(|c| (c.0 - max).exp()).sum();
+    let log_c = max + total.ln() - searched;
     // Offsets from x_bar with the heading wrapped (00-index §3).
     let off = |p: &Pose| Pose::new(p[0] - x_bar[0], p[1] - x_bar[1], wrap(p[2] - x_bar[2]));
     let d_mean = ws.comps.iter().fold(Pose::zeros(), |a, c| a + off(&c.1) * ((c.0 - max).exp() / total));
@@ -698,7 +705,13 @@ pub fn optimal_proposal<R: Rng + ?Sized>(
         a + (c.2 + d * d.transpose()) * ((c.0 - max).exp() / total)
     });
     let mean = Pose::new(x_bar[0] + d_mean[0], x_bar[1] + d_mean[1], wrap(x_bar[2] + d_mean[2]));
-    (mean, symmetrise(&cov), n, chol)
+    (mean, symmetrise(&cov), n, chol, log_c)
+}
+
+/// `ln(e^a + e^b)`.
+fn log_add(a: f64, b: f64) -> f64 {
+    let m = a.max(b);
+    if m == f64::NEG_INFINITY { m } else { m + ((a - m).exp() + (b - m).exp()).ln() }
 }
 
 /// One EKF update of the pose `(mu, sig)` by measurement `z` of landmark `t`, the landmark

@@ -4,6 +4,22 @@
 use rfslam_core::ParamError;
 use serde::{Deserialize, Serialize};
 
+/// How `glmb-2.0` weights a particle after sampling its pose from the optimal kernel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum ProposalWeight {
+    /// Seed 001 eq. (33) (and eq. 22): `w_k = w_{k-1} * integral of g(Z|M, x) p(M) q(x | x_{k-1}, u)
+    /// dM dx`, the predicted likelihood of the scan with the pose integrated out, which is the
+    /// normalising constant of the proposal (eq. 30): the sum, over the associations found,
+    /// of `w_h prod_i eta_i` with the pose-marginalised likelihoods. It does not depend on
+    /// the sampled pose (as FastSLAM 2.0's weight).
+    #[default]
+    Marginal,
+    /// The plain importance weight at the sampled pose `x_k`:
+    /// `Delta w(x_k) N(x_k; x_bar, Q) / N(x_k; mu, Sigma)` (note 08 §7).
+    Sampled,
+}
+
 /// Parameters shared by the three filters (each ignores the keys of the others' steps).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -35,6 +51,9 @@ pub struct Params {
     pub proposal_hypotheses: usize,
     /// `glmb-2.0`: Gibbs sweeps per hypothesis in the proposal's association search.
     pub proposal_sweeps: usize,
+    /// `glmb-2.0`: the particle weight after the optimal-kernel draw (seed 001 eq. 33:
+    /// `marginal`, the default; or `sampled`).
+    pub proposal_weight: ProposalWeight,
     /// `lmb-slam`: tracks whose existence probability falls below this are pruned (seed 001:
     /// 0.019).
     pub existence_prune: f64,
@@ -62,6 +81,7 @@ impl Default for Params {
             gibbs_sweeps: 60,
             proposal_hypotheses: 3,
             proposal_sweeps: 10,
+            proposal_weight: ProposalWeight::Marginal,
             existence_prune: 0.019,
             existence_estimate: 0.5,
             resample_ess_fraction: 1.0,

@@ -143,16 +143,50 @@ fn lmb_collapse_preserves_existence_and_moments() {
     assert!((cov + mean * mean.transpose() - m2).norm() < 1e-12);
 }
 
-/// The three filters on a short version of the glmb-sim scenario (low noise, clutter 2):
-/// they build a map and beat dead reckoning's final-map error.
+/// glmb-2.0's particle weight (seed 001 eq. 33) is the proposal's normalising constant: for
+/// one track, one prior hypothesis and no birth it is, in closed form,
+/// `(1 - p_S) + p_S (1 - p_D) + p_S p_D sum_j N(z_j; h(m, x_bar), H_x Q H_x^T + H_m P H_m^T + R) / kappa`
+/// (the pose integrated out), whatever pose is then drawn. Before the fix the filter
+/// weighted by `Delta w` at the sampled pose times the importance ratio instead.
+#[test]
+fn proposal_weight_is_the_pose_marginal_likelihood() {
+    use glmb_slam::map::optimal_proposal;
+    use nalgebra::Matrix3;
+    let sensor = RangeBearingSensor::default();
+    let ps = 0.95;
+    let m = models(&sensor, ps);
+    let x_bar = Pose::new(0.05, -0.02, 0.01);
+    let q = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.02f64.powi(2), 0.03f64.powi(2), 0.01f64.powi(2)));
+    let z = scan();
+    let t = track();
+    let map = GlmbMap { tracks: vec![t], hyps: vec![Hypothesis { log_w: 0.0, start: 0, len: 1 }], members: vec![0] };
+    let mut ws = Workspace::default();
+    let mut rng = rfslam_core::Rng::seed_from_u64(4);
+    let (mu, sig, n, chol, log_c) = optimal_proposal(&map, &x_bar, &q, &z, &m, 1, 20_000, &mut ws, &mut rng);
+    assert_eq!(chol, 0);
+    // Dead, missed and one component per measurement that the sampler reaches (a detection
+    // whose weight is negligible may never be drawn; it is then also negligible below).
+    assert!((3..=2 + z.len()).contains(&n), "{n} components");
+    let lin = sensor.linearise(&x_bar, &t.mean);
+    let s = lin.hx * q * lin.hx.transpose() + lin.hm * t.cov * lin.hm.transpose() + m.r;
+    let sum_q: f64 = z.iter().map(|zj| log_normal(&RangeBearingSensor::residual(zj, &lin.z), &s).unwrap().exp()).sum();
+    let c = (1.0 - ps) + ps * (1.0 - PD) + ps * PD * sum_q / KAPPA;
+    assert!((log_c - c.ln()).abs() < 1e-6, "{log_c} vs {}", c.ln());
+    // The proposal is a proper Gaussian near x_bar.
+    assert!(sig.cholesky().is_some());
+    assert!((mu - x_bar).norm() < 0.2);
+}
+
+/// The three filters on the shipped glmb-sim scenario (Table 1 noise in the bicycle
+/// reading, clutter 2 per scan), 5 particles: they build most of the map and stay within
+/// metres of the truth over the whole run (the turn-rate reading of the first version let
+/// dead reckoning drift by tens of degrees: no filter could localise on it).
 #[test]
 fn short_run_end_to_end() {
     use rfslam_harness::experiment::MetricsConfig;
     use rfslam_harness::{registry, run_filter};
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/glmb-sim.toml")).unwrap();
     let mut table: toml::Table = toml::from_str(&text).unwrap();
-    let motion = table["motion"].as_table_mut().unwrap();
-    motion.insert("sigma_omega_deg".into(), 0.3.into());
     table["clutter"].as_table_mut().unwrap().insert("rate".into(), 2.0.into());
     let sc: rfslam_data::ScenarioConfig = toml::Value::Table(table).try_into().unwrap();
     let ds = sc.build_dataset(None, 1).unwrap();
@@ -165,8 +199,8 @@ fn short_run_end_to_end() {
         let o = run_filter(&ds, f.as_mut(), 1, &metrics, &mut |r| landmarks = r.estimate.map.len());
         assert_eq!(o.steps, ds.scans.len());
         assert_eq!(o.cholesky_failures, 0, "{name}");
-        assert!(landmarks >= 8, "{name}: {landmarks} landmarks at the end");
+        assert!(landmarks >= 12, "{name}: {landmarks} landmarks at the end");
         assert!(o.gospa_m < o_dr.gospa_m, "{name}: GOSPA {} vs empty map {}", o.gospa_m, o_dr.gospa_m);
-        assert!(o.pos_rmse_m < 3.0, "{name}: position RMSE {}", o.pos_rmse_m);
+        assert!(o.pos_rmse_m < 4.0, "{name}: position RMSE {}", o.pos_rmse_m);
     }
 }
