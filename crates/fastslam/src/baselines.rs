@@ -5,7 +5,9 @@
 //! Bayes existence filter of eqs. (29)-(32) (prior 0.5) for map management. The machinery
 //! is [`crate::da::DaFastSlam`]; neither filter reads truth labels.
 
-use rfslam_core::{ControlSegment, Estimate, FilterBuild, ParamError, Rng, Scan, SlamFilter, SlamModels, StepReport};
+use rfslam_core::{
+    ControlSegment, Estimate, FilterBuild, ParamError, Pose, Rng, Scan, SlamFilter, SlamModels, StepReport,
+};
 use serde::{Deserialize, Serialize};
 
 use crate::da::{DaFastSlam, DaSettings};
@@ -164,6 +166,11 @@ macro_rules! baseline {
 
             fn estimate(&self) -> Estimate {
                 self.0.estimate()
+            }
+
+            fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+                self.0.particle_poses(out);
+                true
             }
         }
     };

@@ -433,6 +433,12 @@ impl DaFastSlam {
         }
     }
 
+    /// Every particle's pose and normalised log weight (see `SlamFilter::particle_poses`).
+    pub fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) {
+        out.clear();
+        out.extend(self.particles.iter().map(|p| (p.pose, p.log_w)));
+    }
+
     /// The highest-weight particle's pose and its landmarks with `P_E > 0.5`.
     pub fn estimate(&self) -> Estimate {
         let p = &self.particles[self.best];

@@ -255,6 +255,12 @@ impl SlamFilter for OracleFastSlam2 {
         let p = &self.particles[self.best];
         Estimate { pose: p.pose, map: p.landmarks.iter().map(|l| MapPoint { position: l.mean, weight: 1.0 }).collect() }
     }
+
+    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+        out.clear();
+        out.extend(self.particles.iter().map(|p| (p.pose, p.log_w)));
+        true
+    }
 }
 
 impl FilterBuild for OracleFastSlam2 {

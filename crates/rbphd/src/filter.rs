@@ -266,6 +266,12 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
         }
     }
 
+    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+        out.clear();
+        out.extend(self.particles.iter().map(|p| (p.pose, p.log_w)));
+        true
+    }
+
     fn estimate(&self) -> Estimate {
         let p = &self.particles[self.best];
         let ln_t = self.estimate_threshold.ln();

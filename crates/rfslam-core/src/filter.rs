@@ -46,6 +46,19 @@ pub trait SlamFilter: Send {
 
     /// Best pose and landmark map now (highest-weight particle unless the filter says otherwise).
     fn estimate(&self) -> Estimate;
+
+    /// Writes every particle's pose and normalised log weight `(x_k^(i), ln w_k^(i))` to
+    /// `out` (cleared first) and returns `true`; for plotting particle clouds and trajectories
+    /// (`rfslam run --save-particles`, the PHD-SLAM 3.0 paper's Fig. 3).
+    ///
+    /// After a step that resampled, the poses are those of the resampled copies, so index `i`
+    /// follows one trajectory only in a run without resampling. The default (filters without
+    /// particles, or that do not expose them) leaves `out` empty and returns `false`. It is
+    /// never called by the harness unless asked for, so it costs nothing otherwise.
+    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+        out.clear();
+        false
+    }
 }
 
 /// An invalid filter parameter: the key and what is wrong with it.
