@@ -51,7 +51,6 @@ pub struct RbPhd<P: Proposal> {
     detectable: Vec<usize>,
     pd: Vec<f64>,
     updated: GmMap,
-    rebuilt: GmMap,
     upd: UpdateScratch,
     red: ReduceScratch,
     assoc_idx: Vec<Option<usize>>,
@@ -90,7 +89,6 @@ impl<P: Proposal> RbPhd<P> {
             detectable: Vec::new(),
             pd: Vec::new(),
             updated: GmMap::default(),
-            rebuilt: GmMap::default(),
             upd: UpdateScratch::default(),
             red: ReduceScratch::default(),
             assoc_idx: Vec::new(),
@@ -157,11 +155,12 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
             self.pd.clear();
             self.is_active.clear();
             self.is_active.resize(rep.map.len(), false);
+            let (active_fov, sensed_fov) = (self.fov_active.at(&x_bar), models.fov.at(&x_bar));
             for i in 0..rep.map.len() {
-                if self.fov_active.contains(&x_bar, &rep.map.mean[i]) {
+                if active_fov.contains(&rep.map.mean[i]) {
                     self.active.push(i);
                     self.is_active[i] = true;
-                    let pd = models.detection.pd(&models.fov, &x_bar, &rep.map.mean[i]);
+                    let pd = models.detection.pd_at(&sensed_fov, &rep.map.mean[i]);
                     if pd > 0.0 {
                         self.detectable.push(i);
                         self.pd.push(pd);
@@ -196,6 +195,7 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                 p.pose = sample.pose;
                 p.log_w += sample.log_correction;
                 let pose = p.pose;
+                let placed = models.fov.at(&pose);
                 let out = phd_update(
                     &p.map,
                     &self.active,
@@ -203,7 +203,7 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                     &scan.z,
                     &models.sensor,
                     &models.measurement_noise,
-                    |m| models.detection.pd(&models.fov, &pose, m),
+                    |m| models.detection.pd_at(&placed, m),
                     &upd_settings,
                     &mut self.upd,
                     &mut self.updated,
@@ -225,7 +225,7 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                             log_clutter: self.log_clutter,
                             clutter_rate: models.clutter.rate,
                         };
-                        let pd = |m: &Point2| models.detection.pd(&models.fov, &pose, m);
+                        let pd = |m: &Point2| models.detection.pd_at(&placed, m);
                         let o = strategy_log_weight(w, &input, pd, &self.mf, &mut self.strategy);
                         chol += o.cholesky_failures;
                         p.log_w += o.log_weight;
@@ -233,16 +233,12 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                 }
                 p.birth.clear();
                 p.birth.extend(scan.z.iter().zip(&self.upd.gated).filter(|(_, g)| !**g).map(|(z, _)| *z));
-                // Set-aside components stay as they are (dropped if already below the
-                // pruning threshold); the updated active ones are pruned and merged.
-                self.rebuilt.clear();
-                for i in 0..p.map.len() {
-                    if !self.is_active[i] && p.map.log_w[i] >= ln_prune {
-                        self.rebuilt.push_from(&p.map, i);
-                    }
-                }
-                reduce(&self.updated, &red_settings, &mut self.red, &mut self.rebuilt);
-                std::mem::swap(&mut p.map, &mut self.rebuilt);
+                // Set-aside components stay as they are, in place (dropped if already
+                // below the pruning threshold); the updated active ones are pruned,
+                // merged and appended.
+                let is_active = &self.is_active;
+                p.map.retain_indices(|i, log_w| !is_active[i] && log_w >= ln_prune);
+                reduce(&self.updated, &red_settings, &mut self.red, &mut p.map);
             }
             a = b;
         }

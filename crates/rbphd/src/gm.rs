@@ -53,6 +53,26 @@ impl GmMap {
         self.push(other.log_w[i], other.mean[i], other.cov[i]);
     }
 
+    /// Keeps the components `i` for which `keep(i, ln eta_i)` holds, in order, in place. Components
+    /// before the first dropped one are not touched, so keeping a long prefix (the
+    /// set-aside part of a map, whose updated part is appended at its end) costs little.
+    pub fn retain_indices(&mut self, keep: impl Fn(usize, f64) -> bool) {
+        let n = self.len();
+        let Some(first) = (0..n).position(|i| !keep(i, self.log_w[i])) else { return };
+        let mut w = first;
+        for i in first + 1..n {
+            if keep(i, self.log_w[i]) {
+                self.log_w[w] = self.log_w[i];
+                self.mean[w] = self.mean[i];
+                self.cov[w] = self.cov[i];
+                w += 1;
+            }
+        }
+        self.log_w.truncate(w);
+        self.mean.truncate(w);
+        self.cov.truncate(w);
+    }
+
     /// Expected number of landmarks `sum_i eta_i`.
     pub fn mass(&self) -> f64 {
         self.log_w.iter().map(|l| l.exp()).sum()
@@ -422,6 +442,23 @@ mod tests {
         phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_| 0.9, &settings(false), &mut scratch, &mut out);
         assert_eq!(out.len(), 2, "the measurement gates across the +-pi cut");
         assert!(out.mean[1].y < 0.01, "moved towards the measurement (bearing pi + 0.002 is below the x axis)");
+    }
+
+    /// In-place retention keeps exactly the selected components, in order, whether the
+    /// first dropped one is at the front, in the middle or absent.
+    #[test]
+    fn retain_indices_keeps_order() {
+        let mut m = GmMap::default();
+        for i in 0..7 {
+            m.push(-(i as f64), Point2::new(i as f64, 0.0), Matrix2::identity() * (i + 1) as f64);
+        }
+        for drop in [vec![], vec![0], vec![3, 4, 6], vec![0, 1, 2, 3, 4, 5, 6]] {
+            let mut a = m.clone();
+            a.retain_indices(|i, lw| !drop.contains(&i) && lw == -(i as f64));
+            let mut expected = GmMap::default();
+            (0..7).filter(|i| !drop.contains(i)).for_each(|i| expected.push_from(&m, i));
+            assert_eq!(a, expected, "dropping {drop:?}");
+        }
     }
 
     fn merged_moments(m: &GmMap, idx: &[usize]) -> (f64, Point2, Matrix2<f64>) {

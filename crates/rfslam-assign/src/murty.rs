@@ -101,17 +101,124 @@ impl PartialEq for HeapEntry {
 
 impl Eq for HeapEntry {}
 
-/// The problem as the solver sees it: oriented so that `nr <= nc`, then padded to an
-/// `n x n` square (`n = nc`) with `n - nr` zero-cost dummy rows, so that every column is
-/// matched and a child's only free column is the one it forbids (note 05 §3, dual
-/// inheritance caveat). Only the `nr` real rows are ever partitioned on.
+/// The problem as the solver sees it: oriented so that the real rows are the smaller side
+/// (`nr_full <= nc_full`, every real row assigned), reduced by [`Reduction`], then padded
+/// to an `n x n` square (`n` = kept columns) with zero-cost dummy rows, so that every
+/// column is matched and a child's only free column is the one it forbids (note 05 §3,
+/// dual inheritance caveat). Only the `nr` kept real rows are ever partitioned on.
 /// The padded costs themselves live in [`Murty::padded`].
 struct Problem<'a> {
+    /// Kept real rows.
     nr: usize,
+    /// Side of the padded square (kept columns).
     n: usize,
     /// `true` when the real rows are the columns of `original`.
     transposed: bool,
     original: &'a CostMatrix,
+    /// The oriented matrix, `nr_full x nc_full` row-major.
+    oriented: &'a [f64],
+    nc_full: usize,
+    red: &'a Reduction,
+}
+
+impl Problem<'_> {
+    /// Column of every oriented real row for the reduced solution `sol` (kept rows), in
+    /// `full` (`nr_full` entries).
+    fn expand_solution(&self, sol: &[usize], full: &mut Vec<usize>) {
+        full.clear();
+        full.extend_from_slice(&self.red.fixed);
+        for (k, &r) in self.red.rows.iter().enumerate() {
+            full[r] = self.red.cols[sol[k]];
+        }
+    }
+
+    /// Cost of the reduced solution `sol`: the oriented entries summed over every real
+    /// row in row order, fixed rows included, so the sum (and the rounding) is the one
+    /// of the unreduced problem.
+    fn cost(&self, sol: &[usize]) -> f64 {
+        let (red, nc) = (self.red, self.nc_full);
+        let mut k = 0;
+        let mut total = 0.0;
+        for (r, &f) in red.fixed.iter().enumerate() {
+            let c = if f == NONE {
+                let c = red.cols[sol[k]];
+                k += 1;
+                c
+            } else {
+                f
+            };
+            total += self.oriented[r * nc + c];
+        }
+        total
+    }
+}
+
+/// The pairs and columns every feasible assignment decides alike, taken out before
+/// enumerating (with the private missed columns of eq. 29 they are many: a landmark that
+/// gates no measurement can only be missed, a measurement that gates no landmark is
+/// clutter in every hypothesis).
+///
+/// A real row whose only finite entry is in a column where no other real row is finite is
+/// *fixed* to that column; a column finite in no unfixed row is dropped. The remaining
+/// problem has the same assignments, one for one, with the fixed pairs added, so Murty's
+/// enumeration is unchanged while every sub-problem shrinks.
+#[derive(Debug, Clone, Default)]
+struct Reduction {
+    /// Per oriented real row: its fixed column, or `NONE`.
+    fixed: Vec<usize>,
+    /// Kept real rows (oriented indices, ascending).
+    rows: Vec<usize>,
+    /// Kept columns (oriented indices, ascending).
+    cols: Vec<usize>,
+    /// Scratch: finite entries per column, then per row.
+    col_count: Vec<u32>,
+    /// Scratch: column of a row's last finite entry.
+    row_last: Vec<usize>,
+}
+
+impl Reduction {
+    /// Finds the fixed rows and the kept rows and columns of the `nr x nc` matrix `a`.
+    /// With `enabled` false every row and column is kept.
+    fn compute(&mut self, a: &[f64], nr: usize, nc: usize, enabled: bool) {
+        self.col_count.clear();
+        self.col_count.resize(nc, 0);
+        self.row_last.clear();
+        self.row_last.resize(nr, NONE);
+        self.fixed.clear();
+        self.fixed.resize(nr, NONE);
+        let mut row_count = std::mem::take(&mut self.rows);
+        row_count.clear();
+        for r in 0..nr {
+            let mut count = 0;
+            for (c, &x) in a[r * nc..(r + 1) * nc].iter().enumerate() {
+                if x != f64::INFINITY {
+                    count += 1;
+                    self.col_count[c] += 1;
+                    self.row_last[r] = c;
+                }
+            }
+            row_count.push(count);
+        }
+        for (r, &count) in row_count.iter().enumerate() {
+            if enabled && count == 1 && self.col_count[self.row_last[r]] == 1 {
+                self.fixed[r] = self.row_last[r];
+            }
+        }
+        self.rows = row_count;
+        self.rows.clear();
+        self.rows.extend((0..nr).filter(|&r| self.fixed[r] == NONE));
+        // A column is kept when an unfixed row is finite there.
+        self.col_count.fill(0);
+        for &r in &self.rows {
+            for (c, &x) in a[r * nc..(r + 1) * nc].iter().enumerate() {
+                if x != f64::INFINITY {
+                    self.col_count[c] = 1;
+                }
+            }
+        }
+        self.cols.clear();
+        self.cols.extend((0..nc).filter(|&c| !enabled || self.col_count[c] > 0));
+    }
 }
 
 /// Reusable Murty ranked-assignment solver (Murty 1968; Miller, Stone & Cox 1997;
@@ -143,6 +250,12 @@ pub struct Murty {
     undo: Vec<(usize, f64)>,
     /// Columns taken by the forced rows of the child being solved.
     col_excluded: Vec<bool>,
+    /// Fixed pairs and kept rows and columns of the current problem.
+    reduction: Reduction,
+    /// Full oriented solution of the node being emitted.
+    full_sol: Vec<usize>,
+    /// Oriented copy of the matrix when it had to be transposed.
+    transposed: Vec<f64>,
     /// Reduced child matrix and its index maps (from-scratch reference path only).
     reduced: Vec<f64>,
     row_pos: Vec<usize>,
@@ -164,6 +277,8 @@ pub struct Murty {
     /// Re-solve every child from scratch instead of inheriting duals (reference
     /// implementation for tests).
     full_resolve: bool,
+    /// Enumerate the unreduced problem (reference for tests).
+    no_reduction: bool,
 }
 
 impl Murty {
@@ -236,16 +351,31 @@ impl Murty {
             return Ok(());
         }
         let transposed = rows > cols;
-        let (nr, n) = (rows.min(cols), rows.max(cols));
+        let (nr_full, nc_full) = (rows.min(cols), rows.max(cols));
+        let mut red = std::mem::take(&mut self.reduction);
+        let mut tbuf = std::mem::take(&mut self.transposed);
         if transposed {
-            transpose_into(cost.as_slice(), rows, cols, &mut self.padded);
+            transpose_into(cost.as_slice(), rows, cols, &mut tbuf);
+        }
+        let oriented: &[f64] = if transposed { &tbuf } else { cost.as_slice() };
+        red.compute(oriented, nr_full, nc_full, !self.no_reduction);
+        let (nr, n) = (red.rows.len(), red.cols.len());
+        let result = if nr > n {
+            // More unfixed rows than the columns they can use: Hall's condition fails.
+            Err(AssignError::Infeasible)
         } else {
             self.padded.clear();
-            self.padded.extend_from_slice(cost.as_slice());
-        }
-        self.padded.resize(n * n, 0.0);
-        let problem = Problem { nr, n, transposed, original: cost };
-        self.enumerate(&problem, opts, out, n_out)
+            for &r in &red.rows {
+                let row = &oriented[r * nc_full..(r + 1) * nc_full];
+                self.padded.extend(red.cols.iter().map(|&c| row[c]));
+            }
+            self.padded.resize(n * n, 0.0);
+            let problem = Problem { nr, n, transposed, original: cost, oriented, nc_full, red: &red };
+            self.enumerate(&problem, opts, out, n_out)
+        };
+        self.reduction = red;
+        self.transposed = tbuf;
+        result
     }
 
     /// Murty's main loop.
@@ -259,13 +389,20 @@ impl Murty {
         self.row_pos.resize(p.n, NONE);
         self.col_pos.resize(p.n, NONE);
         self.stats.lap_solves += 1;
-        self.sap.solve(&self.padded, p.n, p.n)?;
+        if p.n > 0 {
+            self.sap.solve(&self.padded, p.n, p.n)?;
+        } else {
+            // Every row fixed: the one assignment is the fixed pairs.
+            self.sap.col4row.clear();
+            self.sap.u.clear();
+            self.sap.v.clear();
+        }
         self.child_sol.clear();
         self.child_sol.extend_from_slice(&self.sap.col4row);
         self.child_duals.clear();
         self.child_duals.extend_from_slice(&self.sap.u);
         self.child_duals.extend_from_slice(&self.sap.v);
-        let root_cost = sum_cost(&self.padded, p.n, &self.child_sol[..p.nr]);
+        let root_cost = p.cost(&self.child_sol[..p.nr]);
         self.push_node(p.n, root_cost, root_cost, (NONE, NONE), NONE);
 
         let mut best = f64::NAN;
@@ -287,21 +424,24 @@ impl Murty {
         Ok(())
     }
 
-    /// Writes node `idx`'s solution on the real rows, in the caller's orientation.
-    fn emit(&self, p: &Problem<'_>, idx: usize, a: &mut Assignment) {
-        let sol = &self.sols[idx * p.n..idx * p.n + p.nr];
+    /// Writes node `idx`'s solution on the real rows (fixed pairs included), in the
+    /// caller's orientation.
+    fn emit(&mut self, p: &Problem<'_>, idx: usize, a: &mut Assignment) {
+        let mut full = std::mem::take(&mut self.full_sol);
+        p.expand_solution(&self.sols[idx * p.n..idx * p.n + p.nr], &mut full);
         a.col_for_row.clear();
         a.col_for_row.resize(p.original.rows(), None);
         if p.transposed {
-            for (c, &r) in sol.iter().enumerate() {
+            for (c, &r) in full.iter().enumerate() {
                 a.col_for_row[r] = Some(c);
             }
         } else {
-            for (slot, &c) in a.col_for_row.iter_mut().zip(sol) {
+            for (slot, &c) in a.col_for_row.iter_mut().zip(&full) {
                 *slot = Some(c);
             }
         }
         a.cost = p.original.cost_of(&a.col_for_row);
+        self.full_sol = full;
     }
 
     /// Partitions node `idx` over its free real rows (note 05 §3 step 3) and pushes the
@@ -325,7 +465,7 @@ impl Murty {
                 self.stats.infeasible_children += 1;
                 continue;
             }
-            let child_cost = sum_cost(&self.padded, n, &self.child_sol[..p.nr]);
+            let child_cost = p.cost(&self.child_sol[..p.nr]);
             if let Some(r) = max_log_ratio
                 && child_cost - best > r
             {
@@ -509,11 +649,6 @@ fn next_slot<'a>(out: &'a mut Vec<Assignment>, n_out: &mut usize) -> &'a mut Ass
     &mut out[*n_out - 1]
 }
 
-/// Sum of `data[r, sol[r]]` over the rows in `sol` (row-major, `nc` columns).
-fn sum_cost(data: &[f64], nc: usize, sol: &[usize]) -> f64 {
-    sol.iter().enumerate().map(|(r, &c)| data[r * nc + c]).sum()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -549,6 +684,51 @@ mod tests {
         }
         let missed: Vec<f64> = (0..m).map(|_| rng.random_range(1.0..4.0)).collect();
         CostMatrix::with_missed_diagonal(&det, &missed, m, j).unwrap()
+    }
+
+    /// Taking out fixed pairs and dead columns changes nothing: on gated problems with
+    /// landmarks that gate nothing and measurements no landmark gates, the reduced and
+    /// the unreduced enumeration give the same assignments with bit-equal costs, in the
+    /// same order, in both orientations.
+    #[test]
+    fn reduction_gives_the_unreduced_enumeration() {
+        use rand::RngExt;
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(7);
+        let opts = MurtyOptions { max_count: 50, max_log_ratio: Some(SEED000_MAX_LOG_RATIO) };
+        let mut fixed_seen = 0;
+        for k in 0..200 {
+            let (m, j) = (rng.random_range(1..14usize), rng.random_range(1..14usize));
+            let mut det = vec![INF; m * j];
+            for i in 0..m {
+                // about a third of the landmarks gate nothing
+                if rng.random_range(0..3) == 0 {
+                    fixed_seen += 1;
+                    continue;
+                }
+                for _ in 0..rng.random_range(1..=3usize) {
+                    det[i * j + rng.random_range(0..j)] = rng.random_range(-4.0..2.0);
+                }
+            }
+            let missed: Vec<f64> = (0..m).map(|_| rng.random_range(1.0..4.0)).collect();
+            let cm = CostMatrix::with_missed_diagonal(&det, &missed, m, j).unwrap();
+            let cm = if k % 2 == 0 { cm } else { transposed(&cm) };
+            let mut reduced = Murty::default();
+            let mut plain = Murty { no_reduction: true, ..Murty::default() };
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            let ra = reduced.k_best(&cm, &opts, &mut a);
+            let rb = plain.k_best(&cm, &opts, &mut b);
+            assert_eq!(ra, rb);
+            assert_eq!(a.len(), b.len(), "problem {k}");
+            for (x, y) in a.iter().zip(&b) {
+                assert_eq!(x.col_for_row, y.col_for_row, "problem {k}");
+                assert_eq!(x.cost.to_bits(), y.cost.to_bits(), "problem {k}");
+            }
+        }
+        assert!(fixed_seen > 100);
+    }
+
+    fn transposed(m: &CostMatrix) -> CostMatrix {
+        CostMatrix::from_fn(m.cols(), m.rows(), |r, c| m.as_slice()[c * m.cols() + r]).unwrap()
     }
 
     #[test]

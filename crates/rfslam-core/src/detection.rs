@@ -36,6 +36,14 @@ impl Fov {
         self.half_angle >= std::f64::consts::PI || wrap(d.y.atan2(d.x) - x[2]).abs() <= self.half_angle
     }
 
+    /// The FOV placed at pose `x`, for many [`PlacedFov::contains`] tests from one pose
+    /// (the heading's sine and cosine computed once instead of an `atan2` per point).
+    #[inline]
+    pub fn at(&self, x: &Pose) -> PlacedFov {
+        let (sin_h, cos_h) = x[2].sin_cos();
+        PlacedFov { fov: *self, pose: *x, cos_h, sin_h, cos_half: self.half_angle.cos() }
+    }
+
     /// The FOV enlarged by `dr` metres and `da` radians (set-aside test of GM-PHD maps).
     pub fn enlarged(&self, dr: f64, da: f64) -> Fov {
         Fov { max_range: self.max_range + dr, half_angle: (self.half_angle + da).min(std::f64::consts::PI) }
@@ -49,6 +57,61 @@ impl Fov {
     /// Volume in measurement space, m rad (`max_range * 2 half_angle`).
     pub fn measurement_volume(&self) -> f64 {
         self.max_range * 2.0 * self.half_angle
+    }
+}
+
+/// A [`Fov`] at one pose: the same membership test as [`Fov::contains`] without an `atan2`
+/// per point.
+///
+/// A point at distance `n` whose forward component along the heading is `f` lies inside
+/// the angular limits iff `f >= n cos(half_angle)`. That test decides when it clears its
+/// rounding error by a wide margin (`1e-9 n`, i.e. points more than about 1e-9 rad from
+/// the edge); points closer to the edge fall back to [`Fov::contains`]'s own arithmetic,
+/// so the answer is always the one `Fov::contains` gives.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlacedFov {
+    fov: Fov,
+    pose: Pose,
+    cos_h: f64,
+    sin_h: f64,
+    cos_half: f64,
+}
+
+impl PlacedFov {
+    /// Relative margin of the trigonometry-free angle test.
+    const MARGIN: f64 = 1e-9;
+
+    /// The field of view.
+    pub fn fov(&self) -> &Fov {
+        &self.fov
+    }
+
+    /// The pose it is placed at.
+    pub fn pose(&self) -> &Pose {
+        &self.pose
+    }
+
+    /// Whether landmark `m` is inside; equal to `fov.contains(pose, m)`.
+    #[inline]
+    pub fn contains(&self, m: &Point2) -> bool {
+        let (dx, dy) = (m.x - self.pose[0], m.y - self.pose[1]);
+        let n2 = dx * dx + dy * dy;
+        if n2 > self.fov.max_range * self.fov.max_range {
+            return false;
+        }
+        if self.fov.half_angle >= std::f64::consts::PI {
+            return true;
+        }
+        let n = n2.sqrt();
+        let g = dx * self.cos_h + dy * self.sin_h - n * self.cos_half;
+        let tol = Self::MARGIN * n;
+        if g > tol {
+            true
+        } else if g < -tol {
+            false
+        } else {
+            self.fov.contains(&self.pose, m)
+        }
     }
 }
 
@@ -75,6 +138,20 @@ impl DetectionModel {
         if !fov.contains(x, m) {
             return 0.0;
         }
+        self.pd_inside(fov, x, m)
+    }
+
+    /// [`DetectionModel::pd`] for many points seen from one pose; the same values.
+    #[inline]
+    pub fn pd_at(&self, placed: &PlacedFov, m: &Point2) -> f64 {
+        if !placed.contains(m) {
+            return 0.0;
+        }
+        self.pd_inside(&placed.fov, &placed.pose, m)
+    }
+
+    #[inline]
+    fn pd_inside(&self, fov: &Fov, x: &Pose, m: &Point2) -> f64 {
         let p = match *self {
             DetectionModel::Constant { pd } => pd,
             DetectionModel::RangeLinear { pd0 } => pd0 * (1.0 - (m - x.xy()).norm() / fov.max_range),

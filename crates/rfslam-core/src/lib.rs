@@ -24,7 +24,7 @@ pub mod rng;
 pub mod sensor;
 pub mod types;
 
-pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov};
+pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov, PlacedFov};
 pub use filter::{FilterBuild, ParamError, SlamFilter, SlamModels};
 pub use motion::{AckermannModel, Motion, MotionModel, OdometryModel, VelocityModel};
 pub use rng::Rng;

@@ -148,3 +148,35 @@ fn heading_wraps_across_pi() {
     let m = Motion::Velocity.predict(&x, &Control::new(1.0, 0.1, 0.0), 1.0);
     assert!((m[2] - wrap(3.2)).abs() < 1e-12 && m[2] < 0.0);
 }
+
+/// A point at distance `r` and bearing `b` from pose `x`.
+fn at_bearing(x: &Pose, r: f64, b: f64) -> Point2 {
+    Point2::new(x[0] + r * (x[2] + b).cos(), x[1] + r * (x[2] + b).sin())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2048))]
+
+    /// `Fov::at(x).contains(m)` (no atan2) decides exactly as `Fov::contains(x, m)`,
+    /// also for points within rounding of the angular edge and for headings far outside
+    /// [-pi, pi).
+    #[test]
+    fn placed_fov_equals_fov(
+        x in (-50.0f64..50.0, -50.0f64..50.0, -20.0f64..20.0),
+        half in prop_oneof![Just(PI), Just(PI / 2.0), Just(PI / 3.0), 0.01f64..3.2],
+        r in 0.0f64..40.0,
+        edge in -1e-8f64..1e-8,
+        side in prop_oneof![Just(1.0), Just(-1.0)],
+        free in -PI..PI,
+        near_edge in proptest::bool::ANY,
+    ) {
+        let fov = rfslam_core::Fov { max_range: 30.0, half_angle: half };
+        let pose = Pose::new(x.0, x.1, x.2);
+        let b = if near_edge { side * (half.min(PI) + edge) } else { free };
+        let m = at_bearing(&pose, r, b);
+        let placed = fov.at(&pose);
+        prop_assert_eq!(placed.contains(&m), fov.contains(&pose, &m));
+        let det = rfslam_core::DetectionModel::RangeLinear { pd0: 0.9 };
+        prop_assert_eq!(det.pd_at(&placed, &m).to_bits(), det.pd(&fov, &pose, &m).to_bits());
+    }
+}
