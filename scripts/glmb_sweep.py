@@ -22,6 +22,10 @@ import sys
 import tempfile
 
 FILTERS = ["glmb-1.0", "glmb-2.0", "lmb-slam"]
+# Reference rows (not in the published comparison): FastSLAM 2.0 told the true associations
+# (what a filter that never errs in data association achieves on the same data) and dead
+# reckoning. Name -> particles (None: the --particles of the sweep).
+REFERENCES = {"fastslam-2.0-oracle": None, "dead-reckoning": 1}
 CLUTTER = [1, 5, 10, 15]
 OSPA_C, OSPA_P = 0.5, 1.0
 METRICS = [
@@ -118,6 +122,7 @@ def score(run_dir, truth, landmarks):
         "ospa_m": ospa(est, landmarks),
         "landmarks": len(est),
         "ms_per_step": m["time_ms_per_step"],
+        "steps": n,
     }
 
 
@@ -132,15 +137,16 @@ def sweep(args):
     landmarks = [(float(r["x"]), float(r["y"])) for r in read_csv(os.path.join(sim, "landmarks.csv"))]
     rows = []
     for c in CLUTTER:
-        for f in FILTERS:
+        for f in FILTERS + list(REFERENCES):
+            n = REFERENCES.get(f) or args.particles
             for r in range(args.runs):
                 seed = args.seed + r
                 d = os.path.join(tmp, f"{f}-{c}-{r}")
                 subprocess.run([args.rfslam, "run", "--scenario", args.scenario, "--filter", f, "--particles",
-                                str(args.particles), "--seed", str(seed), "--set", f"scenario.clutter.rate={c}",
+                                str(n), "--seed", str(seed), "--set", f"scenario.clutter.rate={c}",
                                 "--out", d], check=True, stdout=subprocess.DEVNULL)
                 s = score(d, truth, landmarks)
-                rows.append({"clutter": c, "filter": f, "particles": args.particles, "run": r, "seed": seed, **s})
+                rows.append({"clutter": c, "filter": f, "particles": n, "run": r, "seed": seed, **s})
             print(f"clutter {c} {f}: done", file=sys.stderr)
     with open(os.path.join(args.out, "runs.csv"), "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0].keys()))
@@ -161,7 +167,8 @@ def svg(path, title, ylabel, series):
     ymax = max(m + e for pts in series.values() for _, m, e in pts) * 1.1 or 1.0
     xs = {c: ml + (w - ml - mr) * i / (len(CLUTTER) - 1) for i, c in enumerate(CLUTTER)}
     Y = lambda v: mt + (h - mt - mb) * (1 - v / ymax)  # noqa: E731
-    colours = {"glmb-1.0": "#1f77b4", "glmb-2.0": "#d62728", "lmb-slam": "#2ca02c"}
+    colours = {"glmb-1.0": "#1f77b4", "glmb-2.0": "#d62728", "lmb-slam": "#2ca02c",
+               "fastslam-2.0-oracle": "#7f7f7f", "dead-reckoning": "#bcbd22"}
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">',
            f'<rect width="{w}" height="{h}" fill="white"/>',
            f'<text x="{w / 2}" y="20" text-anchor="middle" font-size="14">{title}</text>',
@@ -177,7 +184,7 @@ def svg(path, title, ylabel, series):
         out.append(f'<line x1="{ml}" y1="{Y(v)}" x2="{w - mr}" y2="{Y(v)}" stroke="#ddd"/>')
     for i, (f, pts) in enumerate(series.items()):
         col = colours.get(f, "black")
-        off = (i - 1) * 4
+        off = (i - 2) * 3
         out.append('<polyline fill="none" stroke="%s" stroke-width="2" points="%s"/>'
                    % (col, " ".join(f"{xs[c] + off},{Y(m)}" for c, m, _ in pts)))
         for c, m, e in pts:
@@ -196,9 +203,13 @@ def report(args):
             r[k] = float(r[k])
     cell = lambda c, f: [r for r in rows if int(r["clutter"]) == c and r["filter"] == f]  # noqa: E731
     runs = len(cell(CLUTTER[0], FILTERS[0]))
-    lines = ["# delta-GLMB-SLAM 1.0 / 2.0 and LMB-SLAM on the glmb-sim scenario", "",
-             f"`configs/glmb.toml`, `scenarios/glmb-sim.toml`: {runs} Monte Carlo runs per filter and clutter rate, "
-             f"{rows[0]['particles']} particles, 166 steps. Every cell is the mean over runs ± the 95 % interval "
+    shown = FILTERS + [f for f in REFERENCES if cell(CLUTTER[0], f)]
+    steps = int(float(rows[0]["steps"])) if "steps" in rows[0] else 166
+    lines = [f"# delta-GLMB-SLAM 1.0 / 2.0 and LMB-SLAM on {args.scenario}", "",
+             f"`{args.scenario}`: {runs} Monte Carlo runs per filter and clutter rate, "
+             f"{rows[0]['particles']} particles, {steps} steps. Reference rows (not part of the published "
+             "comparison): " + ", ".join(f"`{f}`" for f in shown[len(FILTERS):]) + ". "
+             "Every cell is the mean over runs ± the 95 % interval "
              "(1.96 sd / sqrt(runs)). RMSEs are over all steps of a run; OSPA (c = 0.5 m, p = 1) and the landmark "
              "count are of the final map; time is one recursion (all particles) on one core. Produced by "
              "`scripts/glmb_sweep.py` (runs.csv beside this file).", ""]
@@ -206,7 +217,7 @@ def report(args):
         lines += [f"## {label}", "", "| filter | " + " | ".join(f"clutter {c}" for c in CLUTTER) + " |",
                   "|---|" + "---:|" * len(CLUTTER)]
         series = {}
-        for f in FILTERS:
+        for f in shown:
             cells, pts = [], []
             for c in CLUTTER:
                 mu, e = mean_ci([r[key] for r in cell(c, f)])
@@ -223,7 +234,10 @@ def report(args):
               "| metric | pair | " + " | ".join(f"clutter {c}" for c in CLUTTER) + " |",
               "|---|---|" + "---:|" * len(CLUTTER)]
     for key in ["pos_rmse_m", "head_rmse_deg", "ospa_m", "ms_per_step"]:
-        for a, b in [("glmb-2.0", "glmb-1.0"), ("glmb-2.0", "lmb-slam"), ("glmb-1.0", "lmb-slam")]:
+        pairs = [("glmb-2.0", "glmb-1.0"), ("glmb-2.0", "lmb-slam"), ("glmb-1.0", "lmb-slam")]
+        if "fastslam-2.0-oracle" in shown and key != "ms_per_step":
+            pairs.append(("glmb-2.0", "fastslam-2.0-oracle"))
+        for a, b in pairs:
             cells = []
             for c in CLUTTER:
                 ra = {r["run"]: r[key] for r in cell(c, a)}

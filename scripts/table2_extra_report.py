@@ -1,7 +1,11 @@
 #!/usr/bin/env python3
 """Report of configs/table2-extra.toml beside our Table II rows (Python 3 standard library).
 
-    python3 scripts/table2_extra_report.py SWEEP_DIR results/table2/runs.csv > results/table2-extra/report.md
+    python3 scripts/table2_extra_report.py SWEEP_DIR results/table2/runs.csv [MORE_SWEEP_DIRS...] \
+        > results/table2-extra/report.md
+
+SWEEP_DIR is the sweep of configs/table2-extra.toml; further sweep directories (the
+delta-GLMB-SLAM 2.0 rows of configs/table2-extra-glmb.toml) add their rows.
 
 Rows: the extra filters of the sweep and, for comparison, phd-1.0 and phd-3.0 of the Table II
 reproduction. Position RMSE over all steps of all runs (as summary.csv: sqrt of the mean of the
@@ -51,11 +55,15 @@ def load(path, keep=None):
 def main():
     sweep, table2 = sys.argv[1], sys.argv[2]
     extra, extra_order = load(f"{sweep}/runs.csv")
+    for more in sys.argv[3:]:
+        d, o = load(f"{more}/runs.csv")
+        extra.update(d)
+        extra_order += o
     base, base_order = load(table2, keep={"phd-1.0", "phd-3.0"})
     rows = [(k, extra[k]) for k in extra_order] + [(k, base[k]) for k in base_order]
     rows.sort(key=lambda kv: (kv[0][1], kv[0][0]))
 
-    print("# Table II extra rows: multi-feature particle weighting (Leung et al.)\n")
+    print("# Table II extra rows: multi-feature particle weighting (Leung et al.) and delta-GLMB-SLAM 2.0\n")
     print(
         "The multi-feature weighting of Leung, Inostroza, Adams on the Table II scenario of Kaltiokallio et al. "
         "2024 (synthetic environment, 160 landmarks, 4000 steps, pD 0.95, clutter 5 per scan, resampling at "
@@ -63,7 +71,10 @@ def main():
         "`results/table2/runs.csv` (same master seed: run r has the same data in both). `rbphd-mf-multi` is the "
         "bootstrap (PHD-SLAM 1.0) proposal weighted by the multi-feature strategy; `phd-3.0-multi` is PHD-SLAM 3.0 "
         "with `weighting = \"multi\"` (its importance correction kept, the eq. (46) measurement term replaced by the "
-        "strategy). Map estimate threshold (1 - pD)^2 for every row; GOSPA c = 20 m, p = 2 on the final map.\n"
+        "strategy). Map estimate threshold (1 - pD)^2 for every PHD row; GOSPA c = 20 m, p = 2 on the final map. "
+        "`glmb-2.0` (when present) is delta-GLMB-SLAM 2.0 (Moratuwage et al. 2019) from "
+        "`configs/table2-extra-glmb.toml`: the scenario's models, the glmb-sim defaults of its own parameters, "
+        "resampling at ESS <= 0.2 N; its map estimate is the heaviest hypothesis of the MAP cardinality.\n"
     )
     print(
         "Columns: position RMSE over all steps of all runs (as in results/table2), then per-run means with 95 % "
@@ -84,7 +95,8 @@ def main():
     print("## Paired differences (A − B per run, mean ± 95 % interval)\n")
     print("| A − B | N | runs | pos RMSE [m] | GOSPA [m] | ms ratio A / B |")
     print("|---|---:|---:|---:|---:|---:|")
-    comparisons = [("rbphd-mf-multi", "phd-1.0"), ("rbphd-mf-multi", "phd-3.0"), ("phd-3.0-multi", "phd-3.0")]
+    comparisons = [("rbphd-mf-multi", "phd-1.0"), ("rbphd-mf-multi", "phd-3.0"), ("phd-3.0-multi", "phd-3.0"),
+                   ("glmb-2.0", "phd-3.0")]
     for a, b in comparisons:
         for n in (1, 10, 100):
             da, db = extra.get((a, n)), base.get((b, n))

@@ -32,10 +32,9 @@ fn main() {
     let mut segs: Vec<ControlSegment> = Vec::new();
     let gt = ds.groundtruth.as_ref().unwrap();
     let lms = ds.landmarks.as_ref().unwrap();
-    for k in 0..ds.scans.len() {
+    for (k, (scan, t)) in ds.scans.iter().zip(gt).enumerate() {
         ds.segments_for_scan(k, &mut segs);
-        let rep = f.step_impl(&segs, &ds.scans[k], &mut rng);
-        let t = &gt[k];
+        let rep = f.step_impl(&segs, scan, &mut rng);
         let th = t.heading.unwrap();
         let ps = f.particle_set();
         let errs: Vec<String> = ps
@@ -48,7 +47,7 @@ fn main() {
             .collect();
         let est = f.estimate_impl();
         let good = est.map.iter().filter(|m| lms.iter().any(|l| (l.position - m.position).norm() < 0.3)).count();
-        let truth = ds.scans[k].truth.as_ref().unwrap();
+        let truth = scan.truth.as_ref().unwrap();
         let ndet = truth.iter().filter(|&&l| l >= 0).count();
         let b = &ps[f.best_index()];
         let nh = b.glmb.hyps.len();
@@ -56,7 +55,7 @@ fn main() {
         let w0 = if nh > 0 { b.glmb.hyps[0].log_w.exp() } else { 0.0 };
         println!(
             "k={k:3} z={:2} det={ndet} ess={:.1} hyps={nh:2} top(|I|={card0},w={w0:.3}) map={} good={good} lmb={} err[{}]",
-            ds.scans[k].z.len(),
+            scan.z.len(),
             rep.ess,
             est.map.len(),
             b.lmb.tracks.len(),
