@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Prints the README results table generated from results/*/summary.csv (and the published
+# Prints the README results table generated from results/**/summary.csv (and the published
 # tables the experiments name), or, with --update README.md, replaces the text between the
 # lines <!-- results-table:begin --> and <!-- results-table:end --> of README.md.
 # Every argument goes to the `results-table` binary (crates/results-table):

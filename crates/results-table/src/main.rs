@@ -1,4 +1,4 @@
-//! `results-table`: prints the README results table generated from `results/*/summary.csv`,
+//! `results-table`: prints the README results table generated from `results/**/summary.csv`,
 //! or writes it between the markers of a file (`--update README.md`). See the library.
 
 use std::path::PathBuf;
@@ -7,14 +7,16 @@ use std::process::ExitCode;
 const USAGE: &str = "\
 Usage: results-table [--results DIR] [--experiment NAME]... [--update FILE]
 
-Prints a Markdown table of DIR/*/summary.csv (default DIR: results), one row per
-experiment, filter and particle count, with the published figures beside ours where the
-experiment names a published table.
+Prints a Markdown table of every summary.csv under DIR (default DIR: results; DIR/runs,
+the raw sweep outputs, is skipped), one row per experiment, filter and particle count
+(and grid point), with the published figures beside ours where the experiment names a
+published table.
 
 Options:
-  --results DIR        directory holding one sub-directory per experiment [default: results]
-  --experiment NAME    only this experiment (repeatable; the table follows this order;
-                       default: every experiment, in name order)
+  --results DIR        directory holding the experiments' directories [default: results]
+  --experiment NAME    only this experiment, named by its path under DIR (table2,
+                       phd-3.0-sp/table2); repeatable, the table follows this order;
+                       default: every experiment, in name order
   --update FILE        replace the text between the lines <!-- results-table:begin --> and
                        <!-- results-table:end --> of FILE instead of printing (error if a
                        marker is missing)

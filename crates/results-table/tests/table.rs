@@ -115,11 +115,14 @@ fn collect_follows_the_resolved_experiment_to_the_published_table() {
     write(root, "configs/t2.toml", "name = \"t2\"\npublished = \"../published/t2.csv\"\n");
     write(root, "published/t2.csv", PUBLISHED2);
     write(root, "results/sensitivity/summary.csv", GRID);
-    // A directory without summary.csv (a report only) is skipped.
+    // A directory without summary.csv (a report only) is skipped, nested experiments are
+    // found, the raw sweep outputs under results/runs are not.
     write(root, "results/scaling/report.md", "# scaling\n");
+    write(root, "results/variant/table3/summary.csv", GRID);
+    write(root, "results/runs/table2/summary.csv", "not, read\n");
     let files = collect(&root.join("results")).unwrap();
     let names: Vec<&str> = files.iter().map(|f| f.experiment.as_str()).collect();
-    assert_eq!(names, ["sensitivity", "table2"]);
+    assert_eq!(names, ["sensitivity", "table2", "variant/table3"]);
     let t = render(&build(files).unwrap());
     assert!(t.contains("| table2 | phd-1.0 | 1 |  | 235.2 / 254.21 |"), "{t}");
 
