@@ -20,6 +20,9 @@ pub struct StepRecord<'a> {
     pub estimate: &'a Estimate,
     /// The filter's report.
     pub report: &'a StepReport,
+    /// The filter after the step, for observers that read more than the estimate (e.g.
+    /// [`crate::trace::ParticlesWriter`] through `SlamFilter::particle_poses`).
+    pub filter: &'a dyn SlamFilter,
 }
 
 /// The scores of one job.
@@ -103,7 +106,7 @@ pub fn run_filter(
                 da.get_or_insert_with(DaCounts::default).merge(&c);
             }
         }
-        observer(&StepRecord { k, t: scan.t, estimate: &estimate, report: &report });
+        observer(&StepRecord { k, t: scan.t, estimate: &estimate, report: &report, filter: &*filter });
     }
     let steps = dataset.scans.len();
     let (g, gl, gm, gf) = match &dataset.landmarks {

@@ -1,0 +1,244 @@
+//! `rfslam run`: one filter over one data set (a dataset directory or one run of a
+//! scenario), with its outputs in one directory:
+//!
+//! - `trajectory.csv` (`t,x,y,heading`, the estimate after every scan), `map.csv` (the final
+//!   map estimate), `metrics.json` (the scores a sweep's `runs.csv` row holds);
+//! - `groundtruth.csv`, `landmarks.csv` (when the data have them) and `dead_reckoning.csv`,
+//!   so that `rfslam plot DIR` needs nothing else;
+//! - with `--save-steps`, `steps.csv` (per-scan errors, GOSPA of the map so far, the
+//!   filter's report); with `--save-particles`, `particles.csv` (every particle's pose and
+//!   log weight at every scan). A run without a flag removes that file if an earlier run left
+//!   it, so the directory never mixes two runs.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, anyhow};
+use clap::Args;
+use rfslam_data::Dataset;
+use rfslam_harness::experiment::{MetricsConfig, set_dotted};
+use rfslam_harness::trace::{self, ParticlesWriter, StepsWriter};
+use rfslam_harness::{JobOutcome, registry};
+
+use crate::{Failure, scenario_with_overrides, split_set, usage};
+
+/// Arguments of `rfslam run`.
+#[derive(Args)]
+pub struct RunArgs {
+    /// A dataset directory (see docs/datasets.md).
+    #[arg(long, conflicts_with = "scenario", required_unless_present = "scenario")]
+    dataset: Option<PathBuf>,
+    /// A scenario TOML file (the data of run seed `--seed` is generated).
+    #[arg(long)]
+    scenario: Option<PathBuf>,
+    /// Registered filter name (`rfslam filters`).
+    #[arg(long)]
+    filter: String,
+    /// Number of particles.
+    #[arg(long, default_value_t = 1)]
+    particles: usize,
+    /// Run seed: the same data (and filter draws) as run r of a sweep whose master seed is seed - r.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Override a parameter: `key=value` sets a filter parameter, `scenario.key=value` a scenario key,
+    /// `metrics.key=value` a metric setting (repeatable). Without resampling (for particle
+    /// trajectories): `--set resample_ess_fraction=0` on the PHD-SLAM filters.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Also write steps.csv: per scan the position and heading errors, the GOSPA of the map
+    /// estimate against the landmarks detected so far, importance-density components, ESS,
+    /// resampling (for `rfslam plot DIR --kind steps`; costs one GOSPA per scan).
+    #[arg(long)]
+    save_steps: bool,
+    /// Also write particles.csv: every particle's pose and log weight at every scan (for
+    /// `rfslam plot DIR --kind particles`). The RB-PHD filters (phd-*, rbphd-mf) and the
+    /// FastSLAM filters support it; others are refused.
+    #[arg(long)]
+    save_particles: bool,
+    /// Output directory.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// The filter parameters, scenario overrides and metric settings given by `--set`.
+struct Overrides {
+    params: toml::Table,
+    scenario: Vec<(String, toml::Value)>,
+    metrics: MetricsConfig,
+}
+
+fn overrides(set: &[String]) -> Result<Overrides, Failure> {
+    let (mut params, mut scenario, mut metric_sets) = (toml::Table::new(), Vec::new(), Vec::new());
+    for s in set {
+        let (k, v) = split_set(s)?;
+        if let Some(rest) = k.strip_prefix("scenario.") {
+            scenario.push((rest.to_string(), v));
+        } else if let Some(rest) = k.strip_prefix("metrics.") {
+            metric_sets.push((rest.to_string(), v));
+        } else {
+            set_dotted(&mut params, k, v).map_err(|m| usage(format!("--set {k}: {m}")))?;
+        }
+    }
+    let mut mtable = match toml::Value::try_from(MetricsConfig::default()) {
+        Ok(toml::Value::Table(t)) => t,
+        _ => toml::Table::new(),
+    };
+    for (k, v) in metric_sets {
+        set_dotted(&mut mtable, &k, v).map_err(|m| usage(format!("--set metrics.{k}: {m}")))?;
+    }
+    let metrics: MetricsConfig = toml::Value::Table(mtable)
+        .try_into()
+        .map_err(|e: toml::de::Error| usage(format!("--set metrics.*: {}", e.message())))?;
+    Ok(Overrides { params, scenario, metrics })
+}
+
+fn load_dataset(args: &RunArgs, scen_sets: &[(String, toml::Value)]) -> Result<Dataset, Failure> {
+    match (&args.dataset, &args.scenario) {
+        (Some(dir), _) => {
+            if !scen_sets.is_empty() {
+                return Err(usage("--set scenario.* needs --scenario, not --dataset".into()));
+            }
+            Ok(Dataset::read(dir).map_err(|e| anyhow!("{e}"))?)
+        }
+        (None, Some(path)) => {
+            let sc = scenario_with_overrides(path, scen_sets)?;
+            let world = sc.load_world().map_err(|e| anyhow!("{e}"))?;
+            Ok(sc.build_dataset(world.as_ref(), args.seed).map_err(|e| anyhow!("{e}"))?)
+        }
+        (None, None) => Err(usage("give --dataset DIR or --scenario FILE".into())),
+    }
+}
+
+/// Runs `rfslam run`.
+pub fn run(args: &RunArgs) -> Result<(), Failure> {
+    let filter = args.filter.as_str();
+    let entry = registry::find(filter)
+        .ok_or_else(|| usage(format!("unknown filter `{filter}`; registered filters: {}", registry::names())))?;
+    let ov = overrides(&args.set)?;
+    let ds = load_dataset(args, &ov.scenario)?;
+    registry::check_dataset(entry, &ds).map_err(|e| anyhow!(e))?;
+    let models = ds.models();
+    let mut f =
+        (entry.build)(&ov.params, &models, args.particles).map_err(|e| usage(format!("filter `{filter}`: {e}")))?;
+    if args.save_particles && !f.particle_poses(&mut Vec::new()) {
+        return Err(usage(format!(
+            "--save-particles: filter `{filter}` does not expose its particles (the phd-* and rbphd-mf filters and the FastSLAM filters do)"
+        )));
+    }
+
+    let out = args.out.as_path();
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let o = run_with_outputs(args, &ds, f.as_mut(), &ov.metrics)?;
+    write_map(out, &o)?;
+    trace::write_run_context(&ds, out)?;
+    write_metrics(args, &ds, &o)?;
+    println!(
+        "{filter} N={} seed={}: {} steps, pos RMSE {:.3} m, heading RMSE {:.3} deg, GOSPA {:.2} m, {:.4} ms/step -> {}",
+        args.particles,
+        args.seed,
+        o.steps,
+        o.pos_rmse_m,
+        o.head_rmse_deg,
+        o.gospa_m,
+        o.time_ms_per_step,
+        out.display()
+    );
+    Ok(())
+}
+
+/// Runs the filter, writing `trajectory.csv` and the optional per-step files as it goes.
+fn run_with_outputs(
+    args: &RunArgs,
+    ds: &Dataset,
+    f: &mut dyn rfslam_core::SlamFilter,
+    metrics: &MetricsConfig,
+) -> Result<JobOutcome, Failure> {
+    let out = args.out.as_path();
+    let traj_path = out.join("trajectory.csv");
+    let mut traj = csv::Writer::from_path(&traj_path).with_context(|| format!("writing {}", traj_path.display()))?;
+    traj.write_record(["t", "x", "y", "heading"]).context("trajectory.csv")?;
+    let steps_path = out.join(trace::files::STEPS);
+    let parts_path = out.join(trace::files::PARTICLES);
+    let mut steps = match args.save_steps {
+        true => Some(StepsWriter::create(&steps_path, ds, metrics)?),
+        false => {
+            trace::remove_stale(&steps_path)?;
+            None
+        }
+    };
+    let mut parts = match args.save_particles {
+        true => Some(ParticlesWriter::create(&parts_path)?),
+        false => {
+            trace::remove_stale(&parts_path)?;
+            None
+        }
+    };
+    // The first write error of each file (the run goes on; the error is reported after it).
+    let mut write_err: Option<(PathBuf, csv::Error)> = None;
+    let o = rfslam_harness::run_filter(ds, f, args.seed, metrics, &mut |rec| {
+        if write_err.is_some() {
+            return;
+        }
+        let p = rec.estimate.pose;
+        let res = traj
+            .write_record(&[rec.t.to_string(), p[0].to_string(), p[1].to_string(), p[2].to_string()])
+            .map_err(|e| (traj_path.clone(), e))
+            .and_then(|_| steps.as_mut().map_or(Ok(()), |w| w.record(ds, rec)).map_err(|e| (steps_path.clone(), e)))
+            .and_then(|_| parts.as_mut().map_or(Ok(true), |w| w.record(rec)).map_err(|e| (parts_path.clone(), e)));
+        if let Err(e) = res {
+            write_err = Some(e);
+        }
+    });
+    if let Some((path, e)) = write_err {
+        return Err(anyhow!("{}: {e}", path.display()).into());
+    }
+    traj.flush().with_context(|| traj_path.display().to_string())?;
+    if let Some(w) = steps {
+        w.finish().with_context(|| steps_path.display().to_string())?;
+    }
+    if let Some(w) = parts {
+        w.finish().with_context(|| parts_path.display().to_string())?;
+    }
+    Ok(o)
+}
+
+fn write_map(out: &Path, o: &JobOutcome) -> Result<(), Failure> {
+    let map_path = out.join("map.csv");
+    let mut map = csv::Writer::from_path(&map_path).with_context(|| map_path.display().to_string())?;
+    map.write_record(["x", "y", "weight"]).context("map.csv")?;
+    for m in &o.final_estimate.map {
+        map.write_record(&[m.position.x.to_string(), m.position.y.to_string(), m.weight.to_string()])
+            .context("map.csv")?;
+    }
+    map.flush().context("map.csv")?;
+    Ok(())
+}
+
+fn write_metrics(args: &RunArgs, ds: &Dataset, o: &JobOutcome) -> Result<(), Failure> {
+    let num = |x: f64| if x.is_finite() { serde_json::json!(x) } else { serde_json::Value::Null };
+    let mut metrics_json = serde_json::json!({
+        "filter": args.filter,
+        "particles": args.particles,
+        "seed": args.seed,
+        "dataset": ds.meta.name,
+        "steps": o.steps,
+        "pos_rmse_m": num(o.pos_rmse_m),
+        "pos_rmse_se2_m": num(o.pos_rmse_se2_m),
+        "head_rmse_deg": num(o.head_rmse_deg),
+        "gospa_m": num(o.gospa_m),
+        "gospa_loc_m": num(o.gospa_loc_m),
+        "gospa_missed": o.gospa_missed,
+        "gospa_false": o.gospa_false,
+        "ess_pct": num(o.ess_pct),
+        "resampling_pct": num(o.resampling_pct),
+        "time_ms_per_step": num(o.time_ms_per_step),
+        "cholesky_failures": o.cholesky_failures,
+    });
+    if let Some(d) = &o.da {
+        metrics_json["tpr"] = num(d.tpr().unwrap_or(f64::NAN));
+        metrics_json["tnr"] = num(d.tnr().unwrap_or(f64::NAN));
+    }
+    let mpath = args.out.join("metrics.json");
+    std::fs::write(&mpath, serde_json::to_string_pretty(&metrics_json).unwrap_or_default() + "\n")
+        .with_context(|| mpath.display().to_string())?;
+    Ok(())
+}

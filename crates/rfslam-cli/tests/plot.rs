@@ -1,0 +1,215 @@
+//! Acceptance tests of `rfslam run --save-steps / --save-particles` and `rfslam plot`: the
+//! per-step files have their columns and one row per scan (and particle), every plot kind
+//! writes a PNG and an SVG from a small run or sweep, and bad input is a clear error.
+
+mod common;
+
+use common::*;
+
+const STEP_COLUMNS: &[&str] = &[
+    "step",
+    "t",
+    "pos_err_m",
+    "head_err_deg",
+    "gospa_m",
+    "landmarks_seen",
+    "map_size",
+    "components",
+    "proposal_components",
+    "ess",
+    "resampled",
+    "cholesky_failures",
+    "measurements",
+];
+
+/// A small scenario and a phd-3.0 run of it with 3 particles, no resampling, both flags.
+fn small_run(tmp: &TempDir) -> usize {
+    tmp.write("scen.toml", &scenario(60, 20, 0.95, 2.0));
+    let args = [
+        "run",
+        "--scenario",
+        "scen.toml",
+        "--filter",
+        "phd-3.0",
+        "--particles",
+        "3",
+        "--seed",
+        "4",
+        "--set",
+        "resample_ess_fraction=0",
+        "--save-steps",
+        "--save-particles",
+        "--out",
+        "run",
+    ];
+    ok(tmp.path(), &args);
+    Csv::read(&tmp.join("run/trajectory.csv")).rows.len()
+}
+
+/// Checks that `path` is a non-empty PNG or SVG.
+fn assert_image(path: &std::path::Path) {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("png") => {
+            assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "{} is not a PNG", path.display());
+            assert!(bytes.len() > 5_000, "{}: only {} bytes", path.display(), bytes.len());
+        }
+        _ => {
+            let text = String::from_utf8_lossy(&bytes);
+            assert!(text.contains("<svg") && text.contains("</svg>"), "{} is not an SVG", path.display());
+            assert!(text.contains("<text") && text.contains("<polyline"), "{} has no text or lines", path.display());
+        }
+    }
+}
+
+#[test]
+fn save_steps_and_save_particles_write_one_row_per_scan_and_particle() {
+    let tmp = TempDir::new("plot-save");
+    let scans = small_run(&tmp);
+    assert!(scans >= 59, "{scans} scans");
+
+    let steps = Csv::read(&tmp.join("run/steps.csv"));
+    assert_eq!(steps.header, STEP_COLUMNS);
+    assert_eq!(steps.rows.len(), scans);
+    for i in 0..scans {
+        assert_eq!(steps.num(i, "step"), i as f64);
+        assert!(steps.num(i, "pos_err_m") >= 0.0, "row {i}");
+        assert!(steps.num(i, "head_err_deg").abs() <= 180.0, "row {i}");
+        assert!(steps.num(i, "gospa_m") >= 0.0, "row {i}");
+        assert!(steps.num(i, "ess") >= 1.0 - 1e-9 && steps.num(i, "ess") <= 3.0 + 1e-9, "row {i}");
+        assert_eq!(steps.get(i, "resampled"), "0", "resampling was off");
+        assert!(steps.num(i, "proposal_components") >= 1.0, "phd-3.0 samples from a mixture");
+    }
+    // Landmarks seen only grow, and GOSPA is measured against them.
+    assert!((1..scans).all(|i| steps.num(i, "landmarks_seen") >= steps.num(i - 1, "landmarks_seen")));
+    // The per-step position error is the one the run's RMSE is made of.
+    let rmse = (steps.rows.iter().enumerate().map(|(i, _)| steps.num(i, "pos_err_m").powi(2)).sum::<f64>()
+        / scans as f64)
+        .sqrt();
+    let m = metrics(&tmp.join("run/metrics.json"));
+    assert!((rmse - m["pos_rmse_m"].as_f64().unwrap()).abs() < 1e-9, "{rmse} vs {m:?}");
+
+    let parts = Csv::read(&tmp.join("run/particles.csv"));
+    assert_eq!(parts.header, ["step", "t", "particle", "x", "y", "heading", "log_weight"]);
+    assert_eq!(parts.rows.len(), 3 * scans);
+    for i in 0..parts.rows.len() {
+        assert_eq!(parts.num(i, "step"), (i / 3) as f64);
+        assert_eq!(parts.num(i, "particle"), (i % 3) as f64);
+        assert!(parts.num(i, "log_weight") <= 1e-12);
+    }
+    // The context files of a plot.
+    assert_eq!(Csv::read(&tmp.join("run/dead_reckoning.csv")).rows.len(), scans);
+    assert_eq!(Csv::read(&tmp.join("run/landmarks.csv")).rows.len(), 20);
+    assert!(!Csv::read(&tmp.join("run/groundtruth.csv")).rows.is_empty());
+
+    // The flags change nothing else: the same run without them has the same estimate, and
+    // drops the per-step files of the earlier run from the directory.
+    let traj = tmp.read("run/trajectory.csv");
+    ok(
+        tmp.path(),
+        &["run", "--scenario", "scen.toml", "--filter", "phd-3.0", "--particles", "3", "--seed", "4"]
+            .iter()
+            .copied()
+            .chain(["--set", "resample_ess_fraction=0", "--out", "run"])
+            .collect::<Vec<_>>(),
+    );
+    assert_eq!(tmp.read("run/trajectory.csv"), traj);
+    assert!(!tmp.join("run/steps.csv").exists() && !tmp.join("run/particles.csv").exists());
+
+    // The FastSLAM filters expose their particles too.
+    let fs = ["run", "--scenario", "scen.toml", "--filter", "fastslam-1.0", "--particles", "2"];
+    ok(tmp.path(), &[&fs[..], &["--save-particles", "--out", "fs"]].concat());
+    assert_eq!(Csv::read(&tmp.join("fs/particles.csv")).rows.len(), 2 * scans);
+}
+
+#[test]
+fn save_particles_on_a_filter_without_particles_is_refused() {
+    let tmp = TempDir::new("plot-save-refused");
+    tmp.write("scen.toml", &scenario(20, 5, 0.95, 1.0));
+    let args = ["run", "--scenario", "scen.toml", "--filter", "dead-reckoning", "--save-particles", "--out", "r"];
+    fails(tmp.path(), &args, 2, &["--save-particles", "dead-reckoning", "does not expose"]);
+    assert!(!tmp.join("r").exists(), "nothing is written");
+}
+
+#[test]
+fn every_kind_draws_a_png_and_an_svg() {
+    let tmp = TempDir::new("plot-kinds");
+    small_run(&tmp);
+    for (kind, file) in [("map", "map"), ("steps", "steps"), ("particles", "particles")] {
+        for ext in ["png", "svg"] {
+            let out = format!("figs/{file}.{ext}");
+            let o = ok(tmp.path(), &["plot", "run", "--kind", kind, "--out", &out]);
+            assert!(o.stdout.contains(kind), "{}", o.stdout);
+            assert_image(&tmp.join(&out));
+        }
+    }
+    // The default kind of a run is the map.
+    let o = ok(tmp.path(), &["plot", "run", "--out", "default.png"]);
+    assert!(o.stdout.starts_with("map figure"), "{}", o.stdout);
+    // Two runs compared over time.
+    ok(tmp.path(), &["run", "--scenario", "scen.toml", "--filter", "phd-1.0", "--save-steps", "--out", "run1"]);
+    ok(tmp.path(), &["plot", "run", "run1", "--kind", "steps", "--out", "both.svg"]);
+    let svg = tmp.read("both.svg");
+    assert!(svg.contains("phd-3.0 N=3") && svg.contains("phd-1.0 N=1"), "legend names both runs");
+
+    // A tiny sweep over a grid: metric against the grid key, bars by default.
+    let entries = [Entry::new("phd-1.0", "phd-1.0", &[1, 2]), Entry::new("dead-reckoning", "dr", &[1])];
+    let grid = "\n[grid]\n\"scenario.clutter.rate\" = [1.0, 3.0]\n";
+    tmp.write("exp.toml", &experiment("scen.toml", 2, 1, &entries, grid));
+    ok(tmp.path(), &["sweep", "exp.toml", "--out", "sweep", "--jobs", "1", "--quiet"]);
+    for ext in ["png", "svg"] {
+        let out = format!("figs/metric.{ext}");
+        ok(tmp.path(), &["plot", "sweep", "--kind", "metric", "--metric", "head_rmse_deg", "--out", &out]);
+        assert_image(&tmp.join(&out));
+        let out = format!("figs/bars.{ext}");
+        let o = ok(tmp.path(), &["plot", "sweep", "--where", "scenario.clutter.rate=1", "--log-y", "--out", &out]);
+        assert!(o.stdout.starts_with("bars figure"), "{}", o.stdout);
+        assert_image(&tmp.join(&out));
+    }
+    // A summary file works as well as its directory.
+    ok(tmp.path(), &["plot", "sweep/summary.csv", "--kind", "metric", "--out", "figs/m2.png"]);
+}
+
+#[test]
+fn bad_input_is_a_clear_error() {
+    let tmp = TempDir::new("plot-errors");
+    tmp.write("scen.toml", &scenario(20, 5, 0.95, 1.0));
+    ok(tmp.path(), &["run", "--scenario", "scen.toml", "--filter", "phd-1.0", "--out", "run"]);
+    let cases: &[(&[&str], i32, &[&str])] = &[
+        (&["plot", "nowhere", "--out", "a.png"], 1, &["nowhere", "not found"]),
+        (&["plot", "run", "--kind", "steps", "--out", "a.png"], 1, &["steps.csv", "--save-steps"]),
+        (&["plot", "run", "--kind", "particles", "--out", "a.png"], 1, &["particles.csv", "--save-particles"]),
+        (&["plot", "run", "--kind", "pie", "--out", "a.png"], 2, &["unknown --kind `pie`", "map, steps"]),
+        (&["plot", "run", "--out", "a.jpg"], 2, &["a.jpg", ".png or .svg"]),
+        (&["plot", "run", "--kind", "bars", "--out", "a.png"], 2, &["not a sweep directory", "summary.csv"]),
+        (&["plot", "run", "--metric", "gospa_m", "--out", "a.png"], 2, &["--metric"]),
+        (&["plot", ".", "--out", "a.png"], 2, &["neither a run directory", "sweep directory"]),
+        (&["plot", "run", "run", "--out", "a.png"], 2, &["one directory"]),
+    ];
+    for (args, code, needles) in cases {
+        fails(tmp.path(), args, *code, needles);
+    }
+    assert!(!tmp.join("a.png").exists());
+
+    // Sweep inputs: unknown metric or grid key, a --where that selects nothing, a broken file.
+    std::fs::create_dir_all(tmp.join("s")).unwrap();
+    tmp.write(
+        "s/summary.csv",
+        "filter,particles,pos_rmse_m,pos_std_m,scenario.clutter.rate\nphd,1,2.5,0.1,1.0\nphd,1,x,0.1,2.0\n",
+    );
+    fails(
+        tmp.path(),
+        &["plot", "s", "--metric", "nope", "--out", "a.png"],
+        2,
+        &["summary.csv", "no column `nope`", "pos_rmse_m"],
+    );
+    fails(tmp.path(), &["plot", "s", "--kind", "metric", "--x", "k", "--out", "a.png"], 2, &["no column `k`"]);
+    fails(tmp.path(), &["plot", "s", "--where", "filter=none", "--out", "a.png"], 2, &["no selected row"]);
+    fails(
+        tmp.path(),
+        &["plot", "s", "--kind", "metric", "--out", "a.png"],
+        1,
+        &["summary.csv:3", "`pos_rmse_m`", "`x`"],
+    );
+    fails(tmp.path(), &["plot", "s", "--where", "filter", "--out", "a.png"], 2, &["--where filter", "KEY=VALUE"]);
+}
