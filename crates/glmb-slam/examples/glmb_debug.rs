@@ -1,6 +1,6 @@
 //! Diagnostic trace of one glmb-sim run: per step the true pose error of every particle,
 //! their log weights, the best particle's hypotheses and its map against the truth.
-//! `cargo run --release -p glmb-slam --example glmb_debug -- <filter> <clutter> <seed> [N] [sigma_omega_deg]`
+//! `cargo run --release -p glmb-slam --example glmb_debug -- <filter> <clutter> <seed> [N] [steering or turn-rate noise, deg]`
 
 use rfslam_core::ControlSegment;
 use rfslam_core::rng::{purpose, stream};
@@ -17,7 +17,9 @@ fn main() {
     table["clutter"].as_table_mut().unwrap().insert("rate".into(), clutter.into());
     if let Some(s) = a.get(5) {
         let v: f64 = s.parse().unwrap();
-        table["motion"].as_table_mut().unwrap().insert("sigma_omega_deg".into(), v.into());
+        let motion = table["motion"].as_table_mut().unwrap();
+        let key = if motion["model"].as_str() == Some("ackermann") { "sigma_steer_deg" } else { "sigma_omega_deg" };
+        motion.insert(key.into(), v.into());
     }
     let sc: ScenarioConfig = toml::Value::Table(table).try_into().unwrap();
     let ds = sc.build_dataset(None, seed).unwrap();
