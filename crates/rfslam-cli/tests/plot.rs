@@ -185,6 +185,7 @@ fn bad_input_is_a_clear_error() {
         (&["plot", "run", "--metric", "gospa_m", "--out", "a.png"], 2, &["--metric"]),
         (&["plot", ".", "--out", "a.png"], 2, &["neither a run directory", "sweep directory"]),
         (&["plot", "run", "run", "--out", "a.png"], 2, &["one directory"]),
+        (&["plot", "run", "--out", "run/map.csv/a.png"], 1, &["run/map.csv/a.png"]),
     ];
     for (args, code, needles) in cases {
         fails(tmp.path(), args, *code, needles);

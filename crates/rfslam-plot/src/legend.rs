@@ -157,7 +157,7 @@ pub fn frame<DB: DrawingBackend>(
     entries: &[Entry],
 ) -> Result<DrawingArea<DB, Shift>, PlotError> {
     let area = match title {
-        Some(t) => root.titled(t, style::title()).map_err(draw_err)?,
+        Some(t) => root.margin(TITLE_TOP, 0, 0, 0).titled(t, style::title()).map_err(draw_err)?,
         None => root.clone(),
     };
     let (w, h) = area.dim_in_pixel();
@@ -170,7 +170,10 @@ pub fn frame<DB: DrawingBackend>(
     Ok(plot)
 }
 
+/// Space above a title.
+const TITLE_TOP: u32 = 8;
+
 /// Height a title takes in [`frame`] (text height plus padding), for sizing figures.
 pub fn title_height(title: Option<&str>) -> u32 {
-    title.map_or(0, |t| style::title().font.box_size(t).map_or(40, |(_, h)| h + 10))
+    title.map_or(0, |t| TITLE_TOP + style::title().font.box_size(t).map_or(40, |(_, h)| h + 10))
 }
