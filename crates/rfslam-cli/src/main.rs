@@ -16,7 +16,13 @@ use rfslam_harness::experiment::{load_scenario_table, parse_cli_value, scenario_
 use rfslam_harness::{HarnessError, JobFilter, Plan, Shard, SweepOptions, registry};
 
 #[derive(Parser)]
-#[command(name = "rfslam", version, about = "Random-finite-set SLAM filters and their Monte Carlo harness")]
+#[command(
+    name = "rfslam",
+    version,
+    about = "Random-finite-set SLAM filters and their Monte Carlo harness",
+    after_help = "Exit codes: 0 success; 2 bad usage or configuration (found before anything runs); \
+                  1 a failure while running (missing data, I/O). Keys: docs/configuration.md."
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -24,7 +30,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Generate one Monte Carlo run's data set from a scenario and write it as a dataset directory.
+    /// Generate one Monte Carlo run's data set from a scenario and write it as a dataset directory
+    /// (format: docs/datasets.md).
     Simulate {
         /// Scenario TOML file.
         #[arg(long)]
@@ -32,7 +39,8 @@ enum Command {
         /// Run seed (run r of a sweep with master seed m uses seed m + r).
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Override a scenario key, e.g. `--set clutter.rate=10` (repeatable).
+        /// Override a scenario key, e.g. `--set clutter.rate=10` or `--set scenario.clutter.rate=10`
+        /// (repeatable).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
         /// Output directory.
@@ -44,7 +52,8 @@ enum Command {
     /// and particles.csv.
     Run(run::RunArgs),
     /// Run every (grid point, filter, particles, run) job of an experiment in parallel, or one
-    /// shard of them (`--shard I/N`, merged afterwards with `rfslam merge`).
+    /// shard of them (`--shard I/N`, merged afterwards with `rfslam merge`). Writes runs.csv
+    /// (appended as jobs end), summary.csv, report.md and experiment.resolved.toml.
     Sweep {
         /// Experiment TOML file.
         experiment: PathBuf,
@@ -57,13 +66,14 @@ enum Command {
         /// Only these particle counts (comma separated).
         #[arg(long, value_delimiter = ',')]
         particles: Option<Vec<usize>>,
-        /// Jobs run at once (threads); default: all cores.
+        /// Jobs run at once (threads); 0 = all cores.
         #[arg(long, default_value_t = 0)]
         jobs: usize,
         /// Output directory (default results/runs/<experiment name>).
         #[arg(long)]
         out: Option<PathBuf>,
         /// Continue an interrupted sweep in --out: run only the jobs missing from runs.csv.
+        /// Refuses a directory of another experiment, shard, selection or --runs.
         #[arg(long)]
         resume: bool,
         /// Run only shard I of N (I = 1..N): job k (0-based) of the canonical job order
@@ -80,6 +90,8 @@ enum Command {
     /// summary.csv and report.md of the whole sweep. Refuses directories of different
     /// experiments; lists missing jobs and conflicting duplicates and then writes nothing; a
     /// job found twice with identical rows (but for the wall time) is kept once, with a warning.
+    /// Merging into an earlier merge's directory replaces it; a sweep's directory is never
+    /// overwritten.
     Merge {
         /// The shards' output directories (any order).
         #[arg(required = true, value_name = "DIR")]

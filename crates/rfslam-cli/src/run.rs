@@ -24,7 +24,8 @@ use crate::{Failure, scenario_with_overrides, split_set, usage};
 /// Arguments of `rfslam run`.
 #[derive(Args)]
 pub struct RunArgs {
-    /// A dataset directory (see docs/datasets.md).
+    /// A dataset directory (see docs/datasets.md); the run uses the models of its
+    /// dataset.toml.
     #[arg(long, conflicts_with = "scenario", required_unless_present = "scenario")]
     dataset: Option<PathBuf>,
     /// A scenario TOML file (the data of run seed `--seed` is generated).
@@ -36,11 +37,13 @@ pub struct RunArgs {
     /// Number of particles.
     #[arg(long, default_value_t = 1)]
     particles: usize,
-    /// Run seed: the same data (and filter draws) as run r of a sweep whose master seed is seed - r.
+    /// Run seed. With --scenario: the same data and filter draws as run r of a sweep whose
+    /// master seed is seed - r. With --dataset: only the filter's draws.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Override a parameter: `key=value` sets a filter parameter, `scenario.key=value` a scenario key,
-    /// `metrics.key=value` a metric setting (repeatable). Without resampling (for particle
+    /// Override a parameter: `key=value` sets a filter parameter, `scenario.key=value` a scenario key
+    /// (only with --scenario), `metrics.key=value` a metric setting (repeatable; keys in
+    /// docs/configuration.md). Without resampling (for particle
     /// trajectories): `--set resample_ess_fraction=0` on the PHD-SLAM filters.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
