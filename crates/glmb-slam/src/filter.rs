@@ -53,6 +53,23 @@ impl LogWeighted for Particle {
     }
 }
 
+/// Diagnostics of one particle's proposal in the last step (for inspection and tests):
+/// the predicted pose `x_bar` and transition covariance `Q` (eq. 32) and, for `glmb-2.0`,
+/// the moment-matched optimal kernel `N(mu, Sigma)` (eqs. 30-31) and its components.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ProposalTrace {
+    /// `f(x_{k-1}, u)`.
+    pub x_bar: Pose,
+    /// `Q = F_u Q_u F_u^T` (+ jitter).
+    pub q: Matrix3<f64>,
+    /// Proposal mean (`x_bar` for the transition density).
+    pub mu: Pose,
+    /// Proposal covariance (`Q` for the transition density).
+    pub sig: Matrix3<f64>,
+    /// Associations in the mixture (0 for the transition density).
+    pub components: usize,
+}
+
 /// The filter shared by the three variants.
 #[derive(Debug, Clone)]
 pub struct GlmbSlam {
@@ -68,6 +85,7 @@ pub struct GlmbSlam {
     step: u64,
     prev_z: Vec<RangeBearing>,
     ws: Workspace,
+    trace: Vec<ProposalTrace>,
 }
 
 impl GlmbSlam {
@@ -90,12 +108,19 @@ impl GlmbSlam {
             step: 0,
             prev_z: Vec::new(),
             ws: Workspace::default(),
+            trace: Vec::new(),
         }
     }
 
     /// The particles (for inspection and tests).
     pub fn particle_set(&self) -> &[Particle] {
         &self.particles
+    }
+
+    /// The proposal of every particle in the last step, in the order of the particles
+    /// before resampling.
+    pub fn proposal_trace(&self) -> &[ProposalTrace] {
+        &self.trace
     }
 
     /// Index of the particle the estimate comes from.
@@ -122,6 +147,7 @@ impl GlmbSlam {
         let mut chol = 0u32;
         let mut proposal_components = 0usize;
         let ws = &mut self.ws;
+        self.trace.clear();
         for part in &mut self.particles {
             // Adaptive birth from the previous scan at the previous pose (eq. 27).
             ws.births.clear();
@@ -139,6 +165,7 @@ impl GlmbSlam {
             let q = symmetrise(&(q + self.jitter));
             // `marginal`: the weight of eq. (33), replacing the update's `ln Delta w(x_k)`.
             let mut marginal = None;
+            let mut tr = ProposalTrace { x_bar, q, mu: x_bar, sig: q, components: 0 };
             let (x, corr) = if self.variant == Variant::Glmb2 && !scan.z.is_empty() {
                 let (mu, sig, n_comp, c, log_c) = optimal_proposal(
                     &part.glmb,
@@ -153,6 +180,7 @@ impl GlmbSlam {
                 );
                 chol += c;
                 proposal_components += n_comp;
+                tr = ProposalTrace { x_bar, q, mu, sig, components: n_comp };
                 if p.proposal_weight == ProposalWeight::Marginal && log_c.is_finite() {
                     marginal = Some(log_c);
                 }
@@ -179,6 +207,7 @@ impl GlmbSlam {
             } else {
                 (draw_prior(&x_bar, &q, rng, &mut chol), 0.0)
             };
+            self.trace.push(tr);
             part.pose = x;
             // Joint prediction and update of the map at x (eqs. 11-16), weight (eq. 22).
             let (log_dw, c) = match self.variant {

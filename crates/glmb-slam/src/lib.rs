@@ -56,5 +56,5 @@ pub mod filter;
 pub mod map;
 pub mod params;
 
-pub use filter::{Glmb1, Glmb2, GlmbSlam, LmbSlam, Particle, Variant};
+pub use filter::{Glmb1, Glmb2, GlmbSlam, LmbSlam, Particle, ProposalTrace, Variant};
 pub use params::{Params, ProposalWeight};

@@ -204,3 +204,90 @@ fn short_run_end_to_end() {
         assert!(o.pos_rmse_m < 4.0, "{name}: position RMSE {}", o.pos_rmse_m);
     }
 }
+
+/// glmb-2.0's proposal (eqs. 30-32) against its closed form for one track, one prior
+/// hypothesis and no birth: the components are "dead" and "missed" (the prior `N(x_bar, Q)`,
+/// weights `1 - p_S` and `p_S (1 - p_D)`) and, per measurement, the pose EKF update at
+/// `x_bar` with noise `H_m P H_m^T + R` and weight `p_S p_D q_j / kappa`, `q_j` the
+/// pose-marginalised likelihood (`S = H_x Q H_x^T + H_m P H_m^T + R`); their moment match is
+/// the proposal. A well-mapped landmark seen where predicted must narrow it below `Q` (the
+/// diagnostic `examples/glmb_proposal.rs` measures the same on runs, results/glmb/report.md).
+#[test]
+fn proposal_matches_the_moment_matched_mixture() {
+    use glmb_slam::map::optimal_proposal;
+    use nalgebra::{Matrix3, Vector3};
+    let sensor = RangeBearingSensor::default();
+    let ps = 0.95;
+    let m = models(&sensor, ps);
+    let x_bar = Pose::new(0.05, -0.02, 0.01);
+    let q = Matrix3::from_diagonal(&Vector3::new(0.02f64.powi(2), 0.03f64.powi(2), 0.01f64.powi(2)));
+    let z = scan();
+    let t = track();
+    let map = GlmbMap { tracks: vec![t], hyps: vec![Hypothesis { log_w: 0.0, start: 0, len: 1 }], members: vec![0] };
+    let mut ws = Workspace::default();
+    let mut rng = rfslam_core::Rng::seed_from_u64(9);
+    let (mu, sig, n, chol, _) = optimal_proposal(&map, &x_bar, &q, &z, &m, 1, 20_000, &mut ws, &mut rng);
+    assert_eq!((n, chol), (2 + z.len(), 0));
+
+    let lin = sensor.linearise(&x_bar, &t.mean);
+    let noise = lin.hm * t.cov * lin.hm.transpose() + m.r;
+    let s = lin.hx * q * lin.hx.transpose() + noise;
+    let gain = q * lin.hx.transpose() * s.try_inverse().unwrap();
+    let ikh = Matrix3::identity() - gain * lin.hx;
+    let sig_det = ikh * q * ikh.transpose() + gain * noise * gain.transpose();
+    let mut comps = vec![(1.0 - ps, Vector3::zeros(), q), (ps * (1.0 - PD), Vector3::zeros(), q)];
+    for zj in &z {
+        let nu = RangeBearingSensor::residual(zj, &lin.z);
+        let qj = log_normal(&nu, &s).unwrap().exp();
+        comps.push((ps * PD * qj / KAPPA, gain * nu, sig_det));
+    }
+    let total: f64 = comps.iter().map(|c| c.0).sum();
+    let d_mean = comps.iter().fold(Vector3::zeros(), |a, c| a + c.1 * (c.0 / total));
+    let cov = comps.iter().fold(Matrix3::zeros(), |a, c| {
+        let d = c.1 - d_mean;
+        a + (c.2 + d * d.transpose()) * (c.0 / total)
+    });
+    let dm = Vector3::new(mu[0] - x_bar[0], mu[1] - x_bar[1], mu[2] - x_bar[2]);
+    assert!((dm - d_mean).norm() < 1e-12, "mean offset {dm} vs {d_mean}");
+    assert!((sig - cov).norm() < 1e-12, "covariance {sig} vs {cov}");
+
+    // A well-mapped landmark (P below R) seen where it is predicted: the proposal is the
+    // detection's EKF update, narrower than Q in position and heading.
+    let t = Track { cov: Matrix2::identity() * 1e-4, ..t };
+    let map = GlmbMap { tracks: vec![t], ..map };
+    let z = [sensor.predict(&x_bar, &t.mean)];
+    let (mu, sig, _, _, _) = optimal_proposal(&map, &x_bar, &q, &z, &m, 1, 2_000, &mut ws, &mut rng);
+    assert!((mu - x_bar).norm() < 1e-12);
+    assert!(sig[(0, 0)] + sig[(1, 1)] < q[(0, 0)] + q[(1, 1)] && sig[(2, 2)] < q[(2, 2)], "{sig} vs {q}");
+    println!("position sd ratio {:.3}", ((sig[(0, 0)] + sig[(1, 1)]) / (q[(0, 0)] + q[(1, 1)])).sqrt());
+}
+
+/// The proposal near the ±π bearing seam: a landmark behind the robot measured at a bearing
+/// on the other side of the seam gives the same proposal as the same measurement written
+/// with its bearing shifted by 2π (residuals wrapped in the pose-marginalised `eta` and in
+/// the pose EKF), close to `x_bar`.
+#[test]
+fn proposal_wraps_bearings_at_the_seam() {
+    use glmb_slam::map::optimal_proposal;
+    use nalgebra::{Matrix3, Vector3};
+    let sensor = RangeBearingSensor::default();
+    let m = models(&sensor, 1.0);
+    let x_bar = Pose::new(0.0, 0.0, 0.0);
+    let q = Matrix3::from_diagonal(&Vector3::new(0.02f64.powi(2), 0.02f64.powi(2), 0.005f64.powi(2)));
+    let t = Track { label: 3, mean: Point2::new(-1.5, 0.002), cov: Matrix2::identity() * 1e-4 };
+    let map = GlmbMap { tracks: vec![t], hyps: vec![Hypothesis { log_w: 0.0, start: 0, len: 1 }], members: vec![0] };
+    let pred = sensor.predict(&x_bar, &t.mean);
+    assert!(pred[1] > 3.1, "predicted bearing {}", pred[1]);
+    let run = |b: f64| {
+        let mut ws = Workspace::default();
+        let mut rng = rfslam_core::Rng::seed_from_u64(5);
+        optimal_proposal(&map, &x_bar, &q, &[RangeBearing::new(1.5, b)], &m, 1, 200, &mut ws, &mut rng)
+    };
+    let b = -std::f64::consts::PI + 0.004; // across the seam from pred
+    let (mu1, sig1, n1, c1, lc1) = run(b);
+    let (mu2, sig2, n2, c2, lc2) = run(b + 2.0 * std::f64::consts::PI);
+    assert_eq!((n1, c1, n2, c2), (2, 0, 2, 0));
+    assert!((mu1 - mu2).norm() < 1e-12 && (sig1 - sig2).norm() < 1e-15 && (lc1 - lc2).abs() < 1e-12);
+    assert!((mu1 - x_bar).norm() < 0.05 && lc1.is_finite(), "{mu1} {lc1}");
+    assert!(sig1[(2, 2)] < q[(2, 2)]);
+}
