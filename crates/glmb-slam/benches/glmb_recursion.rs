@@ -4,9 +4,9 @@
 //! glmb-2.0 at most 5 ms per recursion on one core.
 
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
-use rfslam_core::rng::{purpose, stream};
-use rfslam_core::{ControlSegment, FilterBuild};
+use rfslam_core::FilterBuild;
 use rfslam_data::{Dataset, ScenarioConfig};
+use rfslam_harness::fixtures::warmed_up;
 
 const WARM: usize = 600;
 
@@ -20,17 +20,14 @@ fn dataset() -> Dataset {
 }
 
 fn bench_filter<F: FilterBuild + Clone>(c: &mut Criterion, name: &str, ds: &Dataset, n: usize) {
-    let mut f = F::build(F::Params::default(), &ds.models(), n);
-    let mut rng = stream(&[1, purpose::FILTER, n as u64]);
-    let mut segs: Vec<ControlSegment> = Vec::new();
-    for k in 0..WARM {
-        ds.segments_for_scan(k, &mut segs);
-        f.step(&segs, &ds.scans[k], &mut rng);
-    }
-    ds.segments_for_scan(WARM, &mut segs);
+    let w = warmed_up::<F>(ds, n, WARM);
     let scan = &ds.scans[WARM];
     c.bench_function(&format!("{name} N={n} clutter 15 one recursion"), |b| {
-        b.iter_batched_ref(|| (f.clone(), rng.clone()), |(f, r)| f.step(&segs, scan, r), BatchSize::SmallInput)
+        b.iter_batched_ref(
+            || (w.filter.clone(), w.rng.clone()),
+            |(f, r)| f.step(&w.segments, scan, r),
+            BatchSize::SmallInput,
+        )
     });
 }
 

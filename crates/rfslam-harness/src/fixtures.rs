@@ -1,9 +1,10 @@
-//! Fixtures shared by the filter crates' end-to-end tests: the procedural world of
-//! `scenarios/procedural.toml` cut to 500 steps, and the dead-reckoning baseline error on a
-//! data set.
+//! Fixtures shared by the filter crates' end-to-end tests and benchmarks: the procedural
+//! world of `scenarios/procedural.toml` cut to 500 steps, the dead-reckoning baseline error
+//! on a data set, the recursion benchmarks' data set and their warmed-up filter state.
 
-use rfslam_core::ControlSegment;
 use rfslam_core::motion::propagate;
+use rfslam_core::rng::{purpose, stream};
+use rfslam_core::{ControlSegment, FilterBuild, Rng};
 use rfslam_data::{Dataset, ScenarioConfig};
 
 /// `scenarios/procedural.toml` (the synthetic experiment's sensor, noise and clutter on a
@@ -31,4 +32,47 @@ pub fn dead_reckoning_rmse(ds: &Dataset) -> f64 {
         sq += (pose.xy() - t.position).norm_squared();
     }
     (sq / ds.scans.len() as f64).sqrt()
+}
+
+/// Run 1 of `scenarios/phd-slam-synthetic.toml` (the papers' synthetic environment) when its
+/// data set is found, else of `scenarios/procedural.toml` (with a note on stderr): the data
+/// the recursion benchmarks time. Panics if neither loads: a benchmark fixture.
+pub fn benchmark_dataset() -> Dataset {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/");
+    let load = |f: &str| ScenarioConfig::from_file(std::path::Path::new(&format!("{root}{f}"))).ok();
+    let (sc, world) = match load("phd-slam-synthetic.toml").and_then(|s| s.load_world().ok().map(|w| (s, w))) {
+        Some(x) => x,
+        None => {
+            eprintln!("phd-slam-synthetic data not found; benchmarking on the procedural world");
+            let s = load("procedural.toml").expect("procedural scenario");
+            let w = s.load_world().expect("procedural world");
+            (s, w)
+        }
+    };
+    sc.build_dataset(world.as_ref(), 1).expect("dataset")
+}
+
+/// A filter part-way through a run: what a recursion benchmark clones and steps once.
+pub struct WarmedUp<F> {
+    /// The filter after `warm` recursions.
+    pub filter: F,
+    /// Its draw stream at that point.
+    pub rng: Rng,
+    /// The controls leading to scan `warm`, for the timed `filter.step(&segments,
+    /// &ds.scans[warm], &mut rng)`.
+    pub segments: Vec<ControlSegment>,
+}
+
+/// Builds `F` with default parameters and `n` particles on `ds`'s models and steps it through
+/// scans `0..warm` with the filter stream of run seed 1 (as a sweep's run 0 would).
+pub fn warmed_up<F: FilterBuild>(ds: &Dataset, n: usize, warm: usize) -> WarmedUp<F> {
+    let mut filter = F::build(F::Params::default(), &ds.models(), n);
+    let mut rng = stream(&[1, purpose::FILTER, n as u64]);
+    let mut segments: Vec<ControlSegment> = Vec::new();
+    for k in 0..warm {
+        ds.segments_for_scan(k, &mut segments);
+        filter.step(&segments, &ds.scans[k], &mut rng);
+    }
+    ds.segments_for_scan(warm, &mut segments);
+    WarmedUp { filter, rng, segments }
 }
