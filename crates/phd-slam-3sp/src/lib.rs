@@ -54,10 +54,9 @@
 
 pub mod sigma;
 
-use nalgebra::{Matrix2, Matrix2x3, Matrix3, Matrix5, SMatrix, Vector2, Vector5};
+use nalgebra::{Matrix2, Matrix2x3, Matrix3, Matrix5, SMatrix, Vector5};
 use phd_slam_3::{MhParams, MhProposal, PoseSlr};
 use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
-use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, symmetrise};
 use rfslam_core::ipl::Linearised;
 use rfslam_core::{ParamError, Point2, Pose, RangeBearing, RangeBearingSensor, Rng, SlamModels};
@@ -252,7 +251,7 @@ impl PoseSlr for SigmaPointSlr {
         z: &RangeBearing,
     ) -> Option<f64> {
         let (mu_z, s_zz, _) = self.moments(sensor, r, mean, cov, m, p)?;
-        let nu = Vector2::new(z[0] - mu_z[0], wrap(z[1] - mu_z[1]));
+        let nu = RangeBearingSensor::residual(z, &mu_z);
         log_normal(&nu, &s_zz)
     }
 }
@@ -297,6 +296,7 @@ pub type PhdSlam3Sp = RbPhd<SpProposal>;
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+    use nalgebra::Vector2;
     use phd_slam_3::TaylorSlr;
     use rfslam_core::ipl::{IplSettings, ipl_update, ipl_update_slr};
 

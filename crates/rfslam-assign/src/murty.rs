@@ -170,10 +170,10 @@ struct Reduction {
     rows: Vec<usize>,
     /// Kept columns (oriented indices, ascending).
     cols: Vec<usize>,
-    /// Scratch: finite entries per column, then per row.
+    /// Scratch: finite entries per column.
     col_count: Vec<u32>,
-    /// Scratch: column of a row's last finite entry.
-    row_last: Vec<usize>,
+    /// Scratch: a row's only finite column, `NONE` when it has none or several.
+    row_only: Vec<usize>,
 }
 
 impl Reduction {
@@ -182,40 +182,30 @@ impl Reduction {
     fn compute(&mut self, a: &[f64], nr: usize, nc: usize, enabled: bool) {
         self.col_count.clear();
         self.col_count.resize(nc, 0);
-        self.row_last.clear();
-        self.row_last.resize(nr, NONE);
+        self.row_only.clear();
         self.fixed.clear();
         self.fixed.resize(nr, NONE);
-        let mut row_count = std::mem::take(&mut self.rows);
-        row_count.clear();
         for r in 0..nr {
-            let mut count = 0;
+            let (mut count, mut only) = (0, NONE);
             for (c, &x) in a[r * nc..(r + 1) * nc].iter().enumerate() {
                 if x != f64::INFINITY {
                     count += 1;
                     self.col_count[c] += 1;
-                    self.row_last[r] = c;
+                    only = c;
                 }
             }
-            row_count.push(count);
+            self.row_only.push(if count == 1 { only } else { NONE });
         }
-        for (r, &count) in row_count.iter().enumerate() {
-            if enabled && count == 1 && self.col_count[self.row_last[r]] == 1 {
-                self.fixed[r] = self.row_last[r];
+        for (r, &c) in self.row_only.iter().enumerate() {
+            if enabled && c != NONE && self.col_count[c] == 1 {
+                self.fixed[r] = c;
+                // its column is finite in no other row: it leaves with the row
+                self.col_count[c] = 0;
             }
         }
-        self.rows = row_count;
         self.rows.clear();
         self.rows.extend((0..nr).filter(|&r| self.fixed[r] == NONE));
         // A column is kept when an unfixed row is finite there.
-        self.col_count.fill(0);
-        for &r in &self.rows {
-            for (c, &x) in a[r * nc..(r + 1) * nc].iter().enumerate() {
-                if x != f64::INFINITY {
-                    self.col_count[c] = 1;
-                }
-            }
-        }
         self.cols.clear();
         self.cols.extend((0..nc).filter(|&c| !enabled || self.col_count[c] > 0));
     }
