@@ -8,9 +8,9 @@ use std::collections::HashSet;
 use fastslam::{OracleFastSlam2, Params};
 use rfslam_core::{FilterBuild, Point2};
 use rfslam_data::Dataset;
-use rfslam_harness::experiment::MetricsConfig;
-use rfslam_harness::fixtures::{dead_reckoning_rmse, procedural_500};
-use rfslam_harness::run_filter;
+use rfslam_eval::MetricsConfig;
+use rfslam_eval::fixtures::{dead_reckoning_rmse, procedural_500};
+use rfslam_eval::run_filter;
 
 /// The true landmarks that were measured at least once.
 fn seen_landmarks(ds: &Dataset) -> Vec<Point2> {

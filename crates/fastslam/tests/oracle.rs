@@ -10,8 +10,8 @@ use rfslam_core::{
     RangeBearing, RangeBearingSensor, Rng, Scan, SlamFilter, SlamModels,
 };
 use rfslam_data::ScenarioConfig;
-use rfslam_harness::experiment::MetricsConfig;
-use rfslam_harness::run_filter;
+use rfslam_eval::MetricsConfig;
+use rfslam_eval::run_filter;
 
 fn models() -> SlamModels {
     SlamModels {

@@ -183,18 +183,22 @@ fn proposal_weight_is_the_pose_marginal_likelihood() {
 /// dead reckoning drift by tens of degrees: no filter could localise on it).
 #[test]
 fn short_run_end_to_end() {
-    use rfslam_harness::experiment::MetricsConfig;
-    use rfslam_harness::{registry, run_filter};
+    use rfslam_core::FilterBuild;
+    use rfslam_eval::{MetricsConfig, run_filter};
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/glmb-sim.toml")).unwrap();
     let mut table: toml::Table = toml::from_str(&text).unwrap();
     table["clutter"].as_table_mut().unwrap().insert("rate".into(), 2.0.into());
     let sc: rfslam_data::ScenarioConfig = toml::Value::Table(table).try_into().unwrap();
     let ds = sc.build_dataset(None, 1).unwrap();
     let metrics = MetricsConfig::default();
-    let mut dr = (registry::find("dead-reckoning").unwrap().build)(&toml::Table::new(), &ds.models(), 1).unwrap();
-    let o_dr = run_filter(&ds, dr.as_mut(), 1, &metrics, &mut |_| {});
-    for name in ["glmb-1.0", "glmb-2.0", "lmb-slam"] {
-        let mut f = (registry::find(name).unwrap().build)(&toml::Table::new(), &ds.models(), 5).unwrap();
+    let mut dr = dead_reckoning::DeadReckoning::build(Default::default(), &ds.models(), 1);
+    let o_dr = run_filter(&ds, &mut dr, 1, &metrics, &mut |_| {});
+    let filters: [(&str, Box<dyn rfslam_core::SlamFilter>); 3] = [
+        ("glmb-1.0", Box::new(glmb_slam::Glmb1::build(Default::default(), &ds.models(), 5))),
+        ("glmb-2.0", Box::new(glmb_slam::Glmb2::build(Default::default(), &ds.models(), 5))),
+        ("lmb-slam", Box::new(glmb_slam::LmbSlam::build(Default::default(), &ds.models(), 5))),
+    ];
+    for (name, mut f) in filters {
         let mut landmarks = 0;
         let o = run_filter(&ds, f.as_mut(), 1, &metrics, &mut |r| landmarks = r.estimate.map.len());
         assert_eq!(o.steps, ds.scans.len());

@@ -7,9 +7,8 @@ use phd_slam_2a::{Gao2021Params, PairNormalisation, PhdSlam2a};
 use rbphd::PhdParams;
 use rfslam_core::FilterBuild;
 use rfslam_data::{Dataset, ScenarioConfig};
-use rfslam_harness::experiment::MetricsConfig;
-use rfslam_harness::fixtures::{dead_reckoning_rmse, procedural_500};
-use rfslam_harness::{JobOutcome, registry, run_filter};
+use rfslam_eval::fixtures::{dead_reckoning_rmse, procedural_500};
+use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
 
 fn run(ds: &Dataset, params: Gao2021Params, n: usize, seed: u64) -> JobOutcome {
     let params = PhdParams { proposal: params, ..Default::default() };
@@ -25,7 +24,6 @@ fn run(ds: &Dataset, params: Gao2021Params, n: usize, seed: u64) -> JobOutcome {
 fn tracks_better_than_dead_reckoning() {
     let sc = procedural_500();
     let world = sc.load_world().unwrap();
-    let phd1 = registry::find("phd-1.0").unwrap();
     let (mut sum_2a, mut sum_1) = (0.0, 0.0);
     for seed in 1..=4 {
         let ds = sc.build_dataset(world.as_ref(), seed).unwrap();
@@ -33,8 +31,8 @@ fn tracks_better_than_dead_reckoning() {
         let o1 = run(&ds, Gao2021Params::default(), 1, seed);
         let o10 = run(&ds, Gao2021Params::default(), 10, seed);
         let om = run(&ds, Gao2021Params { use_mean: true, ..Default::default() }, 1, seed);
-        let mut f1 = (phd1.build)(&toml::Table::new(), &ds.models(), 1).unwrap();
-        let b1 = run_filter(&ds, f1.as_mut(), seed, &MetricsConfig::default(), &mut |_| {});
+        let mut f1 = phd_slam_1::PhdSlam1::build(Default::default(), &ds.models(), 1);
+        let b1 = run_filter(&ds, &mut f1, seed, &MetricsConfig::default(), &mut |_| {});
         sum_2a += o1.pos_rmse_m;
         sum_1 += b1.pos_rmse_m;
         eprintln!(

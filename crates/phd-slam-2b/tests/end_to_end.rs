@@ -1,16 +1,16 @@
-//! End to end: `phd-2.0b` built through the registry on a 500-step procedural world with the
+//! End to end: `phd-2.0b` with default parameters on a 500-step procedural world with the
 //! synthetic experiment's sensor, noise and clutter (scenarios/procedural.toml cut to 500
 //! steps), against dead reckoning and PHD-SLAM 1.0 on the same data.
 
+use rfslam_core::FilterBuild;
 use rfslam_data::Dataset;
-use rfslam_harness::experiment::MetricsConfig;
-use rfslam_harness::fixtures::{dead_reckoning_rmse, procedural_500};
-use rfslam_harness::{JobOutcome, registry, run_filter};
+use rfslam_eval::fixtures::{dead_reckoning_rmse, procedural_500};
+use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
 
-fn run(name: &str, ds: &Dataset, n: usize, seed: u64) -> JobOutcome {
-    let entry = registry::find(name).unwrap();
-    let mut f = (entry.build)(&toml::Table::new(), &ds.models(), n).unwrap();
-    run_filter(ds, f.as_mut(), seed, &MetricsConfig::default(), &mut |_| {})
+/// Runs filter `F` with default parameters and `n` particles.
+fn run<F: FilterBuild>(ds: &Dataset, n: usize, seed: u64) -> JobOutcome {
+    let mut f = F::build(F::Params::default(), &ds.models(), n);
+    run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {})
 }
 
 /// With one particle the joint proposal keeps the pose within a few metres (far better than
@@ -26,8 +26,8 @@ fn tracks_and_associates() {
     for seed in 1..=4 {
         let ds = sc.build_dataset(world.as_ref(), seed).unwrap();
         let dr = dead_reckoning_rmse(&ds);
-        let o1 = run("phd-2.0b", &ds, 1, seed);
-        let b1 = run("phd-1.0", &ds, 1, seed);
+        let o1 = run::<phd_slam_2b::PhdSlam2b>(&ds, 1, seed);
+        let b1 = run::<phd_slam_1::PhdSlam1>(&ds, 1, seed);
         eprintln!(
             "seed {seed}: dead reckoning {dr:.2} m | 2.0b N=1 {:.2} m TPR {:?} TNR {:?} ({:.3} ms/step) | phd-1.0 N=1 {:.2} m",
             o1.pos_rmse_m,

@@ -1,16 +1,19 @@
-//! End to end: `phd-3.0-sp` built through the registry on the 500-step procedural world
+//! End to end: `phd-3.0-sp` with parameters from TOML on the 500-step procedural world
 //! (the synthetic experiment's sensor, noise and clutter), beside `phd-3.0` on the same data.
 
+use phd_slam_3::PhdSlam3;
+use phd_slam_3sp::PhdSlam3Sp;
+use rfslam_core::FilterBuild;
 use rfslam_data::Dataset;
-use rfslam_harness::experiment::MetricsConfig;
-use rfslam_harness::fixtures::{dead_reckoning_rmse, procedural_500};
-use rfslam_harness::{JobOutcome, registry, run_filter};
+use rfslam_eval::fixtures::{dead_reckoning_rmse, procedural_500};
+use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
 
-fn run(name: &str, params: &str, ds: &Dataset, n: usize, seed: u64) -> JobOutcome {
-    let entry = registry::find(name).unwrap();
-    let params: toml::Table = toml::from_str(params).unwrap();
-    let mut f = (entry.build)(&params, &ds.models(), n).unwrap();
-    run_filter(ds, f.as_mut(), seed, &MetricsConfig::default(), &mut |_| {})
+/// Runs filter `F` with the parameters written in `params` (TOML) and `n` particles.
+fn run<F: FilterBuild>(params: &str, ds: &Dataset, n: usize, seed: u64) -> JobOutcome {
+    let params: F::Params = toml::from_str(params).unwrap();
+    F::validate(&params, &ds.models(), n).unwrap();
+    let mut f = F::build(params, &ds.models(), n);
+    run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {})
 }
 
 /// With one particle, both sigma-point spaces track within a few metres (far better than
@@ -24,9 +27,9 @@ fn one_particle_tracks_like_phd3() {
     for seed in 1..=3 {
         let ds = sc.build_dataset(world.as_ref(), seed).unwrap();
         let dr = dead_reckoning_rmse(&ds);
-        let p3 = run("phd-3.0", "", &ds, 1, seed);
+        let p3 = run::<PhdSlam3>("", &ds, 1, seed);
         for params in ["", "slr_space = \"joint\""] {
-            let sp = run("phd-3.0-sp", params, &ds, 1, seed);
+            let sp = run::<PhdSlam3Sp>(params, &ds, 1, seed);
             eprintln!(
                 "seed {seed} [{params}]: dead reckoning {dr:.2} m | phd-3.0-sp {:.2} m TPR {:?} ({:.3} ms/step) | phd-3.0 {:.2} m ({:.3} ms/step)",
                 sp.pos_rmse_m,

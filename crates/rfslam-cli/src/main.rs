@@ -118,6 +118,13 @@ impl From<HarnessError> for Failure {
     }
 }
 
+impl From<rfslam_eval::EvalError> for Failure {
+    /// A run output that could not be written: a failure while running.
+    fn from(e: rfslam_eval::EvalError) -> Self {
+        Failure { code: 1, err: e.into() }
+    }
+}
+
 impl From<anyhow::Error> for Failure {
     fn from(err: anyhow::Error) -> Self {
         Failure { code: 1, err }

@@ -15,9 +15,10 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, anyhow};
 use clap::Args;
 use rfslam_data::Dataset;
-use rfslam_harness::experiment::{MetricsConfig, set_dotted};
-use rfslam_harness::trace::{self, ParticlesWriter, StepsWriter};
-use rfslam_harness::{JobOutcome, registry};
+use rfslam_eval::trace::{self, ParticlesWriter, StepsWriter};
+use rfslam_eval::{JobOutcome, MetricsConfig};
+use rfslam_harness::experiment::set_dotted;
+use rfslam_harness::registry;
 
 use crate::{Failure, scenario_with_overrides, split_set, usage};
 
@@ -177,7 +178,7 @@ fn run_with_outputs(
     };
     // The first write error of each file (the run goes on; the error is reported after it).
     let mut write_err: Option<(PathBuf, csv::Error)> = None;
-    let o = rfslam_harness::run_filter(ds, f, args.seed, metrics, &mut |rec| {
+    let o = rfslam_eval::run_filter(ds, f, args.seed, metrics, &mut |rec| {
         if write_err.is_some() {
             return;
         }

@@ -7,7 +7,7 @@
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use rfslam_core::FilterBuild;
 use rfslam_data::Dataset;
-use rfslam_harness::fixtures::{benchmark_dataset, warmed_up};
+use rfslam_eval::fixtures::{benchmark_dataset, warmed_up};
 
 const WARM: usize = 1000;
 

@@ -13,24 +13,7 @@ use crate::error::HarnessError;
 use crate::locate::locate;
 use crate::registry;
 
-/// Metric settings of an experiment (`[metrics]`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct MetricsConfig {
-    /// GOSPA cut-off `c` (m); seed 000 uses 20.
-    pub gospa_c: f64,
-    /// GOSPA order `p`; seed 000 uses 2.
-    pub gospa_p: f64,
-    /// A scan's pose is scored against the ground-truth row nearest in time when it lies
-    /// within this many seconds (Victoria Park: 25 ms of a GPS fix).
-    pub truth_tolerance_s: f64,
-}
-
-impl Default for MetricsConfig {
-    fn default() -> Self {
-        MetricsConfig { gospa_c: 20.0, gospa_p: 2.0, truth_tolerance_s: 0.025 }
-    }
-}
+pub use rfslam_eval::MetricsConfig;
 
 /// One `[[filters]]` entry.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

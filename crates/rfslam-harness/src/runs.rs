@@ -87,10 +87,7 @@ pub struct RunRow {
     pub grid: Vec<String>,
 }
 
-/// Formats a float for CSV: shortest round-trip representation; NaN as an empty field.
-pub fn fmt_f(x: f64) -> String {
-    if x.is_nan() { String::new() } else { format!("{x}") }
-}
+pub use rfslam_eval::fmt_f;
 
 fn parse_f(s: &str) -> Option<f64> {
     if s.is_empty() { Some(f64::NAN) } else { s.parse().ok() }

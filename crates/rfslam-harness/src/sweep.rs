@@ -18,12 +18,12 @@ use rayon::prelude::*;
 
 use crate::error::HarnessError;
 use crate::experiment::{ExperimentConfig, Job, JobFilter, JobKey, Plan};
-use crate::job::run_filter;
 use crate::registry;
 use crate::report::{PublishedTable, ReportInfo, render};
 use crate::runs::{RunRow, RunsAppender, read_rows, write_rows};
 use crate::shard::{Shard, ShardRecord, resolved_difference};
 use crate::summary::{summarise, write_summary};
+use rfslam_eval::run_filter;
 
 /// Options of one sweep invocation.
 #[derive(Debug, Clone, Default)]

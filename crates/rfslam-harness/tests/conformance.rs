@@ -13,9 +13,9 @@ use rfslam_core::angle::wrap;
 use rfslam_core::motion::propagate;
 use rfslam_core::{ControlSegment, Estimate, Pose, SlamModels};
 use rfslam_data::{Dataset, ScenarioConfig};
-use rfslam_harness::experiment::MetricsConfig;
+use rfslam_eval::MetricsConfig;
+use rfslam_eval::{JobOutcome, run_filter};
 use rfslam_harness::registry::{FilterEntry, REGISTRY};
-use rfslam_harness::{JobOutcome, run_filter};
 
 /// A procedural scenario in a 300 m square with the given control noise, detection
 /// probability and clutter rate (the PHD-SLAM 3.0 synthetic sensor otherwise).

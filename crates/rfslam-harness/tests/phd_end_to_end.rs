@@ -4,8 +4,9 @@
 //! tight against failure (dead reckoning drifts 10-40 m on the same data).
 
 use rfslam_data::ScenarioConfig;
-use rfslam_harness::experiment::MetricsConfig;
-use rfslam_harness::{registry, run_filter};
+use rfslam_eval::MetricsConfig;
+use rfslam_eval::run_filter;
+use rfslam_harness::registry;
 
 fn scenario() -> ScenarioConfig {
     let text =

@@ -18,10 +18,10 @@ use rfslam_core::motion::propagate;
 use rfslam_core::{ControlSegment, Point2, Pose};
 use rfslam_data::Dataset;
 
-use crate::error::HarnessError;
-use crate::experiment::MetricsConfig;
-use crate::job::StepRecord;
-use crate::runs::fmt_f;
+use crate::config::MetricsConfig;
+use crate::error::EvalError;
+use crate::fmt_f;
+use crate::run::StepRecord;
 
 /// File names of the run outputs written here.
 pub mod files {
@@ -68,8 +68,8 @@ pub const STEP_COLUMNS: &[&str] = &[
 /// normalised natural-log weight.
 pub const PARTICLE_COLUMNS: &[&str] = &["step", "t", "particle", "x", "y", "heading", "log_weight"];
 
-fn csv_err(path: &Path) -> impl Fn(csv::Error) -> HarnessError + '_ {
-    move |e| HarnessError::Run(format!("{}: {e}", path.display()))
+fn csv_err(path: &Path) -> impl Fn(csv::Error) -> EvalError + '_ {
+    move |e| EvalError::csv(path, e)
 }
 
 /// Writes `steps.csv` row by row as the filter runs.
@@ -87,9 +87,9 @@ pub struct StepsWriter<W: Write> {
 
 impl StepsWriter<std::fs::File> {
     /// Creates `path` and writes the header.
-    pub fn create(path: &Path, dataset: &Dataset, metrics: &MetricsConfig) -> Result<Self, HarnessError> {
+    pub fn create(path: &Path, dataset: &Dataset, metrics: &MetricsConfig) -> Result<Self, EvalError> {
         let out = csv::Writer::from_path(path).map_err(csv_err(path))?;
-        StepsWriter::new(out, dataset, metrics).map_err(|e| HarnessError::Run(format!("{}: {e}", path.display())))
+        StepsWriter::new(out, dataset, metrics).map_err(|e| EvalError::csv(path, e))
     }
 }
 
@@ -176,9 +176,9 @@ pub struct ParticlesWriter<W: Write> {
 
 impl ParticlesWriter<std::fs::File> {
     /// Creates `path` and writes the header.
-    pub fn create(path: &Path) -> Result<Self, HarnessError> {
+    pub fn create(path: &Path) -> Result<Self, EvalError> {
         let out = csv::Writer::from_path(path).map_err(csv_err(path))?;
-        ParticlesWriter::new(out).map_err(|e| HarnessError::Run(format!("{}: {e}", path.display())))
+        ParticlesWriter::new(out).map_err(|e| EvalError::csv(path, e))
     }
 }
 
@@ -234,7 +234,7 @@ pub fn dead_reckoning(dataset: &Dataset) -> Vec<(f64, Pose)> {
 
 /// Writes `groundtruth.csv` and `landmarks.csv` (when the data set has them; a stale one
 /// from an earlier run in `dir` is removed otherwise) and `dead_reckoning.csv` into `dir`.
-pub fn write_run_context(dataset: &Dataset, dir: &Path) -> Result<(), HarnessError> {
+pub fn write_run_context(dataset: &Dataset, dir: &Path) -> Result<(), EvalError> {
     let gt_path = dir.join(files::GROUNDTRUTH);
     match &dataset.groundtruth {
         Some(gt) => write_csv(&gt_path, &["t", "x", "y", "heading"], gt.iter(), |g| {
@@ -256,9 +256,9 @@ pub fn write_run_context(dataset: &Dataset, dir: &Path) -> Result<(), HarnessErr
 }
 
 /// Removes `path` if it exists (an output of an earlier run that this run does not write).
-pub fn remove_stale(path: &Path) -> Result<(), HarnessError> {
+pub fn remove_stale(path: &Path) -> Result<(), EvalError> {
     match std::fs::remove_file(path) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(HarnessError::io(path, e)),
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(EvalError::io(path, e)),
         _ => Ok(()),
     }
 }
@@ -268,13 +268,13 @@ fn write_csv<T>(
     header: &[&str],
     rows: impl Iterator<Item = T>,
     fields: impl Fn(T) -> Vec<String>,
-) -> Result<(), HarnessError> {
+) -> Result<(), EvalError> {
     let mut w = csv::Writer::from_path(path).map_err(csv_err(path))?;
     w.write_record(header).map_err(csv_err(path))?;
     for r in rows {
         w.write_record(fields(r)).map_err(csv_err(path))?;
     }
-    w.flush().map_err(|e| HarnessError::io(path, e))
+    w.flush().map_err(|e| EvalError::io(path, e))
 }
 
 #[cfg(test)]

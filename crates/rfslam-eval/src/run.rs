@@ -8,7 +8,7 @@ use rfslam_core::{ControlSegment, Estimate, SlamFilter, StepReport};
 use rfslam_data::Dataset;
 use rfslam_metrics::{DaCounts, PoseErrors, Se2AlignedRmse, gospa};
 
-use crate::experiment::MetricsConfig;
+use crate::config::MetricsConfig;
 
 /// What an observer sees after each recursion.
 pub struct StepRecord<'a> {
