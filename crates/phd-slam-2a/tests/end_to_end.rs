@@ -33,28 +33,32 @@ fn tracks_better_than_dead_reckoning() {
         let om = run(&ds, Gao2021Params { use_mean: true, ..Default::default() }, 1, seed);
         let mut f1 = phd_slam_1::PhdSlam1::build(Default::default(), &ds.models(), 1);
         let b1 = run_filter(&ds, &mut f1, seed, &MetricsConfig::default(), &mut |_| {});
-        sum_2a += o1.pos_rmse_m;
-        sum_1 += b1.pos_rmse_m;
+        sum_2a += o1["pos_rmse_m"];
+        sum_1 += b1["pos_rmse_m"];
         eprintln!(
             "seed {seed}: dead reckoning {dr:.2} m | N=1 {:.2} m ({:.3} ms/step) | N=10 {:.2} m, GOSPA {:.1} m, \
              ESS {:.0}%, resampled {:.0}% ({:.3} ms/step) | use_mean N=1 {:.2} m | phd-1.0 N=1 {:.2} m",
-            o1.pos_rmse_m,
-            o1.time_ms_per_step,
-            o10.pos_rmse_m,
-            o10.gospa_m,
-            o10.ess_pct,
-            o10.resampling_pct,
-            o10.time_ms_per_step,
-            om.pos_rmse_m,
-            b1.pos_rmse_m
+            o1["pos_rmse_m"],
+            o1["time_ms_per_step"],
+            o10["pos_rmse_m"],
+            o10["gospa_m"],
+            o10["ess_pct"],
+            o10["resampling_pct"],
+            o10["time_ms_per_step"],
+            om["pos_rmse_m"],
+            b1["pos_rmse_m"]
         );
         for o in [&o1, &o10, &om] {
-            assert_eq!(o.steps, 500);
-            assert!(o.pos_rmse_m.is_finite());
+            assert_eq!(o["steps"] as usize, 500);
+            assert!(o["pos_rmse_m"].is_finite());
         }
-        assert_eq!(o10.cholesky_failures, 0, "seed {seed}");
-        assert!(o10.pos_rmse_m < dr / 2.0, "seed {seed}: N=10 {:.2} m vs dead reckoning {dr:.2} m", o10.pos_rmse_m);
-        assert!(o10.pos_rmse_m < 5.0, "seed {seed}: N=10 position RMSE {:.2} m", o10.pos_rmse_m);
+        assert_eq!(o10["cholesky_failures"] as usize, 0, "seed {seed}");
+        assert!(
+            o10["pos_rmse_m"] < dr / 2.0,
+            "seed {seed}: N=10 {:.2} m vs dead reckoning {dr:.2} m",
+            o10["pos_rmse_m"]
+        );
+        assert!(o10["pos_rmse_m"] < 5.0, "seed {seed}: N=10 position RMSE {:.2} m", o10["pos_rmse_m"]);
     }
     assert!(sum_2a < 0.75 * sum_1, "N=1 mean RMSE: phd-2.0a {:.2} m vs phd-1.0 {:.2} m", sum_2a / 4.0, sum_1 / 4.0);
 }
@@ -93,20 +97,20 @@ fn published_environment_figures() {
             eprintln!(
                 "N={n} seed {seed}: pos {:.2} m, head {:.2} deg, GOSPA {:.1} m, ESS {:.1}%, resampled {:.1}%, \
                  {:.3} ms/step, chol {}",
-                o.pos_rmse_m,
-                o.head_rmse_deg,
-                o.gospa_m,
-                o.ess_pct,
-                o.resampling_pct,
-                o.time_ms_per_step,
-                o.cholesky_failures
+                o["pos_rmse_m"],
+                o["head_rmse_deg"],
+                o["gospa_m"],
+                o["ess_pct"],
+                o["resampling_pct"],
+                o["time_ms_per_step"],
+                o["cholesky_failures"] as usize
             );
-            pos.push(o.pos_rmse_m);
-            head.push(o.head_rmse_deg);
-            gospa.push(o.gospa_m);
-            ms.push(o.time_ms_per_step);
-            ess += o.ess_pct;
-            res += o.resampling_pct;
+            pos.push(o["pos_rmse_m"]);
+            head.push(o["head_rmse_deg"]);
+            gospa.push(o["gospa_m"]);
+            ms.push(o["time_ms_per_step"]);
+            ess += o["ess_pct"];
+            res += o["resampling_pct"];
         }
         let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
         let std = |v: &[f64]| {

@@ -30,13 +30,14 @@ pub const BEGIN_MARKER: &str = "<!-- results-table:begin -->";
 /// The line before which the generated table ends.
 pub const END_MARKER: &str = "<!-- results-table:end -->";
 
-/// The metric columns of the table: `summary.csv` column and table header.
-pub const METRICS: [(&str, &str); 4] = [
-    ("pos_rmse_m", "pos RMSE [m]"),
-    ("head_rmse_deg", "head RMSE [deg]"),
-    ("gospa_m", "GOSPA [m]"),
-    ("time_ms", "ms / recursion"),
-];
+/// The summary figures of the table (`summary.csv` columns); their titles are those the
+/// metric table declares ([`rfslam_eval::metric::figure`]).
+pub const METRICS: [&str; 4] = ["pos_rmse_m", "head_rmse_deg", "gospa_m", "time_ms"];
+
+/// The table header of a figure: its title in the metric table.
+fn title(figure: &str) -> &'static str {
+    rfslam_eval::metric::figure(figure).map_or("?", |(_, f)| f.title)
+}
 
 /// Errors name the file, and the line where there is one.
 #[derive(Debug, thiserror::Error)]
@@ -138,7 +139,7 @@ pub fn parse_table(file: &Path, text: &str) -> Result<Vec<Row>, Error> {
     };
     let i_filter = col("filter").ok_or_else(|| missing("filter"))?;
     let i_particles = col("particles").ok_or_else(|| missing("particles"))?;
-    let i_metrics = METRICS.map(|(c, _)| col(c));
+    let i_metrics = METRICS.map(col);
     let grid_cols: Vec<usize> =
         (0..header.len()).filter(|&i| header[i].starts_with("scenario.") || header[i].starts_with("filter.")).collect();
 
@@ -164,7 +165,7 @@ pub fn parse_table(file: &Path, text: &str) -> Result<Vec<Row>, Error> {
             }
             match v.parse::<f64>() {
                 Ok(x) if x.is_finite() => metrics[k] = Some(v.to_string()),
-                _ => return Err(bad(format!("column `{}`: `{v}` is not a number", METRICS[k].0))),
+                _ => return Err(bad(format!("column `{}`: `{v}` is not a number", METRICS[k]))),
             }
         }
         let grid = grid_cols.iter().map(|&i| (header[i].clone(), field(i).to_string())).collect();
@@ -326,7 +327,7 @@ pub fn render(experiments: &[Experiment]) -> String {
     if with_setting {
         out.push_str(" setting |");
     }
-    for (_, h) in METRICS {
+    for h in METRICS.map(title) {
         let _ = write!(out, " {h} |");
     }
     out.push_str("\n|---|---|---:|");

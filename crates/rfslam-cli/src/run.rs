@@ -134,16 +134,16 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let o = run_with_outputs(args, &ds, f.as_mut(), &ov.metrics)?;
     write_map(out, &o)?;
     trace::write_run_context(&ds, out)?;
-    write_metrics(args, &ds, &o)?;
+    write_metrics(args, &ds, &o, &ov.metrics)?;
     println!(
-        "{filter} N={} seed={}: {} steps, pos RMSE {:.3} m, heading RMSE {:.3} deg, GOSPA {:.2} m, {:.4} ms/step -> {}",
+        "{filter} N={} seed={}: {} steps, pos RMSE {} m, heading RMSE {} deg, GOSPA {} m, {} ms/step -> {}",
         args.particles,
         args.seed,
-        o.steps,
-        o.pos_rmse_m,
-        o.head_rmse_deg,
-        o.gospa_m,
-        o.time_ms_per_step,
+        o["steps"],
+        shown(o["pos_rmse_m"], 3),
+        shown(o["head_rmse_deg"], 3),
+        shown(o["gospa_m"], 2),
+        shown(o["time_ms_per_step"], 4),
         out.display()
     );
     Ok(())
@@ -217,29 +217,27 @@ fn write_map(out: &Path, o: &JobOutcome) -> Result<(), Failure> {
     Ok(())
 }
 
-fn write_metrics(args: &RunArgs, ds: &Dataset, o: &JobOutcome) -> Result<(), Failure> {
-    let num = |x: f64| if x.is_finite() { serde_json::json!(x) } else { serde_json::Value::Null };
+/// A figure for the terminal: `n/a` where the files write an empty cell or null.
+fn shown(x: f64, decimals: usize) -> String {
+    if x.is_finite() { format!("{x:.decimals$}") } else { "n/a".to_string() }
+}
+
+/// `metrics.json`: the run's identity and the value of every column its metrics give
+/// (counts as integers, a value that is not available as null).
+fn write_metrics(args: &RunArgs, ds: &Dataset, o: &JobOutcome, metrics: &MetricsConfig) -> Result<(), Failure> {
     let mut metrics_json = serde_json::json!({
         "filter": args.filter,
         "particles": args.particles,
         "seed": args.seed,
         "dataset": ds.meta.name,
-        "steps": o.steps,
-        "pos_rmse_m": num(o.pos_rmse_m),
-        "pos_rmse_se2_m": num(o.pos_rmse_se2_m),
-        "head_rmse_deg": num(o.head_rmse_deg),
-        "gospa_m": num(o.gospa_m),
-        "gospa_loc_m": num(o.gospa_loc_m),
-        "gospa_missed": o.gospa_missed,
-        "gospa_false": o.gospa_false,
-        "ess_pct": num(o.ess_pct),
-        "resampling_pct": num(o.resampling_pct),
-        "time_ms_per_step": num(o.time_ms_per_step),
-        "cholesky_failures": o.cholesky_failures,
     });
-    if let Some(d) = &o.da {
-        metrics_json["tpr"] = num(d.tpr().unwrap_or(f64::NAN));
-        metrics_json["tnr"] = num(d.tnr().unwrap_or(f64::NAN));
+    for c in rfslam_eval::metric::columns(metrics) {
+        let x = o[c.name];
+        metrics_json[c.name] = match c.kind {
+            _ if !x.is_finite() => serde_json::Value::Null,
+            rfslam_eval::Kind::Count => serde_json::json!(x as u64),
+            rfslam_eval::Kind::Real => serde_json::json!(x),
+        };
     }
     let mpath = args.out.join("metrics.json");
     std::fs::write(&mpath, serde_json::to_string_pretty(&metrics_json).unwrap_or_default() + "\n")

@@ -1,4 +1,5 @@
-//! The metric settings of an experiment (`[metrics]`), shared by sweeps and `rfslam run`.
+//! The metric settings of an experiment (`[metrics]`), shared by sweeps and `rfslam run`:
+//! the settings of the metrics of [`crate::metric`].
 
 use serde::{Deserialize, Serialize};
 
@@ -18,5 +19,33 @@ pub struct MetricsConfig {
 impl Default for MetricsConfig {
     fn default() -> Self {
         MetricsConfig { gospa_c: 20.0, gospa_p: 2.0, truth_tolerance_s: 0.025 }
+    }
+}
+
+/// A metric setting out of range: its key in `[metrics]` and what is wrong.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{message}")]
+pub struct MetricsConfigError {
+    /// Key under `metrics` (`gospa_c`).
+    pub key: &'static str,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl MetricsConfig {
+    /// Checks every setting's range: cut-offs finite and > 0, orders in [1, 1e6), the truth
+    /// tolerance finite and >= 0.
+    pub fn validate(&self) -> Result<(), MetricsConfigError> {
+        let err = |key, message: &str| Err(MetricsConfigError { key, message: message.to_string() });
+        if !(self.gospa_c > 0.0 && self.gospa_c.is_finite()) {
+            return err("gospa_c", "must be > 0");
+        }
+        if !(1.0..1e6).contains(&self.gospa_p) {
+            return err("gospa_p", "must be in [1, inf)");
+        }
+        if self.truth_tolerance_s.is_nan() || self.truth_tolerance_s < 0.0 {
+            return err("truth_tolerance_s", "must be >= 0");
+        }
+        Ok(())
     }
 }

@@ -3,6 +3,7 @@
 //!
 //! - [`run`]: [`run_filter`], the inner loop of every sweep job and of `rfslam run`, with the
 //!   per-step [`StepRecord`] an observer sees and the scores of the run ([`JobOutcome`]);
+//! - [`metric`]: the metric table, every column of `runs.csv` and summary figure declared once;
 //! - [`config`]: the metric settings of an experiment's `[metrics]` table ([`MetricsConfig`]);
 //! - [`trace`]: the per-step files of `rfslam run` (`steps.csv`, `particles.csv`) and the
 //!   truth and dead-reckoning files a plot of a run needs;
@@ -15,12 +16,14 @@
 pub mod config;
 pub mod error;
 pub mod fixtures;
+pub mod metric;
 pub mod run;
 pub mod trace;
 
-pub use config::MetricsConfig;
+pub use config::{MetricsConfig, MetricsConfigError};
 pub use error::EvalError;
-pub use run::{JobOutcome, StepRecord, run_filter};
+pub use metric::{COLUMNS, Column, Figure, Kind, Pool, Values};
+pub use run::{JobOutcome, RunEnd, RunStart, StepRecord, run_filter};
 
 /// Formats a float for the CSV outputs: the shortest representation that reads back to the
 /// same value; NaN as an empty field.

@@ -299,7 +299,16 @@ mod tests {
             map: vec![MapPoint { position: Point2::new(1e6, 1e6), weight: 1.0 }],
         };
         let report = StepReport::plain(1);
-        let rec = StepRecord { k: 5, t: ds.scans[5].t, estimate: &est, report: &report, filter: &filter };
+        let rec = StepRecord {
+            k: 5,
+            t: ds.scans[5].t,
+            scan: &ds.scans[5],
+            truth: ds.truth_at(ds.scans[5].t, 0.025),
+            time_s: 0.0,
+            estimate: &est,
+            report: &report,
+            filter: &filter,
+        };
         w.record(&ds, &rec).unwrap();
         let text = String::from_utf8(w.out.into_inner().unwrap()).unwrap();
         let mut lines = text.lines();

@@ -77,6 +77,11 @@ impl ExperimentConfig {
         self.grid.keys().cloned().collect()
     }
 
+    /// The columns of this experiment's `runs.csv`.
+    pub fn layout(&self) -> crate::runs::RunsLayout {
+        crate::runs::RunsLayout::new(&self.metrics, &self.grid_keys())
+    }
+
     /// Number of grid points (1 without a grid): the product of the value counts.
     pub fn n_points(&self) -> usize {
         self.grid.values().map(Vec::len).product()
@@ -315,16 +320,7 @@ impl Plan {
         if config.filters.is_empty() {
             return Err(err("filters", "at least one [[filters]] entry is needed".into()));
         }
-        let m = &config.metrics;
-        if !(m.gospa_c > 0.0 && m.gospa_c.is_finite()) {
-            return Err(err("metrics.gospa_c", "must be > 0".into()));
-        }
-        if !(1.0..1e6).contains(&m.gospa_p) {
-            return Err(err("metrics.gospa_p", "must be in [1, inf)".into()));
-        }
-        if m.truth_tolerance_s.is_nan() || m.truth_tolerance_s < 0.0 {
-            return Err(err("metrics.truth_tolerance_s", "must be >= 0".into()));
-        }
+        config.metrics.validate().map_err(|e| err(&format!("metrics.{}", e.key), e.message))?;
         let mut labels = std::collections::HashSet::new();
         for (i, f) in config.filters.iter().enumerate() {
             if registry::find(&f.name).is_none() {
@@ -489,6 +485,11 @@ impl Plan {
     /// `sel` (see [`ExperimentConfig::jobs`]).
     pub fn jobs(&self, sel: &JobFilter) -> Vec<Job> {
         self.config.jobs(sel)
+    }
+
+    /// The columns of this plan's `runs.csv`.
+    pub fn layout(&self) -> crate::runs::RunsLayout {
+        self.config.layout()
     }
 
     /// The identity of `job` as written in `runs.csv` (see [`ExperimentConfig::job_key`]).

@@ -41,7 +41,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::HarnessError;
 use crate::experiment::{ExperimentConfig, FilterEntryConfig, Job, JobFilter, JobKey, MetricsConfig, Plan};
 use crate::report::PublishedTable;
-use crate::runs::{GroupKey, RUN_COLUMNS, RunRow, header, read_rows};
+use crate::runs::{GroupKey, RunRow, RunsLayout, read_rows};
 use crate::sweep::{INVOCATIONS, OutputContext, read_invocations, write_outputs};
 
 /// The record of which shard an output directory holds (written by `sweep --shard`).
@@ -391,9 +391,9 @@ fn describe_jobs(grid_keys: &[String], keys: &[&JobKey]) -> String {
 
 /// The CSV fields of `row` without the wall-time column: what must agree between two
 /// executions of the same job.
-fn fields_but_time(row: &RunRow) -> Vec<String> {
-    let time = RUN_COLUMNS.iter().position(|c| *c == "time_ms_per_step");
-    row.fields().into_iter().enumerate().filter(|(i, _)| Some(*i) != time).map(|(_, f)| f).collect()
+fn fields_but_time(row: &RunRow, layout: &RunsLayout) -> Vec<String> {
+    let time = layout.header().iter().position(|c| c == "time_ms_per_step");
+    row.fields(layout).into_iter().enumerate().filter(|(i, _)| Some(*i) != time).map(|(_, f)| f).collect()
 }
 
 /// Merges the shard directories `dirs` into `out` (see the module docs).
@@ -481,13 +481,14 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeOutcome, HarnessError>
         _ => None,
     };
     let grid_keys = config.grid_keys();
+    let layout = config.layout();
     let n_shards = first.record.shards;
     let expected: Vec<JobKey> =
         config.jobs(&first.record.selection.job_filter()).iter().map(|j| config.job_key(j)).collect();
     let expected_set: HashSet<&JobKey> = expected.iter().collect();
 
     // The rows of every shard, by job.
-    let want = header(&grid_keys).join(",");
+    let want = layout.header().join(",");
     let mut by_job: HashMap<JobKey, Vec<(usize, RunRow)>> = HashMap::new();
     for (i, input) in inputs.iter().enumerate() {
         let path = input.dir.join("runs.csv");
@@ -502,7 +503,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeOutcome, HarnessError>
                 path.display()
             )));
         }
-        for row in read_rows(&path, &grid_keys)? {
+        for row in read_rows(&path, &layout)? {
             let key = row.key();
             if !expected_set.contains(&key) {
                 return Err(HarnessError::Merge(format!(
@@ -555,8 +556,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeOutcome, HarnessError>
         }
         let dirs: Vec<String> = rows.iter().map(|(i, _)| inputs[*i].dir.display().to_string()).collect();
         let line = format!("{} in {}", describe_job(&grid_keys, key), dirs.join(" and "));
-        let reference = fields_but_time(&rows[0].1);
-        if rows[1..].iter().all(|(_, r)| fields_but_time(r) == reference) {
+        let reference = fields_but_time(&rows[0].1, &layout);
+        if rows[1..].iter().all(|(_, r)| fields_but_time(r, &layout) == reference) {
             identical.push(line);
         } else {
             conflicts.push(line);

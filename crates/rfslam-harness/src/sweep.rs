@@ -71,32 +71,12 @@ pub fn run_job(plan: &Plan, job: &Job) -> Result<RunRow, HarnessError> {
     let mut filter =
         (entry.build)(&f.params, &models, job.particles).map_err(|e| HarnessError::Run(format!("{}: {e}", f.label)))?;
     let o = run_filter(&dataset, filter.as_mut(), job.seed, &plan.config.metrics, &mut |_| {});
-    let (tpr, tnr, pos, neg) = match &o.da {
-        Some(d) => (d.tpr().unwrap_or(f64::NAN), d.tnr().unwrap_or(f64::NAN), d.positives, d.negatives),
-        None => (f64::NAN, f64::NAN, 0, 0),
-    };
     Ok(RunRow {
         run: job.run,
         filter: f.label.clone(),
         particles: job.particles,
         seed: job.seed,
-        pos_rmse_m: o.pos_rmse_m,
-        head_rmse_deg: o.head_rmse_deg,
-        gospa_m: o.gospa_m,
-        ess_pct: o.ess_pct,
-        resampling_pct: o.resampling_pct,
-        time_ms_per_step: o.time_ms_per_step,
-        steps: o.steps,
-        scored_steps: o.scored_steps,
-        gospa_loc_m: o.gospa_loc_m,
-        gospa_missed: o.gospa_missed,
-        gospa_false: o.gospa_false,
-        tpr,
-        tnr,
-        da_positives: pos as u64,
-        da_negatives: neg as u64,
-        cholesky_failures: o.cholesky_failures,
-        pos_rmse_se2_m: o.pos_rmse_se2_m,
+        values: o.values,
         grid: point.values.iter().map(|v| v.to_string()).collect(),
     })
 }
@@ -136,7 +116,13 @@ impl Progress {
                 if *d % every == 0 || *d == *total {
                     eprintln!(
                         "[{}/{}] {} N={} run {}: pos RMSE {:.2} m, {:.3} ms/step",
-                        *d, total, row.filter, row.particles, row.run, row.pos_rmse_m, row.time_ms_per_step
+                        *d,
+                        total,
+                        row.filter,
+                        row.particles,
+                        row.run,
+                        row.get("pos_rmse_m"),
+                        row.get("time_ms_per_step")
                     );
                 }
             }
@@ -177,7 +163,7 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
                 resolved_path.display()
             )));
         }
-        previous = read_rows(&runs_path, &plan.grid_keys)?;
+        previous = read_rows(&runs_path, &plan.layout())?;
     }
     std::fs::write(&resolved_path, &resolved).map_err(|e| HarnessError::io(&resolved_path, e))?;
     match opts.shard {
@@ -191,7 +177,7 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
         }
     }
     // Rewrite what was complete (drops a truncated last line) and append from there.
-    write_rows(&runs_path, &plan.grid_keys, &previous)?;
+    write_rows(&runs_path, &plan.layout(), &previous)?;
 
     let selected = plan.jobs(&opts.select);
     let all_jobs = match opts.shard {
@@ -208,7 +194,7 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
         .num_threads(threads)
         .build()
         .map_err(|e| HarnessError::Run(format!("thread pool: {e}")))?;
-    let appender = Mutex::new(RunsAppender::open(&runs_path)?);
+    let appender = Mutex::new(RunsAppender::open(&runs_path, &plan.layout())?);
     let failure: Mutex<Option<HarnessError>> = Mutex::new(None);
     let progress = Progress::new(todo.len(), opts.quiet);
     if skipped > 0 && !opts.quiet {
@@ -378,15 +364,16 @@ pub fn write_outputs(
     out: &Path,
 ) -> Result<(), HarnessError> {
     let grid_keys = ctx.config.grid_keys();
+    let layout = ctx.config.layout();
     let rank: HashMap<JobKey, usize> =
         ctx.config.jobs(&JobFilter::default()).iter().enumerate().map(|(i, j)| (ctx.config.job_key(j), i)).collect();
     let mut keyed: Vec<(usize, RunRow)> =
         rows.into_iter().map(|r| (rank.get(&r.key()).copied().unwrap_or(usize::MAX), r)).collect();
     keyed.sort_by_key(|(k, _)| *k);
     let rows: Vec<RunRow> = keyed.into_iter().map(|(_, r)| r).collect();
-    write_rows(&out.join("runs.csv"), &grid_keys, &rows)?;
-    let summary = summarise(&rows);
-    write_summary(&out.join("summary.csv"), &grid_keys, &summary)?;
+    write_rows(&out.join("runs.csv"), &layout, &rows)?;
+    let summary = summarise(&rows, &layout);
+    write_summary(&out.join("summary.csv"), &layout, &summary)?;
     let info = ReportInfo {
         name: &ctx.config.name,
         description: ctx.config.description.as_deref(),
@@ -404,6 +391,6 @@ pub fn write_outputs(
 /// Rewrites `runs.csv` in canonical job order and writes `summary.csv` and `report.md`
 /// from every row in it ([`write_outputs`]).
 pub fn finish(plan: &Plan, out: &Path) -> Result<(), HarnessError> {
-    let rows = read_rows(&out.join("runs.csv"), &plan.grid_keys)?;
+    let rows = read_rows(&out.join("runs.csv"), &plan.layout())?;
     write_outputs(&plan.output_context(), rows, read_invocations(out), out)
 }

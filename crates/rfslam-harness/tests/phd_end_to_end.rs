@@ -23,8 +23,8 @@ fn pos_rmse(filter: &str, particles: usize, seed: u64) -> (f64, f64) {
     let entry = registry::find(filter).unwrap();
     let mut f = (entry.build)(&toml::Table::new(), &ds.models(), particles).unwrap();
     let o = run_filter(&ds, f.as_mut(), seed, &MetricsConfig::default(), &mut |_| {});
-    assert_eq!(o.steps, 500);
-    (o.pos_rmse_m, o.gospa_m)
+    assert_eq!(o["steps"] as usize, 500);
+    (o["pos_rmse_m"], o["gospa_m"])
 }
 
 #[test]

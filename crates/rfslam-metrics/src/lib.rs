@@ -17,7 +17,7 @@ mod da;
 mod error;
 mod ospa;
 mod pose;
-mod stats;
+pub mod stats;
 
 pub use da::{DaCounts, score_associations};
 pub use error::MetricError;

@@ -129,21 +129,16 @@ fn same_value(a: &str, b: &str) -> bool {
     }
 }
 
-/// A column name as an axis description with its unit.
+/// A column name as an axis description with its unit: a summary figure's title from the
+/// metric table, else a description of a swept key.
 pub fn describe(column: &str) -> String {
     let last = column.rsplit('.').next().unwrap_or(column);
     // A filter parameter swept against fixed data is the filter's assumption (model mismatch).
     let assumed = if column.starts_with("filter.") { "assumed " } else { "" };
+    if let Some((_, f)) = rfslam_eval::metric::figure(last) {
+        return f.title.to_string();
+    }
     match last {
-        "pos_rmse_m" => "position RMSE [m]".into(),
-        "pos_rmse_se2_m" => "position RMSE after SE(2) fit [m]".into(),
-        "head_rmse_deg" => "heading RMSE [deg]".into(),
-        "gospa_m" => "GOSPA of the final map [m]".into(),
-        "ess_pct" => "mean ESS [% of N]".into(),
-        "resampling_pct" => "steps resampled [%]".into(),
-        "time_ms" => "time per recursion [ms]".into(),
-        "tpr" => "data association TPR".into(),
-        "tnr" => "data association TNR".into(),
         "detection_pd" | "pd" => format!("{assumed}detection probability p_D"),
         "pd0" => "peak detection probability p_D0".into(),
         "clutter_rate" | "rate" => format!("{assumed}clutter rate \u{3bb} [false measurements per scan]"),
@@ -152,16 +147,9 @@ pub fn describe(column: &str) -> String {
     }
 }
 
-/// The std column of a summary metric, if the summary has one.
+/// The std column of a summary figure, as the metric table declares it.
 pub fn std_column(metric: &str) -> Option<&'static str> {
-    match metric {
-        "pos_rmse_m" => Some("pos_std_m"),
-        "pos_rmse_se2_m" => Some("pos_std_se2_m"),
-        "head_rmse_deg" => Some("head_std_deg"),
-        "gospa_m" => Some("gospa_std_m"),
-        "time_ms" => Some("time_std_ms"),
-        _ => None,
-    }
+    rfslam_eval::metric::figure(metric).and_then(|(_, f)| f.std)
 }
 
 /// Options shared by the sweep figures.

@@ -244,7 +244,7 @@ impl Csv {
 /// The wall-time columns of `runs.csv` and `summary.csv`: the only ones allowed to differ
 /// between two executions of the same jobs.
 pub const RUN_TIME: &[&str] = &["time_ms_per_step"];
-pub const SUMMARY_TIME: &[&str] = &["time_ms", "time_std_ms"];
+pub const SUMMARY_TIME: &[&str] = &["time_ms", "time_std_ms", "time_ms_lo95", "time_ms_hi95"];
 
 /// Reads `metrics.json`.
 pub fn metrics(path: &Path) -> serde_json::Map<String, serde_json::Value> {
