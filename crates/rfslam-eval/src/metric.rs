@@ -184,6 +184,24 @@ pub static COLUMNS: &[Column] = &[
         SCORED,
         "pos RMSE, SE(2)-aligned [m]",
     ),
+    summarised(
+        real("ospa_m", "ospa", "m", "OSPA of the final map ([metrics] ospa = { c, p })"),
+        "ospa_m",
+        Some("ospa_std_m"),
+        Pool::Mean,
+        "OSPA [m]",
+    ),
+    real("ospa_loc_m", "ospa", "m", "localisation part of the final-map OSPA"),
+    real("ospa_card_m", "ospa", "m", "cardinality part of the final-map OSPA"),
+    Column {
+        figure: Some(Figure {
+            name: "landmarks",
+            std: Some("landmarks_std"),
+            pool: Pool::Mean,
+            title: "landmarks in the map",
+        }),
+        ..count("landmarks", "landmarks", "landmarks in the final map estimate ([metrics] landmarks = true)")
+    },
 ];
 
 /// A metric: a named observer of runs that fills its columns of [`COLUMNS`].
@@ -196,7 +214,8 @@ pub struct MetricDecl {
     pub observer: fn(&MetricsConfig, &RunStart) -> Box<dyn Observer>,
 }
 
-/// Every metric; all are always on (the columns of every `runs.csv` since `pos_rmse_se2_m`).
+/// Every metric. The first six are always on (the columns of every `runs.csv` since
+/// `pos_rmse_se2_m`); the others are chosen in `[metrics]`.
 pub static METRICS: &[MetricDecl] = &[
     MetricDecl { name: "pose", enabled: |_| true, observer: |_, _| Box::new(PoseMetric::default()) },
     MetricDecl {
@@ -212,6 +231,15 @@ pub static METRICS: &[MetricDecl] = &[
     MetricDecl { name: "time", enabled: |_| true, observer: |_, _| Box::new(TimeMetric::default()) },
     MetricDecl { name: "association", enabled: |_| true, observer: |_, s| Box::new(AssociationMetric::new(s.dataset)) },
     MetricDecl { name: "aligned_pose", enabled: |_| true, observer: |_, _| Box::new(AlignedMetric::default()) },
+    MetricDecl {
+        name: "ospa",
+        enabled: |m| m.ospa.is_some(),
+        observer: |m, _| {
+            let o = m.ospa.unwrap_or_default();
+            Box::new(OspaMetric { c: o.c, p: o.p })
+        },
+    },
+    MetricDecl { name: "landmarks", enabled: |m| m.landmarks, observer: |_, _| Box::new(LandmarksMetric) },
 ];
 
 /// The column named `name`.
@@ -420,6 +448,33 @@ impl Observer for GospaMetric {
     }
 }
 
+/// OSPA of the final map with its localisation and cardinality parts (Schuhmacher et al.
+/// 2008), the map metric of Leung et al. and of Moratuwage et al. 2019.
+struct OspaMetric {
+    c: f64,
+    p: f64,
+}
+
+impl Observer for OspaMetric {
+    fn observe(&mut self, _: &StepRecord) {}
+    fn finish(&mut self, end: &RunEnd, out: &mut Values) {
+        let o = final_map(end).and_then(|(t, e)| rfslam_metrics::ospa(&t, &e, self.c, self.p).ok());
+        out.set("ospa_m", o.map_or(f64::NAN, |o| o.total));
+        out.set("ospa_loc_m", o.map_or(f64::NAN, |o| o.loc_m()));
+        out.set("ospa_card_m", o.map_or(f64::NAN, |o| o.card_m()));
+    }
+}
+
+/// Landmarks in the final map estimate.
+struct LandmarksMetric;
+
+impl Observer for LandmarksMetric {
+    fn observe(&mut self, _: &StepRecord) {}
+    fn finish(&mut self, end: &RunEnd, out: &mut Values) {
+        out.set("landmarks", end.estimate.map.len() as f64);
+    }
+}
+
 /// A summary figure pooled over runs: the figure, the standard deviation of the per-run
 /// values and the 95 % interval of the figure (NaN where not defined, e.g. one run).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -498,4 +553,73 @@ fn sample_std(v: &[f64]) -> f64 {
 /// Makes the observers of the metrics an experiment scores.
 pub fn observers(m: &MetricsConfig, start: &RunStart) -> Vec<Box<dyn Observer>> {
     METRICS.iter().filter(|d| (d.enabled)(m)).map(|d| (d.observer)(m, start)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::OspaSettings;
+    use rfslam_core::{Estimate, MapPoint};
+
+    fn end_values(m: &MetricsConfig, map: &[(f64, f64)]) -> (Values, Vec<Point2>, Vec<Point2>) {
+        let sc = crate::fixtures::procedural_500();
+        let world = sc.load_world().unwrap();
+        let ds = sc.build_dataset(world.as_ref(), 1).unwrap();
+        let estimate = Estimate {
+            pose: ds.models().initial_pose,
+            map: map.iter().map(|&(x, y)| MapPoint { position: Point2::new(x, y), weight: 1.0 }).collect(),
+        };
+        let mut values = Values::default();
+        let end = RunEnd { dataset: &ds, estimate: &estimate, steps: 0 };
+        for mut o in observers(m, &RunStart { dataset: &ds, particles: 1 }) {
+            o.finish(&end, &mut values);
+        }
+        let truth: Vec<Point2> = ds.landmarks.as_ref().unwrap().iter().map(|l| l.position).collect();
+        let est = estimate.map.iter().map(|p| p.position).collect();
+        (values, truth, est)
+    }
+
+    #[test]
+    fn optional_metrics_fill_their_columns_only_when_asked_for() {
+        let map = [(0.0, 0.0), (10.0, 5.0), (-3.0, 40.0)];
+        let (v, ..) = end_values(&MetricsConfig::default(), &map);
+        assert!(v.get("ospa_m").unwrap().is_nan() && v.get("landmarks").unwrap().is_nan());
+        assert!(v.get("gospa_m").unwrap().is_finite());
+        let m = MetricsConfig { ospa: Some(OspaSettings { c: 5.0, p: 1.0 }), landmarks: true, ..Default::default() };
+        let (v, truth, est) = end_values(&m, &map);
+        let o = rfslam_metrics::ospa(&truth, &est, 5.0, 1.0).unwrap();
+        assert_eq!(v.get("ospa_m"), Some(o.total));
+        assert_eq!(v.get("ospa_loc_m"), Some(o.loc_m()));
+        assert_eq!(v.get("ospa_card_m"), Some(o.card_m()));
+        assert_eq!(v.get("landmarks"), Some(3.0));
+        // The experiment's columns: the always-on ones, then the optional ones in table order.
+        let names: Vec<&str> = columns(&m).iter().map(|c| c.name).collect();
+        assert_eq!(names[names.len() - 5..], ["pos_rmse_se2_m", "ospa_m", "ospa_loc_m", "ospa_card_m", "landmarks"]);
+        assert_eq!(columns(&MetricsConfig::default()).last().map(|c| c.name), Some("pos_rmse_se2_m"));
+    }
+
+    #[test]
+    fn settings_out_of_range_name_their_key() {
+        let bad = |m: MetricsConfig| m.validate().unwrap_err().key;
+        assert_eq!(bad(MetricsConfig { gospa_c: 0.0, ..Default::default() }), "gospa_c");
+        assert_eq!(bad(MetricsConfig { ospa: Some(OspaSettings { c: -1.0, p: 1.0 }), ..Default::default() }), "ospa.c");
+        assert_eq!(bad(MetricsConfig { ospa: Some(OspaSettings { c: 1.0, p: 0.5 }), ..Default::default() }), "ospa.p");
+        assert!(MetricsConfig { ospa: Some(OspaSettings::default()), ..Default::default() }.validate().is_ok());
+    }
+
+    #[test]
+    fn pooling_matches_the_closed_forms() {
+        // Mean of 1, 2, 3: 2, s = 1, half-width t(0.975, 2) / sqrt(3).
+        let p = Pool::Mean.pool(&[1.0, 2.0, f64::NAN, 3.0], &[]);
+        let h = 4.302652729911275 / 3f64.sqrt();
+        assert_eq!((p.value, p.std, p.runs), (2.0, 1.0, 3));
+        assert!((p.lo95 - (2.0 - h)).abs() < 1e-6 && (p.hi95 - (2.0 + h)).abs() < 1e-6);
+        // RMSE over steps: sqrt((1 * 100 + 9 * 300) / 400); a run without scored steps is left out.
+        let p = Pool::Rmse { steps: "scored_steps" }.pool(&[1.0, 3.0, 5.0], &[100.0, 300.0, 0.0]);
+        assert!((p.value - 7f64.sqrt()).abs() < 1e-12 && p.runs == 2);
+        assert!(p.lo95 <= p.value && p.value <= p.hi95);
+        // A rate's interval stays within [0, 1].
+        let p = Pool::Rate { events: "da_positives" }.pool(&[1.0, 0.98, 0.99], &[10.0, 1000.0, 20.0]);
+        assert!(p.hi95 <= 1.0 && p.lo95 >= 0.0 && p.lo95 <= p.value);
+    }
 }
