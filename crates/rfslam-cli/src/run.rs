@@ -92,6 +92,8 @@ fn overrides(set: &[String]) -> Result<Overrides, Failure> {
     let metrics: MetricsConfig = toml::Value::Table(mtable)
         .try_into()
         .map_err(|e: toml::de::Error| usage(format!("--set metrics.*: {}", e.message())))?;
+    // The ranges an experiment's [metrics] is held to.
+    metrics.validate().map_err(|e| usage(format!("--set metrics.{}: {}", e.key, e.message)))?;
     Ok(Overrides { params, scenario, metrics })
 }
 

@@ -220,6 +220,16 @@ fn usage_errors_exit_with_2() {
     fails(tmp.path(), &[&run[..], &["--set", "novalue"]].concat(), 2, &["novalue", "KEY=VALUE"]);
     fails(tmp.path(), &[&run[..], &["--set", "scenario.clutter.rate=-1"]].concat(), 2, &["clutter.rate"]);
     fails(tmp.path(), &[&run[..], &["--particles", "2"]].concat(), 2, &["particles"]);
+    // --set metrics.* is held to the ranges of an experiment's [metrics] (it used to write
+    // NaN results with exit 0).
+    for bad in
+        ["metrics.gospa_c=-1", "metrics.gospa_c=0", "metrics.gospa_c=nan", "metrics.gospa_p=0.5", "metrics.gospa_p=inf"]
+    {
+        let key = bad.split('=').next().unwrap();
+        fails(tmp.path(), &[&run[..], &["--set", bad]].concat(), 2, &[key]);
+    }
+    fails(tmp.path(), &[&run[..], &["--set", "metrics.truth_tolerance_s=-1"]].concat(), 2, &["truth_tolerance_s"]);
+    fails(tmp.path(), &[&run[..], &["--set", "metrics.ospa.c=-1"]].concat(), 2, &["metrics.ospa.c"]);
     fails(
         tmp.path(),
         &["simulate", "--scenario", "scen.toml", "--set", "clutter.rate=-1", "--out", "ds"],
