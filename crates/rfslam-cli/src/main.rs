@@ -73,7 +73,8 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
         /// Continue an interrupted sweep in --out: run only the jobs missing from runs.csv.
-        /// Refuses a directory of another experiment, shard, selection or --runs.
+        /// Refuses a directory of another experiment, shard or selection, one without its
+        /// experiment.resolved.toml, and fewer --runs than it holds (more extend the sweep).
         #[arg(long)]
         resume: bool,
         /// Run only shard I of N (I = 1..N): job k (0-based) of the canonical job order
@@ -99,6 +100,14 @@ enum Command {
         /// Output directory of the merged sweep.
         #[arg(long)]
         out: PathBuf,
+    },
+    /// Rewrite summary.csv and report.md of a sweep's (or merge's) directory from its runs.csv
+    /// and experiment.resolved.toml: no experiment file or data needed. The published table
+    /// is the one the resolved experiment names (or the directory's published.csv).
+    Report {
+        /// The sweep's output directory.
+        #[arg(value_name = "DIR")]
+        dir: PathBuf,
     },
     /// Draw a figure of a run or a sweep directory (PNG or SVG by the extension of --out).
     Plot(plot::PlotArgs),
@@ -192,6 +201,11 @@ fn main() -> ExitCode {
         Command::Simulate { scenario, seed, set, out } => simulate(&scenario, seed, &set, &out),
         Command::Run(args) => run::run(&args),
         Command::Plot(args) => plot::plot(&args),
+        Command::Report { dir } => (|| {
+            let n = rfslam_harness::sweep::report_dir(&dir)?;
+            println!("{n} rows -> {}/summary.csv, {}/report.md", dir.display(), dir.display());
+            Ok(())
+        })(),
         Command::Merge { dirs, out } => (|| {
             let o = rfslam_harness::merge(&dirs, &out)?;
             for d in &o.identical_duplicates {

@@ -167,6 +167,41 @@ fn interrupted_sweep_resumes_with_only_the_missing_jobs() {
     }
 }
 
+/// `--resume` with fewer `--runs` than the directory holds is refused (the resolved
+/// experiment and report would say fewer runs than the summary pools); more runs extend the
+/// sweep and the resolved experiment and report say so. A directory whose resolved experiment
+/// is gone is not resumed (its rows could be another experiment's). `rfslam report DIR`
+/// rewrites the summary and report from the directory alone.
+#[test]
+fn resume_keeps_the_runs_and_the_resolved_experiment_consistent() {
+    let tmp = TempDir::new("resume-runs");
+    resume_setup(&tmp);
+    ok(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--quiet", "--runs", "3"]);
+    let before = tmp.read("out/runs.csv");
+    fails(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--resume", "--runs", "2"], 1, &["3 runs", "--runs 3"]);
+    assert_eq!(tmp.read("out/runs.csv"), before);
+    let o = ok(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--resume", "--quiet"]);
+    assert!(o.stdout.contains("8 jobs run (12 already done)"), "{}", o.stdout);
+    assert!(tmp.read("out/experiment.resolved.toml").contains("runs = 5\n"));
+    assert!(tmp.read("out/report.md").contains("5 Monte Carlo runs per row"));
+    let summary = Csv::read(&tmp.join("out/summary.csv"));
+    assert!(summary.rows.iter().all(|r| r[summary.header.iter().position(|h| h == "runs").unwrap()] == "5"));
+
+    let report = tmp.read("out/report.md");
+    std::fs::remove_file(tmp.join("out/report.md")).unwrap();
+    std::fs::remove_file(tmp.join("out/summary.csv")).unwrap();
+    let o = ok(tmp.path(), &["report", "out"]);
+    assert!(o.stdout.contains("20 rows"), "{}", o.stdout);
+    assert_eq!(Csv::read(&tmp.join("out/summary.csv")).without(SUMMARY_TIME), summary.without(SUMMARY_TIME));
+    assert_eq!(tmp.read("out/report.md"), report);
+
+    std::fs::remove_file(tmp.join("out/experiment.resolved.toml")).unwrap();
+    let runs = tmp.read("out/runs.csv");
+    fails(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--resume"], 1, &["experiment.resolved.toml"]);
+    assert_eq!(tmp.read("out/runs.csv"), runs);
+    fails(tmp.path(), &["report", "out"], 2, &["experiment.resolved.toml"]);
+}
+
 #[test]
 fn existing_output_is_never_overwritten_without_resume() {
     let tmp = TempDir::new("no-resume");

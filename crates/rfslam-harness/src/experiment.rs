@@ -499,41 +499,8 @@ impl Plan {
 
     /// The resolved experiment (scenario inlined, defaults filled, seeds listed), written next
     /// to the outputs and used to check that a resumed sweep is the same experiment.
-    pub fn resolved_toml(&self) -> String {
-        let mut root = toml::Table::new();
-        root.insert("name".into(), self.config.name.clone().into());
-        root.insert("experiment_file".into(), self.path.display().to_string().into());
-        root.insert("scenario_file".into(), self.scenario_path.display().to_string().into());
-        root.insert("runs".into(), (self.config.runs as i64).into());
-        root.insert("seed".into(), (self.config.seed as i64).into());
-        root.insert(
-            "run_seeds".into(),
-            format!("run r uses seed {} + r (data stream and filter stream derived from it)", self.config.seed).into(),
-        );
-        if let Ok(v) = toml::Value::try_from(&self.config.metrics) {
-            root.insert("metrics".into(), v);
-        }
-        root.insert("scenario".into(), toml::Value::Table(self.scenario_table.clone()));
-        let mut filters = Vec::new();
-        for f in &self.config.filters {
-            let mut t = toml::Table::new();
-            t.insert("name".into(), f.name.clone().into());
-            t.insert("label".into(), f.label().to_string().into());
-            t.insert("particles".into(), toml::Value::Array(f.particles.iter().map(|&n| (n as i64).into()).collect()));
-            let mut params = registry::find(&f.name).map(|e| (e.defaults)()).unwrap_or_default();
-            for (k, v) in &f.params {
-                params.insert(k.clone(), v.clone());
-            }
-            t.insert("params".into(), toml::Value::Table(params));
-            filters.push(toml::Value::Table(t));
-        }
-        root.insert("filters".into(), toml::Value::Array(filters));
-        let mut grid = toml::Table::new();
-        for (k, v) in &self.config.grid {
-            grid.insert(k.clone(), toml::Value::Array(v.clone()));
-        }
-        root.insert("grid".into(), toml::Value::Table(grid));
-        toml::to_string_pretty(&root).unwrap_or_default()
+    pub fn resolved(&self) -> crate::resolved::ResolvedExperiment {
+        crate::resolved::ResolvedExperiment::of(self)
     }
 }
 

@@ -12,6 +12,7 @@ pub mod experiment;
 pub mod locate;
 pub mod registry;
 pub mod report;
+pub mod resolved;
 pub mod runs;
 pub mod shard;
 pub mod summary;

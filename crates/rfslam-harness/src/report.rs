@@ -112,6 +112,11 @@ pub fn render(info: &ReportInfo, rows: &[SummaryRow], published: Option<&Publish
         "- experiment: `{}`; {} Monte Carlo runs per row, master seed {}",
         info.experiment, info.runs, info.seed
     );
+    let _ = writeln!(
+        s,
+        "- redo: `rfslam report <this directory>` rewrites this report and `summary.csv` from the directory's `runs.csv`; `rfslam sweep {} --runs {} --out <directory>` reruns every job",
+        info.experiment, info.runs
+    );
     if !info.invocations.is_empty() {
         let jobs: usize = info.invocations.iter().map(|i| i.0).sum();
         let wall: f64 = info.invocations.iter().map(|i| i.2).sum();

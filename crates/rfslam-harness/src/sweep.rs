@@ -20,8 +20,9 @@ use crate::error::HarnessError;
 use crate::experiment::{ExperimentConfig, Job, JobFilter, JobKey, Plan};
 use crate::registry;
 use crate::report::{PublishedTable, ReportInfo, render};
+use crate::resolved::{RESOLVED_FILE, ResolvedExperiment};
 use crate::runs::{RunRow, RunsAppender, read_rows, write_rows};
-use crate::shard::{Shard, ShardRecord, resolved_difference};
+use crate::shard::{Shard, ShardRecord};
 use crate::summary::{summarise, write_summary};
 use rfslam_eval::run_filter;
 
@@ -143,8 +144,8 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
     let out = &opts.out;
     std::fs::create_dir_all(out).map_err(|e| HarnessError::io(out, e))?;
     let runs_path = out.join("runs.csv");
-    let resolved_path = out.join("experiment.resolved.toml");
-    let resolved = plan.resolved_toml();
+    let resolved_path = out.join(RESOLVED_FILE);
+    let resolved = plan.resolved();
 
     let mut previous: Vec<RunRow> = Vec::new();
     if runs_path.exists() {
@@ -154,18 +155,32 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
                 runs_path.display()
             )));
         }
-        check_shard_dir(out, &resolved, plan, opts)?;
-        if let Ok(old) = std::fs::read_to_string(&resolved_path)
-            && !same_experiment(&old, &resolved)
-        {
+        // Without the resolved experiment nothing says which experiment the rows belong to.
+        let old = ResolvedExperiment::read(out)?.ok_or_else(|| {
+            HarnessError::Resume(format!(
+                "{} has no {RESOLVED_FILE}: nothing says which experiment its rows belong to, so they are not resumed; use another --out",
+                out.display()
+            ))
+        })?;
+        check_shard_dir(out, &old, &resolved, plan, opts)?;
+        if !resolved.keeps_rows_of(&old) {
             return Err(HarnessError::Resume(format!(
                 "{} describes a different experiment (configuration changed since that sweep): use another --out",
                 resolved_path.display()
             )));
         }
+        if resolved.runs < old.runs {
+            return Err(HarnessError::Resume(format!(
+                "{} holds a sweep of {} runs: resume it with --runs {} (or more, to extend it), not {}",
+                out.display(),
+                old.runs,
+                old.runs,
+                resolved.runs
+            )));
+        }
         previous = read_rows(&runs_path, &plan.layout())?;
     }
-    std::fs::write(&resolved_path, &resolved).map_err(|e| HarnessError::io(&resolved_path, e))?;
+    std::fs::write(&resolved_path, resolved.to_toml()).map_err(|e| HarnessError::io(&resolved_path, e))?;
     match opts.shard {
         Some(shard) => ShardRecord::new(shard, plan, &opts.select).write(out)?,
         None => {
@@ -235,7 +250,13 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
 /// no shard record for an unsharded sweep; for `--shard I/N` the record of that shard with
 /// the same selection, and exactly the same resolved experiment (a shard's jobs depend on
 /// the whole selected job list: unlike an unsharded resume, runs and entries may not change).
-fn check_shard_dir(out: &Path, resolved: &str, plan: &Plan, opts: &SweepOptions) -> Result<(), HarnessError> {
+fn check_shard_dir(
+    out: &Path,
+    old: &ResolvedExperiment,
+    resolved: &ResolvedExperiment,
+    plan: &Plan,
+    opts: &SweepOptions,
+) -> Result<(), HarnessError> {
     let held = ShardRecord::read(out)?;
     let dir = out.display();
     match (held, opts.shard) {
@@ -260,9 +281,7 @@ fn check_shard_dir(out: &Path, resolved: &str, plan: &Plan, opts: &SweepOptions)
                     "{dir} holds shard {s} of another selection of jobs (--filters / --particles): resume with the options it was started with"
                 )));
             }
-            let old = out.join(crate::shard::RESOLVED_FILE);
-            let old = std::fs::read_to_string(&old).map_err(|e| HarnessError::io(&old, e))?;
-            match resolved_difference(&old, resolved) {
+            match old.difference(resolved) {
                 None => Ok(()),
                 Some(d) => Err(HarnessError::Resume(format!(
                     "{dir} holds shard {s} of a different experiment (it differs at {d}): a shard resumes only the experiment it began, with the same --runs"
@@ -270,37 +289,6 @@ fn check_shard_dir(out: &Path, resolved: &str, plan: &Plan, opts: &SweepOptions)
             }
         }
     }
-}
-
-/// Whether the rows of an earlier sweep (`old`, its `experiment.resolved.toml`) remain valid
-/// for `new`: same scenario, master seed, metrics and grid, and every filter label present
-/// in both has the same filter and parameters. Adding or removing filter entries, particle
-/// counts or runs keeps the finished rows (they are keyed by grid point, label, N and run);
-/// the paths the files were read from do not matter.
-fn same_experiment(old: &str, new: &str) -> bool {
-    let (Ok(a), Ok(b)) = (old.parse::<toml::Table>(), new.parse::<toml::Table>()) else { return old == new };
-    for key in ["scenario", "seed", "metrics", "grid"] {
-        if a.get(key) != b.get(key) {
-            return false;
-        }
-    }
-    let entries = |t: &toml::Table| -> Vec<(String, toml::Value, toml::Value)> {
-        t.get("filters")
-            .and_then(|f| f.as_array())
-            .map(|fs| {
-                fs.iter()
-                    .filter_map(|f| {
-                        let f = f.as_table()?;
-                        Some((f.get("label")?.as_str()?.to_string(), f.get("name")?.clone(), f.get("params")?.clone()))
-                    })
-                    .collect()
-            })
-            .unwrap_or_default()
-    };
-    let (ea, eb) = (entries(&a), entries(&b));
-    ea.iter().all(|(label, name, params)| {
-        eb.iter().find(|(l, ..)| l == label).is_none_or(|(_, n, p)| n == name && p == params)
-    })
 }
 
 /// File listing every sweep invocation that ran jobs in an output directory.
@@ -386,6 +374,40 @@ pub fn write_outputs(
     let md = render(&info, &summary, ctx.published);
     let report = out.join("report.md");
     std::fs::write(&report, md).map_err(|e| HarnessError::io(&report, e))
+}
+
+/// `rfslam report DIR`: rewrites `summary.csv` and `report.md` (and `runs.csv` in canonical
+/// order) of a sweep's directory from its `runs.csv` and resolved experiment alone. The
+/// published table is the one the resolved experiment names when that file is there, else
+/// the directory's copy (`published.csv`, as shards keep it), else none. Returns the rows.
+pub fn report_dir(dir: &Path) -> Result<usize, HarnessError> {
+    let resolved = ResolvedExperiment::read(dir)?.ok_or_else(|| {
+        HarnessError::Shards(format!(
+            "{} has no {RESOLVED_FILE}: not the output directory of `rfslam sweep` or `rfslam merge`",
+            dir.display()
+        ))
+    })?;
+    let config = resolved.config();
+    let runs_path = dir.join("runs.csv");
+    if !runs_path.is_file() {
+        return Err(HarnessError::Shards(format!("{}: no runs.csv", dir.display())));
+    }
+    let rows = read_rows(&runs_path, &config.layout())?;
+    let copy = dir.join(crate::shard::PUBLISHED_COPY);
+    let published = match &resolved.published {
+        Some(p) if Path::new(p).is_file() => Some(PublishedTable::read(Path::new(p)).map_err(HarnessError::Shards)?),
+        Some(p) if copy.is_file() => {
+            let mut t = PublishedTable::read(&copy).map_err(HarnessError::Shards)?;
+            t.source = p.clone();
+            Some(t)
+        }
+        _ => None,
+    };
+    let n = rows.len();
+    let ctx =
+        OutputContext { config: &config, experiment: resolved.experiment_file.clone(), published: published.as_ref() };
+    write_outputs(&ctx, rows, read_invocations(dir), dir)?;
+    Ok(n)
 }
 
 /// Rewrites `runs.csv` in canonical job order and writes `summary.csv` and `report.md`
