@@ -1,8 +1,8 @@
 //! `rfslam`: simulate data sets, run one filter, sweep Monte Carlo experiments (whole or in
 //! shards, merged afterwards), draw figures of runs and sweeps, list filters.
 //!
-//! Exit codes: 0 success; 2 bad usage or configuration (detected before anything runs);
-//! 1 a failure while running (missing data, I/O, a filter error).
+//! Exit codes: 0 success; 2 bad input (usage, configuration, parameters, data, directories
+//! that do not belong together); 1 a failure while running (I/O, an incomplete merge).
 
 mod plot;
 mod run;
@@ -20,8 +20,9 @@ use rfslam_harness::{HarnessError, JobFilter, Plan, Shard, SweepOptions, registr
     name = "rfslam",
     version,
     about = "Random-finite-set SLAM filters and their Monte Carlo harness",
-    after_help = "Exit codes: 0 success; 2 bad usage or configuration (found before anything runs); \
-                  1 a failure while running (missing data, I/O). Keys: docs/configuration.md."
+    after_help = "Exit codes: 0 success; 2 bad input (usage, configuration, parameters, data, directories \
+                  that do not belong together); 1 a failure while running (I/O, an incomplete merge). \
+                  Keys: docs/configuration.md."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -181,8 +182,9 @@ fn simulate(scenario: &Path, seed: u64, set: &[String], out: &Path) -> Result<()
         .map(|s| split_set(s).map(|(k, v)| (k.trim_start_matches("scenario.").to_string(), v)))
         .collect::<Result<_, _>>()?;
     let sc = scenario_with_overrides(scenario, &sets)?;
-    let world = sc.load_world().map_err(|e| anyhow!("{e}"))?;
-    let ds = sc.build_dataset(world.as_ref(), seed).map_err(|e| anyhow!("{e}"))?;
+    let world = sc.load_world().map_err(HarnessError::Data)?;
+    let ds = sc.build_dataset(world.as_ref(), seed).map_err(HarnessError::Data)?;
+    // Writing the data set is a failure while running (exit 1), not bad input.
     ds.write(out).map_err(|e| anyhow!("{e}"))?;
     let n_z: usize = ds.scans.iter().map(|s| s.z.len()).sum();
     println!("wrote {} ({} scans, {} measurements) to {}", ds.meta.name, ds.scans.len(), n_z, out.display());

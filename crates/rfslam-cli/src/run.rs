@@ -18,7 +18,7 @@ use rfslam_data::Dataset;
 use rfslam_eval::trace::{self, ParticlesWriter, StepsWriter};
 use rfslam_eval::{JobOutcome, MetricsConfig};
 use rfslam_harness::experiment::set_dotted;
-use rfslam_harness::registry;
+use rfslam_harness::{HarnessError, registry};
 
 use crate::{Failure, scenario_with_overrides, split_set, usage};
 
@@ -103,12 +103,12 @@ fn load_dataset(args: &RunArgs, scen_sets: &[(String, toml::Value)]) -> Result<D
             if !scen_sets.is_empty() {
                 return Err(usage("--set scenario.* needs --scenario, not --dataset".into()));
             }
-            Ok(Dataset::read(dir).map_err(|e| anyhow!("{e}"))?)
+            Ok(Dataset::read(dir).map_err(HarnessError::Data)?)
         }
         (None, Some(path)) => {
             let sc = scenario_with_overrides(path, scen_sets)?;
-            let world = sc.load_world().map_err(|e| anyhow!("{e}"))?;
-            Ok(sc.build_dataset(world.as_ref(), args.seed).map_err(|e| anyhow!("{e}"))?)
+            let world = sc.load_world().map_err(HarnessError::Data)?;
+            Ok(sc.build_dataset(world.as_ref(), args.seed).map_err(HarnessError::Data)?)
         }
         (None, None) => Err(usage("give --dataset DIR or --scenario FILE".into())),
     }
@@ -121,7 +121,8 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         .ok_or_else(|| usage(format!("unknown filter `{filter}`; registered filters: {}", registry::names())))?;
     let ov = overrides(&args.set)?;
     let ds = load_dataset(args, &ov.scenario)?;
-    registry::check_dataset(entry, &ds).map_err(|e| anyhow!(e))?;
+    registry::check_dataset(entry, &ds)
+        .map_err(|reason| HarnessError::UnsuitedData { filter: filter.to_string(), reason })?;
     let models = ds.models();
     let mut f =
         (entry.build)(&ov.params, &models, args.particles).map_err(|e| usage(format!("filter `{filter}`: {e}")))?;

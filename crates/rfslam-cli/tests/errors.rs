@@ -183,13 +183,15 @@ fn missing_external_data_lists_the_directories_and_how_to_get_it() {
     }
 }
 
+/// A data set that is missing or malformed is bad input: exit 2, like a bad configuration
+/// (it was exit 1, as if the run had failed).
 #[test]
-fn missing_or_corrupt_dataset_is_a_run_failure() {
+fn missing_or_corrupt_dataset_is_bad_input() {
     let (tmp, _, _) = setup("bad-dataset");
     fails(
         tmp.path(),
         &["run", "--dataset", "/nonexistent", "--filter", "dead-reckoning", "--out", "o"],
-        1,
+        2,
         &["/nonexistent", "not found"],
     );
     assert!(!tmp.join("o").exists());
@@ -203,7 +205,7 @@ fn missing_or_corrupt_dataset_is_a_run_failure() {
     fails(
         tmp.path(),
         &["run", "--dataset", "ds", "--filter", "dead-reckoning", "--out", "o"],
-        1,
+        2,
         &["measurements.csv:4", "range"],
     );
 }

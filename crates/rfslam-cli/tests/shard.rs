@@ -271,12 +271,12 @@ fn resume_continues_only_its_own_shard() {
         (&["--shard", "2/3", "--filters", "dr-b"][..], "another selection"),
     ] {
         let base = ["sweep", "exp.toml", "--out", "s2", "--resume", "--quiet"];
-        fails(tmp.path(), &[&base[..], args].concat(), 1, &["s2", needle]);
+        fails(tmp.path(), &[&base[..], args].concat(), 2, &["s2", needle]);
     }
     // Without --resume nothing is overwritten either; an unsharded sweep's directory is
     // not a shard's.
-    fails(tmp.path(), &["sweep", "exp.toml", "--shard", "2/3", "--out", "s2"], 1, &["--resume"]);
+    fails(tmp.path(), &["sweep", "exp.toml", "--shard", "2/3", "--out", "s2"], 2, &["--resume"]);
     assert_eq!(tmp.read("s2/runs.csv"), before);
     ok(tmp.path(), &["sweep", "exp.toml", "--out", "whole", "--quiet"]);
-    fails(tmp.path(), &["sweep", "exp.toml", "--shard", "1/3", "--out", "whole", "--resume"], 1, &["unsharded"]);
+    fails(tmp.path(), &["sweep", "exp.toml", "--shard", "1/3", "--out", "whole", "--resume"], 2, &["unsharded"]);
 }

@@ -178,7 +178,7 @@ fn resume_keeps_the_runs_and_the_resolved_experiment_consistent() {
     resume_setup(&tmp);
     ok(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--quiet", "--runs", "3"]);
     let before = tmp.read("out/runs.csv");
-    fails(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--resume", "--runs", "2"], 1, &["3 runs", "--runs 3"]);
+    fails(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--resume", "--runs", "2"], 2, &["3 runs", "--runs 3"]);
     assert_eq!(tmp.read("out/runs.csv"), before);
     let o = ok(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--resume", "--quiet"]);
     assert!(o.stdout.contains("8 jobs run (12 already done)"), "{}", o.stdout);
@@ -197,7 +197,7 @@ fn resume_keeps_the_runs_and_the_resolved_experiment_consistent() {
 
     std::fs::remove_file(tmp.join("out/experiment.resolved.toml")).unwrap();
     let runs = tmp.read("out/runs.csv");
-    fails(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--resume"], 1, &["experiment.resolved.toml"]);
+    fails(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--resume"], 2, &["experiment.resolved.toml"]);
     assert_eq!(tmp.read("out/runs.csv"), runs);
     fails(tmp.path(), &["report", "out"], 2, &["experiment.resolved.toml"]);
 }

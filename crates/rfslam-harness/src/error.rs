@@ -1,6 +1,11 @@
-//! Harness errors. Configuration errors name the file, line and key.
+//! Harness errors, one variant per kind of failure, so that callers (the CLI's exit codes,
+//! tests) match the kind rather than the text. Configuration errors name the file, line and
+//! key; data errors keep the data crate's error (file, line, column).
 
 use std::path::PathBuf;
+
+use rfslam_core::ParamError;
+use rfslam_data::DataError;
 
 /// What can go wrong in the harness.
 #[derive(Debug, thiserror::Error)]
@@ -17,9 +22,25 @@ pub enum HarnessError {
         /// What is wrong.
         message: String,
     },
-    /// Data could not be loaded or generated.
-    #[error("{0}")]
-    Data(String),
+    /// A data set could not be found, read or generated (bad data input).
+    #[error(transparent)]
+    Data(#[from] DataError),
+    /// A filter's parameters were refused.
+    #[error("filter `{filter}`: {source}")]
+    Parameter {
+        /// The filter label.
+        filter: String,
+        /// The parameter and what is wrong with it.
+        source: ParamError,
+    },
+    /// The data set does not suit the filter (an oracle on data without truth labels).
+    #[error("{reason}")]
+    UnsuitedData {
+        /// The filter label.
+        filter: String,
+        /// Why.
+        reason: String,
+    },
     /// File-system error.
     #[error("{}: {source}", path.display())]
     Io {
@@ -28,30 +49,77 @@ pub enum HarnessError {
         /// The underlying error.
         source: std::io::Error,
     },
-    /// Earlier outputs do not belong to this experiment (resume).
+    /// An output file could not be written.
+    #[error("{}: {message}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// What failed.
+        message: String,
+    },
+    /// An output directory's earlier contents do not belong to this sweep (`--resume`, or a
+    /// directory that is not a sweep's for `rfslam report`).
+    #[error("{message}")]
+    ResumeConflict {
+        /// The output directory.
+        dir: PathBuf,
+        /// What does not match.
+        message: String,
+    },
+    /// The directories given to `rfslam merge` are not the shards of one sweep (not shard
+    /// directories, different experiments, numbers of shards or selections).
     #[error("{0}")]
-    Resume(String),
-    /// A filter failed during a run.
+    ShardMismatch(String),
+    /// The shards' rows do not make one complete sweep: missing jobs, jobs with conflicting
+    /// rows in several directories, or rows that are not jobs of the sweep.
+    #[error("{message}")]
+    IncompleteMerge {
+        /// The missing jobs, described.
+        missing: Vec<String>,
+        /// The jobs with conflicting rows, described.
+        conflicting: Vec<String>,
+        /// Rows that are not jobs of this sweep, described.
+        foreign: Vec<String>,
+        /// The whole message.
+        message: String,
+    },
+    /// The published table named by the experiment could not be read.
+    #[error("{0}")]
+    Published(String),
+    /// A failure while running (the thread pool could not start, ...).
     #[error("{0}")]
     Run(String),
-    /// The directories given to `rfslam merge` are not the shards of one sweep (not shard
-    /// directories, different experiments, numbers of shards or selections): bad usage.
-    #[error("{0}")]
-    Shards(String),
-    /// The shards' rows do not make one complete sweep (missing or conflicting jobs).
-    #[error("{0}")]
-    Merge(String),
 }
 
 impl HarnessError {
-    /// Whether the error is bad input detected before anything ran (exit code 2) rather
+    /// Whether the error is bad input — configuration, data, parameters, directories that do
+    /// not belong together — detected before or instead of running (exit code 2), rather
     /// than a failure while running (exit code 1).
     pub fn is_usage(&self) -> bool {
-        matches!(self, HarnessError::Config { .. } | HarnessError::Shards(_))
+        matches!(
+            self,
+            HarnessError::Config { .. }
+                | HarnessError::Data(_)
+                | HarnessError::Parameter { .. }
+                | HarnessError::UnsuitedData { .. }
+                | HarnessError::ResumeConflict { .. }
+                | HarnessError::ShardMismatch(_)
+                | HarnessError::Published(_)
+        )
     }
 
     /// An I/O error at `path`.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         HarnessError::Io { path: path.into(), source }
+    }
+
+    /// A resume conflict in `dir`.
+    pub fn resume(dir: impl Into<PathBuf>, message: impl Into<String>) -> Self {
+        HarnessError::ResumeConflict { dir: dir.into(), message: message.into() }
+    }
+
+    /// A CSV output error at `path`.
+    pub fn write(path: impl Into<PathBuf>, e: impl std::fmt::Display) -> Self {
+        HarnessError::Write { path: path.into(), message: e.to_string() }
     }
 }

@@ -436,7 +436,7 @@ impl Plan {
             let world_key = toml::to_string(&sc_table.get("world")).unwrap_or_default();
             let world = match worlds.iter().find(|(k, _)| *k == world_key) {
                 Some((_, w)) => Some(w.clone()),
-                None => match scenario.load_world().map_err(|e| HarnessError::Data(e.to_string()))? {
+                None => match scenario.load_world()? {
                     Some(w) => {
                         let w = Arc::new(w);
                         worlds.push((world_key, w.clone()));
@@ -445,7 +445,7 @@ impl Plan {
                     None => None,
                 },
             };
-            let models = scenario.models_for(world.as_deref()).map_err(|e| HarnessError::Data(e.to_string()))?;
+            let models = scenario.models_for(world.as_deref())?;
             for (i, f) in filters.iter().enumerate() {
                 let entry = registry::find(&f.name).expect("checked above");
                 for &n in &f.particles {

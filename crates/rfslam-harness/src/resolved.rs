@@ -120,7 +120,7 @@ impl ResolvedExperiment {
         let text = std::fs::read_to_string(&path).map_err(|e| HarnessError::io(&path, e))?;
         ResolvedExperiment::parse(&text)
             .map(Some)
-            .map_err(|e| HarnessError::Resume(format!("{}: not a resolved experiment: {e}", path.display())))
+            .map_err(|e| HarnessError::resume(dir, format!("{}: not a resolved experiment: {e}", path.display())))
     }
 
     /// The experiment as a configuration (filters with their full parameter tables), for

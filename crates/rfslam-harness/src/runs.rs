@@ -160,20 +160,24 @@ impl HeaderMap {
 /// one of `layout`'s; a metric column of `layout` it lacks (a file written before that
 /// column existed, such as `pos_rmse_se2_m`) reads as NaN.
 pub fn read_rows(path: &Path, layout: &RunsLayout) -> Result<Vec<RunRow>, HarnessError> {
-    let mut text = std::fs::read(path).map_err(|e| HarnessError::Resume(format!("{}: {e}", path.display())))?;
+    let mut text = std::fs::read(path).map_err(|e| HarnessError::io(path, e))?;
     let complete = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
     if complete > 0 {
         text.truncate(complete);
     }
     let mut rdr = csv::ReaderBuilder::new().flexible(true).from_reader(text.as_slice());
-    let hdr = rdr.headers().map_err(|e| HarnessError::Resume(format!("{}: {e}", path.display())))?.clone();
+    let dir = path.parent().unwrap_or(path);
+    let hdr = rdr.headers().map_err(|e| HarnessError::resume(dir, format!("{}: {e}", path.display())))?.clone();
     let got: Vec<&str> = hdr.iter().collect();
     let map = HeaderMap::new(&got, layout).map_err(|why| {
-        HarnessError::Resume(format!(
-            "{}: its columns are not those of this experiment ({why}; expected {}); use another --out",
-            path.display(),
-            layout.header().join(",")
-        ))
+        HarnessError::resume(
+            dir,
+            format!(
+                "{}: its columns are not those of this experiment ({why}; expected {}); use another --out",
+                path.display(),
+                layout.header().join(",")
+            ),
+        )
     })?;
     let mut rows = Vec::new();
     for rec in rdr.records() {
@@ -193,8 +197,8 @@ pub fn read_rows(path: &Path, layout: &RunsLayout) -> Result<Vec<RunRow>, Harnes
 pub fn write_rows(path: &Path, layout: &RunsLayout, rows: &[RunRow]) -> Result<(), HarnessError> {
     let tmp = path.with_extension("csv.tmp");
     {
-        let mut w = csv::Writer::from_path(&tmp).map_err(|e| HarnessError::Run(format!("{}: {e}", tmp.display())))?;
-        let io = |e: csv::Error| HarnessError::Run(format!("{}: {e}", tmp.display()));
+        let mut w = csv::Writer::from_path(&tmp).map_err(|e| HarnessError::write(&tmp, e))?;
+        let io = |e: csv::Error| HarnessError::write(&tmp, e);
         w.write_record(layout.header()).map_err(io)?;
         for r in rows {
             w.write_record(r.fields(layout)).map_err(io)?;
@@ -222,8 +226,8 @@ impl RunsAppender {
     /// Appends one row and flushes it to the file.
     pub fn append(&mut self, row: &RunRow) -> Result<(), HarnessError> {
         let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(Vec::new());
-        w.write_record(row.fields(&self.layout)).map_err(|e| HarnessError::Run(e.to_string()))?;
-        let bytes = w.into_inner().map_err(|e| HarnessError::Run(e.to_string()))?;
+        w.write_record(row.fields(&self.layout)).map_err(|e| HarnessError::write(&self.path, e))?;
+        let bytes = w.into_inner().map_err(|e| HarnessError::write(&self.path, e))?;
         self.file.write_all(&bytes).map_err(|e| HarnessError::io(&self.path, e))?;
         self.file.flush().map_err(|e| HarnessError::io(&self.path, e))
     }

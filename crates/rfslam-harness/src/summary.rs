@@ -98,8 +98,8 @@ pub fn summarise(rows: &[RunRow], layout: &RunsLayout) -> Vec<SummaryRow> {
 
 /// Writes `summary.csv`.
 pub fn write_summary(path: &Path, layout: &RunsLayout, rows: &[SummaryRow]) -> Result<(), HarnessError> {
-    let mut w = csv::Writer::from_path(path).map_err(|e| HarnessError::Run(format!("{}: {e}", path.display())))?;
-    let err = |e: csv::Error| HarnessError::Run(format!("{}: {e}", path.display()));
+    let mut w = csv::Writer::from_path(path).map_err(|e| HarnessError::write(path, e))?;
+    let err = |e: csv::Error| HarnessError::write(path, e);
     let cols = summary_columns(layout);
     let hdr: Vec<String> = ["filter", "particles", "runs"]
         .iter()

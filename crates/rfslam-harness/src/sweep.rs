@@ -62,15 +62,13 @@ pub struct SweepOutcome {
 pub fn run_job(plan: &Plan, job: &Job) -> Result<RunRow, HarnessError> {
     let point = &plan.points[job.point];
     let f = &point.filters[job.filter];
-    let dataset = point
-        .scenario
-        .build_dataset(point.world.as_deref(), job.seed)
-        .map_err(|e| HarnessError::Data(e.to_string()))?;
+    let dataset = point.scenario.build_dataset(point.world.as_deref(), job.seed).map_err(HarnessError::Data)?;
     let models = dataset.models();
     let entry = registry::find(&f.name).ok_or_else(|| HarnessError::Run(format!("unknown filter {}", f.name)))?;
-    registry::check_dataset(entry, &dataset).map_err(HarnessError::Run)?;
-    let mut filter =
-        (entry.build)(&f.params, &models, job.particles).map_err(|e| HarnessError::Run(format!("{}: {e}", f.label)))?;
+    registry::check_dataset(entry, &dataset)
+        .map_err(|reason| HarnessError::UnsuitedData { filter: f.label.clone(), reason })?;
+    let mut filter = (entry.build)(&f.params, &models, job.particles)
+        .map_err(|source| HarnessError::Parameter { filter: f.label.clone(), source })?;
     let o = run_filter(&dataset, filter.as_mut(), job.seed, &plan.config.metrics, &mut |_| {});
     Ok(RunRow {
         run: job.run,
@@ -150,33 +148,42 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
     let mut previous: Vec<RunRow> = Vec::new();
     if runs_path.exists() {
         if !opts.resume {
-            return Err(HarnessError::Resume(format!(
-                "{} already exists: pass --resume to continue that sweep, or choose another --out",
-                runs_path.display()
-            )));
+            return Err(HarnessError::resume(
+                out,
+                format!(
+                    "{} already exists: pass --resume to continue that sweep, or choose another --out",
+                    runs_path.display()
+                ),
+            ));
         }
         // Without the resolved experiment nothing says which experiment the rows belong to.
         let old = ResolvedExperiment::read(out)?.ok_or_else(|| {
-            HarnessError::Resume(format!(
+            HarnessError::resume(out, format!(
                 "{} has no {RESOLVED_FILE}: nothing says which experiment its rows belong to, so they are not resumed; use another --out",
                 out.display()
             ))
         })?;
         check_shard_dir(out, &old, &resolved, plan, opts)?;
         if !resolved.keeps_rows_of(&old) {
-            return Err(HarnessError::Resume(format!(
-                "{} describes a different experiment (configuration changed since that sweep): use another --out",
-                resolved_path.display()
-            )));
+            return Err(HarnessError::resume(
+                out,
+                format!(
+                    "{} describes a different experiment (configuration changed since that sweep): use another --out",
+                    resolved_path.display()
+                ),
+            ));
         }
         if resolved.runs < old.runs {
-            return Err(HarnessError::Resume(format!(
-                "{} holds a sweep of {} runs: resume it with --runs {} (or more, to extend it), not {}",
-                out.display(),
-                old.runs,
-                old.runs,
-                resolved.runs
-            )));
+            return Err(HarnessError::resume(
+                out,
+                format!(
+                    "{} holds a sweep of {} runs: resume it with --runs {} (or more, to extend it), not {}",
+                    out.display(),
+                    old.runs,
+                    old.runs,
+                    resolved.runs
+                ),
+            ));
         }
         previous = read_rows(&runs_path, &plan.layout())?;
     }
@@ -261,31 +268,41 @@ fn check_shard_dir(
     let dir = out.display();
     match (held, opts.shard) {
         (None, None) => Ok(()),
-        (Some(h), None) => Err(HarnessError::Resume(format!(
-            "{dir} holds shard {}/{} of a sharded sweep: resume it with --shard {}/{}, or choose another --out",
-            h.shard, h.shards, h.shard, h.shards
-        ))),
-        (None, Some(s)) => Err(HarnessError::Resume(format!(
-            "{dir} holds an unsharded sweep: shard {s} needs a directory of its own (another --out)"
-        ))),
+        (Some(h), None) => Err(HarnessError::resume(
+            out,
+            format!(
+                "{dir} holds shard {}/{} of a sharded sweep: resume it with --shard {}/{}, or choose another --out",
+                h.shard, h.shards, h.shard, h.shards
+            ),
+        )),
+        (None, Some(s)) => Err(HarnessError::resume(
+            out,
+            format!("{dir} holds an unsharded sweep: shard {s} needs a directory of its own (another --out)"),
+        )),
         (Some(h), Some(s)) => {
             if (h.shard, h.shards) != (s.index(), s.count()) {
-                return Err(HarnessError::Resume(format!(
-                    "{dir} holds shard {}/{}, not {s}: give each shard its own --out",
-                    h.shard, h.shards
-                )));
+                return Err(HarnessError::resume(
+                    out,
+                    format!("{dir} holds shard {}/{}, not {s}: give each shard its own --out", h.shard, h.shards),
+                ));
             }
             let want = ShardRecord::new(s, plan, &opts.select);
             if h.selection != want.selection {
-                return Err(HarnessError::Resume(format!(
-                    "{dir} holds shard {s} of another selection of jobs (--filters / --particles): resume with the options it was started with"
-                )));
+                return Err(HarnessError::resume(
+                    out,
+                    format!(
+                        "{dir} holds shard {s} of another selection of jobs (--filters / --particles): resume with the options it was started with"
+                    ),
+                ));
             }
             match old.difference(resolved) {
                 None => Ok(()),
-                Some(d) => Err(HarnessError::Resume(format!(
-                    "{dir} holds shard {s} of a different experiment (it differs at {d}): a shard resumes only the experiment it began, with the same --runs"
-                ))),
+                Some(d) => Err(HarnessError::resume(
+                    out,
+                    format!(
+                        "{dir} holds shard {s} of a different experiment (it differs at {d}): a shard resumes only the experiment it began, with the same --runs"
+                    ),
+                )),
             }
         }
     }
@@ -382,22 +399,25 @@ pub fn write_outputs(
 /// the directory's copy (`published.csv`, as shards keep it), else none. Returns the rows.
 pub fn report_dir(dir: &Path) -> Result<usize, HarnessError> {
     let resolved = ResolvedExperiment::read(dir)?.ok_or_else(|| {
-        HarnessError::Shards(format!(
-            "{} has no {RESOLVED_FILE}: not the output directory of `rfslam sweep` or `rfslam merge`",
-            dir.display()
-        ))
+        HarnessError::resume(
+            dir,
+            format!(
+                "{} has no {RESOLVED_FILE}: not the output directory of `rfslam sweep` or `rfslam merge`",
+                dir.display()
+            ),
+        )
     })?;
     let config = resolved.config();
     let runs_path = dir.join("runs.csv");
     if !runs_path.is_file() {
-        return Err(HarnessError::Shards(format!("{}: no runs.csv", dir.display())));
+        return Err(HarnessError::resume(dir, format!("{}: no runs.csv", dir.display())));
     }
     let rows = read_rows(&runs_path, &config.layout())?;
     let copy = dir.join(crate::shard::PUBLISHED_COPY);
     let published = match &resolved.published {
-        Some(p) if Path::new(p).is_file() => Some(PublishedTable::read(Path::new(p)).map_err(HarnessError::Shards)?),
+        Some(p) if Path::new(p).is_file() => Some(PublishedTable::read(Path::new(p)).map_err(HarnessError::Published)?),
         Some(p) if copy.is_file() => {
-            let mut t = PublishedTable::read(&copy).map_err(HarnessError::Shards)?;
+            let mut t = PublishedTable::read(&copy).map_err(HarnessError::Published)?;
             t.source = p.clone();
             Some(t)
         }

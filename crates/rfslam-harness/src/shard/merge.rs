@@ -25,10 +25,10 @@ struct Input {
 impl Input {
     fn read(dir: &Path) -> Result<Input, HarnessError> {
         if !dir.is_dir() {
-            return Err(HarnessError::Shards(format!("{}: no such directory", dir.display())));
+            return Err(HarnessError::ShardMismatch(format!("{}: no such directory", dir.display())));
         }
         let not_shard = |what: &str| {
-            HarnessError::Shards(format!(
+            HarnessError::ShardMismatch(format!(
                 "{} is not the output directory of `rfslam sweep --shard` (it has no {what})",
                 dir.display()
             ))
@@ -40,7 +40,7 @@ impl Input {
         }
         let text = std::fs::read_to_string(&rpath).map_err(|e| HarnessError::io(&rpath, e))?;
         let resolved = ResolvedExperiment::parse(&text)
-            .map_err(|e| HarnessError::Shards(format!("{}: not a resolved experiment: {e}", rpath.display())))?;
+            .map_err(|e| HarnessError::ShardMismatch(format!("{}: not a resolved experiment: {e}", rpath.display())))?;
         let published = match &record.report.published {
             Some(_) => {
                 let p = dir.join(PUBLISHED_COPY);
@@ -148,7 +148,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeOutcome, HarnessError>
 /// Step 1: the input directories, each a shard directory, each once, none the output; in
 /// shard order (then the order given), which decides which of two identical rows is kept.
 fn read_inputs(dirs: &[PathBuf], out: &Path) -> Result<Vec<Input>, HarnessError> {
-    let usage = HarnessError::Shards;
+    let usage = HarnessError::ShardMismatch;
     if dirs.is_empty() {
         return Err(usage("give the output directories of the shards to merge".into()));
     }
@@ -173,7 +173,7 @@ fn read_inputs(dirs: &[PathBuf], out: &Path) -> Result<Vec<Input>, HarnessError>
 /// Step 2: every input a shard of the same sweep (resolved experiment, number of shards,
 /// selection, description and published table), and `out` not a sweep's own directory.
 fn check_one_sweep(inputs: &[Input], out: &Path) -> Result<(), HarnessError> {
-    let usage = HarnessError::Shards;
+    let usage = HarnessError::ShardMismatch;
     let first = &inputs[0];
     for other in &inputs[1..] {
         let (a, b) = (first.dir.display(), other.dir.display());
@@ -216,7 +216,7 @@ fn published_table(first: &Input) -> Result<Option<PublishedTable>, HarnessError
     match (&first.record.report.published, &first.published) {
         (Some(source), Some(_)) => {
             let copy = first.dir.join(PUBLISHED_COPY);
-            let mut t = PublishedTable::read(&copy).map_err(HarnessError::Shards)?;
+            let mut t = PublishedTable::read(&copy).map_err(HarnessError::Published)?;
             t.source = source.clone();
             Ok(Some(t))
         }
@@ -242,7 +242,7 @@ fn rows_by_job(
         let text = std::fs::read_to_string(&path).map_err(|e| HarnessError::io(&path, e))?;
         let got = text.lines().next().unwrap_or("");
         if got != want {
-            return Err(HarnessError::Shards(format!(
+            return Err(HarnessError::ShardMismatch(format!(
                 "{}: its columns are not those this rfslam writes (a shard of another rfslam version?)\n  found:    {got}\n  expected: {want}",
                 path.display()
             )));
@@ -250,11 +250,13 @@ fn rows_by_job(
         for row in read_rows(&path, layout)? {
             let key = row.key();
             if !expected_set.contains(&key) {
-                return Err(HarnessError::Merge(format!(
-                    "{}: {} is not a job of this sweep",
-                    path.display(),
-                    describe_job(&layout.grid_keys, &key)
-                )));
+                let job = describe_job(&layout.grid_keys, &key);
+                return Err(HarnessError::IncompleteMerge {
+                    message: format!("{}: {job} is not a job of this sweep", path.display()),
+                    missing: Vec::new(),
+                    conflicting: Vec::new(),
+                    foreign: vec![job],
+                });
             }
             by_job.entry(key).or_default().push((i, row));
         }
@@ -327,7 +329,12 @@ fn check_complete(
         ));
     }
     if !problems.is_empty() {
-        return Err(HarnessError::Merge(format!("nothing merged:\n{}", problems.join("\n"))));
+        return Err(HarnessError::IncompleteMerge {
+            message: format!("nothing merged:\n{}", problems.join("\n")),
+            missing: missing.iter().map(|k| describe_job(grid_keys, k)).collect(),
+            conflicting: conflicts,
+            foreign: Vec::new(),
+        });
     }
     Ok(identical)
 }

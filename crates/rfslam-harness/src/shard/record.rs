@@ -75,9 +75,10 @@ impl ShardRecord {
             return Ok(None);
         }
         let text = std::fs::read_to_string(&path).map_err(|e| HarnessError::io(&path, e))?;
-        let rec: ShardRecord = toml::from_str(&text)
-            .map_err(|e| HarnessError::Shards(format!("{}: not a shard record: {}", path.display(), e.message())))?;
-        rec.shard().map_err(|e| HarnessError::Shards(format!("{}: {e}", path.display())))?;
+        let rec: ShardRecord = toml::from_str(&text).map_err(|e| {
+            HarnessError::ShardMismatch(format!("{}: not a shard record: {}", path.display(), e.message()))
+        })?;
+        rec.shard().map_err(|e| HarnessError::ShardMismatch(format!("{}: {e}", path.display())))?;
         Ok(Some(rec))
     }
 
@@ -85,7 +86,7 @@ impl ShardRecord {
     /// `dir/published.csv`.
     pub fn write(&self, dir: &Path) -> Result<(), HarnessError> {
         let path = dir.join(SHARD_FILE);
-        let body = toml::to_string_pretty(self).map_err(|e| HarnessError::Run(format!("{}: {e}", path.display())))?;
+        let body = toml::to_string_pretty(self).map_err(|e| HarnessError::write(&path, e))?;
         let text = format!(
             "# Written by `rfslam sweep --shard`: the part of the experiment this directory holds.\n# `rfslam merge` reads it with experiment.resolved.toml and runs.csv.\n{body}"
         );
