@@ -116,6 +116,22 @@ enum Command {
     Filters,
 }
 
+/// The error and its causes, each cause once: a cause whose text the message already holds
+/// (as errors that print their source do: `path: No such file or directory`) is not repeated.
+fn error_text(err: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in err.chain() {
+        let c = cause.to_string();
+        if text.is_empty() {
+            text = c;
+        } else if !text.contains(&c) {
+            text.push_str(": ");
+            text.push_str(&c);
+        }
+    }
+    text
+}
+
 /// An error with its exit code.
 pub(crate) struct Failure {
     code: u8,
@@ -285,7 +301,7 @@ fn main() -> ExitCode {
     match res {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
-            eprintln!("error: {:#}", f.err);
+            eprintln!("error: {}", error_text(&f.err));
             ExitCode::from(f.code)
         }
     }

@@ -244,3 +244,59 @@ fn usage_errors_exit_with_2() {
     assert_ne!(o.code, 0);
     assert!(o.stderr.contains("missing.toml"), "{}", o.stderr);
 }
+
+/// Duplicate jobs (a particle count or a grid value listed twice) would run twice and pool
+/// as separate Monte Carlo runs: refused, naming the key.
+#[test]
+fn duplicate_jobs_are_refused() {
+    let (tmp, _, exp) = setup("duplicate-jobs");
+    let text = replace_once(&exp, "particles = [1]", "particles = [1, 3, 1]");
+    sweep_config_error(&tmp, &text, "particles = [1, 3, 1]", &["filters[0].particles", "listed twice"]);
+    let text = format!("{exp}\n[grid]\n\"scenario.clutter.rate\" = [1.0, 2.0, 1.0]\n");
+    sweep_config_error(&tmp, &text, "\"scenario.clutter.rate\" = [1.0, 2.0, 1.0]", &["listed twice"]);
+}
+
+/// The experiment name is one plain path component (it names results/runs/<name>); a label
+/// is a table cell: empty, `|`, newline and `,` are refused.
+#[test]
+fn names_and_labels_that_would_break_paths_or_reports_are_refused() {
+    let (tmp, _, exp) = setup("names");
+    for bad in ["", "../../x", "/abs", "x/y", ".."] {
+        let text = replace_once(&exp, "name = \"acceptance\"", &format!("name = {bad:?}"));
+        sweep_config_error(&tmp, &text, "name = ", &["key `name`"]);
+    }
+    for bad in ["", "a|b", "a\\nb", "a,b"] {
+        let text = replace_once(&exp, "label = \"dr-a\"", &format!("label = \"{bad}\""));
+        sweep_config_error(&tmp, &text, "label = \"", &["filters[0].label"]);
+    }
+}
+
+/// A missing experiment file is bad input like a missing scenario (exit 2); a directory is
+/// said to be one; TOML that is not UTF-8 gets its line; an OS error is printed once.
+#[test]
+fn unreadable_experiment_files_are_bad_input() {
+    let (tmp, _, _) = setup("unreadable");
+    let o = fails(tmp.path(), &["sweep", "missing.toml", "--out", "o"], 2, &["missing.toml"]);
+    assert_eq!(o.stderr.matches("os error 2").count(), 1, "{}", o.stderr);
+    fails(tmp.path(), &["sweep", "data", "--out", "o"], 2, &["data", "is a directory"]);
+    std::fs::write(tmp.join("latin1.toml"), b"name = \"x\"\nruns = 1\n# caf\xe9\n").unwrap();
+    fails(tmp.path(), &["sweep", "latin1.toml", "--out", "o"], 2, &["latin1.toml:3:", "UTF-8"]);
+    let o = fails(
+        tmp.path(),
+        &["run", "--dataset", "nowhere", "--filter", "dead-reckoning", "--out", "o"],
+        2,
+        &["nowhere"],
+    );
+    assert!(o.stderr.matches("not found").count() <= 1, "{}", o.stderr);
+    assert!(!tmp.join("o").exists());
+}
+
+/// A grid key naming no entry quotes the whole key (labels contain dots: it used to print
+/// `phd-1`, the key cut at the first dot) and lists the entries.
+#[test]
+fn grid_key_for_an_absent_entry_is_quoted_whole() {
+    let (tmp, _, exp) = setup("grid-absent");
+    let text = format!("{exp}\n[grid]\n\"filter.phd-1.0.gate\" = [10.0]\n");
+    let e = sweep_config_error(&tmp, &text, "\"filter.phd-1.0.gate\"", &["filter.phd-1.0.gate", "dr-a"]);
+    assert!(!e.contains("`phd-1`"), "{e}");
+}

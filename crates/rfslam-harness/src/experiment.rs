@@ -211,8 +211,57 @@ pub struct JobFilter {
     pub particles: Option<Vec<usize>>,
 }
 
+/// Reads a configuration file: one that cannot be read, or is not UTF-8 (the line of the
+/// first bad byte is named), is a configuration error (bad input, exit code 2).
 fn read(path: &Path) -> Result<String, HarnessError> {
-    std::fs::read_to_string(path).map_err(|e| HarnessError::Io { path: path.to_path_buf(), source: e })
+    let bad = |line: Option<usize>, message: String| HarnessError::Config {
+        file: path.to_path_buf(),
+        line,
+        key: String::new(),
+        message,
+    };
+    let bytes = std::fs::read(path).map_err(|e| {
+        let what =
+            if path.is_dir() { "is a directory, not a file".to_string() } else { format!("cannot be read ({e})") };
+        bad(None, what)
+    })?;
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = 1 + e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count();
+        bad(Some(line), "is not UTF-8 text (TOML files must be UTF-8)".to_string())
+    })
+}
+
+/// Why `name` cannot be an experiment name: it names the output directory
+/// `results/runs/<name>`, so it must be one plain path component.
+fn bad_name(name: &str) -> Option<&'static str> {
+    if name.trim().is_empty() {
+        Some("is empty")
+    } else if name == "." || name == ".." {
+        Some("is `.` or `..`")
+    } else if name.contains(['/', '\\']) || Path::new(name).is_absolute() {
+        Some("contains a path separator: it names one output directory, results/runs/<name>")
+    } else if name.chars().any(char::is_control) {
+        Some("contains a control character")
+    } else {
+        None
+    }
+}
+
+/// Why `label` cannot label a filter entry: it is a cell of Markdown tables and of CSV
+/// files, and a directory-free word on the command line.
+fn bad_label(label: &str) -> Option<&'static str> {
+    if label.trim().is_empty() {
+        Some("is empty")
+    } else if label.contains('|') {
+        Some("contains `|`, which would break the report's tables")
+    } else if label.chars().any(char::is_control) {
+        Some("contains a control character (e.g. a newline)")
+    } else if label.contains(',') {
+        Some("contains `,`, which `--filters` would split")
+    } else {
+        None
+    }
 }
 
 /// A configuration error at `key` of `file`, with the line when the key is written there.
@@ -321,6 +370,9 @@ impl Plan {
             return Err(err("filters", "at least one [[filters]] entry is needed".into()));
         }
         config.metrics.validate().map_err(|e| err(&format!("metrics.{}", e.key), e.message))?;
+        if let Some(why) = bad_name(&config.name) {
+            return Err(err("name", format!("the experiment name `{}` {why}", config.name.escape_debug())));
+        }
         let mut labels = std::collections::HashSet::new();
         for (i, f) in config.filters.iter().enumerate() {
             if registry::find(&f.name).is_none() {
@@ -331,6 +383,20 @@ impl Plan {
             }
             if f.particles.is_empty() || f.particles.contains(&0) {
                 return Err(err(&format!("filters[{i}].particles"), "needs one or more particle counts >= 1".into()));
+            }
+            if let Some(n) = f.particles.iter().enumerate().find_map(|(k, n)| f.particles[..k].contains(n).then_some(n))
+            {
+                return Err(err(
+                    &format!("filters[{i}].particles"),
+                    format!("particle count {n} is listed twice: its jobs would run twice and pool as separate runs"),
+                ));
+            }
+            if let Some(why) = bad_label(f.label()) {
+                let key = if f.label.is_some() { "label" } else { "name" };
+                return Err(err(
+                    &format!("filters[{i}].{key}"),
+                    format!("the label `{}` {why}", f.label().escape_debug()),
+                ));
             }
             if !labels.insert(f.label().to_string()) {
                 return Err(err(
@@ -358,6 +424,13 @@ impl Plan {
             if config.grid[k].is_empty() {
                 return Err(err(&gkey, "needs at least one value".into()));
             }
+            let values = &config.grid[k];
+            if let Some(v) = values.iter().enumerate().find_map(|(j, v)| values[..j].contains(v).then_some(v)) {
+                return Err(err(
+                    &gkey,
+                    format!("the value {v} is listed twice: its jobs would run twice and pool as separate runs"),
+                ));
+            }
             let ok = if let Some(rest) = k.strip_prefix("scenario.") {
                 !rest.is_empty()
             } else if let Some(rest) = k.strip_prefix("filter.") {
@@ -365,7 +438,17 @@ impl Plan {
                 match split_filter_key(rest, &names) {
                     Some((who, key)) if !key.is_empty() => {
                         if !config.filters.iter().any(|f| f.label() == who || f.name == who) {
-                            return Err(err(&gkey, format!("no filter entry is labelled or named `{who}`")));
+                            // `who` is only a guess at where the label ends (labels contain
+                            // dots): name the whole key and the entries there are.
+                            let mut known: Vec<&str> = names.clone();
+                            known.dedup();
+                            return Err(err(
+                                &gkey,
+                                format!(
+                                    "`filter.{rest}` starts with no filter entry's label or name followed by `.<key>`; the entries are: {}",
+                                    known.join(", ")
+                                ),
+                            ));
                         }
                         true
                     }
