@@ -229,6 +229,7 @@ fn main() -> ExitCode {
             for d in &o.identical_duplicates {
                 eprintln!("warning: duplicated job with identical rows, kept once: {d}");
             }
+            print!("{}", o.table);
             println!(
                 "merged {} shard directories ({} jobs) -> {}/runs.csv, {}/summary.csv, {}/report.md",
                 o.shards,
@@ -287,6 +288,7 @@ fn main() -> ExitCode {
                 Some(s) => format!(" [shard {s}: {} jobs]", o.total),
                 None => String::new(),
             };
+            print!("{}", o.table);
             println!(
                 "{} jobs run ({} already done){part} in {:.1} s -> {}/summary.csv, {}/report.md",
                 o.ran,

@@ -133,6 +133,10 @@ fn interrupted_sweep_resumes_with_only_the_missing_jobs() {
     resume_setup(&tmp);
     let o = ok(tmp.path(), &["sweep", "exp.toml", "--jobs", "2", "--out", "full"]);
     assert!(o.stdout.contains("20 jobs run (0 already done)"), "{}", o.stdout);
+    // The headline figures are printed: one line per grid point and entry under the header.
+    let header = o.stdout.lines().position(|l| l.starts_with("scenario.clutter.rate  filter")).expect("table header");
+    let table: Vec<&str> = o.stdout.lines().skip(header + 1).take(4).collect();
+    assert!(table.iter().all(|l| l.contains("dr-") && l.contains(" 5 ")), "{}", o.stdout);
     let full_runs = tmp.read("full/runs.csv");
     let full_summary = Csv::read(&tmp.join("full/summary.csv"));
     let lines: Vec<&str> = full_runs.lines().collect();

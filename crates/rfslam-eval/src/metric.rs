@@ -60,6 +60,9 @@ pub struct Figure {
     pub pool: Pool,
     /// Title in reports and plots, with the unit.
     pub title: &'static str,
+    /// The family the report groups it in (one table per family): `localisation`, `map`,
+    /// `filter`, `data association`, `cost`.
+    pub family: &'static str,
 }
 
 /// One column of `runs.csv`.
@@ -94,7 +97,14 @@ const fn summarised(
     pool: Pool,
     title: &'static str,
 ) -> Column {
-    Column { figure: Some(Figure { name, std, pool, title }), ..c }
+    let family = match c.metric.as_bytes() {
+        b"pose" | b"aligned_pose" => "localisation",
+        b"map_gospa" | b"ospa" | b"landmarks" => "map",
+        b"association" => "data association",
+        b"time" => "cost",
+        _ => "filter",
+    };
+    Column { figure: Some(Figure { name, std, pool, title, family }), ..c }
 }
 
 const SCORED: Pool = Pool::Rmse { steps: "scored_steps" };
@@ -199,6 +209,7 @@ pub static COLUMNS: &[Column] = &[
             std: Some("landmarks_std"),
             pool: Pool::Mean,
             title: "landmarks in the map",
+            family: "map",
         }),
         ..count("landmarks", "landmarks", "landmarks in the final map estimate ([metrics] landmarks = true)")
     },

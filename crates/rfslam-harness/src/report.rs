@@ -147,8 +147,8 @@ pub fn render(info: &ReportInfo, rows: &[SummaryRow], published: Option<&Publish
     // The summary figures of the metric table, in its order; a column where neither we nor
     // the published table have a value is left out.
     let figures: Vec<&Figure> = rows.first().map(|r| r.figures.iter().map(|(f, _)| *f).collect()).unwrap_or_default();
-    let used: Vec<(&str, &str)> = figures
-        .iter()
+    let used: Vec<&Figure> = figures
+        .into_iter()
         .filter(|f| {
             if f.name == "pos_rmse_se2_m" {
                 return aligned;
@@ -156,8 +156,15 @@ pub fn render(info: &ReportInfo, rows: &[SummaryRow], published: Option<&Publish
             rows.iter().any(|r| r.get(f.name).is_some_and(|x| !x.is_nan()))
                 || published.is_some_and(|p| p.columns.iter().any(|pc| pc == f.name))
         })
-        .map(|f| (f.name, f.title))
         .collect();
+    // One table per family of figures (localisation, map, filter, ...), in table order, so
+    // that no table is wider than a screen.
+    let mut families: Vec<&str> = Vec::new();
+    for f in &used {
+        if !families.contains(&f.family) {
+            families.push(f.family);
+        }
+    }
 
     let mut points: Vec<&Vec<String>> = Vec::new();
     for r in rows {
@@ -170,43 +177,102 @@ pub fn render(info: &ReportInfo, rows: &[SummaryRow], published: Option<&Publish
             let title: Vec<String> = info.grid_keys.iter().zip(g).map(|(k, v)| format!("{k} = {v}")).collect();
             let _ = writeln!(s, "## {}\n", title.join(", "));
         }
-        let mut head = String::from("| filter | N | runs |");
-        let mut sep = String::from("|---|---:|---:|");
-        for (c, title) in &used {
-            let has_pub = published.is_some_and(|p| p.columns.iter().any(|pc| pc == c));
-            if has_pub {
-                let _ = write!(head, " {title} | published | ratio |");
-                sep.push_str("---:|---:|---:|");
-            } else {
-                let _ = write!(head, " {title} |");
-                sep.push_str("---:|");
-            }
+        let level = if info.grid_keys.is_empty() { "##" } else { "###" };
+        for family in &families {
+            let cols: Vec<&Figure> = used.iter().copied().filter(|f| f.family == *family).collect();
+            let _ = writeln!(s, "{level} {}\n", capitalised(family));
+            family_table(&mut s, rows.iter().filter(|r| &r.grid == g), &cols, published);
         }
-        let _ = writeln!(s, "{head}\n{sep}");
-        for r in rows.iter().filter(|r| &r.grid == g) {
-            let mut line = format!("| {} | {} | {} |", r.filter, r.particles, r.runs);
-            let pubrow = published.and_then(|p| p.rows.get(&(r.filter.clone(), r.particles)));
-            for (c, _) in &used {
-                let ours = r.get(c).unwrap_or(f64::NAN);
-                let std = r.figure(c).and_then(|(f, p)| f.std.map(|_| p.std));
-                let cell = match std {
-                    Some(sd) if !ours.is_nan() && !sd.is_nan() => format!("{} ± {}", num(ours), num(sd)),
-                    _ => num(ours),
-                };
-                let has_pub = published.is_some_and(|p| p.columns.iter().any(|pc| pc == *c));
-                if has_pub {
-                    let p = pubrow.and_then(|m| m.get(*c as &str)).copied().unwrap_or(f64::NAN);
-                    let ratio = if p.is_nan() || ours.is_nan() || p == 0.0 { f64::NAN } else { ours / p };
-                    let _ = write!(line, " {cell} | {} | {} |", num(p), num(ratio));
-                } else {
-                    let _ = write!(line, " {cell} |");
-                }
-            }
-            let _ = writeln!(s, "{line}");
-        }
-        let _ = writeln!(s);
     }
     s
+}
+
+/// `map` -> `Map`.
+fn capitalised(word: &str) -> String {
+    let mut c = word.chars();
+    c.next().map(|f| f.to_uppercase().chain(c).collect()).unwrap_or_default()
+}
+
+/// One table: filter, N, runs, then per figure ours (± std where the table names one) and,
+/// where the published table has the figure, the published value and the ratio.
+fn family_table<'a>(
+    s: &mut String,
+    rows: impl Iterator<Item = &'a SummaryRow>,
+    cols: &[&Figure],
+    published: Option<&PublishedTable>,
+) {
+    let has_pub = |c: &str| published.is_some_and(|p| p.columns.iter().any(|pc| pc == c));
+    let mut head = String::from("| filter | N | runs |");
+    let mut sep = String::from("|---|---:|---:|");
+    for f in cols {
+        if has_pub(f.name) {
+            let _ = write!(head, " {} | published | ratio |", f.title);
+            sep.push_str("---:|---:|---:|");
+        } else {
+            let _ = write!(head, " {} |", f.title);
+            sep.push_str("---:|");
+        }
+    }
+    let _ = writeln!(s, "{head}\n{sep}");
+    for r in rows {
+        let mut line = format!("| {} | {} | {} |", r.filter, r.particles, r.runs);
+        let pubrow = published.and_then(|p| p.rows.get(&(r.filter.clone(), r.particles)));
+        for f in cols {
+            let ours = r.get(f.name).unwrap_or(f64::NAN);
+            let std = r.figure(f.name).and_then(|(f, p)| f.std.map(|_| p.std));
+            let cell = match std {
+                Some(sd) if !ours.is_nan() && !sd.is_nan() => format!("{} ± {}", num(ours), num(sd)),
+                _ => num(ours),
+            };
+            if has_pub(f.name) {
+                let p = pubrow.and_then(|m| m.get(f.name)).copied().unwrap_or(f64::NAN);
+                let ratio = if p.is_nan() || ours.is_nan() || p == 0.0 { f64::NAN } else { ours / p };
+                let _ = write!(line, " {cell} | {} | {} |", num(p), num(ratio));
+            } else {
+                let _ = write!(line, " {cell} |");
+            }
+        }
+        let _ = writeln!(s, "{line}");
+    }
+    let _ = writeln!(s);
+}
+
+/// The figures a sweep prints when it ends: filter, N, runs, position and heading RMSE,
+/// final-map GOSPA and ms per recursion, each with the published value in parentheses
+/// where the experiment names a table that has it; `n/a` where there is no value.
+pub fn terminal_table(rows: &[SummaryRow], grid_keys: &[String], published: Option<&PublishedTable>) -> String {
+    const SHOWN: [&str; 4] = ["pos_rmse_m", "head_rmse_deg", "gospa_m", "time_ms"];
+    let title = |name: &'static str| rfslam_eval::metric::figure(name).map_or(name, |(_, f)| f.title);
+    let mut header: Vec<String> = grid_keys.to_vec();
+    header.extend(["filter", "N", "runs"].map(String::from));
+    header.extend(SHOWN.map(|c| title(c).to_string()));
+    let mut lines: Vec<Vec<String>> = vec![header];
+    for r in rows {
+        let mut l: Vec<String> = r.grid.clone();
+        l.extend([r.filter.clone(), r.particles.to_string(), r.runs.to_string()]);
+        let pubrow = published.and_then(|p| p.rows.get(&(r.filter.clone(), r.particles)));
+        for c in SHOWN {
+            let ours = r.get(c).unwrap_or(f64::NAN);
+            let mut cell = if ours.is_finite() { num(ours) } else { "n/a".to_string() };
+            if let Some(p) = pubrow.and_then(|m| m.get(c)) {
+                cell.push_str(&format!(" ({})", num(*p)));
+            }
+            l.push(cell);
+        }
+        lines.push(l);
+    }
+    let widths: Vec<usize> =
+        (0..lines[0].len()).map(|i| lines.iter().map(|l| l[i].chars().count()).max().unwrap_or(0)).collect();
+    let mut out = String::new();
+    for l in &lines {
+        let cells: Vec<String> = l.iter().zip(&widths).map(|(c, w)| format!("{c:<w$}")).collect();
+        out.push_str(cells.join("  ").trim_end());
+        out.push('\n');
+    }
+    if published.is_some() {
+        out.push_str("(published figures in parentheses)\n");
+    }
+    out
 }
 
 #[cfg(test)]
@@ -263,22 +329,42 @@ mod tests {
         // GPS-like truth (no heading): the aligned RMSE is a column of its own, with its std,
         // and no published figure or ratio.
         let md = render(&info(), &[row("phd-3.0", f64::NAN)], Some(&published()));
-        let head = md.lines().find(|l| l.starts_with("| filter")).unwrap();
+        let heads: Vec<&str> = md.lines().filter(|l| l.starts_with("| filter")).collect();
+        // One table per family: localisation, filter, cost (no map or association figures).
         assert_eq!(
-            head,
-            "| filter | N | runs | pos RMSE [m] | published | ratio | ESS [%] | resampling [%] | ms / recursion | pos RMSE, SE(2)-aligned [m] |"
+            heads,
+            [
+                "| filter | N | runs | pos RMSE [m] | published | ratio | pos RMSE, SE(2)-aligned [m] |",
+                "| filter | N | runs | ESS [%] | resampling [%] |",
+                "| filter | N | runs | ms / recursion |",
+            ]
         );
+        assert!(md.contains("## Localisation\n") && md.contains("## Filter\n") && md.contains("## Cost\n"), "{md}");
         let line = md.lines().find(|l| l.starts_with("| phd-3.0")).unwrap();
-        assert!(line.starts_with("| phd-3.0 | 1 | 3 | 6.50 ± 0.5000 | 3.25 | 2.00 |"), "{line}");
-        assert!(line.ends_with("| 3.25 ± 0.2500 |"), "{line}");
+        assert_eq!(line, "| phd-3.0 | 1 | 3 | 6.50 ± 0.5000 | 3.25 | 2.00 | 3.25 ± 0.2500 |");
         assert!(md.contains("SE(2)-aligned is the position RMSE after the best rigid"), "{md}");
         // Full simulated truth (with heading): the layout of Tables I and II, no aligned column.
         let md = render(&info(), &[row("phd-3.0", 0.4)], Some(&published()));
         assert!(!md.contains("SE(2)"), "{md}");
         let head = md.lines().find(|l| l.starts_with("| filter")).unwrap();
-        assert!(
-            head.starts_with("| filter | N | runs | pos RMSE [m] | published | ratio | head RMSE [deg] |"),
-            "{head}"
-        );
+        assert_eq!(head, "| filter | N | runs | pos RMSE [m] | published | ratio | head RMSE [deg] |");
+    }
+
+    #[test]
+    fn terminal_table_puts_published_beside_ours_and_says_na() {
+        let t = terminal_table(&[row("phd-3.0", f64::NAN)], &[], Some(&published()));
+        let lines: Vec<&str> = t.lines().collect();
+        assert_eq!(lines.len(), 3, "{t}");
+        let cols: Vec<&str> = lines[0].split("  ").map(str::trim).filter(|c| !c.is_empty()).collect();
+        assert_eq!(cols, ["filter", "N", "runs", "pos RMSE [m]", "head RMSE [deg]", "GOSPA [m]", "ms / recursion"]);
+        // Ours with the published figure in parentheses; n/a where there is no value.
+        assert!(lines[1].starts_with("phd-3.0"), "{t}");
+        assert!(lines[1].contains("6.50 (3.25)"), "{t}");
+        assert_eq!(lines[1].matches("n/a").count(), 2, "{t}");
+        assert_eq!(lines[2], "(published figures in parentheses)");
+        // Without a published table: no parentheses, no footnote.
+        let t = terminal_table(&[row("phd-3.0", 0.4)], &[], None);
+        assert!(!t.contains('('), "{t}");
+        assert_eq!(t.lines().count(), 2);
     }
 }

@@ -56,6 +56,9 @@ pub struct SweepOutcome {
     pub wall_s: f64,
     /// Output directory.
     pub out: PathBuf,
+    /// The headline figures of the summary, as a plain-text table for the terminal
+    /// ([`crate::report::terminal_table`]).
+    pub table: String,
 }
 
 /// Runs one job: builds its data set and filter, runs, scores.
@@ -249,8 +252,9 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
     if !todo.is_empty() {
         record_invocation(out, todo.len(), threads, wall_s)?;
     }
-    finish(plan, out)?;
-    Ok(SweepOutcome { ran: todo.len(), skipped, total: all_jobs.len(), wall_s, out: out.clone() })
+    let summary = finish(plan, out)?;
+    let table = crate::report::terminal_table(&summary, &plan.grid_keys, plan.published.as_ref());
+    Ok(SweepOutcome { ran: todo.len(), skipped, total: all_jobs.len(), wall_s, out: out.clone(), table })
 }
 
 /// On resuming in `out`: the directory must hold the same part of the sweep as asked for —
@@ -367,7 +371,7 @@ pub fn write_outputs(
     rows: Vec<RunRow>,
     invocations: Vec<(usize, usize, f64)>,
     out: &Path,
-) -> Result<(), HarnessError> {
+) -> Result<Vec<crate::summary::SummaryRow>, HarnessError> {
     let grid_keys = ctx.config.grid_keys();
     let layout = ctx.config.layout();
     let rank: HashMap<JobKey, usize> =
@@ -390,7 +394,8 @@ pub fn write_outputs(
     };
     let md = render(&info, &summary, ctx.published);
     let report = out.join("report.md");
-    std::fs::write(&report, md).map_err(|e| HarnessError::io(&report, e))
+    std::fs::write(&report, md).map_err(|e| HarnessError::io(&report, e))?;
+    Ok(summary)
 }
 
 /// `rfslam report DIR`: rewrites `summary.csv` and `report.md` (and `runs.csv` in canonical
@@ -432,7 +437,7 @@ pub fn report_dir(dir: &Path) -> Result<usize, HarnessError> {
 
 /// Rewrites `runs.csv` in canonical job order and writes `summary.csv` and `report.md`
 /// from every row in it ([`write_outputs`]).
-pub fn finish(plan: &Plan, out: &Path) -> Result<(), HarnessError> {
+pub fn finish(plan: &Plan, out: &Path) -> Result<Vec<crate::summary::SummaryRow>, HarnessError> {
     let rows = read_rows(&out.join("runs.csv"), &plan.layout())?;
     write_outputs(&plan.output_context(), rows, read_invocations(out), out)
 }

@@ -63,6 +63,8 @@ pub struct MergeOutcome {
     pub identical_duplicates: Vec<String>,
     /// Output directory.
     pub out: PathBuf,
+    /// The headline figures of the merged summary, for the terminal.
+    pub table: String,
 }
 
 /// `run 3 of phd-1.0 N=10 (at scenario.clutter.rate = 5.0)`.
@@ -136,8 +138,9 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeOutcome, HarnessError>
     write_merged_record(&inputs, rows.len(), out)?;
     let ctx =
         OutputContext { config: &config, experiment: resolved.experiment_file.clone(), published: published.as_ref() };
-    write_outputs(&ctx, rows, invocations, out)?;
+    let summary = write_outputs(&ctx, rows, invocations, out)?;
     Ok(MergeOutcome {
+        table: crate::report::terminal_table(&summary, &layout.grid_keys, published.as_ref()),
         shards: inputs.len(),
         jobs: expected.len(),
         identical_duplicates: identical,
