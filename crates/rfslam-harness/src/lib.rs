@@ -10,6 +10,7 @@
 pub mod error;
 pub mod experiment;
 pub mod locate;
+pub mod lock;
 pub mod registry;
 pub mod report;
 pub mod resolved;
