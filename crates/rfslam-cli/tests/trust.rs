@@ -187,3 +187,38 @@ fn a_result_that_is_not_a_finite_number_fails_the_job() {
     assert!(o.stderr.contains("run 0 of p1 N=1 (seed 3) failed: pos_rmse_m is inf"), "{}", o.stderr);
     assert_eq!(tmp.read("s/runs.csv").lines().count(), 1, "only the header: no row of a failed job");
 }
+
+#[test]
+fn two_sweeps_started_at_once_lose_no_row() {
+    // The reproduction as a user met it: two `sweep --resume` into one directory at once.
+    // Whichever order the processes take, each either completes or is refused for the lock,
+    // and the directory ends with every row.
+    let tmp = TempDir::new("two-at-once");
+    tmp.write("scen.toml", &scenario(300, 20, 0.95, 2.0));
+    tmp.write("exp.toml", &experiment("scen.toml", 20, 1, &[Entry::new("phd-1.0", "p1", &[1, 10])], ""));
+    let args = ["sweep", "exp.toml", "--resume", "--quiet", "--jobs", "1", "--out", "out"];
+    let spawn = || {
+        std::process::Command::new(env!("CARGO_BIN_EXE_rfslam"))
+            .args(args)
+            .current_dir(tmp.path())
+            .env("RFSLAM_DATA", tmp.join("data"))
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("start rfslam")
+    };
+    let (a, b) = (spawn(), spawn());
+    let outs = [a.wait_with_output().unwrap(), b.wait_with_output().unwrap()];
+    for o in &outs {
+        let err = String::from_utf8_lossy(&o.stderr);
+        match o.status.code() {
+            Some(0) => {}
+            Some(2) => assert!(err.contains(LOCK_FILE), "{err}"),
+            c => panic!("exit {c:?}: {err}"),
+        }
+    }
+    assert!(outs.iter().any(|o| o.status.success()));
+    assert_eq!(tmp.read("out/runs.csv").lines().count(), 41);
+    let summary = Csv::read(&tmp.join("out/summary.csv"));
+    assert_eq!((summary.get(0, "runs"), summary.get(1, "runs")), ("20", "20"));
+}
