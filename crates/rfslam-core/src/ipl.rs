@@ -188,6 +188,47 @@ mod tests {
         assert!(!res.lost_definiteness);
     }
 
+    /// The stop of Algorithm 1 on the nonlinear range-bearing sensor: the loop ends at the
+    /// first iterate `l` with `KL(pi_{l-1} || pi_l)` below the threshold, well before a large
+    /// iteration budget, and not earlier. (Running with a budget of `k` iterations returns
+    /// iterate `k` when the loop has not stopped before.)
+    #[test]
+    fn nonlinear_update_stops_at_the_first_iterate_below_the_kl_threshold() {
+        use crate::Point2;
+        use crate::sensor::RangeBearingSensor;
+        let sensor = RangeBearingSensor::default();
+        let truth = Pose::new(1.5, -1.0, 0.35);
+        let x_bar = Pose::new(0.0, 0.0, 0.0);
+        let q = Matrix3::from_diagonal(&nalgebra::Vector3::new(2.0, 2.0, 0.4f64.powi(2)));
+        let marks = [Point2::new(6.0, 2.0), Point2::new(-2.0, 7.0), Point2::new(4.0, -6.0)];
+        let r = Matrix2::from_diagonal(&nalgebra::Vector2::new(0.1, 0.01f64.powi(2)));
+        let z: Vec<RangeBearing> = marks.iter().map(|m| sensor.predict(&truth, m)).collect();
+        let p_m = Matrix2::identity() * 0.05;
+        let run = |max_iterations: usize| {
+            let settings = IplSettings { max_iterations, kl_threshold: 1e-3 };
+            ipl_update(
+                &x_bar,
+                &q,
+                &z,
+                |k, x| {
+                    let l = sensor.linearise(x, &marks[k]);
+                    (l.z, l.hx, l.hm * p_m * l.hm.transpose() + r)
+                },
+                &settings,
+            )
+        };
+        let stopped = run(1000);
+        let l = stopped.iterations;
+        assert!((3..1000).contains(&l), "stopped after {l} iterations");
+        for k in 2..=l {
+            let (prev, this) = (run(k - 1), run(k));
+            assert_eq!(this.iterations, k);
+            let kl = kl_divergence(&prev.mean, &prev.cov, &this.mean, &this.cov).unwrap();
+            assert_eq!(kl < 1e-3, k == l, "iterate {k}: KL {kl}");
+        }
+        assert_eq!(run(l).mean, stopped.mean);
+    }
+
     #[test]
     fn no_measurements_is_the_prior() {
         let q = Matrix3::identity() * 0.3;
