@@ -222,3 +222,20 @@ fn two_sweeps_started_at_once_lose_no_row() {
     let summary = Csv::read(&tmp.join("out/summary.csv"));
     assert_eq!((summary.get(0, "runs"), summary.get(1, "runs")), ("20", "20"));
 }
+
+#[test]
+fn init_dataset_writes_a_template_that_runs_and_is_never_overwritten() {
+    let tmp = TempDir::new("init-dataset");
+    let o = ok(tmp.path(), &["init-dataset", "mine"]);
+    assert!(o.stdout.contains("mine/README.md"), "{}", o.stdout);
+    for f in ["dataset.toml", "scans.csv", "measurements.csv", "odometry.csv", "groundtruth.csv", "landmarks.csv"] {
+        assert!(tmp.join("mine").join(f).is_file(), "{f}");
+        assert!(tmp.read("mine/README.md").contains(&format!("`{f}`")), "README.md explains {f}");
+    }
+    assert!(tmp.read("mine/dataset.toml").starts_with("name = \"my-dataset\""));
+    let o = ok(tmp.path(), &["run", "--dataset", "mine", "--filter", "phd-3.0", "--particles", "2", "--out", "run"]);
+    assert!(o.stdout.contains("30 steps"), "{}", o.stdout);
+    let before = tmp.read("mine/measurements.csv");
+    fails(tmp.path(), &["init-dataset", "mine"], 2, &["already holds a data set"]);
+    assert_eq!(tmp.read("mine/measurements.csv"), before);
+}

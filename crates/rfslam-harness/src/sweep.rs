@@ -125,14 +125,15 @@ impl Progress {
                 let mut d = done.lock().unwrap_or_else(|p| p.into_inner());
                 *d += 1;
                 if *d % every == 0 || *d == *total {
+                    let pos = row.get("pos_rmse_m");
+                    let pos = if pos.is_finite() { format!("{pos:.2} m") } else { "n/a".into() };
                     eprintln!(
-                        "[{}/{}] {} N={} run {}: pos RMSE {:.2} m, {:.3} ms/step",
+                        "[{}/{}] {} N={} run {}: pos RMSE {pos}, {:.3} ms/step",
                         *d,
                         total,
                         row.filter,
                         row.particles,
                         row.run,
-                        row.get("pos_rmse_m"),
                         row.get("time_ms_per_step")
                     );
                 }
