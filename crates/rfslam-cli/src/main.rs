@@ -4,6 +4,10 @@
 //! Exit codes: 0 success; 2 bad input (usage, configuration, parameters, data, directories
 //! that do not belong together); 1 a failure while running (I/O, an incomplete merge).
 
+// The `///` comments of the clap types below are the `--help` text, written for a terminal:
+// `<experiment name>` there is a placeholder, not an HTML tag.
+#![allow(rustdoc::invalid_html_tags)]
+
 mod init_dataset;
 mod plot;
 mod run;

@@ -1,13 +1,15 @@
 //! Iterated posterior linearisation (IPL) of the optimal importance density with the
-//! partitioned update of seed 000 Algorithm 1 (Hostettler et al. 2020; seed 000 eqs. 42-43).
+//! partitioned update of \[Kaltiokallio2024\] Algorithm 1 (\[Hostettler2020\]; \[Kaltiokallio2024\]
+//! eqs. 42-43).
 //!
-//! Two Gaussians are kept apart (note 04 §3): the linearisation density `pi`, fixed during
-//! an iteration, and the running posterior `s`, restarted from the prior `N(x_bar, Q)` at
-//! every iteration and updated one associated landmark at a time. The statistical linear
-//! regression is the first-order Taylor expansion at `pi`'s mean, so eq. (43) gives
+//! Two Gaussians are kept apart (Algorithm 1 writes both as `mu~^x_l`): the linearisation density
+//! `pi`, fixed during an iteration, and the running posterior `s`, restarted from the prior
+//! `N(x_bar, Q)` at every iteration and updated one associated landmark at a time. The statistical
+//! linear regression is the first-order Taylor expansion at `pi`'s mean, so eq. (43) gives
 //! `B_l = A = G_x(m_pi)`, `mu^z = z_hat + A (m_s - m_pi)` and
 //! `Sigma^zz = A P_s A^T + Omega` with `Omega = G_m P_i G_m^T + R`; the cross-covariance is
-//! `P_s A^T` (eq. 43d as printed is a typo, note 04 §3). Cost O(M) per iteration with
+//! `P_s A^T` (eq. 43d as printed, `Sigma~^zx B_l^T`, is 2x2 and
+//! cannot be the 3x2 cross-covariance: a typo, our reading). Cost O(M) per iteration with
 //! fixed-size 3x3 / 2x2 algebra only.
 
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector3};
@@ -19,9 +21,9 @@ use crate::{Pose, RangeBearing};
 /// Settings of [`ipl_update`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IplSettings {
-    /// Maximum number of iterations `L` (seed 000: 5).
+    /// Maximum number of iterations `L` (\[Kaltiokallio2024\]: 5).
     pub max_iterations: usize,
-    /// Stop when `KL(pi_{l-1} || pi_l)` falls below this (seed 000: 1e-3).
+    /// Stop when `KL(pi_{l-1} || pi_l)` falls below this (\[Kaltiokallio2024\]: 1e-3).
     pub kl_threshold: f64,
 }
 
