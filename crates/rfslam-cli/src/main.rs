@@ -80,7 +80,8 @@ enum Command {
         /// Only these particle counts (comma separated).
         #[arg(long, value_delimiter = ',')]
         particles: Option<Vec<usize>>,
-        /// Jobs run at once (threads); 0 = all cores.
+        /// Jobs run at once (threads, at most 1024, never more than there are jobs); 0 = all
+        /// cores. More than the cores makes jobs share them (said on stderr).
         #[arg(long, default_value_t = 0)]
         jobs: usize,
         /// Output directory (default results/runs/<experiment name>).
@@ -257,10 +258,7 @@ fn main() -> ExitCode {
         Command::Sweep { experiment, runs, filters, particles, jobs, out, resume, shard, quiet } => (|| {
             let mut plan = Plan::load(&experiment)?;
             if let Some(r) = runs {
-                if r == 0 {
-                    return Err(usage("--runs must be at least 1".into()));
-                }
-                plan.config.runs = r;
+                plan.set_runs(r)?;
             }
             if let Some(fs) = &filters {
                 for f in fs {
@@ -296,6 +294,12 @@ fn main() -> ExitCode {
                     None => dir,
                 }
             });
+            if jobs > rfslam_harness::sweep::MAX_THREADS {
+                return Err(usage(format!(
+                    "--jobs {jobs}: at most {} jobs run at once (0 = one per core)",
+                    rfslam_harness::sweep::MAX_THREADS
+                )));
+            }
             let opts = SweepOptions { out, jobs, resume, select: JobFilter { filters, particles }, quiet, shard };
             let o = rfslam_harness::sweep(&plan, &opts)?;
             let part = match shard {

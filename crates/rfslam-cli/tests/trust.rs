@@ -239,3 +239,28 @@ fn init_dataset_writes_a_template_that_runs_and_is_never_overwritten() {
     fails(tmp.path(), &["init-dataset", "mine"], 2, &["already holds a data set"]);
     assert_eq!(tmp.read("mine/measurements.csv"), before);
 }
+
+#[test]
+fn absurd_run_and_thread_counts_are_refused_before_any_job() {
+    // `runs = 10^12` built the job list eagerly (9 GB in 15 s); `--jobs 100000` started one
+    // thread per requested job and never finished.
+    let tmp = TempDir::new("sizes");
+    tmp.write("scen.toml", &scenario(50, 5, 0.95, 1.0));
+    tmp.write(
+        "big.toml",
+        &experiment("scen.toml", 1_000_000_000_000, 1, &[Entry::new("dead-reckoning", "dr", &[1])], ""),
+    );
+    fails(tmp.path(), &["sweep", "big.toml", "--out", "o"], 2, &["big.toml:3", "key `runs`", "100000"]);
+    tmp.write("exp.toml", &experiment("scen.toml", 2, 1, &[Entry::new("phd-1.0", "p1", &[1, 2, 3])], ""));
+    fails(tmp.path(), &["sweep", "exp.toml", "--runs", "1000000000000", "--out", "o"], 2, &["--runs", "100000"]);
+    // Within MAX_RUNS but over MAX_JOBS: 3 particle counts x 100000 runs x a 4-point grid.
+    let grid = "\n[grid]\n\"scenario.clutter.rate\" = [1.0, 2.0, 3.0, 4.0]\n";
+    tmp.write("grid.toml", &experiment("scen.toml", 100_000, 1, &[Entry::new("phd-1.0", "p1", &[1, 2, 3])], grid));
+    fails(tmp.path(), &["sweep", "grid.toml", "--out", "o"], 2, &["1200000 jobs", "1000000"]);
+    fails(tmp.path(), &["sweep", "exp.toml", "--jobs", "100000", "--out", "o"], 2, &["--jobs 100000", "1024"]);
+    assert!(!tmp.join("o").exists(), "nothing is written");
+    // Many threads for few jobs: clamped to the jobs, with a note above the core count.
+    let o = ok(tmp.path(), &["sweep", "exp.toml", "--jobs", "1000", "--out", "o"]);
+    assert!(o.stderr.contains("--jobs 1000 is more than this machine's"), "{}", o.stderr);
+    assert!(o.stdout.contains("6 jobs run"), "{}", o.stdout);
+}

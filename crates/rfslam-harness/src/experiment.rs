@@ -353,7 +353,63 @@ pub fn scenario_from_table(
     Ok(sc)
 }
 
+/// The most Monte Carlo runs an experiment may ask for (the published tables use 100).
+pub const MAX_RUNS: usize = 100_000;
+
+/// The most jobs (grid points x particle counts x runs) one sweep may hold: its job list,
+/// `runs.csv` and summary stay within a few hundred megabytes.
+pub const MAX_JOBS: usize = 1_000_000;
+
+/// `runs` within `1..=MAX_RUNS`.
+fn check_runs(runs: usize) -> Result<(), String> {
+    if runs == 0 {
+        Err("must be at least 1".into())
+    } else if runs > MAX_RUNS {
+        Err(format!("{runs} runs is more than the {MAX_RUNS} a sweep may hold"))
+    } else {
+        Ok(())
+    }
+}
+
 impl Plan {
+    /// Sets the number of Monte Carlo runs (`--runs`), refusing 0, more than [`MAX_RUNS`] and
+    /// a sweep of more than [`MAX_JOBS`] jobs, before any job list is built.
+    pub fn set_runs(&mut self, runs: usize) -> Result<(), HarnessError> {
+        check_runs(runs).map_err(|why| HarnessError::Config {
+            file: self.path.clone(),
+            line: None,
+            key: "runs".into(),
+            message: format!("--runs {why}"),
+        })?;
+        self.config.runs = runs;
+        self.check_job_count()
+    }
+
+    /// The number of jobs of the whole sweep, computed without building the job list.
+    pub fn job_count(&self) -> usize {
+        let per_run: usize = self.config.filters.iter().map(|f| f.particles.len()).sum();
+        self.points.len().saturating_mul(per_run).saturating_mul(self.config.runs)
+    }
+
+    /// Refuses a sweep of more than [`MAX_JOBS`] jobs.
+    fn check_job_count(&self) -> Result<(), HarnessError> {
+        let n = self.job_count();
+        if n > MAX_JOBS {
+            return Err(HarnessError::Config {
+                file: self.path.clone(),
+                line: None,
+                key: "runs".into(),
+                message: format!(
+                    "{} grid point(s) x {} filter and particle count(s) x {} runs = {n} jobs, more than the {MAX_JOBS} a sweep may hold: use fewer runs, grid values or particle counts, or shards of separate experiments",
+                    self.points.len(),
+                    self.config.filters.iter().map(|f| f.particles.len()).sum::<usize>(),
+                    self.config.runs
+                ),
+            });
+        }
+        Ok(())
+    }
+
     /// Reads, resolves and validates an experiment file: the scenario at every grid point,
     /// every filter's parameters at every grid point, the published table; loads each
     /// distinct world once.
@@ -363,8 +419,8 @@ impl Plan {
         let dir = path.parent().unwrap_or(Path::new("."));
         let err = |key: &str, msg: String| config_error(path, &text, key, msg);
 
-        if config.runs == 0 {
-            return Err(err("runs", "must be at least 1".into()));
+        if let Err(why) = check_runs(config.runs) {
+            return Err(err("runs", why));
         }
         if config.filters.is_empty() {
             return Err(err("filters", "at least one [[filters]] entry is needed".into()));
@@ -561,7 +617,10 @@ impl Plan {
             }
             points.push(GridPoint { values, scenario, filters, world });
         }
-        Ok(Plan { path: path.to_path_buf(), config, scenario_path, scenario_table, grid_keys, points, published })
+        let plan =
+            Plan { path: path.to_path_buf(), config, scenario_path, scenario_table, grid_keys, points, published };
+        plan.check_job_count()?;
+        Ok(plan)
     }
 
     /// Every job of the plan in canonical order (point, filter, particles, run), restricted by

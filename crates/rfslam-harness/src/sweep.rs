@@ -237,8 +237,7 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
     let todo: Vec<Job> = all_jobs.iter().filter(|j| !done.contains(&plan.job_key(j))).copied().collect();
     let skipped = all_jobs.len() - todo.len();
 
-    let threads =
-        if opts.jobs == 0 { std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1) } else { opts.jobs };
+    let threads = pool_size(opts.jobs, todo.len(), opts.quiet);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -279,6 +278,23 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
     let summary = finish(plan, out)?;
     let table = crate::report::terminal_table(&summary, &plan.grid_keys, plan.published.as_ref());
     Ok(SweepOutcome { ran: todo.len(), skipped, total: all_jobs.len(), wall_s, out: out.clone(), table })
+}
+
+/// The most threads `--jobs` may ask for.
+pub const MAX_THREADS: usize = 1024;
+
+/// Threads for `todo` jobs with `--jobs requested` (0 = every core): never more than there are
+/// jobs to run. More than the machine's cores makes jobs share cores, so their time per
+/// recursion is no longer a one-core figure: said on stderr unless `quiet`.
+fn pool_size(requested: usize, todo: usize, quiet: bool) -> usize {
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let asked = if requested == 0 { cores } else { requested };
+    if requested > cores && !quiet {
+        eprintln!(
+            "note: --jobs {requested} is more than this machine's {cores} cores: jobs share cores, so ms per recursion is not a one-core figure"
+        );
+    }
+    asked.min(todo).max(1)
 }
 
 /// On resuming in `out`: the directory must hold the same part of the sweep as asked for —
