@@ -117,15 +117,28 @@ pub fn render(info: &ReportInfo, rows: &[SummaryRow], published: Option<&Publish
         "- redo: `rfslam report <this directory>` rewrites this report and `summary.csv` from the directory's `runs.csv`; `rfslam sweep {} --runs {} --out <directory>` reruns every job",
         info.experiment, info.runs
     );
+    // Jobs in the summary that no finished invocation accounts for: run by a sweep that was
+    // killed (its rows are kept, its wall time was never recorded).
+    let rows_total: usize = rows.iter().map(|r| r.runs).sum();
+    let jobs: usize = info.invocations.iter().map(|i| i.0).sum();
+    let unrecorded = rows_total.saturating_sub(jobs);
     if !info.invocations.is_empty() {
-        let jobs: usize = info.invocations.iter().map(|i| i.0).sum();
         let wall: f64 = info.invocations.iter().map(|i| i.2).sum();
         let threads: Vec<String> = info.invocations.iter().map(|i| i.1.to_string()).collect();
-        let _ = writeln!(
+        let _ = write!(
             s,
             "- {jobs} jobs run in {wall:.1} s wall time over {} sweep invocation(s) with {} thread(s)",
             info.invocations.len(),
             threads.join(" / ")
+        );
+        if unrecorded > 0 {
+            let _ = write!(s, "; {unrecorded} more by invocation(s) interrupted before they recorded a wall time");
+        }
+        let _ = writeln!(s);
+    } else if unrecorded > 0 {
+        let _ = writeln!(
+            s,
+            "- {unrecorded} jobs, run by invocation(s) that recorded no wall time (interrupted, or older than `invocations.csv`)"
         );
     }
     let _ = writeln!(
@@ -348,6 +361,26 @@ mod tests {
         assert!(!md.contains("SE(2)"), "{md}");
         let head = md.lines().find(|l| l.starts_with("| filter")).unwrap();
         assert_eq!(head, "| filter | N | runs | pos RMSE [m] | published | ratio | head RMSE [deg] |");
+    }
+
+    #[test]
+    fn jobs_of_interrupted_invocations_are_counted() {
+        // After a killed sweep and a resume, the report counted only the invocation that
+        // finished: 3 rows of which 1 was run by the resume.
+        let mut i = info();
+        i.invocations = vec![(1, 2, 0.5)];
+        let md = render(&i, &[row("phd-3.0", 0.4)], None);
+        assert!(
+            md.contains("- 1 jobs run in 0.5 s wall time over 1 sweep invocation(s) with 2 thread(s); 2 more by invocation(s) interrupted before they recorded a wall time\n"),
+            "{md}"
+        );
+        i.invocations = vec![(3, 2, 0.5)];
+        assert!(!render(&i, &[row("phd-3.0", 0.4)], None).contains("interrupted"));
+        i.invocations = vec![];
+        assert!(
+            render(&i, &[row("phd-3.0", 0.4)], None)
+                .contains("- 3 jobs, run by invocation(s) that recorded no wall time")
+        );
     }
 
     #[test]
