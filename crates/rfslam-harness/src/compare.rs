@@ -363,8 +363,16 @@ pub fn metrics_named(names: &[String]) -> Result<Vec<&'static Column>, HarnessEr
         .collect()
 }
 
+/// ", key = value, ..." of a grid point (empty without a grid).
 fn grid_text(grid: &[String], keys: &[String]) -> String {
-    keys.iter().zip(grid).map(|(k, v)| format!("{k} = {v}")).collect::<Vec<_>>().join(", ")
+    keys.iter().zip(grid).map(|(k, v)| format!(", {k} = {v}")).collect()
+}
+
+impl Group<'_> {
+    /// "`label`, N = n, key = value" for the notes.
+    fn describe(&self, keys: &[String]) -> String {
+        format!("`{}`, N = {}{}", self.label, self.particles, grid_text(self.grid, keys))
+    }
 }
 
 /// Compares every further side with the first (the reference A) over `metrics` (every
@@ -450,16 +458,7 @@ pub fn compare(sides: &[Side], metrics: Option<&[String]>, command: &str) -> Res
                     .collect();
                 let a_only = ga.by_seed.len() - pairs.len();
                 let b_only = gb.by_seed.len() - pairs.len();
-                let where_ = || {
-                    let g = grid_text(ga.grid, &a.layout.grid_keys);
-                    format!(
-                        "`{}` vs `{}`, N = {}{}",
-                        ga.label,
-                        gb.label,
-                        ga.particles,
-                        if g.is_empty() { g } else { format!(", {g}") }
-                    )
-                };
+                let where_ = || format!("A's {} vs B's `{}`", ga.describe(&a.layout.grid_keys), gb.label);
                 // The same data give the same number of recursions and of scored steps.
                 for (s, ra, rb) in &pairs {
                     for c in ["steps", "scored_steps"] {
@@ -520,13 +519,7 @@ pub fn compare(sides: &[Side], metrics: Option<&[String]>, command: &str) -> Res
                 compared += 1;
             }
             if !found {
-                let g = grid_text(ga.grid, &a.layout.grid_keys);
-                notes.push(format!(
-                    "B{bi}: A's `{}`, N = {}{} has no counterpart",
-                    ga.label,
-                    ga.particles,
-                    if g.is_empty() { g } else { format!(", {g}") }
-                ));
+                notes.push(format!("B{bi}: A's {} has no counterpart", ga.describe(&a.layout.grid_keys)));
             }
         }
         if compared == 0 {
@@ -543,13 +536,7 @@ pub fn compare(sides: &[Side], metrics: Option<&[String]>, command: &str) -> Res
         }
         for (i, g) in b_groups.iter().enumerate() {
             if !paired_b[i] && lb.is_none_or(|l| l == g.label) {
-                let gt = grid_text(g.grid, &b.layout.grid_keys);
-                notes.push(format!(
-                    "B{bi}: B's `{}`, N = {}{} has no counterpart",
-                    g.label,
-                    g.particles,
-                    if gt.is_empty() { gt } else { format!(", {gt}") }
-                ));
+                notes.push(format!("B{bi}: B's {} has no counterpart", g.describe(&b.layout.grid_keys)));
             }
         }
     }
@@ -667,7 +654,7 @@ impl Comparison {
             let order = |c: &Column| COLUMNS.iter().position(|x| x == c);
             rows.sort_by_key(|r| (order(r.column), r.b));
             let _ = writeln!(s, "\n## {family}\n");
-            let mut head = vec!["metric".to_string(), "B".to_string()];
+            let mut head = vec!["metric".to_string(), "comparison".to_string()];
             head.extend(keys.iter().cloned());
             head.extend(["N", "n", "A", "B", "B − A (95 % CI)", "median B − A", "wins", "ties", "p"].map(String::from));
             let _ = writeln!(s, "| {} |", head.join(" | "));
