@@ -127,53 +127,50 @@ impl HeaderMap {
         Ok(HeaderMap { id, metrics, grid, width: header.len() })
     }
 
-    /// Parses a record, or says what is wrong with it: the number of fields, a field that
-    /// is not a number, or a number that is not finite (a `runs.csv` never holds one: a value
-    /// that is not available is an empty cell).
-    fn parse(&self, rec: &csv::StringRecord) -> Result<RunRow, String> {
+    /// Parses a record; for a malformed (e.g. truncated) one, the column at fault (empty when
+    /// the record has the wrong number of fields) and what is wrong. A metric cell that is not
+    /// empty must hold a finite number (`NaN` or `inf` written out is an error: `runs.csv`
+    /// never holds one; an empty cell is a value not available).
+    fn parse(&self, rec: &csv::StringRecord) -> Result<RunRow, (String, String)> {
         if rec.len() != self.width {
-            return Err(format!("{} fields where the header has {}", rec.len(), self.width));
+            return Err((String::new(), format!("{} fields, the header has {}", rec.len(), self.width)));
         }
         let g = |i: usize| rec.get(i).unwrap_or("");
+        let bad = |name: &str, s: &str, what: &str| (name.to_string(), format!("`{s}` is not {what}"));
         let mut values = Values::default();
         for (name, i) in &self.metrics {
             let v = match i {
-                Some(i) => match parse_f(g(*i)) {
-                    Some(v) if v.is_finite() || g(*i).is_empty() => v,
-                    Some(_) => return Err(format!("column `{name}`: `{}` is not a finite number", g(*i))),
-                    None => return Err(format!("column `{name}`: `{}` is not a number", g(*i))),
-                },
+                Some(i) => {
+                    let s = g(*i);
+                    let v = parse_f(s).ok_or_else(|| bad(name, s, "a number"))?;
+                    if !s.is_empty() && !v.is_finite() {
+                        return Err(bad(name, s, "a finite number"));
+                    }
+                    v
+                }
                 None => f64::NAN,
             };
             values.set(name, v);
         }
-        let int = |col: usize, name: &str| -> Result<u64, String> {
-            g(self.id[col]).parse().map_err(|_| format!("column `{name}`: `{}` is not a whole number", g(self.id[col])))
-        };
+        let int = |k: usize, what: &str| bad(ID_COLUMNS[k], g(self.id[k]), what);
         Ok(RunRow {
-            run: int(0, "run")? as usize,
+            run: g(self.id[0]).parse().map_err(|_| int(0, "a run index"))?,
             filter: g(self.id[1]).to_string(),
-            particles: int(2, "particles")? as usize,
-            seed: int(3, "seed")?,
+            particles: g(self.id[2]).parse().map_err(|_| int(2, "a particle count"))?,
+            seed: g(self.id[3]).parse().map_err(|_| int(3, "a seed"))?,
             values,
             grid: self.grid.iter().map(|&i| g(i).to_string()).collect(),
         })
     }
 }
 
-/// Reads the complete rows of an existing `runs.csv` by its header; a truncated last line
-/// (a sweep killed while writing) is dropped. Every row is written with its line end in one
-/// write, so a last line without one is truncated even when it still parses (cut inside its
-/// last field). The header must hold the identity and grid columns and no column that is not
-/// one of `layout`'s; a metric column of `layout` it lacks (a file written before that
-/// column existed, such as `pos_rmse_se2_m`) reads as NaN.
-pub fn read_rows(path: &Path, layout: &RunsLayout) -> Result<Vec<RunRow>, HarnessError> {
-    let mut text = std::fs::read(path).map_err(|e| HarnessError::io(path, e))?;
-    let complete = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
-    if complete > 0 {
-        text.truncate(complete);
-    }
-    let mut rdr = csv::ReaderBuilder::new().flexible(true).from_reader(text.as_slice());
+/// Reads the header of `runs.csv` text and maps it onto `layout`.
+fn reader_of<'t>(
+    text: &'t [u8],
+    path: &Path,
+    layout: &RunsLayout,
+) -> Result<(csv::Reader<&'t [u8]>, HeaderMap), HarnessError> {
+    let mut rdr = csv::ReaderBuilder::new().flexible(true).from_reader(text);
     let dir = path.parent().unwrap_or(path);
     let hdr = rdr.headers().map_err(|e| HarnessError::resume(dir, format!("{}: {e}", path.display())))?.clone();
     let got: Vec<&str> = hdr.iter().collect();
@@ -187,18 +184,60 @@ pub fn read_rows(path: &Path, layout: &RunsLayout) -> Result<Vec<RunRow>, Harnes
             ),
         )
     })?;
+    Ok((rdr, map))
+}
+
+/// Reads the complete rows of an existing `runs.csv` by its header; a truncated last line
+/// (a sweep killed while writing) is dropped. Every row is written with its line end in one
+/// write, so a last line without one is truncated even when it still parses (cut inside its
+/// last field). Any other record that does not parse, or holds a number that is not finite,
+/// is refused naming its line and column. The header must hold the identity and grid columns
+/// and no column that is not one of `layout`'s; a metric column of `layout` it lacks (a file
+/// written before that column existed, such as `pos_rmse_se2_m`) reads as NaN.
+pub fn read_rows(path: &Path, layout: &RunsLayout) -> Result<Vec<RunRow>, HarnessError> {
+    Ok(complete_rows(path, layout)?.into_iter().map(|(_, row)| row).collect())
+}
+
+/// The rows of `path` up to its last line end (a last line without one is a row cut by a
+/// kill), each with its line number.
+fn complete_rows(path: &Path, layout: &RunsLayout) -> Result<Vec<(u64, RunRow)>, HarnessError> {
+    let mut text = std::fs::read(path).map_err(|e| HarnessError::io(path, e))?;
+    let complete = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    if complete > 0 {
+        text.truncate(complete);
+    }
+    parse_all(&text, path, layout)
+}
+
+/// Every record of `text` parsed with its line number; a record that does not parse, or a
+/// metric cell holding a number that is not finite, is an error naming the line and column.
+fn parse_all(text: &[u8], path: &Path, layout: &RunsLayout) -> Result<Vec<(u64, RunRow)>, HarnessError> {
+    let (mut rdr, map) = reader_of(text, path, layout)?;
     let mut rows = Vec::new();
     for rec in rdr.records() {
-        let bad = |line: Option<u64>, message: String| HarnessError::BadRows {
+        let cell = |line: u64, (column, message): (String, String)| HarnessError::RunsCell {
             path: path.to_path_buf(),
-            line: line.map(|l| l as usize),
+            line,
+            column,
             message,
         };
-        let rec = rec.map_err(|e| bad(e.position().map(|p| p.line()), e.to_string()))?;
-        let line = rec.position().map(|p| p.line());
-        rows.push(map.parse(&rec).map_err(|why| bad(line, why))?);
+        let rec = rec.map_err(|e| {
+            let line = e.position().map_or(0, |p| p.line());
+            cell(line, (String::new(), e.to_string()))
+        })?;
+        let line = rec.position().map_or(0, |p| p.line());
+        rows.push((line, map.parse(&rec).map_err(|e| cell(line, e))?));
     }
     Ok(rows)
+}
+
+/// Reads every row of a complete `runs.csv` (one that is read, not resumed) with its line
+/// number, refusing what [`read_rows`] passes over: a malformed or truncated record, and a
+/// metric cell holding a number that is not finite (`NaN`, `inf`), each named by file, line
+/// and column. Empty cells read as NaN (not available).
+pub fn read_rows_checked(path: &Path, layout: &RunsLayout) -> Result<Vec<(u64, RunRow)>, HarnessError> {
+    let text = std::fs::read(path).map_err(|e| HarnessError::io(path, e))?;
+    parse_all(&text, path, layout)
 }
 
 /// The rows of a `runs.csv` checked against the jobs of the sweep it belongs to, as
@@ -213,13 +252,13 @@ pub fn read_job_rows(
     jobs: &HashSet<JobKey>,
     master_seed: u64,
 ) -> Result<(Vec<RunRow>, Vec<String>), HarnessError> {
-    let rows = read_rows(path, layout)?;
+    let rows = complete_rows(path, layout)?;
     let mut first: HashMap<JobKey, usize> = HashMap::new();
     let mut kept = Vec::with_capacity(rows.len());
     let mut duplicates = Vec::new();
-    for (i, row) in rows.into_iter().enumerate() {
-        // Row i is on line i + 2: one line per row (no field holds a line break).
-        let bad = |message: String| HarnessError::BadRows { path: path.to_path_buf(), line: Some(i + 2), message };
+    for (line, row) in rows {
+        let bad =
+            |message: String| HarnessError::BadRows { path: path.to_path_buf(), line: Some(line as usize), message };
         let job = describe_row(&layout.grid_keys, &row);
         let key = row.key();
         if !jobs.contains(&key) {
@@ -237,11 +276,8 @@ pub fn read_job_rows(
                         "{job} is a second row of that job with other values: one of the two is not what the job gives"
                     )));
                 }
-                duplicates.push(format!(
-                    "{}:{}: {job} repeats an earlier row of that job; kept once",
-                    path.display(),
-                    i + 2
-                ));
+                duplicates
+                    .push(format!("{}:{line}: {job} repeats an earlier row of that job; kept once", path.display()));
             }
             None => {
                 first.insert(key, kept.len());
