@@ -21,6 +21,14 @@ pub struct MetricsConfig {
     /// The number of landmarks in the final map (`landmarks = true`); off by default.
     #[serde(skip_serializing_if = "is_false")]
     pub landmarks: bool,
+    /// The x and y position RMSE apart (`xy = true`; Moratuwage et al. 2019, Figs. 2-3);
+    /// off by default.
+    #[serde(skip_serializing_if = "is_false")]
+    pub xy: bool,
+    /// The position RMSE before and after this step and the error at it (`split_step = 515`:
+    /// the loop closure of the glmb-sim racetrack); off when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub split_step: Option<usize>,
 }
 
 fn is_false(b: &bool) -> bool {
@@ -46,7 +54,15 @@ impl Default for OspaSettings {
 
 impl Default for MetricsConfig {
     fn default() -> Self {
-        MetricsConfig { gospa_c: 20.0, gospa_p: 2.0, truth_tolerance_s: 0.025, ospa: None, landmarks: false }
+        MetricsConfig {
+            gospa_c: 20.0,
+            gospa_p: 2.0,
+            truth_tolerance_s: 0.025,
+            ospa: None,
+            landmarks: false,
+            xy: false,
+            split_step: None,
+        }
     }
 }
 
@@ -62,7 +78,7 @@ pub struct MetricsConfigError {
 
 impl MetricsConfig {
     /// Checks every setting's range: cut-offs finite and > 0, orders in [1, 1e6), the truth
-    /// tolerance finite and >= 0.
+    /// tolerance finite and >= 0, the split step >= 1 (step 0 would leave nothing before it).
     pub fn validate(&self) -> Result<(), MetricsConfigError> {
         let err = |key, message: &str| Err(MetricsConfigError { key, message: message.to_string() });
         if !(self.gospa_c > 0.0 && self.gospa_c.is_finite()) {
@@ -81,6 +97,9 @@ impl MetricsConfig {
             if !(1.0..1e6).contains(&o.p) {
                 return err("ospa.p", "must be in [1, inf)");
             }
+        }
+        if self.split_step == Some(0) {
+            return err("split_step", "must be >= 1");
         }
         Ok(())
     }
