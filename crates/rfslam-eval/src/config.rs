@@ -43,12 +43,34 @@ pub struct OspaSettings {
     pub c: f64,
     /// Order `p`.
     pub p: f64,
+    /// What the sum of cut-off distances is divided by: the larger of the two set sizes
+    /// (`"max"`, the OSPA metric, default) or the number of true landmarks (`"truth"`, Leung
+    /// et al.'s map error, their eq. (33), which charges a map with extra landmarks more).
+    #[serde(skip_serializing_if = "OspaNormalise::is_max")]
+    pub normalise: OspaNormalise,
+}
+
+/// The divisor of the OSPA sum ([`OspaSettings::normalise`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum OspaNormalise {
+    /// `max(|truth|, |estimate|)`: the OSPA metric of Schuhmacher et al. 2008, at most `c`.
+    #[default]
+    Max,
+    /// `|truth|`: Leung et al.'s eq. (33); undefined (NaN) without true landmarks.
+    Truth,
+}
+
+impl OspaNormalise {
+    fn is_max(&self) -> bool {
+        *self == OspaNormalise::Max
+    }
 }
 
 impl Default for OspaSettings {
     /// Moratuwage et al. 2019's map OSPA: c = 0.5 m, p = 1.
     fn default() -> Self {
-        OspaSettings { c: 0.5, p: 1.0 }
+        OspaSettings { c: 0.5, p: 1.0, normalise: OspaNormalise::Max }
     }
 }
 

@@ -17,7 +17,7 @@ use rfslam_data::Dataset;
 use rfslam_metrics::stats::{mean_ci95, weighted_mean_ci95};
 use rfslam_metrics::{DaCounts, PoseErrors, Se2AlignedRmse};
 
-use crate::config::MetricsConfig;
+use crate::config::{MetricsConfig, OspaNormalise};
 use crate::run::{RunEnd, RunStart, StepRecord};
 
 /// Whether a column holds a count (written as an integer) or a real number.
@@ -289,7 +289,7 @@ pub static METRICS: &[MetricDecl] = &[
         enabled: |m| m.ospa.is_some(),
         observer: |m, _| {
             let o = m.ospa.unwrap_or_default();
-            Box::new(OspaMetric { c: o.c, p: o.p })
+            Box::new(OspaMetric { c: o.c, p: o.p, normalise: o.normalise })
         },
     },
     MetricDecl { name: "landmarks", enabled: |m| m.landmarks, observer: |_, _| Box::new(LandmarksMetric) },
@@ -508,16 +508,28 @@ impl Observer for GospaMetric {
 }
 
 /// OSPA of the final map with its localisation and cardinality parts (Schuhmacher et al.
-/// 2008), the map metric of Leung et al. and of Moratuwage et al. 2019.
+/// 2008), the map metric of Moratuwage et al. 2019; divided by the true landmark count
+/// instead of the larger set, Leung et al.'s map error (their eq. 33).
 struct OspaMetric {
     c: f64,
     p: f64,
+    normalise: OspaNormalise,
 }
 
 impl Observer for OspaMetric {
     fn observe(&mut self, _: &StepRecord) {}
     fn finish(&mut self, end: &RunEnd, out: &mut Values) {
-        let o = final_map(end).and_then(|(t, e)| rfslam_metrics::ospa(&t, &e, self.c, self.p).ok());
+        let o = final_map(end).and_then(|(t, e)| {
+            let mut o = rfslam_metrics::ospa(&t, &e, self.c, self.p).ok()?;
+            if self.normalise == OspaNormalise::Truth {
+                // Both parts are over max(|truth|, |estimate|): rescale them to |truth|.
+                let scale = t.len().max(e.len()) as f64 / t.len() as f64;
+                o.loc *= scale;
+                o.card *= scale;
+                o.total = (o.loc + o.card).powf(1.0 / self.p);
+            }
+            Some(o)
+        });
         out.set("ospa_m", o.map_or(f64::NAN, |o| o.total));
         out.set("ospa_loc_m", o.map_or(f64::NAN, |o| o.loc_m()));
         out.set("ospa_card_m", o.map_or(f64::NAN, |o| o.card_m()));
@@ -713,7 +725,11 @@ mod tests {
         let (v, ..) = end_values(&MetricsConfig::default(), &map);
         assert!(v.get("ospa_m").unwrap().is_nan() && v.get("landmarks").unwrap().is_nan());
         assert!(v.get("gospa_m").unwrap().is_finite());
-        let m = MetricsConfig { ospa: Some(OspaSettings { c: 5.0, p: 1.0 }), landmarks: true, ..Default::default() };
+        let m = MetricsConfig {
+            ospa: Some(OspaSettings { c: 5.0, p: 1.0, ..Default::default() }),
+            landmarks: true,
+            ..Default::default()
+        };
         let (v, truth, est) = end_values(&m, &map);
         let o = rfslam_metrics::ospa(&truth, &est, 5.0, 1.0).unwrap();
         assert_eq!(v.get("ospa_m"), Some(o.total));
@@ -724,6 +740,27 @@ mod tests {
         let names: Vec<&str> = columns(&m).iter().map(|c| c.name).collect();
         assert_eq!(names[names.len() - 5..], ["pos_rmse_se2_m", "ospa_m", "ospa_loc_m", "ospa_card_m", "landmarks"]);
         assert_eq!(columns(&MetricsConfig::default()).last().map(|c| c.name), Some("pos_rmse_se2_m"));
+    }
+
+    #[test]
+    fn ospa_divided_by_the_true_count_is_leung_eq_33() {
+        // Three estimates, one within c of a true landmark: the sum of min(d, c)^p over the
+        // assignment plus c^p per unassigned, over |truth| instead of max(|truth|, 3).
+        let map = [(0.0, 0.0), (10.0, 5.0), (-3.0, 40.0)];
+        let settings = |normalise| OspaSettings { c: 3.0, p: 2.0, normalise };
+        let on = |o| MetricsConfig { ospa: Some(o), ..Default::default() };
+        let (max, truth, est) = end_values(&on(settings(OspaNormalise::Max)), &map);
+        let (leung, ..) = end_values(&on(settings(OspaNormalise::Truth)), &map);
+        let g = rfslam_metrics::gospa(&truth, &est, 3.0, 2.0).unwrap();
+        let (n, k) = (truth.len() as f64, (truth.len() - g.missed) as f64);
+        let cut = g.loc_m().powi(2) + 9.0 * (n.min(3.0) - k) + 9.0 * (n - 3.0).abs();
+        assert!((leung.get("ospa_m").unwrap() - (cut / n).sqrt()).abs() < 1e-12);
+        assert!((max.get("ospa_m").unwrap() - (cut / n.max(3.0)).sqrt()).abs() < 1e-12);
+        // More estimates than landmarks: Leung's error exceeds the OSPA, and c.
+        let many: Vec<(f64, f64)> = (0..3 * truth.len()).map(|i| (i as f64 * 50.0, -500.0)).collect();
+        let (max, ..) = end_values(&on(settings(OspaNormalise::Max)), &many);
+        let (leung, ..) = end_values(&on(settings(OspaNormalise::Truth)), &many);
+        assert!(max.get("ospa_m").unwrap() <= 3.0 && leung.get("ospa_m").unwrap() > 3.0);
     }
 
     #[test]
@@ -768,8 +805,20 @@ mod tests {
     fn settings_out_of_range_name_their_key() {
         let bad = |m: MetricsConfig| m.validate().unwrap_err().key;
         assert_eq!(bad(MetricsConfig { gospa_c: 0.0, ..Default::default() }), "gospa_c");
-        assert_eq!(bad(MetricsConfig { ospa: Some(OspaSettings { c: -1.0, p: 1.0 }), ..Default::default() }), "ospa.c");
-        assert_eq!(bad(MetricsConfig { ospa: Some(OspaSettings { c: 1.0, p: 0.5 }), ..Default::default() }), "ospa.p");
+        assert_eq!(
+            bad(MetricsConfig {
+                ospa: Some(OspaSettings { c: -1.0, p: 1.0, ..Default::default() }),
+                ..Default::default()
+            }),
+            "ospa.c"
+        );
+        assert_eq!(
+            bad(MetricsConfig {
+                ospa: Some(OspaSettings { c: 1.0, p: 0.5, ..Default::default() }),
+                ..Default::default()
+            }),
+            "ospa.p"
+        );
         assert_eq!(bad(MetricsConfig { split_step: Some(0), ..Default::default() }), "split_step");
         assert!(MetricsConfig { ospa: Some(OspaSettings::default()), ..Default::default() }.validate().is_ok());
     }
