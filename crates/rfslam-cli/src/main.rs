@@ -1,5 +1,6 @@
 //! `rfslam`: simulate data sets, run one filter, sweep Monte Carlo experiments (whole or in
-//! shards, merged afterwards), draw figures of runs and sweeps, list filters.
+//! shards, merged afterwards), compare sweeps run by run, draw figures of runs and sweeps,
+//! list filters.
 //!
 //! Exit codes: 0 success; 2 bad input (usage, configuration, parameters, data, directories
 //! that do not belong together); 1 a failure while running (I/O, an incomplete merge).
@@ -12,6 +13,7 @@ use std::process::ExitCode;
 
 use anyhow::anyhow;
 use clap::{Parser, Subcommand};
+use rfslam_harness::compare::Side;
 use rfslam_harness::experiment::{load_scenario_table, parse_cli_value, scenario_from_table, set_dotted};
 use rfslam_harness::{HarnessError, JobFilter, Plan, Shard, SweepOptions, registry};
 
@@ -110,6 +112,27 @@ enum Command {
         #[arg(value_name = "DIR")]
         dir: PathBuf,
     },
+    /// Paired per-run differences: every further sweep B against the reference A (the first
+    /// argument), run by run (same run seed, grid point and N, so the same data). Without
+    /// labels, rows of the same filter label pair; `DIR:LABEL` chooses one label on a side (the
+    /// other side takes the same label unless it names its own). Per (grid point, filter pair,
+    /// N) and metric: pairs, means of A and B, mean of B - A with its 95 % t interval, median,
+    /// wins (runs where B is better: lower, but higher for ESS, TPR and TNR), ties and the
+    /// two-sided exact sign test. Markdown to stdout; with --out also compare.md and compare.csv
+    /// (columns: docs/datasets.md). Refuses (exit 2) sweeps of another scenario or metric
+    /// settings, a run seed whose data differ, and NaN/inf cells.
+    Compare {
+        /// Sweep directories, each optionally `:LABEL`; the first is the reference A.
+        #[arg(required = true, num_args = 2.., value_name = "DIR[:LABEL]")]
+        sides: Vec<String>,
+        /// Also write compare.md and compare.csv here.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Only these metrics (columns of runs.csv, comma separated); default every metric
+        /// with a better direction.
+        #[arg(long, value_delimiter = ',')]
+        metrics: Option<Vec<String>>,
+    },
     /// Draw a figure of a run or a sweep directory (PNG or SVG by the extension of --out).
     Plot(plot::PlotArgs),
     /// List the registered filters.
@@ -207,6 +230,19 @@ fn simulate(scenario: &Path, seed: u64, set: &[String], out: &Path) -> Result<()
     Ok(())
 }
 
+/// This invocation as a shell command (`rfslam` and its arguments, quoted where needed), for
+/// outputs that name the command that regenerates them.
+fn command_line() -> String {
+    let quote = |a: String| {
+        if !a.is_empty() && a.chars().all(|c| c.is_ascii_alphanumeric() || "-_./:=,+@%".contains(c)) {
+            a
+        } else {
+            format!("'{}'", a.replace('\'', "'\\''"))
+        }
+    };
+    std::iter::once("rfslam".to_string()).chain(std::env::args().skip(1).map(quote)).collect::<Vec<_>>().join(" ")
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let res: Result<(), Failure> = match cli.command {
@@ -222,6 +258,16 @@ fn main() -> ExitCode {
         Command::Report { dir } => (|| {
             let n = rfslam_harness::sweep::report_dir(&dir)?;
             println!("{n} rows -> {}/summary.csv, {}/report.md", dir.display(), dir.display());
+            Ok(())
+        })(),
+        Command::Compare { sides, out, metrics } => (|| {
+            let parsed: Vec<Side> = sides.iter().map(|s| Side::parse(s)).collect();
+            let c = rfslam_harness::compare::compare(&parsed, metrics.as_deref(), &command_line())?;
+            print!("{}", c.markdown());
+            if let Some(out) = &out {
+                c.write(out)?;
+                eprintln!("wrote {}/compare.md, {}/compare.csv", out.display(), out.display());
+            }
             Ok(())
         })(),
         Command::Merge { dirs, out } => (|| {

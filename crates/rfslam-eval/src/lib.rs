@@ -22,7 +22,7 @@ pub mod trace;
 
 pub use config::{MetricsConfig, MetricsConfigError, OspaNormalise, OspaSettings};
 pub use error::EvalError;
-pub use metric::{COLUMNS, Column, Figure, Kind, Pool, Values};
+pub use metric::{Better, COLUMNS, Column, Figure, Kind, Pool, Values};
 pub use run::{JobOutcome, RunEnd, RunStart, StepRecord, run_filter};
 
 /// Formats a float for the CSV outputs: the shortest representation that reads back to the

@@ -65,6 +65,45 @@ pub struct Figure {
     pub family: &'static str,
 }
 
+/// Which direction of a column is the better one, for `rfslam compare`'s wins: lower for
+/// errors, counts of mistakes and times; higher for ESS and the data-association ratios;
+/// neither for bookkeeping counts and figures without a better side (resampling %, the
+/// number of landmarks in the map).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Better {
+    /// A lower value is better.
+    Lower,
+    /// A higher value is better.
+    Higher,
+    /// Neither direction is better.
+    Neither,
+}
+
+impl Better {
+    /// `lower`, `higher` or `none`, as `compare.csv` writes it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Better::Lower => "lower",
+            Better::Higher => "higher",
+            Better::Neither => "none",
+        }
+    }
+}
+
+/// The family of a metric's columns in reports (one table per family).
+const fn family_of(metric: &'static str) -> &'static str {
+    match metric.as_bytes() {
+        b"pose" | b"aligned_pose" | b"xy" | b"split" => "localisation",
+        b"map_gospa" | b"ospa" | b"landmarks" => "map",
+        b"association" => "data association",
+        b"time" => "cost",
+        _ => "filter",
+    }
+}
+
+/// The report families in the order reports print them.
+pub const FAMILIES: [&str; 5] = ["localisation", "map", "filter", "data association", "cost"];
+
 /// One column of `runs.csv`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Column {
@@ -76,18 +115,46 @@ pub struct Column {
     pub unit: &'static str,
     /// Count or real.
     pub kind: Kind,
+    /// Which direction is better (what `rfslam compare` counts as a win).
+    pub better: Better,
     /// What the value is, for the documentation.
     pub doc: &'static str,
     /// Its summary over runs, when it has one.
     pub figure: Option<Figure>,
 }
 
-const fn real(name: &'static str, metric: &'static str, unit: &'static str, doc: &'static str) -> Column {
-    Column { name, metric, unit, kind: Kind::Real, doc, figure: None }
+impl Column {
+    /// The family the column belongs to in reports (its figure's, or its metric's).
+    pub fn family(&self) -> &'static str {
+        match &self.figure {
+            Some(f) => f.family,
+            None => family_of(self.metric),
+        }
+    }
+
+    /// The title reports print: its figure's title, else its name with the unit.
+    pub fn title(&self) -> String {
+        match (&self.figure, self.unit) {
+            (Some(f), _) => f.title.to_string(),
+            (None, "") => self.name.to_string(),
+            (None, u) => format!("{} [{u}]", self.name),
+        }
+    }
 }
 
+/// A real column where lower is better.
+const fn real(name: &'static str, metric: &'static str, unit: &'static str, doc: &'static str) -> Column {
+    Column { name, metric, unit, kind: Kind::Real, better: Better::Lower, doc, figure: None }
+}
+
+/// A count column where lower is better.
 const fn count(name: &'static str, metric: &'static str, doc: &'static str) -> Column {
-    Column { name, metric, unit: "", kind: Kind::Count, doc, figure: None }
+    Column { name, metric, unit: "", kind: Kind::Count, better: Better::Lower, doc, figure: None }
+}
+
+/// `c` with `better` as its better direction.
+const fn better(c: Column, better: Better) -> Column {
+    Column { better, ..c }
 }
 
 const fn summarised(
@@ -97,13 +164,7 @@ const fn summarised(
     pool: Pool,
     title: &'static str,
 ) -> Column {
-    let family = match c.metric.as_bytes() {
-        b"pose" | b"aligned_pose" | b"xy" | b"split" => "localisation",
-        b"map_gospa" | b"ospa" | b"landmarks" => "map",
-        b"association" => "data association",
-        b"time" => "cost",
-        _ => "filter",
-    };
+    let family = family_of(c.metric);
     Column { figure: Some(Figure { name, std, pool, title, family }), ..c }
 }
 
@@ -135,14 +196,14 @@ pub static COLUMNS: &[Column] = &[
         "GOSPA [m]",
     ),
     summarised(
-        real("ess_pct", "filter", "%", "mean effective sample size over the steps, % of N"),
+        better(real("ess_pct", "filter", "%", "mean effective sample size over the steps, % of N"), Better::Higher),
         "ess_pct",
         None,
         Pool::Mean,
         "ESS [%]",
     ),
     summarised(
-        real("resampling_pct", "filter", "%", "steps that resampled, %"),
+        better(real("resampling_pct", "filter", "%", "steps that resampled, %"), Better::Neither),
         "resampling_pct",
         None,
         Pool::Mean,
@@ -155,17 +216,20 @@ pub static COLUMNS: &[Column] = &[
         Pool::Mean,
         "ms / recursion",
     ),
-    count("steps", "filter", "recursions run"),
-    count("scored_steps", "pose", "steps scored against ground truth"),
+    better(count("steps", "filter", "recursions run"), Better::Neither),
+    better(count("scored_steps", "pose", "steps scored against ground truth"), Better::Neither),
     real("gospa_loc_m", "map_gospa", "m", "localisation part of the final-map GOSPA, (loc term)^(1/p)"),
     count("gospa_missed", "map_gospa", "true landmarks the final map misses"),
     count("gospa_false", "map_gospa", "false landmarks in the final map"),
     summarised(
-        real(
-            "tpr",
-            "association",
-            "",
-            "data association: true positive ratio (labelled data, filters that report associations)",
+        better(
+            real(
+                "tpr",
+                "association",
+                "",
+                "data association: true positive ratio (labelled data, filters that report associations)",
+            ),
+            Better::Higher,
         ),
         "tpr",
         None,
@@ -173,14 +237,14 @@ pub static COLUMNS: &[Column] = &[
         "TPR",
     ),
     summarised(
-        real("tnr", "association", "", "data association: true negative ratio"),
+        better(real("tnr", "association", "", "data association: true negative ratio"), Better::Higher),
         "tnr",
         None,
         Pool::Rate { events: "da_negatives" },
         "TNR",
     ),
-    count("da_positives", "association", "measurements from landmarks scored for the TPR"),
-    count("da_negatives", "association", "clutter measurements scored for the TNR"),
+    better(count("da_positives", "association", "measurements from landmarks scored for the TPR"), Better::Neither),
+    better(count("da_negatives", "association", "clutter measurements scored for the TNR"), Better::Neither),
     count("cholesky_failures", "filter", "covariances that failed Cholesky (handled by the filter)"),
     summarised(
         real(
@@ -211,7 +275,10 @@ pub static COLUMNS: &[Column] = &[
             title: "landmarks in the map",
             family: "map",
         }),
-        ..count("landmarks", "landmarks", "landmarks in the final map estimate ([metrics] landmarks = true)")
+        ..better(
+            count("landmarks", "landmarks", "landmarks in the final map estimate ([metrics] landmarks = true)"),
+            Better::Neither,
+        )
     },
     summarised(
         real("x_rmse_m", "xy", "m", "RMSE of the x coordinate over the scored steps ([metrics] xy = true)"),
@@ -253,8 +320,8 @@ pub static COLUMNS: &[Column] = &[
         Pool::Mean,
         "pos error at the split [m]",
     ),
-    count("scored_before", "split", "scored steps before step split_step"),
-    count("scored_after", "split", "scored steps from step split_step on"),
+    better(count("scored_before", "split", "scored steps before step split_step"), Better::Neither),
+    better(count("scored_after", "split", "scored steps from step split_step on"), Better::Neither),
 ];
 
 /// A metric: a named observer of runs that fills its columns of [`COLUMNS`].

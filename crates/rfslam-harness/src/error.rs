@@ -83,6 +83,34 @@ pub enum HarnessError {
         /// The whole message.
         message: String,
     },
+    /// A cell of a `runs.csv` that is read as input (`rfslam compare`) cannot be used: a
+    /// malformed record, or a number that is not finite.
+    #[error("{}:{line}{}: {message}", path.display(), if column.is_empty() { String::new() } else { format!(": column `{column}`") })]
+    RunsCell {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// The column (empty for a malformed record).
+        column: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// Two sweeps whose runs cannot be paired (`rfslam compare`): another scenario, other
+    /// metric settings, or a run seed whose data differ.
+    #[error("{} and {} cannot be paired: {message}", a.display(), b.display())]
+    Unpaired {
+        /// The reference sweep's directory.
+        a: PathBuf,
+        /// The other sweep's directory.
+        b: PathBuf,
+        /// The first differing key, with both values.
+        message: String,
+    },
+    /// Arguments of `rfslam compare` that name nothing to compare: a directory that is not a
+    /// sweep's, a label or metric it does not have, no common (filter, N).
+    #[error("{0}")]
+    CompareInput(String),
     /// The published table named by the experiment could not be read.
     #[error("{0}")]
     Published(String),
@@ -105,6 +133,9 @@ impl HarnessError {
                 | HarnessError::ResumeConflict { .. }
                 | HarnessError::ShardMismatch(_)
                 | HarnessError::Published(_)
+                | HarnessError::RunsCell { .. }
+                | HarnessError::Unpaired { .. }
+                | HarnessError::CompareInput(_)
         )
     }
 

@@ -4,9 +4,11 @@
 //! - [`experiment`]: experiment TOML -> validated [`experiment::Plan`] of jobs;
 //! - [`sweep`]: parallel, deterministic, resumable execution; `runs.csv`;
 //! - [`shard`]: `sweep --shard I/N` (disjoint parts of a sweep) and `merge`;
+//! - [`compare`]: paired per-run differences between filters and sweeps (`rfslam compare`);
 //! - [`summary`], [`report`]: `summary.csv` with seed 000's columns and `report.md` beside
 //!   the published figures.
 
+pub mod compare;
 pub mod error;
 pub mod experiment;
 pub mod locate;

@@ -184,7 +184,7 @@ impl ResolvedExperiment {
 }
 
 /// The first dotted key at which `a` and `b` differ, with both values.
-fn first_difference(at: &str, a: &toml::Value, b: &toml::Value) -> Option<String> {
+pub(crate) fn first_difference(at: &str, a: &toml::Value, b: &toml::Value) -> Option<String> {
     let join = |k: &str| if at.is_empty() { k.to_string() } else { format!("{at}.{k}") };
     let show = |v: Option<&toml::Value>| v.map_or_else(|| "(absent)".to_string(), |v| v.to_string());
     match (a, b) {

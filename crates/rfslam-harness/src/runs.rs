@@ -126,31 +126,64 @@ impl HeaderMap {
         Ok(HeaderMap { id, metrics, grid, width: header.len() })
     }
 
-    /// Parses a record; `None` for a malformed (e.g. truncated) one.
-    fn parse(&self, rec: &csv::StringRecord) -> Option<RunRow> {
+    /// Parses a record; for a malformed (e.g. truncated) one, the column at fault (empty when
+    /// the record has the wrong number of fields) and what is wrong. With `finite`, a metric
+    /// cell that is not empty must hold a finite number (`NaN` or `inf` written out is an
+    /// error; an empty cell is a value not available).
+    fn parse(&self, rec: &csv::StringRecord, finite: bool) -> Result<RunRow, (String, String)> {
         if rec.len() != self.width {
-            return None;
+            return Err((String::new(), format!("{} fields, the header has {}", rec.len(), self.width)));
         }
         let g = |i: usize| rec.get(i).unwrap_or("");
+        let bad = |name: &str, s: &str, what: &str| (name.to_string(), format!("`{s}` is not {what}"));
         let mut values = Values::default();
         for (name, i) in &self.metrics {
-            values.set(
-                name,
-                match i {
-                    Some(i) => parse_f(g(*i))?,
-                    None => f64::NAN,
-                },
-            );
+            let v = match i {
+                Some(i) => {
+                    let s = g(*i);
+                    let v = parse_f(s).ok_or_else(|| bad(name, s, "a number"))?;
+                    if finite && !s.is_empty() && !v.is_finite() {
+                        return Err(bad(name, s, "a finite number"));
+                    }
+                    v
+                }
+                None => f64::NAN,
+            };
+            values.set(name, v);
         }
-        Some(RunRow {
-            run: g(self.id[0]).parse().ok()?,
+        let int = |k: usize, what: &str| bad(ID_COLUMNS[k], g(self.id[k]), what);
+        Ok(RunRow {
+            run: g(self.id[0]).parse().map_err(|_| int(0, "a run index"))?,
             filter: g(self.id[1]).to_string(),
-            particles: g(self.id[2]).parse().ok()?,
-            seed: g(self.id[3]).parse().ok()?,
+            particles: g(self.id[2]).parse().map_err(|_| int(2, "a particle count"))?,
+            seed: g(self.id[3]).parse().map_err(|_| int(3, "a seed"))?,
             values,
             grid: self.grid.iter().map(|&i| g(i).to_string()).collect(),
         })
     }
+}
+
+/// Reads the header of `runs.csv` text and maps it onto `layout`.
+fn reader_of<'t>(
+    text: &'t [u8],
+    path: &Path,
+    layout: &RunsLayout,
+) -> Result<(csv::Reader<&'t [u8]>, HeaderMap), HarnessError> {
+    let mut rdr = csv::ReaderBuilder::new().flexible(true).from_reader(text);
+    let dir = path.parent().unwrap_or(path);
+    let hdr = rdr.headers().map_err(|e| HarnessError::resume(dir, format!("{}: {e}", path.display())))?.clone();
+    let got: Vec<&str> = hdr.iter().collect();
+    let map = HeaderMap::new(&got, layout).map_err(|why| {
+        HarnessError::resume(
+            dir,
+            format!(
+                "{}: its columns are not those of this experiment ({why}; expected {}); use another --out",
+                path.display(),
+                layout.header().join(",")
+            ),
+        )
+    })?;
+    Ok((rdr, map))
 }
 
 /// Reads the complete rows of an existing `runs.csv` by its header; a truncated last line
@@ -165,30 +198,31 @@ pub fn read_rows(path: &Path, layout: &RunsLayout) -> Result<Vec<RunRow>, Harnes
     if complete > 0 {
         text.truncate(complete);
     }
-    let mut rdr = csv::ReaderBuilder::new().flexible(true).from_reader(text.as_slice());
-    let dir = path.parent().unwrap_or(path);
-    let hdr = rdr.headers().map_err(|e| HarnessError::resume(dir, format!("{}: {e}", path.display())))?.clone();
-    let got: Vec<&str> = hdr.iter().collect();
-    let map = HeaderMap::new(&got, layout).map_err(|why| {
-        HarnessError::resume(
-            dir,
-            format!(
-                "{}: its columns are not those of this experiment ({why}; expected {}); use another --out",
-                path.display(),
-                layout.header().join(",")
-            ),
-        )
-    })?;
+    let (mut rdr, map) = reader_of(&text, path, layout)?;
+    Ok(rdr.records().filter_map(|rec| map.parse(&rec.ok()?, false).ok()).collect())
+}
+
+/// Reads every row of a complete `runs.csv` (one that is read, not resumed) with its line
+/// number, refusing what [`read_rows`] passes over: a malformed or truncated record, and a
+/// metric cell holding a number that is not finite (`NaN`, `inf`), each named by file, line
+/// and column. Empty cells read as NaN (not available).
+pub fn read_rows_checked(path: &Path, layout: &RunsLayout) -> Result<Vec<(u64, RunRow)>, HarnessError> {
+    let text = std::fs::read(path).map_err(|e| HarnessError::io(path, e))?;
+    let (mut rdr, map) = reader_of(&text, path, layout)?;
     let mut rows = Vec::new();
     for rec in rdr.records() {
-        match rec {
-            Ok(r) => {
-                if let Some(row) = map.parse(&r) {
-                    rows.push(row);
-                }
-            }
-            Err(_) => continue,
-        }
+        let cell = |line: u64, (column, message): (String, String)| HarnessError::RunsCell {
+            path: path.to_path_buf(),
+            line,
+            column,
+            message,
+        };
+        let rec = rec.map_err(|e| {
+            let line = e.position().map_or(0, |p| p.line());
+            cell(line, (String::new(), e.to_string()))
+        })?;
+        let line = rec.position().map_or(0, |p| p.line());
+        rows.push((line, map.parse(&rec, true).map_err(|e| cell(line, e))?));
     }
     Ok(rows)
 }
