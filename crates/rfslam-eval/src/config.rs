@@ -21,6 +21,14 @@ pub struct MetricsConfig {
     /// The number of landmarks in the final map (`landmarks = true`); off by default.
     #[serde(skip_serializing_if = "is_false")]
     pub landmarks: bool,
+    /// The x and y position RMSE apart (`xy = true`; Moratuwage et al. 2019, Figs. 2-3);
+    /// off by default.
+    #[serde(skip_serializing_if = "is_false")]
+    pub xy: bool,
+    /// The position RMSE before and after this step and the error at it (`split_step = 515`:
+    /// the loop closure of the glmb-sim racetrack); off when absent.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub split_step: Option<usize>,
 }
 
 fn is_false(b: &bool) -> bool {
@@ -35,18 +43,48 @@ pub struct OspaSettings {
     pub c: f64,
     /// Order `p`.
     pub p: f64,
+    /// What the sum of cut-off distances is divided by: the larger of the two set sizes
+    /// (`"max"`, the OSPA metric, default) or the number of true landmarks (`"truth"`, Leung
+    /// et al.'s map error, their eq. (33), which charges a map with extra landmarks more).
+    #[serde(skip_serializing_if = "OspaNormalise::is_max")]
+    pub normalise: OspaNormalise,
+}
+
+/// The divisor of the OSPA sum ([`OspaSettings::normalise`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum OspaNormalise {
+    /// `max(|truth|, |estimate|)`: the OSPA metric of Schuhmacher et al. 2008, at most `c`.
+    #[default]
+    Max,
+    /// `|truth|`: Leung et al.'s eq. (33); undefined (NaN) without true landmarks.
+    Truth,
+}
+
+impl OspaNormalise {
+    fn is_max(&self) -> bool {
+        *self == OspaNormalise::Max
+    }
 }
 
 impl Default for OspaSettings {
     /// The map OSPA of \[Moratuwage2019\]: c = 0.5 m, p = 1.
     fn default() -> Self {
-        OspaSettings { c: 0.5, p: 1.0 }
+        OspaSettings { c: 0.5, p: 1.0, normalise: OspaNormalise::Max }
     }
 }
 
 impl Default for MetricsConfig {
     fn default() -> Self {
-        MetricsConfig { gospa_c: 20.0, gospa_p: 2.0, truth_tolerance_s: 0.025, ospa: None, landmarks: false }
+        MetricsConfig {
+            gospa_c: 20.0,
+            gospa_p: 2.0,
+            truth_tolerance_s: 0.025,
+            ospa: None,
+            landmarks: false,
+            xy: false,
+            split_step: None,
+        }
     }
 }
 
@@ -62,7 +100,7 @@ pub struct MetricsConfigError {
 
 impl MetricsConfig {
     /// Checks every setting's range: cut-offs finite and > 0, orders in [1, 1e6), the truth
-    /// tolerance finite and >= 0.
+    /// tolerance finite and >= 0, the split step >= 1 (step 0 would leave nothing before it).
     pub fn validate(&self) -> Result<(), MetricsConfigError> {
         let err = |key, message: &str| Err(MetricsConfigError { key, message: message.to_string() });
         if !(self.gospa_c > 0.0 && self.gospa_c.is_finite()) {
@@ -81,6 +119,9 @@ impl MetricsConfig {
             if !(1.0..1e6).contains(&o.p) {
                 return err("ospa.p", "must be in [1, inf)");
             }
+        }
+        if self.split_step == Some(0) {
+            return err("split_step", "must be >= 1");
         }
         Ok(())
     }

@@ -20,7 +20,7 @@ pub mod metric;
 pub mod run;
 pub mod trace;
 
-pub use config::{MetricsConfig, MetricsConfigError, OspaSettings};
+pub use config::{MetricsConfig, MetricsConfigError, OspaNormalise, OspaSettings};
 pub use error::EvalError;
 pub use metric::{Better, COLUMNS, Column, Figure, Kind, Pool, Values};
 pub use run::{JobOutcome, RunEnd, RunStart, StepRecord, run_filter};

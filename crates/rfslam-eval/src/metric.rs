@@ -17,7 +17,7 @@ use rfslam_data::Dataset;
 use rfslam_metrics::stats::{mean_ci95, weighted_mean_ci95};
 use rfslam_metrics::{DaCounts, PoseErrors, Se2AlignedRmse};
 
-use crate::config::MetricsConfig;
+use crate::config::{MetricsConfig, OspaNormalise};
 use crate::run::{RunEnd, RunStart, StepRecord};
 
 /// Whether a column holds a count (written as an integer) or a real number.
@@ -93,7 +93,7 @@ impl Better {
 /// The family of a metric's columns in reports (one table per family).
 const fn family_of(metric: &'static str) -> &'static str {
     match metric.as_bytes() {
-        b"pose" | b"aligned_pose" => "localisation",
+        b"pose" | b"aligned_pose" | b"xy" | b"split" => "localisation",
         b"map_gospa" | b"ospa" | b"landmarks" => "map",
         b"association" => "data association",
         b"time" => "cost",
@@ -280,6 +280,48 @@ pub static COLUMNS: &[Column] = &[
             Better::Neither,
         )
     },
+    summarised(
+        real("x_rmse_m", "xy", "m", "RMSE of the x coordinate over the scored steps ([metrics] xy = true)"),
+        "x_rmse_m",
+        Some("x_std_m"),
+        SCORED,
+        "x RMSE [m]",
+    ),
+    summarised(
+        real("y_rmse_m", "xy", "m", "RMSE of the y coordinate over the scored steps"),
+        "y_rmse_m",
+        Some("y_std_m"),
+        SCORED,
+        "y RMSE [m]",
+    ),
+    summarised(
+        real(
+            "pos_rmse_before_m",
+            "split",
+            "m",
+            "position RMSE over the scored steps before step split_step ([metrics] split_step)",
+        ),
+        "pos_rmse_before_m",
+        Some("pos_std_before_m"),
+        Pool::Rmse { steps: "scored_before" },
+        "pos RMSE before the split [m]",
+    ),
+    summarised(
+        real("pos_rmse_after_m", "split", "m", "position RMSE over the scored steps from step split_step on"),
+        "pos_rmse_after_m",
+        Some("pos_std_after_m"),
+        Pool::Rmse { steps: "scored_after" },
+        "pos RMSE after the split [m]",
+    ),
+    summarised(
+        real("pos_err_split_m", "split", "m", "position error at step split_step (empty when it is not scored)"),
+        "pos_err_split_m",
+        Some("pos_err_split_std_m"),
+        Pool::Mean,
+        "pos error at the split [m]",
+    ),
+    better(count("scored_before", "split", "scored steps before step split_step"), Better::Neither),
+    better(count("scored_after", "split", "scored steps from step split_step on"), Better::Neither),
 ];
 
 /// A metric: a named observer of runs that fills its columns of [`COLUMNS`].
@@ -314,10 +356,16 @@ pub static METRICS: &[MetricDecl] = &[
         enabled: |m| m.ospa.is_some(),
         observer: |m, _| {
             let o = m.ospa.unwrap_or_default();
-            Box::new(OspaMetric { c: o.c, p: o.p })
+            Box::new(OspaMetric { c: o.c, p: o.p, normalise: o.normalise })
         },
     },
     MetricDecl { name: "landmarks", enabled: |m| m.landmarks, observer: |_, _| Box::new(LandmarksMetric) },
+    MetricDecl { name: "xy", enabled: |m| m.xy, observer: |_, _| Box::new(XyMetric::default()) },
+    MetricDecl {
+        name: "split",
+        enabled: |m| m.split_step.is_some(),
+        observer: |m, _| Box::new(SplitMetric::new(m.split_step.unwrap_or(1))),
+    },
 ];
 
 /// The column named `name`.
@@ -527,16 +575,28 @@ impl Observer for GospaMetric {
 }
 
 /// OSPA of the final map with its localisation and cardinality parts (\[Schuhmacher2008\]),
-/// the map metric of \[LeungInostrozaAdams\] and of \[Moratuwage2019\].
+/// the map metric of \[Moratuwage2019\]; divided by the true landmark count instead of the
+/// larger set, the map error of \[LeungInostrozaAdams\] (their eq. 33).
 struct OspaMetric {
     c: f64,
     p: f64,
+    normalise: OspaNormalise,
 }
 
 impl Observer for OspaMetric {
     fn observe(&mut self, _: &StepRecord) {}
     fn finish(&mut self, end: &RunEnd, out: &mut Values) {
-        let o = final_map(end).and_then(|(t, e)| rfslam_metrics::ospa(&t, &e, self.c, self.p).ok());
+        let o = final_map(end).and_then(|(t, e)| {
+            let mut o = rfslam_metrics::ospa(&t, &e, self.c, self.p).ok()?;
+            if self.normalise == OspaNormalise::Truth {
+                // Both parts are over max(|truth|, |estimate|): rescale them to |truth|.
+                let scale = t.len().max(e.len()) as f64 / t.len() as f64;
+                o.loc *= scale;
+                o.card *= scale;
+                o.total = (o.loc + o.card).powf(1.0 / self.p);
+            }
+            Some(o)
+        });
         out.set("ospa_m", o.map_or(f64::NAN, |o| o.total));
         out.set("ospa_loc_m", o.map_or(f64::NAN, |o| o.loc_m()));
         out.set("ospa_card_m", o.map_or(f64::NAN, |o| o.card_m()));
@@ -550,6 +610,75 @@ impl Observer for LandmarksMetric {
     fn observe(&mut self, _: &StepRecord) {}
     fn finish(&mut self, end: &RunEnd, out: &mut Values) {
         out.set("landmarks", end.estimate.map.len() as f64);
+    }
+}
+
+/// The error of the estimated position against the truth at a scored step.
+fn position_error(rec: &StepRecord) -> Option<Point2> {
+    rec.truth.map(|t| Point2::new(rec.estimate.pose.x, rec.estimate.pose.y) - t.position)
+}
+
+/// RMSE of `sum_sq` over `n` values; NaN for none.
+fn rmse(sum_sq: f64, n: usize) -> f64 {
+    if n == 0 { f64::NAN } else { (sum_sq / n as f64).sqrt() }
+}
+
+/// The x and y RMSE apart (Moratuwage et al. 2019 plot them in their Figs. 2 and 3).
+#[derive(Default)]
+struct XyMetric {
+    sum_sq_x: f64,
+    sum_sq_y: f64,
+    steps: usize,
+}
+
+impl Observer for XyMetric {
+    fn observe(&mut self, rec: &StepRecord) {
+        if let Some(e) = position_error(rec) {
+            self.sum_sq_x += e.x * e.x;
+            self.sum_sq_y += e.y * e.y;
+            self.steps += 1;
+        }
+    }
+    fn finish(&mut self, _: &RunEnd, out: &mut Values) {
+        out.set("x_rmse_m", rmse(self.sum_sq_x, self.steps));
+        out.set("y_rmse_m", rmse(self.sum_sq_y, self.steps));
+    }
+}
+
+/// The position RMSE before and after a given step and the error at it: where in the run a
+/// filter gains or loses (e.g. a loop closure).
+struct SplitMetric {
+    split: usize,
+    /// Sum of squared errors and scored steps before and from the split.
+    before: (f64, usize),
+    after: (f64, usize),
+    at: f64,
+}
+
+impl SplitMetric {
+    fn new(split: usize) -> Self {
+        SplitMetric { split, before: (0.0, 0), after: (0.0, 0), at: f64::NAN }
+    }
+}
+
+impl Observer for SplitMetric {
+    fn observe(&mut self, rec: &StepRecord) {
+        if let Some(e) = position_error(rec) {
+            let e2 = e.norm_squared();
+            let part = if rec.k < self.split { &mut self.before } else { &mut self.after };
+            part.0 += e2;
+            part.1 += 1;
+            if rec.k == self.split {
+                self.at = e2.sqrt();
+            }
+        }
+    }
+    fn finish(&mut self, _: &RunEnd, out: &mut Values) {
+        out.set("pos_rmse_before_m", rmse(self.before.0, self.before.1));
+        out.set("pos_rmse_after_m", rmse(self.after.0, self.after.1));
+        out.set("pos_err_split_m", self.at);
+        out.set("scored_before", self.before.1 as f64);
+        out.set("scored_after", self.after.1 as f64);
     }
 }
 
@@ -663,7 +792,11 @@ mod tests {
         let (v, ..) = end_values(&MetricsConfig::default(), &map);
         assert!(v.get("ospa_m").unwrap().is_nan() && v.get("landmarks").unwrap().is_nan());
         assert!(v.get("gospa_m").unwrap().is_finite());
-        let m = MetricsConfig { ospa: Some(OspaSettings { c: 5.0, p: 1.0 }), landmarks: true, ..Default::default() };
+        let m = MetricsConfig {
+            ospa: Some(OspaSettings { c: 5.0, p: 1.0, ..Default::default() }),
+            landmarks: true,
+            ..Default::default()
+        };
         let (v, truth, est) = end_values(&m, &map);
         let o = rfslam_metrics::ospa(&truth, &est, 5.0, 1.0).unwrap();
         assert_eq!(v.get("ospa_m"), Some(o.total));
@@ -677,11 +810,83 @@ mod tests {
     }
 
     #[test]
+    fn ospa_divided_by_the_true_count_is_leung_eq_33() {
+        // Three estimates, one within c of a true landmark: the sum of min(d, c)^p over the
+        // assignment plus c^p per unassigned, over |truth| instead of max(|truth|, 3).
+        let map = [(0.0, 0.0), (10.0, 5.0), (-3.0, 40.0)];
+        let settings = |normalise| OspaSettings { c: 3.0, p: 2.0, normalise };
+        let on = |o| MetricsConfig { ospa: Some(o), ..Default::default() };
+        let (max, truth, est) = end_values(&on(settings(OspaNormalise::Max)), &map);
+        let (leung, ..) = end_values(&on(settings(OspaNormalise::Truth)), &map);
+        let g = rfslam_metrics::gospa(&truth, &est, 3.0, 2.0).unwrap();
+        let (n, k) = (truth.len() as f64, (truth.len() - g.missed) as f64);
+        let cut = g.loc_m().powi(2) + 9.0 * (n.min(3.0) - k) + 9.0 * (n - 3.0).abs();
+        assert!((leung.get("ospa_m").unwrap() - (cut / n).sqrt()).abs() < 1e-12);
+        assert!((max.get("ospa_m").unwrap() - (cut / n.max(3.0)).sqrt()).abs() < 1e-12);
+        // More estimates than landmarks: Leung's error exceeds the OSPA, and c.
+        let many: Vec<(f64, f64)> = (0..3 * truth.len()).map(|i| (i as f64 * 50.0, -500.0)).collect();
+        let (max, ..) = end_values(&on(settings(OspaNormalise::Max)), &many);
+        let (leung, ..) = end_values(&on(settings(OspaNormalise::Truth)), &many);
+        assert!(max.get("ospa_m").unwrap() <= 3.0 && leung.get("ospa_m").unwrap() > 3.0);
+    }
+
+    #[test]
+    fn xy_and_split_decompose_the_position_rmse() {
+        use rfslam_core::FilterBuild;
+        let sc = crate::fixtures::procedural_500();
+        let world = sc.load_world().unwrap();
+        let ds = sc.build_dataset(world.as_ref(), 3).unwrap();
+        let build = || dead_reckoning::DeadReckoning::build(Default::default(), &ds.models(), 1);
+        let mut f = build();
+        let m = MetricsConfig { xy: true, split_step: Some(200), ..Default::default() };
+        let mut err_200 = f64::NAN;
+        let o = crate::run_filter(&ds, &mut f, 3, &m, &mut |r| {
+            if r.k == 200 {
+                err_200 = position_error(r).unwrap().norm();
+            }
+        });
+        let v = |name| o[name];
+        let (pos, n) = (v("pos_rmse_m"), v("scored_steps"));
+        assert!(pos > 0.0 && n == 500.0);
+        // x and y: their squares add up to the position's.
+        assert!((v("x_rmse_m").powi(2) + v("y_rmse_m").powi(2) - pos * pos).abs() < 1e-9 * pos * pos);
+        assert!(v("x_rmse_m") > 0.0 && v("y_rmse_m") > 0.0);
+        // Before and after step 200: 200 and 300 steps whose squared errors pool to the run's.
+        assert_eq!((v("scored_before"), v("scored_after")), (200.0, 300.0));
+        let pooled = (v("pos_rmse_before_m").powi(2) * 200.0 + v("pos_rmse_after_m").powi(2) * 300.0) / 500.0;
+        assert!((pooled - pos * pos).abs() < 1e-9 * pos * pos);
+        assert_eq!(v("pos_err_split_m"), err_200);
+        // A split beyond the run leaves nothing after it.
+        let m = MetricsConfig { split_step: Some(10_000), ..Default::default() };
+        let o = crate::run_filter(&ds, &mut build(), 3, &m, &mut |_| {});
+        assert!(o["pos_rmse_after_m"].is_nan() && o["pos_err_split_m"].is_nan() && o["scored_after"] == 0.0);
+        // The columns come after every earlier one, so older experiments keep their order.
+        let names: Vec<&str> = columns(&MetricsConfig { xy: true, split_step: Some(1), ..Default::default() })
+            .iter()
+            .map(|c| c.name)
+            .collect();
+        assert_eq!(names[names.len() - 8..names.len() - 6], ["pos_rmse_se2_m", "x_rmse_m"]);
+    }
+
+    #[test]
     fn settings_out_of_range_name_their_key() {
         let bad = |m: MetricsConfig| m.validate().unwrap_err().key;
         assert_eq!(bad(MetricsConfig { gospa_c: 0.0, ..Default::default() }), "gospa_c");
-        assert_eq!(bad(MetricsConfig { ospa: Some(OspaSettings { c: -1.0, p: 1.0 }), ..Default::default() }), "ospa.c");
-        assert_eq!(bad(MetricsConfig { ospa: Some(OspaSettings { c: 1.0, p: 0.5 }), ..Default::default() }), "ospa.p");
+        assert_eq!(
+            bad(MetricsConfig {
+                ospa: Some(OspaSettings { c: -1.0, p: 1.0, ..Default::default() }),
+                ..Default::default()
+            }),
+            "ospa.c"
+        );
+        assert_eq!(
+            bad(MetricsConfig {
+                ospa: Some(OspaSettings { c: 1.0, p: 0.5, ..Default::default() }),
+                ..Default::default()
+            }),
+            "ospa.p"
+        );
+        assert_eq!(bad(MetricsConfig { split_step: Some(0), ..Default::default() }), "split_step");
         assert!(MetricsConfig { ospa: Some(OspaSettings::default()), ..Default::default() }.validate().is_ok());
     }
 

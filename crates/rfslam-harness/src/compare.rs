@@ -338,7 +338,15 @@ fn metrics_difference(a: &ResolvedExperiment, b: &ResolvedExperiment) -> Option<
     } else if let (Some(x), Some(y)) = (ma.ospa, mb.ospa)
         && x != y
     {
-        ("metrics.ospa", format!("{{ c = {}, p = {} }}", x.c, x.p), format!("{{ c = {}, p = {} }}", y.c, y.p))
+        let show = |o: rfslam_eval::OspaSettings| {
+            let n = format!("{:?}", o.normalise).to_lowercase();
+            format!("{{ c = {}, p = {}, normalise = \"{n}\" }}", o.c, o.p)
+        };
+        ("metrics.ospa", show(x), show(y))
+    } else if let (Some(x), Some(y)) = (ma.split_step, mb.split_step)
+        && x != y
+    {
+        ("metrics.split_step", x.to_string(), y.to_string())
     } else {
         return None;
     };
@@ -810,6 +818,24 @@ mod tests {
         assert_eq!(sign_test(500, 500), Some(1.0));
         let p = sign_test(450, 550).unwrap();
         assert!(p > 0.0 && p < 0.01, "{p}");
+    }
+
+    #[test]
+    fn metric_settings_of_shared_columns_must_agree() {
+        let with = |metrics: &str| -> ResolvedExperiment {
+            toml::from_str(&format!(
+                "name = \"x\"\nexperiment_file = \"x.toml\"\nscenario_file = \"s.toml\"\nruns = 1\nseed = 1\n\
+                 run_seeds = \"\"\nfilters = []\n[metrics]\n{metrics}\n[scenario]\n"
+            ))
+            .unwrap()
+        };
+        // A metric only one side has is simply not compared.
+        assert_eq!(metrics_difference(&with("split_step = 515"), &with("")), None);
+        let d = metrics_difference(&with("split_step = 515"), &with("split_step = 100")).unwrap();
+        assert!(d.contains("`metrics.split_step`: 515 vs 100"), "{d}");
+        let (max, truth) = ("ospa = { c = 3.0, p = 2.0 }", "ospa = { c = 3.0, p = 2.0, normalise = \"truth\" }");
+        let d = metrics_difference(&with(max), &with(truth)).unwrap();
+        assert!(d.contains("normalise = \"max\" } vs { c = 3, p = 2, normalise = \"truth\""), "{d}");
     }
 
     #[test]
