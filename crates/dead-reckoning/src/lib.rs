@@ -1,7 +1,7 @@
 //! `dead-reckoning`: the odometry-only baseline. It integrates the noisy odometry with the
 //! scenario's motion model, ignores every measurement and builds no map. It is the floor
-//! any SLAM filter must beat (the dashed trajectory of seed 000 Fig. 1) and exercises the
-//! harness end to end.
+//! any SLAM filter must beat (the dashed trajectory of \[Kaltiokallio2024\] Fig. 1) and exercises
+//! the harness end to end.
 
 use rfslam_core::motion::propagate;
 use rfslam_core::{

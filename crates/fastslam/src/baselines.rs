@@ -1,4 +1,5 @@
-//! The two vector-based baselines of Leung, Inostroza, Adams (seed 004, §IV-A) as registered
+//! The two vector-based baselines of \[LeungInostrozaAdams\] (Section IV-A) as
+//! registered
 //! filters: `fastslam-1.0` (the single most likely association per particle) and
 //! `mh-fastslam` (each particle branches into at most 4 copies with its most likely
 //! associations; resampling whenever the population exceeds 125), both with the binary
@@ -22,8 +23,8 @@ pub struct FastSlam1Params {
     pub gate: f64,
     /// `ln p_0` of a new landmark; default the density of `N(0, 2R)` at the gate boundary.
     pub new_landmark_log_likelihood: Option<f64>,
-    /// `resample_ess_fraction` (`ESS <= fraction * N`, nominal N; seed 004: 6.25 of 25,
-    /// 0.25), `resample_ess` and `q_jitter`.
+    /// `resample_ess_fraction` (`ESS <= fraction * N`, nominal N; \[LeungInostrozaAdams\]:
+    /// 6.25 of 25, 0.25), `resample_ess` and `q_jitter`.
     #[serde(flatten)]
     pub rbpf: RbpfParams,
     /// Existence probability of a new landmark (eqs. 31-32: 0.5).
@@ -50,10 +51,11 @@ rfslam_core::flat_params!(FastSlam1Params);
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(remote = "Self", default)]
 pub struct MhParams {
-    /// Children per particle: its most likely joint associations (seed 004: 4).
+    /// Children per particle: its most likely joint associations (\[LeungInostrozaAdams\]: 4).
     pub hypotheses: usize,
-    /// Resample to the nominal count whenever the population exceeds this (seed 004: 125);
-    /// also when the ESS falls to the threshold of [`FastSlam1Params::rbpf`].
+    /// Resample to the nominal count whenever the population exceeds this
+    /// (\[LeungInostrozaAdams\]: 125); also when the ESS falls to the threshold of
+    /// [`FastSlam1Params::rbpf`].
     pub max_population: usize,
     /// Gate, new-landmark likelihood, resampling, jitter and existence, as `fastslam-1.0`.
     #[serde(flatten)]
@@ -133,13 +135,13 @@ baseline!(
     FastSlam1,
     FastSlam1Params,
     "fastslam-1.0",
-    "`fastslam-1.0`: FastSLAM 1.0 with the most likely (gated, one-to-one) association per particle, new landmarks otherwise, and the existence filter of seed 004 eqs. (29)-(32)."
+    "`fastslam-1.0`: FastSLAM 1.0 with the most likely (gated, one-to-one) association per particle, new landmarks otherwise, and the existence filter of Leung, Inostroza, Adams, eqs. (29)-(32)."
 );
 baseline!(
     MhFastSlam,
     MhParams,
     "mh-fastslam",
-    "`mh-fastslam`: multi-hypothesis FastSLAM (Nieto et al. 2003, as configured by seed 004): at most `hypotheses` children per particle with its most likely associations, resampling to the nominal count when the population exceeds `max_population`, existence filter of eqs. (29)-(32)."
+    "`mh-fastslam`: multi-hypothesis FastSLAM (Nieto et al. 2003, as configured by Leung, Inostroza, Adams): at most `hypotheses` children per particle with its most likely associations, resampling to the nominal count when the population exceeds `max_population`, existence filter of eqs. (29)-(32)."
 );
 
 impl FilterBuild for FastSlam1 {

@@ -1,6 +1,7 @@
 //! FastSLAM 1.0 and multi-hypothesis (MH) FastSLAM with unknown data association and the
-//! binary Bayes existence filter of Leung, Inostroza, Adams (seed 004, §IV-A, eqs. 29-32):
-//! the vector-based baselines of the multi-feature RB-PHD comparison (note 07 §§2, 4).
+//! binary Bayes existence filter of \[LeungInostrozaAdams\] (Section IV-A, eqs. 29-32):
+//! the vector-based baselines of the multi-feature RB-PHD comparison (\[Montemerlo2002\],
+//! \[Nieto2003\]).
 //!
 //! # One recursion, per particle
 //!
@@ -30,7 +31,7 @@
 //! probability above 0.5 (weight = that probability), as the PHD filters report their best
 //! particle.
 //!
-//! # Choices where the papers are silent (note 07, "not pinned down")
+//! # Choices where the papers are silent (ours)
 //!
 //! - `P_F` of eq. (31), the probability that an associated measurement is false, is
 //!   `1 - exp(-c V_G)` with `c` the clutter density in measurement space (rate over
@@ -100,8 +101,8 @@ impl LogWeighted for DaParticle {
     }
 }
 
-/// The existence probability of one scan, seed 004 eq. (31) (`associated`) or eq. (32),
-/// with prior `pe`, detection probability `pd` and false-alarm probability `pf`.
+/// The existence probability of one scan, \[LeungInostrozaAdams\] eq. (31) (`associated`) or eq.
+/// (32), with prior `pe`, detection probability `pd` and false-alarm probability `pf`.
 pub fn existence_given_scan(associated: bool, pd: f64, pf: f64, pe: f64) -> f64 {
     if associated {
         ((1.0 - pd) * pf * pe + pd * pe) / (pf + (1.0 - pf) * pd * pe)
@@ -471,7 +472,7 @@ mod tests {
         DaLandmark { mean: Point2::new(x, y), cov: Matrix2::identity() * 0.5, log_odds }
     }
 
-    /// Note 07 §7.5: pD = 0.95 from l = 0, one miss in view gives P = 0.025 / 0.525 and one
+    /// Computed by hand: pD = 0.95 from l = 0, one miss in view gives P = 0.025 / 0.525 and one
     /// association with P_F = 0.1 gives P = 0.4775 / 0.5275 (eqs. 30-32).
     #[test]
     fn existence_filter_matches_the_hand_values() {
@@ -486,7 +487,7 @@ mod tests {
         assert!(log_odds_increment(false, 1.0, 0.0, 0.5).is_finite());
     }
 
-    /// Note 07 §7.4: one particle, two landmarks within one measurement's gate, plus the
+    /// One particle, two landmarks within one measurement's gate, plus the
     /// new-landmark option: exactly three children, weighted by their likelihoods.
     #[test]
     fn mh_branches_into_one_child_per_feasible_association() {
@@ -535,7 +536,7 @@ mod tests {
     }
 
     /// The population grows by branching and is resampled back to the nominal 25 as soon
-    /// as it exceeds the cap of 125 (seed 004 §IV-A).
+    /// as it exceeds the cap of 125 (\[LeungInostrozaAdams\] Section IV-A).
     #[test]
     fn mh_population_cap_resamples_to_nominal() {
         let m = models();

@@ -1,4 +1,4 @@
-//! The oracle FastSLAM 2.0 filter (seed 000 §VI-A-2, note 07 §3).
+//! The oracle FastSLAM 2.0 filter (\[Kaltiokallio2024\] Section VI-A-2).
 
 use rfslam_core::gaussian::symmetrise;
 use rfslam_core::ipl::IplSettings;
@@ -31,7 +31,7 @@ impl Particle {
 }
 
 /// `fastslam-2.0-oracle`: FastSLAM 2.0 given the true associations, with the IPL
-/// approximation of the optimal importance density (the Oracle RBPF of seed 000).
+/// approximation of the optimal importance density (the Oracle RBPF of \[Kaltiokallio2024\]).
 #[derive(Debug, Clone)]
 pub struct OracleFastSlam2 {
     params: Params,

@@ -1,11 +1,12 @@
-//! The FastSLAM family: `fastslam-2.0-oracle` (below), and the baselines of Leung,
-//! Inostroza, Adams with unknown association and an existence filter, `fastslam-1.0` and
+//! The FastSLAM family: `fastslam-2.0-oracle` (below), and the baselines of
+//! \[LeungInostrozaAdams\] with unknown association and an existence filter, `fastslam-1.0` and
 //! `mh-fastslam` ([`baselines`], [`da`]).
 //!
 //! `fastslam-2.0-oracle`: FastSLAM 2.0 with known data association and the iterated
 //! posterior linearisation (IPL) approximation of the optimal importance density — the
-//! "Oracle RBPF" of Kaltiokallio et al., T-RO 2024 (seed 000, §VI-A-2 and Table II),
-//! following note 07 §3.
+//! "Oracle RBPF" of \[Kaltiokallio2024\] (Section VI-A-2 and Table II): "similar to FastSLAM 2.0
+//! with the difference that the sampling distribution is replaced with the IPL-based OID
+//! approximation", knowing the correspondences between measurements and landmarks.
 //!
 //! # The oracle needs truth labels
 //!
@@ -25,14 +26,14 @@
 //!    cardinality is exact by construction).
 //! 2. Predict: `x_bar = f(x_{k-1}, u)` and `Q = F_u Q_u F_u^T + diag(q_jitter)` through the
 //!    odometry segments ([`propagate_with_covariance`](rfslam_core::motion::propagate_with_covariance)).
-//! 3. Proposal: seed 000 Algorithm 1 ([`rfslam_core::ipl::ipl_update`], `L = 5`,
+//! 3. Proposal: \[Kaltiokallio2024\] Algorithm 1 ([`rfslam_core::ipl::ipl_update`], `L = 5`,
 //!    KL threshold `1e-3`) on the measurements of the landmarks the particle already has,
 //!    with `Omega_i = G_m P_i G_m^T + R` ([`proposal::oid_proposal`]). Draw `x ~ N(mu, Sigma)`.
 //! 4. Weight ([`WeightMode::Importance`], default):
 //!    `w += ln f(x | x_bar, Q) - ln q(x) + sum_i ln N(z_i; h(m_i, x), G_m P_i G_m^T + R)`
 //!    at the drawn pose. This is the standard FastSLAM 2.0 weight `p(z | x_bar, map)`
 //!    written with the exact proposal correction: `f(x) prod_i N(z_i; h(m_i, x), .) / q(x)`
-//!    is the importance ratio of seed 000 eqs. (45), (47)-(48) with a single component
+//!    is the importance ratio of \[Kaltiokallio2024\] eqs. (45), (47)-(48) with a single component
 //!    and the PHD measurement term (46) replaced by the known-association likelihood; for a
 //!    linear sensor it equals the marginal `N(z; H x_bar + .., H Q H^T + Omega)` for every
 //!    draw (tested). [`WeightMode::Predictive`] uses that sample-independent marginal form
@@ -44,7 +45,7 @@
 //! 6. Normalise; the estimate is the highest-weight particle (pose and every landmark it
 //!    has, weight 1); resample (systematic) when `ESS <= resample_ess_fraction * N`.
 //!
-//! # Choices where note 07 is silent
+//! # Choices where the sources are silent (ours)
 //!
 //! - Order of the measurements in Algorithm 1: the scan's order (it matters only through
 //!   the linearisation).
@@ -65,7 +66,7 @@
 //!
 //! Copies of one parent after resampling are identical until they draw, so the prediction,
 //! the association lookup and the proposal (with its Cholesky factors) are computed once
-//! per group (00-index §9). Landmarks are kept in a `Vec` sorted by id: binary-search
+//! per group. Landmarks are kept in a `Vec` sorted by id: binary-search
 //! lookup, and no allocation per step once the maps have grown.
 
 pub mod baselines;

@@ -1,17 +1,19 @@
-//! Parameters of `fastslam-2.0-oracle` (defaults: seed 000 §VI, as for PHD-SLAM 3.0).
+//! Parameters of `fastslam-2.0-oracle` (defaults: \[Kaltiokallio2024\] Section VI, as for
+//! PHD-SLAM 3.0).
 
 use rfslam_core::params::{Interval, at_least_one};
 use rfslam_core::{ParamError, RbpfParams};
 use serde::{Deserialize, Serialize};
 
-/// How a particle's weight is updated (note 07 §3, step 3).
+/// How a particle's weight is updated (\[Kaltiokallio2024\] does not say which weight its
+/// oracle used; both are valid importance weights).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum WeightMode {
     /// `ln f(x | x_bar, Q) - ln q(x) + sum_i ln N(z_i; h(m_i, x), G_m P_i G_m^T + R)` at the
-    /// drawn pose `x`: the FastSLAM 2.0 weight with the exact proposal correction (seed 000
-    /// eqs. 45, 47-48 with one component, the PHD measurement term replaced by the
-    /// known-association likelihood).
+    /// drawn pose `x`: the FastSLAM 2.0 weight with the exact proposal correction
+    /// (\[Kaltiokallio2024\] eqs. 45, 47-48 with one component, the PHD measurement term replaced
+    /// by the known-association likelihood).
     #[default]
     Importance,
     /// The sample-independent FastSLAM 2.0 form: the product of the sequential predictive
@@ -23,12 +25,12 @@ pub enum WeightMode {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(remote = "Self", default)]
 pub struct Params {
-    /// Maximum IPL iterations `L` (seed 000: 5).
+    /// Maximum IPL iterations `L` (\[Kaltiokallio2024\]: 5).
     pub ipl_iterations: usize,
-    /// IPL stops when `KL(pi_{l-1} || pi_l)` falls below this (seed 000: 1e-3).
+    /// IPL stops when `KL(pi_{l-1} || pi_l)` falls below this (\[Kaltiokallio2024\]: 1e-3).
     pub ipl_kl_threshold: f64,
-    /// `resample_ess_fraction` (seed 000 Table II: 0.2; 0: never), `resample_ess` and
-    /// `q_jitter`.
+    /// `resample_ess_fraction` (\[Kaltiokallio2024\] Table II: 0.2; 0: never), `resample_ess`
+    /// and `q_jitter`.
     #[serde(flatten)]
     pub rbpf: RbpfParams,
     /// Particle weight update.

@@ -1,9 +1,9 @@
 //! The pieces of one FastSLAM 2.0 recursion with known associations, as free functions so
 //! that they can be checked on their own (a linear sensor gives closed forms):
 //!
-//! - [`oid_proposal`]: the IPL approximation of the optimal importance density (seed 000
-//!   Algorithm 1 through [`rfslam_core::ipl::ipl_update`]) conditioned on the measurements
-//!   of the landmarks the particle already has;
+//! - [`oid_proposal`]: the IPL approximation of the optimal importance density
+//!   (\[Kaltiokallio2024\] Algorithm 1 through [`rfslam_core::ipl::ipl_update`]) conditioned on the
+//!   measurements of the landmarks the particle already has;
 //! - [`ProposalSampler`]: draws poses from it and returns `ln f(x | x_bar, Q) - ln q(x)`;
 //! - [`landmark_update`]: the landmark EKF update at the drawn pose (Joseph form) and the
 //!   measurement's log likelihood `ln N(z; h(m, x), G_m P G_m^T + R)`;
@@ -47,7 +47,8 @@ pub struct Landmark {
 }
 
 /// The linearised measurement of landmark `lm` at the linearisation point `x`:
-/// `(h(m, x), G_x, Omega = G_m P G_m^T + R)` (note 04 §1, Taylor SLR).
+/// `(h(m, x), G_x, Omega = G_m P G_m^T + R)` (statistical linear regression by a first-order Taylor
+/// expansion, \[GarciaFernandez2015\], the landmark uncertainty folded into the noise).
 #[inline]
 fn linearised<S: Linearise>(sensor: &S, r: &Matrix2<f64>, x: &Pose, lm: &Landmark) -> Linearised {
     let lin = sensor.linearise(x, &lm.mean);
@@ -55,7 +56,7 @@ fn linearised<S: Linearise>(sensor: &S, r: &Matrix2<f64>, x: &Pose, lm: &Landmar
 }
 
 /// The IPL approximation of the optimal importance density `q(x) ∝ N(x; x_bar, Q) prod_k
-/// N(z_k; h(m_{i_k}, x), G_m P_{i_k} G_m^T + R)`: seed 000 Algorithm 1 with the known
+/// N(z_k; h(m_{i_k}, x), G_m P_{i_k} G_m^T + R)`: \[Kaltiokallio2024\] Algorithm 1 with the known
 /// association `z[k] <-> landmarks[known[k]]`, in the order given. With no measurement the
 /// result is the prior `N(x_bar, Q)`.
 #[allow(clippy::too_many_arguments)]
@@ -75,7 +76,7 @@ pub fn oid_proposal<S: Linearise>(
 
 /// `ln prod_k N(z_k; mu^z_k, Sigma^zz_k)`: the pose prior `N(x_bar, Q)` conditioned on the
 /// measurements one at a time with every landmark linearised at `lin_point` (one more pass
-/// of Algorithm 1 at its result: seed 000 eqs. 43b-c), summing the log predictive
+/// of Algorithm 1 at its result: \[Kaltiokallio2024\] eqs. 43b-c), summing the log predictive
 /// densities. `None` if an innovation covariance is not positive definite.
 #[allow(clippy::too_many_arguments)]
 pub fn sequential_predictive<S: Linearise>(
@@ -140,8 +141,8 @@ pub fn landmark_update<S: Linearise>(
 }
 
 /// Draws poses from the proposal `N(mean, Sigma)` and evaluates the importance correction
-/// `ln f(x | x_bar, Q) - ln q(x)` (seed 000 eqs. 45, 47-48 with one component). Built once
-/// per group of identical particles; each draw costs one 3x3 triangular product and solve.
+/// `ln f(x | x_bar, Q) - ln q(x)` (\[Kaltiokallio2024\] eqs. 45, 47-48 with one component). Built
+/// once per group of identical particles; each draw costs one 3x3 triangular product and solve.
 #[derive(Debug, Clone)]
 pub struct ProposalSampler {
     mean: Pose,
@@ -234,7 +235,7 @@ mod tests {
         (sensor, r, x_bar, q, lm, z)
     }
 
-    /// Note 07 §7.1: with a linear sensor and one landmark the proposal is the closed-form
+    /// With a linear sensor and one landmark the proposal is the closed-form
     /// Kalman posterior of the pose with measurement noise `B P B^T + R`.
     #[test]
     fn linear_one_landmark_proposal_is_the_kalman_posterior() {
@@ -294,7 +295,7 @@ mod tests {
         assert_eq!(corr, 0.0);
     }
 
-    /// Two landmarks (note 07 §7.2, linear): the proposal is the joint Kalman update and the
+    /// Two landmarks (linear sensor): the proposal is the joint Kalman update and the
     /// sum of sequential predictive log densities is the joint predictive log density.
     #[test]
     fn linear_two_landmarks_sequential_equals_joint() {

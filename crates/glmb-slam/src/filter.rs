@@ -22,7 +22,7 @@ pub enum Variant {
     Glmb1,
     /// delta-GLMB-SLAM 2.0: the optimal-kernel proposal of eqs. (30)-(33).
     Glmb2,
-    /// LMB-SLAM (Deusch et al. 2015): transition density as proposal, LMB map.
+    /// LMB-SLAM (\[Deusch2015\]): transition density as proposal, LMB map.
     Lmb,
 }
 
@@ -319,21 +319,21 @@ macro_rules! variant_filter {
 }
 
 variant_filter!(
-    /// `glmb-1.0`: delta-GLMB-SLAM 1.0 (Moratuwage et al., ICCAIS 2018): the transition density
+    /// `glmb-1.0`: delta-GLMB-SLAM 1.0 (\[Moratuwage2018\]): the transition density
     /// as proposal, Gibbs joint prediction and update of each particle's delta-GLMB map.
     Glmb1,
     Variant::Glmb1,
     "glmb-1.0"
 );
 variant_filter!(
-    /// `glmb-2.0`: delta-GLMB-SLAM 2.0 (Moratuwage et al., Sensors 2019): the optimal-kernel
+    /// `glmb-2.0`: delta-GLMB-SLAM 2.0 (\[Moratuwage2019\]): the optimal-kernel
     /// proposal of eqs. (30)-(33), Gibbs joint prediction and update.
     Glmb2,
     Variant::Glmb2,
     "glmb-2.0"
 );
 variant_filter!(
-    /// `lmb-slam`: LMB-SLAM (Deusch et al., IEEE SPL 2015) as compared in seed 001: the
+    /// `lmb-slam`: LMB-SLAM (\[Deusch2015\]) as compared in \[Moratuwage2019\]: the
     /// transition density as proposal, Gibbs update of the LMB map then LMB collapse.
     LmbSlam,
     Variant::Lmb,

@@ -1,10 +1,10 @@
 //! The per-particle landmark maps and their joint prediction and update.
 //!
-//! - [`GlmbMap`]: a Gaussian delta-GLMB density (seed 001 eqs. 10, 23): a table of labelled
-//!   Gaussian tracks and hypotheses `(ln w_h, I_h)` that reference them.
-//! - [`glmb_update`]: the efficient joint prediction and update (seed 001 eqs. 11-16, Vo,
-//!   Vo, Hoang 2017) at a given pose, with the decisions drawn by the Gibbs sampler.
-//! - [`LmbMap`], [`lmb_update`]: LMB-SLAM (Deusch et al. 2015): the same update from a
+//! - [`GlmbMap`]: a Gaussian delta-GLMB density (\[Moratuwage2019\] eqs. 10, 23): a table of
+//!   labelled Gaussian tracks and hypotheses `(ln w_h, I_h)` that reference them.
+//! - [`glmb_update`]: the efficient joint prediction and update (\[Moratuwage2019\] eqs. 11-16,
+//!   \[Vo2017\]) at a given pose, with the decisions drawn by the Gibbs sampler.
+//! - [`LmbMap`], [`lmb_update`]: LMB-SLAM (\[Deusch2015\]): the same update from a
 //!   single prior hypothesis, collapsed back to a labelled multi-Bernoulli.
 //!
 //! Landmarks are static: the survival transition of eqs. (7)-(8) keeps the density, so a
@@ -52,7 +52,7 @@ pub struct Hypothesis {
     pub len: u32,
 }
 
-/// A Gaussian delta-GLMB map density (seed 001 eq. 23), hypotheses sorted by weight.
+/// A Gaussian delta-GLMB map density (\[Moratuwage2019\] eq. 23), hypotheses sorted by weight.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GlmbMap {
     /// Track table.
@@ -77,8 +77,8 @@ impl GlmbMap {
         &self.members[hy.start as usize..(hy.start + hy.len) as usize]
     }
 
-    /// The map estimate of seed 001 §3.1: the MAP cardinality `n = argmax rho(n)` with
-    /// `rho(n) = sum_{|I_h| = n} w_h`, then the heaviest hypothesis of that cardinality.
+    /// The map estimate of \[Moratuwage2019\] Section 3.1: the MAP cardinality `n = argmax rho(n)`
+    /// with `rho(n) = sum_{|I_h| = n} w_h`, then the heaviest hypothesis of that cardinality.
     /// Returns its index.
     pub fn map_hypothesis(&self) -> usize {
         let max_n = self.hyps.iter().map(|h| h.len as usize).max().unwrap_or(0);
@@ -160,7 +160,7 @@ pub struct Workspace {
     /// caller before an update).
     pub births: Vec<(Track, f64)>,
     /// After an update: `r_U(z_j)`, the probability that measurement `j` was assigned to a
-    /// track (adaptive birth, note 08 §6).
+    /// track (the adaptive birth of \[Reuter2014\]).
     pub ru: Vec<f64>,
     rows: Vec<Row>,
     row_of: Vec<u32>,
@@ -186,7 +186,7 @@ pub struct Workspace {
 
 /// `ln N(z; h, S)` for every gated `z_j` and the EKF updates, for a track `(mean, cov)` seen
 /// from `x`; with `pose_cov = Some(Q)` the pose-marginalised likelihood
-/// (`S = H_x Q H_x^T + H_m P H_m^T + R`, note 08 §7) and no update. Appends to `liks`;
+/// (`S = H_x Q H_x^T + H_m P H_m^T + R`) and no update. Appends to `liks`;
 /// returns `false` if `S` failed Cholesky (then nothing is appended).
 #[allow(clippy::too_many_arguments)]
 fn likelihoods(
@@ -310,8 +310,8 @@ pub struct GlmbSettings {
     pub max_hypotheses: usize,
 }
 
-/// The joint prediction and update of the efficient delta-GLMB filter (seed 001 eqs. 11-16)
-/// of `map` at pose `x` with the births in `ws.births` and the scan `z`.
+/// The joint prediction and update of the efficient delta-GLMB filter (\[Moratuwage2019\] eqs.
+/// 11-16) of `map` at pose `x` with the births in `ws.births` and the scan `z`.
 ///
 /// For every prior hypothesis `h` the table `eta` over its in-FOV tracks and the births is
 /// sampled for `T_h = max(1, ceil(sweeps w_h))` sweeps; each distinct state `gamma` gives a
@@ -516,9 +516,9 @@ fn log_sum_exp_iter(it: impl Iterator<Item = f64> + Clone) -> f64 {
     max + it.map(|l| (l - max).exp()).sum::<f64>().ln()
 }
 
-/// LMB-SLAM's update (Deusch et al. 2015; note 08 §8): the LMB `map` is one prior hypothesis
-/// with `eta_i = (1 - r_i p_S, r_i p_S (1 - p_D), r_i p_S p_D q_ij / kappa)`, sampled with
-/// `sweeps` Gibbs sweeps, then collapsed back to an LMB ([`collapse`]); tracks with
+/// LMB-SLAM's update (\[Deusch2015\], as compared in \[Moratuwage2019\]): the LMB `map` is one
+/// prior hypothesis with `eta_i = (1 - r_i p_S, r_i p_S (1 - p_D), r_i p_S p_D q_ij / kappa)`,
+/// sampled with `sweeps` Gibbs sweeps, then collapsed back to an LMB ([`collapse`]); tracks with
 /// `r < prune` are removed. Returns `ln Delta w` and the Cholesky failures; `ws.ru`
 /// receives `r_U(z_j)`.
 #[allow(clippy::too_many_arguments)]
@@ -611,7 +611,7 @@ pub fn lmb_update<R: Rng + ?Sized>(
 /// Collapses weighted Gaussians `(w_k, m_k, P_k)` of one label into a Bernoulli component:
 /// `r = sum w_k` and the moment-matched Gaussian (mean `sum w_k m_k / r`, covariance
 /// `sum w_k (P_k + (m_k - mean)(m_k - mean)^T) / r`), which preserves the existence
-/// probability and the first two moments of the mixture (note 08 §8).
+/// probability and the first two moments of the mixture.
 pub fn collapse(parts: impl Iterator<Item = (f64, Point2, Matrix2<f64>)> + Clone) -> (f64, Point2, Matrix2<f64>) {
     let r: f64 = parts.clone().map(|p| p.0).sum();
     if r <= 0.0 {
@@ -626,7 +626,7 @@ pub fn collapse(parts: impl Iterator<Item = (f64, Point2, Matrix2<f64>)> + Clone
     (r, mean, symmetrise(&cov))
 }
 
-/// The glmb-2.0 proposal (seed 001 eqs. 30-32; note 08 §7): the pose-marginalised update of
+/// The glmb-2.0 proposal (\[Moratuwage2019\] eqs. 30-32): the pose-marginalised update of
 /// the `n_hyp` heaviest hypotheses at the predicted pose `x_bar` (covariance `q`), each
 /// distinct sampled association `gamma` giving the pose Gaussian conditioned on its
 /// detections (sequential EKF) with weight `w_h prod_i eta_i(gamma_i)`, moment-matched into
@@ -697,7 +697,8 @@ pub fn optimal_proposal<R: Rng + ?Sized>(
     let max = ws.comps.iter().map(|c| c.0).fold(f64::NEG_INFINITY, f64::max);
     let total: f64 = ws.comps.iter().map(|c| (c.0 - max).exp()).sum();
     let log_c = max + total.ln() - searched;
-    // Offsets from x_bar with the heading wrapped (00-index §3).
+    // Offsets from x_bar with the heading wrapped (headings either side of ±pi
+    // average correctly).
     let off = |p: &Pose| Pose::new(p[0] - x_bar[0], p[1] - x_bar[1], wrap(p[2] - x_bar[2]));
     let d_mean = ws.comps.iter().fold(Pose::zeros(), |a, c| a + off(&c.1) * ((c.0 - max).exp() / total));
     let cov = ws.comps.iter().fold(Matrix3::zeros(), |a, c| {

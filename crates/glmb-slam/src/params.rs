@@ -1,5 +1,5 @@
-//! Parameters of `glmb-1.0`, `glmb-2.0` and `lmb-slam` (defaults: Moratuwage et al. 2019,
-//! seed 001 §4.1, and note 08 §9 where the paper gives no value).
+//! Parameters of `glmb-1.0`, `glmb-2.0` and `lmb-slam` (defaults: \[Moratuwage2019\] Section 4.1,
+//! and our choices where the paper gives no value: gate, hypothesis cap, sweeps).
 
 use rfslam_core::params::{Interval, at_least_one};
 use rfslam_core::{ParamError, RbpfParams};
@@ -9,15 +9,15 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum ProposalWeight {
-    /// Seed 001 eq. (33) (and eq. 22): `w_k = w_{k-1} * integral of g(Z|M, x) p(M) q(x | x_{k-1}, u)
-    /// dM dx`, the predicted likelihood of the scan with the pose integrated out, which is the
-    /// normalising constant of the proposal (eq. 30): the sum, over the associations found,
+    /// \[Moratuwage2019\] eq. (33) (and eq. 22): `w_k = w_{k-1} * integral of g(Z|M, x) p(M) q(x |
+    /// x_{k-1}, u) dM dx`, the predicted likelihood of the scan with the pose integrated out, which
+    /// is the normalising constant of the proposal (eq. 30): the sum, over the associations found,
     /// of `w_h prod_i eta_i` with the pose-marginalised likelihoods. It does not depend on
     /// the sampled pose (as FastSLAM 2.0's weight).
     #[default]
     Marginal,
     /// The plain importance weight at the sampled pose `x_k`:
-    /// `Delta w(x_k) N(x_k; x_bar, Q) / N(x_k; mu, Sigma)` (note 08 §7).
+    /// `Delta w(x_k) N(x_k; x_bar, Q) / N(x_k; mu, Sigma)`.
     Sampled,
 }
 
@@ -25,43 +25,43 @@ pub enum ProposalWeight {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(remote = "Self", default)]
 pub struct Params {
-    /// Survival probability `p_S` of a landmark inside the FOV (seed 001: 0.95; 1 outside,
-    /// eqs. 7-9).
+    /// Survival probability `p_S` of a landmark inside the FOV (\[Moratuwage2019\]: 0.95; 1
+    /// outside, eqs. 7-9).
     pub survival_fov: f64,
     /// Birth probability `r_B` of a measurement of the previous scan not explained by an
-    /// existing landmark (seed 001: 1e-4; adaptive birth, eq. 27).
+    /// existing landmark (\[Moratuwage2019\]: 1e-4; adaptive birth, eq. 27).
     pub birth_new: f64,
-    /// Birth probability of a measurement that was explained (seed 001: 5e-5).
+    /// Birth probability of a measurement that was explained (\[Moratuwage2019\]: 5e-5).
     pub birth_existing: f64,
     /// A measurement counts as explained when its association probability
-    /// `r_U(z) = sum_h w_h 1[z assigned in h]` reaches this (note 08 §6: 0.5).
+    /// `r_U(z) = sum_h w_h 1[z assigned in h]` reaches this (our choice: 0.5).
     pub explained_threshold: f64,
     /// Gate on the squared Mahalanobis distance of the innovation (chi-square, 2 dof;
     /// default 13.8155, tail probability 1e-3).
     pub gate: f64,
-    /// Hypotheses whose normalised weight falls below this are pruned (seed 001: 1e-5).
+    /// Hypotheses whose normalised weight falls below this are pruned (\[Moratuwage2019\]: 1e-5).
     pub hypothesis_prune: f64,
     /// At most this many hypotheses per particle are kept (the heaviest).
     pub max_hypotheses: usize,
     /// Gibbs sweeps per particle and step, shared among the prior hypotheses in proportion
-    /// to their weights (at least one each): `T_h = ceil(gibbs_sweeps w_h)` (note 08 §4).
-    /// For `lmb-slam` the sweeps of its single prior hypothesis.
+    /// to their weights (at least one each): `T_h = ceil(gibbs_sweeps w_h)` (our choice of
+    /// allocation). For `lmb-slam` the sweeps of its single prior hypothesis.
     pub gibbs_sweeps: usize,
     /// `glmb-2.0`: the proposal (eqs. 30-32) is built from this many of the heaviest prior
     /// hypotheses.
     pub proposal_hypotheses: usize,
     /// `glmb-2.0`: Gibbs sweeps per hypothesis in the proposal's association search.
     pub proposal_sweeps: usize,
-    /// `glmb-2.0`: the particle weight after the optimal-kernel draw (seed 001 eq. 33:
+    /// `glmb-2.0`: the particle weight after the optimal-kernel draw (\[Moratuwage2019\] eq. 33:
     /// `marginal`, the default; or `sampled`).
     pub proposal_weight: ProposalWeight,
-    /// `lmb-slam`: tracks whose existence probability falls below this are pruned (seed 001:
-    /// 0.019).
+    /// `lmb-slam`: tracks whose existence probability falls below this are pruned
+    /// (\[Moratuwage2019\]: 0.019).
     pub existence_prune: f64,
     /// `lmb-slam`: the map estimate holds the tracks with existence above this.
     pub existence_estimate: f64,
-    /// `resample_ess_fraction` (1: every step, as seed 001 §3.2), `resample_ess` and
-    /// `q_jitter`.
+    /// `resample_ess_fraction` (1: every step, as \[Moratuwage2019\] Section 3.2),
+    /// `resample_ess` and `q_jitter`.
     #[serde(flatten)]
     pub rbpf: RbpfParams,
     /// Lower bound of the clutter intensity `kappa` (so that a scenario without clutter

@@ -41,7 +41,7 @@ fn scan() -> Vec<RangeBearing> {
 }
 
 /// One track, known pose, `p_S = 1`, no birth: the children are "missed" and "detected by
-/// z_j"; `Delta w = (1 - p_D) + p_D sum_j q_j / kappa` (note 08 §11.1) and the posterior
+/// z_j"; `Delta w = (1 - p_D) + p_D sum_j q_j / kappa` and the posterior
 /// hypothesis weights are those of the Bernoulli filter.
 #[test]
 fn one_landmark_update_matches_closed_form() {
@@ -80,7 +80,7 @@ fn one_landmark_update_matches_closed_form() {
 
 /// With one birth track (`r_B`), no other track and one measurement:
 /// `rho(1) = (r_B (1 - p_D) + r_B p_D q / kappa) / (1 - r_B + ...)` and `ln Delta w` is the log
-/// of that denominator (note 08 §11.3).
+/// of that denominator.
 #[test]
 fn birth_cardinality_matches_closed_form() {
     let sensor = RangeBearingSensor::default();
@@ -143,8 +143,8 @@ fn lmb_collapse_preserves_existence_and_moments() {
     assert!((cov + mean * mean.transpose() - m2).norm() < 1e-12);
 }
 
-/// glmb-2.0's particle weight (seed 001 eq. 33) is the proposal's normalising constant: for
-/// one track, one prior hypothesis and no birth it is, in closed form,
+/// glmb-2.0's particle weight (\[Moratuwage2019\] eq. 33) is the proposal's normalising constant:
+/// for one track, one prior hypothesis and no birth it is, in closed form,
 /// `(1 - p_S) + p_S (1 - p_D) + p_S p_D sum_j N(z_j; h(m, x_bar), H_x Q H_x^T + H_m P H_m^T + R) / kappa`
 /// (the pose integrated out), whatever pose is then drawn. Before the fix the filter
 /// weighted by `Delta w` at the sampled pose times the importance ratio instead.

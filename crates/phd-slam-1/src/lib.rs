@@ -1,8 +1,10 @@
 //! `phd-1.0`: PHD-SLAM 1.0 (Mullane, Vo, Adams, Vo, IEEE T-RO 2011), the bootstrap RB-PHD
 //! filter: poses are drawn from the transition density `f(x_k | x_{k-1}, u_k) =
-//! N(f(x_{k-1}, u_k), Q_{k-1})` (seed 000 eqs. 1, 26), so the prior and proposal terms of
-//! eq. (45) cancel and the weight update is the measurement term alone (eq. 27), computed
-//! with eq. (46) as the tables of seed 000 were (note 01 §2).
+//! N(f(x_{k-1}, u_k), Q_{k-1})` (\[Kaltiokallio2024\] eqs. 1, 26), so the prior and proposal terms
+//! of eq. (45) cancel and the weight update is the measurement term alone (eq. 27), computed
+//! with eq. (46) as the tables of \[Kaltiokallio2024\] were (the paper does not say which weighting
+//! its PHD 1.0 rows used; \[PHD-SLAM-3.0-code\] has one update computing eq. (46) for every
+//! variant).
 
 use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, sample_transition};
 use rfslam_core::{ParamError, Rng, SlamModels};

@@ -1,45 +1,50 @@
-//! `phd-2.0a`: PHD-SLAM 2.0a (Gao, Battistelli, Chisci, "PHD-SLAM 2.0: Efficient SLAM in the
-//! presence of missdetections and clutter", IEEE T-RO 37(5), 2021), the RB-PHD filter whose
+//! `phd-2.0a`: PHD-SLAM 2.0a (\[Gao2021\]), the RB-PHD filter whose
 //! importance density conditions the predicted pose on every gated (landmark, measurement)
 //! pair independently and collapses the resulting mixture to one Gaussian, as described by
-//! Kaltiokallio et al., IEEE T-RO 2024 ("seed 000") §VI-A-1 and implemented there. It is a
-//! first-order approximation of the optimal importance density of seed 000 eqs. (25)/(34)
-//! (note 02 §2), used in place of the transition density of eqs. (26)-(27).
+//! \[Kaltiokallio2024\] Section VI-A-1 and implemented there. It is a
+//! first-order approximation of the optimal importance density of \[Kaltiokallio2024\] eqs.
+//! (25)/(34) (our derivation: divided by `prod_j c(z_j)`, the map-marginal likelihood keeps its
+//! terms of order 0 and 1 in `pD eta N / c`, a mixture of the prior and the single-pair
+//! posteriors), used in place of the transition density of eqs. (26)-(27).
 //!
-//! # The importance density (note 02 §3)
-//! For one family of identical particles (00-index §9), with the predicted pose
-//! `x̄ = f(x_{k-1}, u_k)` and covariance `Q` (jitter included, 00-index §4):
+//! # The importance density
+//! For one family of identical particles (copies of one resampled parent share pose and
+//! map, so their importance density is computed once), with the predicted pose
+//! `x̄ = f(x_{k-1}, u_k)` and covariance `Q` (jitter included, see
+//! `rbphd::RbPhdParams::q_jitter`):
 //!
 //! 1. for every detectable component i (active, `pD > 0`), linearised at `x̄`:
 //!    `S_i = G_x Q G_xᵀ + G_m P_i G_mᵀ + R`, `K_i = Q G_xᵀ S_i⁻¹`, and the one-measurement
 //!    EKF covariance `Σ_i = (I − K_i G_x) Q (I − K_i G_x)ᵀ + K_i (G_m P_i G_mᵀ + R) K_iᵀ`
-//!    (Joseph form, algebraically note 02's `(I − K G_x) Q`);
+//!    (Joseph form, algebraically `(I − K G_x) Q`);
 //! 2. for every measurement j gating with i (`(z_j ⊖ ẑ_i)ᵀ S_i⁻¹ (z_j ⊖ ẑ_i) ≤ T_G`, the gate of
-//!    seed 000 eq. 22 with the pose uncertainty added): the conditional mean
+//!    \[Kaltiokallio2024\] eq. 22 with the pose uncertainty added): the conditional mean
 //!    `μ_ij = x̄ + K_i (z_j ⊖ ẑ_i)` and the log weight
 //!    `ln β_ij = ln pD_i + ln η_i + ℓN(z_j; ẑ_i, S_i) − ln c(z_j)` (the PHD-update weights,
-//!    seed 000 eqs. 20-21 and 38-40 restricted to one detection);
+//!    \[Kaltiokallio2024\] eqs. 20-21 and 38-40 restricted to one detection);
 //! 3. the prior (all measurements clutter / all landmarks missed) `N(x̄, Q)` with `β_0 = 1`;
 //! 4. normalised weights ([`PairNormalisation`]), and moment matching of the
-//!    `1 + Σ_i J_i` Gaussians with headings as wrapped offsets from `x̄` (00-index §3),
+//!    `1 + Σ_i J_i` Gaussians with headings as wrapped offsets from `x̄` (so that
+//!    headings either side of ±π average correctly),
 //!    [`moment_match`];
-//! 5. the new pose `x_k ~ N(μ, Σ)` (default; seed 000 samples, eq. 23) or `x_k = μ`
-//!    (`use_mean = true`, what Gao's reference code does, seed 000 footnote 3).
+//! 5. the new pose `x_k ~ N(μ, Σ)` (default; \[Kaltiokallio2024\] samples, eq. 23) or `x_k = μ`
+//!    (`use_mean = true`, what Gao's reference code does, \[Kaltiokallio2024\]
+//!    footnote 3).
 //!
-//! The particle weight is seed 000 eq. (45) with eq. (46) added by the shared PHD update:
-//! the proposal returns `ln f(x_k | x_{k-1}, u_k) − ln q(x_k) = ℓN(x_k; x̄, Q) − ℓN(x_k; μ, Σ)`
-//! (eqs. 47-48 with `Γ = 1`), headings of both residuals wrapped.
+//! The particle weight is \[Kaltiokallio2024\] eq. (45) with eq. (46) added by the shared PHD
+//! update: the proposal returns `ln f(x_k | x_{k-1}, u_k) − ln q(x_k) = ℓN(x_k; x̄, Q) − ℓN(x_k; μ,
+//! Σ)` (eqs. 47-48 with `Γ = 1`), headings of both residuals wrapped.
 //!
 //! # Which variant the published tables use
-//! The PHD 2.0a rows of seed 000 Tables I-III were produced by *sampling* from `N(μ, Σ)`
-//! (footnote 3), which is this crate's default. Seed 000 says its figures differ from Gao et
+//! The PHD 2.0a rows of \[Kaltiokallio2024\] Tables I-III were produced by *sampling* from `N(μ,
+//! Σ)` (footnote 3), which is this crate's default. The paper says its figures differ from Gao et
 //! al.'s because Gao's reference code takes the mean instead (`use_mean = true`) and because
-//! seed 000 added artificial clutter.
+//! it added artificial clutter.
 //!
 //! # `use_mean`: what the weight correction is
 //! A point mass at `μ` has no density, so `f/q` (eq. 24) is undefined. With `use_mean` the
 //! correction is **0**: the weight update is `w_meas` of eq. (46) alone, as for the bootstrap
-//! (eq. 27), which is note 02 §3 step 9. Justification: the new pose is a deterministic
+//! (eq. 27); this is our choice. Justification: the new pose is a deterministic
 //! function of the particle's history and of `Z_k`, so the particle is weighted by the
 //! likelihood of `Z_k` at that pose, exactly as a filter that moves its particles to the
 //! mean and then reweights them would; adding `ℓN(μ; x̄, Q)` would count the motion prior a
@@ -54,18 +59,18 @@
 //! - a component whose `S_i` fails Cholesky contributes no pair (counted in
 //!   [`ProposalStats::cholesky_failures`]);
 //! - no gated pair: the proposal is the prior `N(x̄, Q)`, sampled exactly as the bootstrap
-//!   (`phd-1.0`) does, with correction 0, so the filter then coincides with PHD-SLAM 1.0
-//!   (note 02 §7.1);
+//!   (`phd-1.0`) does, with correction 0, so the filter then coincides with PHD-SLAM 1.0;
 //! - a merged `Σ` that fails Cholesky (or a non-finite mean): counted, and the prior is used
-//!   (note 02 §3 step 7), correction 0;
+//!   with correction 0;
 //! - a non-finite correction is replaced by 0 (as `phd-3.0` does).
 //!
 //! # Reconstructed conventions
-//! Neither Gao et al.'s paper nor their code could be read (note 02, "Not pinned down"):
+//! Neither Gao et al.'s paper nor their code could be read:
 //! the pair weights (`β_ij ∝ pD η N / c` with the prior at 1), their normalisation, the single
 //! linearisation at `x̄` without iteration, the arithmetic moment matching (rather than an
 //! information-weighted average), keeping `η_i` in `β_ij`, and the weight correction under
-//! `use_mean` are note 02's derivation (§2-§3), not a transcription of the original.
+//! `use_mean` are our derivation (the first-order expansion above), not a transcription of
+//! the original.
 //! [`ProposalStats::components`] reports the number of Gaussians merged (`1 +` gated pairs);
 //! one Gaussian is sampled from.
 
@@ -79,12 +84,14 @@ use serde::{Deserialize, Serialize};
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
-/// How the pair weights `β_ij` and the prior weight are normalised (note 02 §3, free choice).
+/// How the pair weights `β_ij` and the prior weight are normalised (a free choice of the
+/// reconstruction).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PairNormalisation {
     /// `β̃_c = β_c / (1 + Σ_ij β_ij)` with `β_0 = 1`: the first-order expansion of the optimal
-    /// importance density (note 02 §2). Many good matches shrink the prior weight.
+    /// importance density (our derivation, see the crate documentation). Many good matches shrink
+    /// the prior weight.
     #[default]
     Global,
     /// PDA-style per measurement, averaged over the `J` measurements:
@@ -92,13 +99,13 @@ pub enum PairNormalisation {
     PerMeasurement,
 }
 
-/// Parameters of the PHD-SLAM 2.0a importance density (defaults: as seed 000 ran it).
+/// Parameters of the PHD-SLAM 2.0a importance density (defaults: as \[Kaltiokallio2024\] ran it).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Gao2021Params {
     /// Take the mean of the merged Gaussian as the new pose instead of sampling it (Gao et
-    /// al.'s reference code, seed 000 footnote 3); the weight correction is then 0.
-    /// Default `false`: sample, as seed 000's tables were made.
+    /// al.'s reference code, \[Kaltiokallio2024\] footnote 3); the weight correction is then 0.
+    /// Default `false`: sample, as the tables of \[Kaltiokallio2024\] were made.
     pub use_mean: bool,
     /// Normalisation of the pair weights (default [`PairNormalisation::Global`]).
     pub pair_normalisation: PairNormalisation,
@@ -262,12 +269,11 @@ impl Gao2021Proposal {
     }
 }
 
-/// Moment matching of a weighted set of pose Gaussians `(w_c, μ_c, Σ_c)` into one
-/// (note 02 §3 step 6, 00-index §3): every mean is expressed as the offset
-/// `μ_c ⊖ reference` (heading wrapped), the offsets are averaged, the result is added back
-/// to `reference` (heading wrapped), and the spread term uses the same offsets:
-/// `Σ = Σ_c w̃_c [Σ_c + (δ_c − δ̄)(δ_c − δ̄)ᵀ]`. Weights need not be normalised. Returns
-/// `None` if the weights do not sum to a positive finite number.
+/// Moment matching of a weighted set of pose Gaussians `(w_c, μ_c, Σ_c)` into one:
+/// every mean is expressed as the offset `μ_c ⊖ reference` (heading wrapped), the offsets are
+/// averaged, the result is added back to `reference` (heading wrapped), and the spread term uses
+/// the same offsets: `Σ = Σ_c w̃_c [Σ_c + (δ_c − δ̄)(δ_c − δ̄)ᵀ]`. Weights need not be normalised.
+/// Returns `None` if the weights do not sum to a positive finite number.
 pub fn moment_match<'a, I>(reference: &Pose, terms: I) -> Option<(Pose, Matrix3<f64>)>
 where
     I: IntoIterator<Item = (f64, &'a Pose, &'a Matrix3<f64>)>,
@@ -465,7 +471,7 @@ mod tests {
         (hx, hm)
     }
 
-    /// Test 1 (note 02 §7.2): one landmark, one measurement. The conditioned component is the
+    /// Test 1: one landmark, one measurement. The conditioned component is the
     /// Kalman posterior of the pose under the linearised model `z = ẑ + G_x (x − x̄) +
     /// G_m (m − m̂) + v`, computed here in information form with numerical Jacobians:
     /// `Σ = (Q⁻¹ + G_xᵀ Ω⁻¹ G_x)⁻¹`, `μ = x̄ + Σ G_xᵀ Ω⁻¹ ν`. Its weight is `β / (1 + β)` with
@@ -529,7 +535,7 @@ mod tests {
         assert!((cov - sigma).norm() < 1e-6 * sigma.norm());
     }
 
-    /// Test 2 (note 02 §7.1): when no measurement gates the proposal is the prior, sampled
+    /// Test 2: when no measurement gates the proposal is the prior, sampled
     /// with the same random numbers as the bootstrap (`phd-1.0`), and the correction is 0.
     #[test]
     fn no_gated_pair_is_the_prior() {
@@ -583,7 +589,7 @@ mod tests {
         assert!(moment_match(&a, [(0.0, &a, &c)]).is_none());
     }
 
-    /// Test 3b (note 02 §7.5) through the proposal: predicted heading pi - 0.0005 and a pair
+    /// Test 3b through the proposal: predicted heading pi - 0.0005 and a pair
     /// whose conditioned heading crosses +pi; with weights 1/2 each the merged heading is
     /// near +-pi (a naive average of the absolute headings would give about 0).
     #[test]
@@ -700,7 +706,7 @@ mod tests {
         assert_eq!(rng, before, "use_mean draws nothing");
     }
 
-    /// Note 02 §7.4: two identical measurements of one landmark with `c → 0` give two
+    /// Two identical measurements of one landmark with `c → 0` give two
     /// identical pair components of weight 1/2 each; the merged covariance is `Σ_i`.
     #[test]
     fn duplicated_measurement_has_no_spread() {

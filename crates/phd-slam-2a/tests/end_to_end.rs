@@ -16,8 +16,8 @@ fn run(ds: &Dataset, params: Gao2021Params, n: usize, seed: u64) -> JobOutcome {
     run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {})
 }
 
-/// With 10 particles (and resampling at ESS <= 0.2 N, seed 000 Table II) the filter tracks
-/// much better than dead reckoning on every seed. With one particle the measurement-driven
+/// With 10 particles (and resampling at ESS <= 0.2 N, \[Kaltiokallio2024\] Table II) the filter
+/// tracks much better than dead reckoning on every seed. With one particle the measurement-driven
 /// proposal drifts much less, on average, than the transition density (`phd-1.0`) on the
 /// same data. N = 1 and `use_mean` are reported.
 #[test]
@@ -63,7 +63,7 @@ fn tracks_better_than_dead_reckoning() {
     assert!(sum_2a < 0.75 * sum_1, "N=1 mean RMSE: phd-2.0a {:.2} m vs phd-1.0 {:.2} m", sum_2a / 4.0, sum_1 / 4.0);
 }
 
-/// The published environment (seed 000 Table II: PHD 2.0a 51.45 m at N = 1, 3.57 m at
+/// The published environment (\[Kaltiokallio2024\] Table II: PHD 2.0a 51.45 m at N = 1, 3.57 m at
 /// N = 10, 0.10 / 0.65 ms per recursion). Run with
 /// `cargo test --release -p phd-slam-2a --test end_to_end -- --ignored --nocapture`;
 /// `PHD2A_SEEDS` sets the number of seeds (default 10), `PHD2A_USE_MEAN=1` takes the mean,

@@ -1,11 +1,10 @@
-//! `phd-2.0b`: PHD-SLAM 2.0b (Kaltiokallio, Hostettler, Yin, Talvitie, Valkama, Wymeersch,
-//! "Towards real-time radio-SLAM via optimal importance sampling", IEEE SPAWC 2022; as
-//! described by seed 000 §II, §V-B and §VI-A, note 03): the RB-PHD filter whose importance
+//! `phd-2.0b`: PHD-SLAM 2.0b (\[Kaltiokallio2022\], as described by \[Kaltiokallio2024\] Sections
+//! II, V-B and VI-A): the RB-PHD filter whose importance
 //! density approximates the optimal one for the **joint** pose-and-map state conditioned on
 //! the single most likely data association, then marginalised to the pose.
 //!
 //! Per particle (or group of identical copies):
-//! 1. the cost matrix of seed 000 eqs. (29)-(31) at the predicted pose `x_bar`, gated
+//! 1. the cost matrix of \[Kaltiokallio2024\] eqs. (29)-(31) at the predicted pose `x_bar`, gated
 //!    ([`rbphd::CostMatrixBuffers`], shared with PHD-SLAM 3.0; missed entries without `eta`
 //!    by default, see [`JointParams::missed_cost`]);
 //! 2. the best assignment (Murty's algorithm with `Gamma = 1`, i.e. one rectangular
@@ -16,9 +15,9 @@
 //!    eq. (45) (one Gaussian, Gamma = 1 in eqs. 47-48). With no detected row the proposal is
 //!    the transition density (correction 0), exactly as PHD-SLAM 1.0.
 //!
-//! The association is recorded for the TPR/TNR of seed 000 §VI-A-1. Known failure mode
-//! (seed 000 Fig. 2): a wrong best association pulls the proposal away and nothing corrects
-//! it.
+//! The association is recorded for the TPR/TNR of \[Kaltiokallio2024\] Section VI-A-1. Known
+//! failure mode (\[Kaltiokallio2024\] Fig. 2): a wrong best association pulls the proposal away and
+//! nothing corrects it.
 
 use nalgebra::{Matrix2, Matrix3};
 use rbphd::{
@@ -33,7 +32,8 @@ use rfslam_core::params::{Interval, at_least_one};
 use rfslam_core::{ParamError, Point2, Pose, RangeBearing, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
 
-/// Parameters of the joint importance density (defaults: seed 000 §VI, shared with 3.0).
+/// Parameters of the joint importance density (defaults: \[Kaltiokallio2024\] Section VI, shared
+/// with 3.0).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct JointParams {
@@ -43,16 +43,17 @@ pub struct JointParams {
     pub ipl_kl_threshold: f64,
     /// Whether the KL test is on the joint density (default) or the pose marginal.
     pub ipl_kl_on: KlOn,
-    /// Missed-detection convention of the cost matrix (note 05 §1). Default `no_eta`:
+    /// Missed-detection convention of the cost matrix ([`MissedCost`]). Default `no_eta`:
     /// `-ln(1 - pD)`, the convention of the public PHD-SLAM code of 2022, when 2.0b was
-    /// published (note 00-index, "Which public code"). With the 2023 convention `paper`
-    /// (`eta` in both entries, so it cancels) a birth component of weight 1e-6 competes for a
-    /// measurement on equal terms with a confirmed landmark; 3.0 survives that through its
+    /// published (\[PHD-SLAM-3.0-code\] before its 2023-03-08 commit). With the 2023 convention
+    /// `paper` (`eta` in both entries, so it cancels) a birth component of weight 1e-6 competes for
+    /// a measurement on equal terms with a confirmed landmark; 3.0 survives that through its
     /// mixture weights and all-missed component, but 2.0b's single association does not
     /// (measured on the Table II scenario: results/table2/report.md).
     pub missed_cost: MissedCost,
     /// Include the predicted pose covariance `G_x Q G_x^T` in the innovation covariance of
-    /// the cost matrix (note 03 §2.2; default true). `false` ranks the associations as a
+    /// the cost matrix (`S = G_x Q G_x^T + G_m P G_m^T + R`, the pose marginalised out as in
+    /// PHD-SLAM 3.0; default true). `false` ranks the associations as a
     /// landmark update at a known pose would.
     pub cost_pose_covariance: bool,
 }
@@ -272,7 +273,7 @@ mod tests {
         }
     }
 
-    /// Note 03 §6.3: with no map the proposal is the transition density, the correction is
+    /// With no map the proposal is the transition density, the correction is
     /// exactly 0 and the draws are PHD-SLAM 1.0's for the same random numbers.
     #[test]
     fn no_association_is_the_transition_density() {

@@ -1,5 +1,5 @@
 //! `phd-3.0`: PHD-SLAM 3.0 (Kaltiokallio, Hostettler, Ge, Kim, Talvitie, Wymeersch,
-//! Valkama, IEEE T-RO 2024, "seed 000"), the RB-PHD filter with the multi-hypotheses
+//! Valkama, IEEE T-RO 2024, \[Kaltiokallio2024\]), the RB-PHD filter with the multi-hypotheses
 //! importance density (GM-ID) of Section V:
 //!
 //! 1. cost matrix eqs. (29)-(31) at the predicted pose, with the predicted pose covariance
@@ -30,7 +30,8 @@ use rfslam_core::rbpf::log_sum_exp;
 use rfslam_core::{ParamError, Point2, Pose, RangeBearing, RangeBearingSensor, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
 
-/// Parameters of the multi-hypotheses importance density (defaults: seed 000 §VI).
+/// Parameters of the multi-hypotheses importance density (defaults: \[Kaltiokallio2024\] Section
+/// VI).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MhParams {
@@ -62,7 +63,7 @@ impl Default for MhParams {
 }
 
 /// How the multi-hypotheses importance density linearises the sensor `g(m, x)` in the pose:
-/// the statistical linear regression of Algorithm 1 step 5 (seed 000 eq. 42, put in the
+/// the statistical linear regression of Algorithm 1 step 5 (\[Kaltiokallio2024\] eq. 42, put in the
 /// form of eq. 43 as [`rfslam_core::ipl::ipl_update_slr`] takes it), and the detected
 /// factor `N(z; g(m_i, mu_t), S_t,i)` of the component weight, eq. (44).
 pub trait PoseSlr: Clone + Send + 'static {
@@ -95,8 +96,8 @@ pub trait PoseSlr: Clone + Send + 'static {
     ) -> Option<f64>;
 }
 
-/// The first-order Taylor SLR of seed 000 (phd-3.0): `(g(m, m_pi), G_x, G_m P G_m^T + R)`
-/// at the linearisation point, and eq. (44) with `S = G_x Sigma G_x^T + G_m P G_m^T + R`
+/// The first-order Taylor SLR of \[Kaltiokallio2024\] (phd-3.0): `(g(m, m_pi), G_x, G_m P G_m^T +
+/// R)` at the linearisation point, and eq. (44) with `S = G_x Sigma G_x^T + G_m P G_m^T + R`
 /// at the component mean.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct TaylorSlr;
@@ -144,7 +145,7 @@ struct Component {
     chol_ok: bool,
 }
 
-/// The multi-hypotheses importance density of seed 000 Section V, with the statistical
+/// The multi-hypotheses importance density of \[Kaltiokallio2024\] Section V, with the statistical
 /// linear regression `S` (default: the paper's Taylor expansion).
 #[derive(Clone)]
 pub struct MhProposal<S: PoseSlr = TaylorSlr> {
@@ -436,7 +437,7 @@ mod tests {
         }
     }
 
-    /// Note 05 §7.4: two well-separated landmarks, each gating one measurement, and a third
+    /// Two well-separated landmarks, each gating one measurement, and a third
     /// measurement gating nothing. Ranked: both detected; then the single detection of the
     /// landmark with the larger ratio pD N / c (the one measured exactly); then the other
     /// single detection; both missed last. The third measurement is never assigned.
@@ -497,7 +498,7 @@ mod tests {
     }
 
     /// With no map the proposal is the transition density: one component and a zero
-    /// weight correction (note 04 §7.6).
+    /// weight correction.
     #[test]
     fn no_map_means_prior_proposal() {
         let m = models();

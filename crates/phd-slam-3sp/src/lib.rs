@@ -1,4 +1,4 @@
-//! `phd-3.0-sp`: PHD-SLAM 3.0 (Kaltiokallio et al., IEEE T-RO 2024, "seed 000") whose
+//! `phd-3.0-sp`: PHD-SLAM 3.0 (\[Kaltiokallio2024\]) whose
 //! statistical linear regression (SLR) in the iterated posterior linearisation of
 //! Algorithm 1 uses sigma points instead of the first-order Taylor expansion, as Section V-B
 //! allows ("Taylor series expansion or sigma points can be used", after eq. 42).

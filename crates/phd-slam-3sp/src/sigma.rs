@@ -1,5 +1,6 @@
-//! Sigma-point moments of a nonlinear function of a Gaussian: the expectations of seed 000
-//! eq. (42) evaluated with a symmetric `2n + 1` point rule instead of a Taylor expansion.
+//! Sigma-point moments of a nonlinear function of a Gaussian: the expectations of
+//! \[Kaltiokallio2024\] eq. (42) evaluated with a symmetric `2n + 1` point rule instead of a Taylor
+//! expansion.
 //!
 //! The rule is the scaled unscented transform with parameters `(alpha, beta, kappa)`:
 //! `lambda = alpha^2 (n + kappa) - n`, points `m` and `m +- sqrt(n + lambda) L e_i` with

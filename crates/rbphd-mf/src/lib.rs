@@ -1,6 +1,5 @@
-//! `rbphd-mf`: RB-PHD SLAM (Mullane et al.) with the bootstrap proposal and the particle
-//! weighting strategies of K. Y. K. Leung, F. Inostroza, M. Adams, "An Improved Weighting
-//! Strategy for Rao-Blackwellized Probability Hypothesis Density SLAM" (seed 004).
+//! `rbphd-mf`: RB-PHD SLAM (\[Mullane2011\]) with the bootstrap proposal and the particle
+//! weighting strategies of \[LeungInostrozaAdams\].
 //!
 //! Poses are drawn from the transition density (eq. 9), so the incremental weight is the
 //! measurement term alone (eqs. 15-17). That term is where the paper's strategies differ,
@@ -24,7 +23,7 @@ use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, Weighti
 use rfslam_core::{ParamError, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
 
-/// The weighting strategy of Leung et al. (Section III).
+/// The weighting strategy of \[LeungInostrozaAdams\] (Section III).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Strategy {
@@ -56,7 +55,7 @@ pub struct MfParams {
     pub strategy: Strategy,
 }
 
-/// The transition density as importance density (Leung et al. eq. 9).
+/// The transition density as importance density (\[LeungInostrozaAdams\] eq. 9).
 #[derive(Debug, Clone, Default)]
 pub struct BootstrapProposal;
 

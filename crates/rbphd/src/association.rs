@@ -1,4 +1,4 @@
-//! The data-association cost matrix of seed 000 eqs. (29)-(31), shared by the proposals
+//! The data-association cost matrix of \[Kaltiokallio2024\] eqs. (29)-(31), shared by the proposals
 //! that condition on ranked associations (PHD-SLAM 2.0b uses the best one, 3.0 the Gamma
 //! best).
 
@@ -11,12 +11,15 @@ use crate::proposal::ProposalContext;
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
 /// How the missed-detection entries of the cost matrix (and the missed factors of eq. 44)
-/// treat the component weight `eta_i` (note 05 §1).
+/// treat the component weight `eta_i`. The paper leaves this open in effect: with `eta_i` in
+/// both the detection and the missed entries it is a row constant and cannot change the
+/// ranking, so a birth component competes with a confirmed landmark on equal terms.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum MissedCost {
     /// `-ln((1 - pD) eta)`, as eqs. (31)/(40)/(44) print it and as the public code that
-    /// produced the tables computes it (eta is then a row constant and cancels).
+    /// produced the tables computes it (\[PHD-SLAM-3.0-code\]) (eta is then a row constant and
+    /// cancels).
     #[default]
     Paper,
     /// `-ln(1 - pD)`: the earlier public code (low-weight components cost about `-ln eta` more

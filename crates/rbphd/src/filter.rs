@@ -1,4 +1,4 @@
-//! The RB-PHD SLAM filter (seed 000 Algorithm 3) generic over the importance density.
+//! The RB-PHD SLAM filter (\[Kaltiokallio2024\] Algorithm 3) generic over the importance density.
 
 use rfslam_core::rbpf::{LogWeighted, ParticleSet};
 use rfslam_core::{
@@ -191,8 +191,8 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                     &mut self.updated,
                 );
                 chol += out.cholesky_failures;
-                // The particle weight: eq. (46) from the update, or a strategy of Leung et al.
-                // evaluated on the predicted and the (unpruned) updated map.
+                // The particle weight: eq. (46) from the update, or a strategy of
+                // [LeungInostrozaAdams] evaluated on the predicted and the (unpruned) updated map.
                 match self.params.weighting {
                     Weighting::Exact => p.log_w += out.log_likelihood,
                     w => {

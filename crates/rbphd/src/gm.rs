@@ -1,7 +1,7 @@
-//! The per-particle GM-PHD map (seed 000 eq. 17) stored as struct-of-arrays with log
+//! The per-particle GM-PHD map (\[Kaltiokallio2024\] eq. 17) stored as struct-of-arrays with log
 //! weights, its gated update (eqs. 20-22) returning the measurement term of the particle
-//! weight (eq. 46), and hypothesis reduction (Vo and Ma 2006, Table II, as the public
-//! PHD-SLAM 3.0 code does it).
+//! weight (eq. 46), and hypothesis reduction (\[VoMa2006\] Table II, as
+//! \[PHD-SLAM-3.0-code\] does it).
 
 use nalgebra::{Matrix2, Vector2};
 use rfslam_core::gaussian::{mahalanobis_and_log_det, symmetrise};
@@ -129,11 +129,13 @@ pub struct UpdateOutcome {
     pub cholesky_failures: u32,
 }
 
-/// Gated GM-PHD update (seed 000 eqs. 20-22) of the components `active` of `map` at the
+/// Gated GM-PHD update (\[Kaltiokallio2024\] eqs. 20-22) of the components `active` of `map` at the
 /// pose `x`, written to `out` (which is cleared first): every component once as a missed
 /// detection with weight `(1 - pD_i) eta_i`, plus one component per gated pair with weight
 /// `pD_i eta_i N(z_j; h_i, S_i) / (c(z_j) + sum_i' ...)`, EKF mean and Joseph-form
-/// covariance. `pd(i)` gives `pD` evaluated at component i's mean (00-index §7).
+/// covariance. `pd(i)` gives `pD` evaluated at component i's mean (as \[PHD-SLAM-3.0-code\]
+/// does; the paper approximates `E{pD}` under the component, which differs only near the
+/// FOV border).
 /// `scratch.gated[j]` tells whether measurement j gated with any component (those that did
 /// not form the birth set `Z^B` of the next step).
 #[allow(clippy::too_many_arguments)]
@@ -362,8 +364,8 @@ mod tests {
         UpdateSettings { gate: 41.4465, log_clutter: 0.01f64.ln(), exact_pd_term: exact }
     }
 
-    /// Note 01 §5.2: eta = 1, m = (10, 0), P = I, pose at the origin, R = diag(0.01, 1e-4),
-    /// pD = 0.9, c = 0.01, z = (10, 0), plus one clutter measurement far from the landmark.
+    /// A case computed by hand: eta = 1, m = (10, 0), P = I, pose at the origin, R = diag(0.01,
+    /// 1e-4), pD = 0.9, c = 0.01, z = (10, 0), plus one clutter measurement far from the landmark.
     /// S = diag(1.01, 0.0101), N(z; h, S) = 1 / (2 pi sqrt(1.01 * 0.0101)), a = 0.9 N,
     /// D = c + a; updated weights 0.1 (missed) and a / D; w_meas = ln D + ln c.
     #[test]
@@ -398,7 +400,7 @@ mod tests {
         assert_relative_eq!(o2.log_likelihood, o.log_likelihood - 0.9, epsilon = 1e-12);
     }
 
-    /// Note 01 §5.1 and §5.4: with no measurement the update is exact (w_meas = 0, or
+    /// With no measurement the Poisson posterior, and so the update, is exact (w_meas = 0, or
     /// -sum pD eta with the exact term), and the mass after an update is
     /// sum (1 - pD) eta + sum_j (sum_i a_ij) / D_j.
     #[test]

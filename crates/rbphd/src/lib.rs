@@ -1,11 +1,11 @@
 //! rbphd: the Rao-Blackwellised PHD-SLAM machinery shared by every PHD-SLAM variant
-//! (seed 000 Section IV): per particle a pose and a GM-PHD map; birth from the previous
+//! (\[Kaltiokallio2024\] Section IV): per particle a pose and a GM-PHD map; birth from the previous
 //! scan's unexplained measurements; the gated GM-PHD update with the particle weight of
 //! eq. (46); pruning and merging; components outside the field of view set aside untouched;
 //! resampling, with the importance density computed once per group of copies of one parent.
 //! A variant is a [`Proposal`] (the importance density of eq. 23) plus its defaults; the
-//! particle weighting is chosen by [`Weighting`] (seed 000 eq. 46 by default, or the
-//! empty-set, single-feature and multi-feature strategies of Leung, Inostroza, Adams).
+//! particle weighting is chosen by [`Weighting`] (\[Kaltiokallio2024\] eq. 46 by default, or the
+//! empty-set, single-feature and multi-feature strategies of \[LeungInostrozaAdams\]).
 
 pub mod association;
 pub mod filter;

@@ -7,7 +7,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::weighting::{MfTerms, MultiFeatureSettings, Weighting};
 
-/// The RB-PHD settings of seed 000 (§VI, and the public code where the paper is silent).
+/// The RB-PHD settings of \[Kaltiokallio2024\] (Section VI, and \[PHD-SLAM-3.0-code\] where the
+/// paper is silent).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(remote = "Self", default)]
 pub struct RbPhdParams {
@@ -25,25 +26,27 @@ pub struct RbPhdParams {
     pub fov_buffer_deg: f64,
     /// Map estimate threshold `T_eta`; default `(1 - pD)^2` of the detection model.
     pub estimate_threshold: Option<f64>,
-    /// `resample_ess_fraction` (seed 000 Table II: 0.2; Table I: 0, never), `resample_ess`
-    /// (Victoria Park: 1) and `q_jitter`.
+    /// `resample_ess_fraction` (\[Kaltiokallio2024\] Table II: 0.2; Table I: 0, never),
+    /// `resample_ess` (Victoria Park: 1) and `q_jitter`.
     #[serde(flatten)]
     pub rbpf: RbpfParams,
     /// Include `-sum_i pD_i eta_i` in the particle weight (the exact Poisson marginal
-    /// likelihood; 01 §2). `false` is eq. (46) as printed and as the tables were made.
+    /// likelihood of a Poisson predicted map, `-lambda_c - sum_i pD_i eta_i + sum_j ln D_j`;
+    /// the term depends on the pose through which components are in view). `false` is eq. (46) as
+    /// printed and as the tables were made.
     pub exact_pd_term: bool,
     /// Clutter intensity units, overriding the scenario's: `"cartesian"` (the published
     /// code: rate / FOV area) or `"measurement"` (rate / (max_range 2 half_angle)).
     pub clutter_intensity: Option<rfslam_core::ClutterIntensity>,
     /// The filter's detection probability, overriding the scenario's (the peak `pD` of a
-    /// range-linear model): the model mismatch of seed 000's sensitivity analysis (Fig. 5a),
-    /// where the data keep their own `pD`.
+    /// range-linear model): the model mismatch of \[Kaltiokallio2024\]'s sensitivity analysis (Fig.
+    /// 5a), where the data keep their own `pD`.
     pub detection_pd: Option<f64>,
     /// The filter's clutter rate `lambda` (mean false measurements per scan), overriding the
-    /// scenario's (seed 000 Fig. 5b).
+    /// scenario's (\[Kaltiokallio2024\] Fig. 5b).
     pub clutter_rate: Option<f64>,
-    /// Particle weighting (module [`crate::weighting`]): `"exact"` (seed 000 eq. 46, the
-    /// default), or the strategies of Leung, Inostroza, Adams: `"empty"` (eqs. 20-22),
+    /// Particle weighting (module [`crate::weighting`]): `"exact"` (\[Kaltiokallio2024\] eq. 46,
+    /// the default), or the strategies of \[LeungInostrozaAdams\]: `"empty"` (eqs. 20-22),
     /// `"single"` (eq. 23), `"multi"` (eqs. 24-27).
     pub weighting: Weighting,
     /// Multi-feature strategy: a component becomes a feature when its weight exceeds this

@@ -1,4 +1,4 @@
-//! The importance density of a PHD-SLAM variant (seed 000 eq. 23) behind one trait.
+//! The importance density of a PHD-SLAM variant (\[Kaltiokallio2024\] eq. 23) behind one trait.
 
 use nalgebra::Matrix3;
 use rfslam_core::{ParamError, Pose, RangeBearing, Rng, SlamModels};
@@ -46,7 +46,7 @@ pub struct PoseSample {
 /// Per-call statistics.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ProposalStats {
-    /// Importance-density components (Gamma of seed 000).
+    /// Importance-density components (Gamma of \[Kaltiokallio2024\]).
     pub components: usize,
     /// Covariances that failed Cholesky.
     pub cholesky_failures: u32,
@@ -86,7 +86,7 @@ pub trait Proposal: Send + Sized + 'static {
     }
 }
 
-/// Draws `n` poses from the transition density `N(f(x_{k-1}, u_k), Q_{k-1})` (seed 000
+/// Draws `n` poses from the transition density `N(f(x_{k-1}, u_k), Q_{k-1})` (\[Kaltiokallio2024\]
 /// eqs. 1, 26) into `out` (cleared first), headings wrapped, weight corrections 0: the
 /// bootstrap proposal of PHD-SLAM 1.0 and of the multi-feature filter, and the fallback of
 /// proposals that find nothing to condition on. A `Q` that fails Cholesky keeps the

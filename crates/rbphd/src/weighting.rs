@@ -1,14 +1,13 @@
 //! Particle weighting strategies of RB-PHD SLAM: the choice of the map `M` at which the
-//! identity of Mullane et al. (Leung, Inostroza, Adams, "An improved weighting strategy for
-//! RB-PHD SLAM", eq. 17) is evaluated,
+//! identity of \[Mullane2011\] (\[LeungInostrozaAdams\] eq. 17) is evaluated,
 //!
 //! `g(Z_k | Z_{1:k-1}, x_{0:k}) = p(Z_k | M, x_k) p(M | Z_{1:k-1}, x_{0:k}) / p(M | Z_{1:k}, x_{0:k})`,
 //!
 //! with both map densities replaced by Poisson RFSs of intensities `v_k^-` (predicted, births
 //! included) and `v_k^+` (updated, before pruning) and masses `m^-`, `m^+` (eqs. 18-19):
 //!
-//! - [`Weighting::Exact`]: the Poisson-prior marginal likelihood of seed 000 eq. (46), as
-//!   computed by [`crate::gm::phd_update`] (the default; every published table used it);
+//! - [`Weighting::Exact`]: the Poisson-prior marginal likelihood of \[Kaltiokallio2024\] eq. (46),
+//!   as computed by [`crate::gm::phd_update`] (the default; every published table used it);
 //! - [`Weighting::Empty`] (`M = {}`, eqs. 20-22): `sum_z ln c - N_c + m^+ - m^-`;
 //! - [`Weighting::Single`] (`M = {m}`, eq. 23): `m` the mean of the highest-weight updated
 //!   component inside the field of view;
@@ -61,14 +60,14 @@ const LN_2PI: f64 = 1.837_877_066_409_345_5;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Weighting {
-    /// Seed 000 eq. (46) (`w_meas`, optionally with `-sum pD eta`): the default.
+    /// \[Kaltiokallio2024\] eq. (46) (`w_meas`, optionally with `-sum pD eta`): the default.
     #[default]
     Exact,
-    /// Empty-set strategy (Leung et al. eqs. 20-22).
+    /// Empty-set strategy (\[LeungInostrozaAdams\] eqs. 20-22).
     Empty,
-    /// Single-feature strategy (Leung et al. eq. 23).
+    /// Single-feature strategy (\[LeungInostrozaAdams\] eq. 23).
     Single,
-    /// Multi-feature strategy (Leung et al. eqs. 24-27).
+    /// Multi-feature strategy (\[LeungInostrozaAdams\] eqs. 24-27).
     Multi,
 }
 
@@ -627,7 +626,7 @@ mod tests {
         assert_relative_eq!(o.log_weight, base + (1.0 - PD).ln(), epsilon = 1e-9);
     }
 
-    /// Note 01 §5.1: with no measurement the Poisson posterior is exact, so every strategy
+    /// With no measurement the Poisson posterior is exact, so every strategy
     /// gives `-N_c - sum_i pD eta_i` (one component: `v^+(m) = (1 - pD) v^-(m)`).
     #[test]
     fn empty_scan_is_exact_for_every_strategy() {

@@ -243,7 +243,7 @@ fn published_for(dir: &Path, root: &Path) -> Result<Option<(PathBuf, String)>, E
 
 /// Reads every `summary.csv` under `results_dir` (`results/<experiment>/summary.csv`, and
 /// deeper: `results/phd-3.0-sp/table2/summary.csv` is experiment `phd-3.0-sp/table2`) with
-/// the published tables they name ([`published_for`]), sorted by experiment name.
+/// the published tables they name (`published_for`), sorted by experiment name.
 /// `results_dir/runs` (the raw, git-ignored sweep outputs) is skipped. The repository root
 /// (against which `experiment_file` is resolved) is the parent of `results_dir`.
 pub fn collect(results_dir: &Path) -> Result<Vec<SummaryFile>, Error> {

@@ -42,10 +42,10 @@ fn bench_murty(c: &mut Criterion) {
         })
     });
 
-    let seed000 = MurtyOptions::seed000();
-    c.bench_function("murty_20x35_seed000_stop", |b| {
+    let phd_slam3 = MurtyOptions::phd_slam3();
+    c.bench_function("murty_20x35_phd_slam3_stop", |b| {
         b.iter(|| {
-            murty.k_best(black_box(&cost), &seed000, &mut out).expect("feasible");
+            murty.k_best(black_box(&cost), &phd_slam3, &mut out).expect("feasible");
             black_box(out.len())
         })
     });

@@ -67,9 +67,10 @@ impl CostMatrix {
     /// (eq. 30), `+inf` for pairs outside the gate. `missed[i] = -ln l^{i,0}` (eq. 31) goes
     /// to column `j + i`; every other missed column of row `i` is `+inf`, so each row has a
     /// private miss column and distinct assignments are distinct association maps (eq. 33).
-    /// Which convention `missed` follows (with or without `ln eta_i`, note 05 §1) is the
-    /// caller's choice. A `+inf` missed cost (`p_D = 1`) is allowed but may make the
-    /// problem infeasible.
+    /// Which convention `missed` follows (with or without `ln eta_i`: with it in
+    /// both kinds of entry, as eqs. (30)-(31) print it, `ln eta_i` is a row constant and
+    /// does not change the ranking) is the caller's choice. A `+inf` missed cost (`p_D = 1`) is
+    /// allowed but may make the problem infeasible.
     pub fn with_missed_diagonal(detection: &[f64], missed: &[f64], m: usize, j: usize) -> Result<Self, AssignError> {
         let det_len = area(m, j)?;
         let cols = j.checked_add(m).ok_or(AssignError::TooLarge { rows: m, cols: j })?;

@@ -1,12 +1,11 @@
-//! The Gibbs sampler of the efficient delta-GLMB filter (Vo, Vo, Hoang, IEEE TSP 65(8),
-//! 2017), as used by delta-GLMB-SLAM 1.0/2.0 and LMB-SLAM (Moratuwage et al. 2019, seed
-//! 001, Section 2.5; note 08 §4).
+//! The Gibbs sampler of the efficient delta-GLMB filter (\[Vo2017\]), as used by delta-GLMB-SLAM
+//! 1.0/2.0 and LMB-SLAM (\[Moratuwage2019\] Section 2.5).
 //!
 //! A [`GibbsTable`] holds, for every track `i` (a row), the options `gamma_i` it can take
 //! with their weights `ln eta_i(gamma_i)`: `-1` (dead / not born), `0` (missed) and
 //! `j >= 1` (detected by measurement `z_j`). Options `<= 0` may be shared by any number of
 //! tracks; an option `j >= 1` by at most one (the one-to-one constraint). The target is
-//! `pi(gamma) ∝ prod_i eta_i(gamma_i) 1[gamma valid]` (the hypothesis weight of seed 001
+//! `pi(gamma) ∝ prod_i eta_i(gamma_i) 1[gamma valid]` (the hypothesis weight of \[Moratuwage2019\]
 //! eqs. 12-16 up to the prior hypothesis weight). Rows are sparse: gated-out detections are
 //! simply absent, which is the same as `eta = 0`.
 //!

@@ -1,4 +1,6 @@
-//! Rectangular linear assignment by shortest augmenting paths (note 05 §2).
+//! Rectangular linear assignment by shortest augmenting paths (\[JonkerVolgenant1987\], in the
+//! rectangular form of \[Crouse2016\]): one Dijkstra pass over reduced costs per row, then a
+//! dual update and an augmentation.
 
 use crate::cost::transpose_into;
 use crate::{AssignError, CostMatrix};
@@ -113,7 +115,8 @@ impl Sap {
     }
 
     /// One Dijkstra pass from the free row `r0` over reduced costs; returns the free
-    /// column that ends the shortest augmenting path (note 05 §2 steps 1–3).
+    /// column that ends the shortest augmenting path (the costs it scans are
+    /// `min_val + L[i, j] - u[i] - v[j]`; ties prefer an unassigned column).
     /// Columns flagged in `excluded` are treated as absent.
     fn shortest_path(
         &mut self,
@@ -177,8 +180,9 @@ impl Sap {
         }
     }
 
-    /// Dual update after a pass from `r0` (note 05 §2 step 4); keeps reduced costs
-    /// non-negative and zero on assigned pairs.
+    /// Dual update after a pass from `r0` (`u[r0] += min_val`, `u[i] += min_val - spc[col4row[i]]`
+    /// for the other visited rows, `v[j] -= min_val - spc[j]` for the scanned columns); keeps
+    /// reduced costs non-negative and zero on assigned pairs.
     fn update_duals(&mut self, r0: usize) {
         let sink = *self.scanned_cols.last().expect("a pass scans its sink");
         let min_val = self.spc[sink];
@@ -191,7 +195,7 @@ impl Sap {
         }
     }
 
-    /// Flips the alternating path ending at `sink` (note 05 §2 step 5).
+    /// Flips the alternating path ending at `sink` back to `r0`.
     fn augment(&mut self, r0: usize, sink: usize) {
         let mut j = sink;
         loop {

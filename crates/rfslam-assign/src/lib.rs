@@ -1,6 +1,6 @@
 //! rfslam-assign: optimal and ranked assignment for data association.
 //!
-//! PHD-SLAM 3.0 (Kaltiokallio et al. 2024, "seed 000") §V-A ranks the data associations
+//! PHD-SLAM 3.0 (\[Kaltiokallio2024\] Section V-A) ranks the data associations
 //! (DAs) of one particle by solving the assignment problem of eq. (28) over the
 //! negative-log-likelihood cost matrix `L` of eq. (29), and enumerates the best ones with
 //! Murty's algorithm. This crate provides:
@@ -8,11 +8,11 @@
 //! - [`CostMatrix`]: a dense cost matrix where `+inf` marks a forbidden pair, with the
 //!   eq. (29) builder [`CostMatrix::with_missed_diagonal`];
 //! - [`LapSolver`] / [`solve_lap`]: the rectangular linear assignment problem, solved with
-//!   the shortest augmenting path method (Jonker–Volgenant, laid out as in Crouse 2016);
-//! - [`Murty`]: the k best assignments in non-decreasing cost (Murty 1968, with the dual
-//!   inheritance speed-up of Miller, Stone & Cox 1997), with the likelihood-ratio early
-//!   stop used by seed 000 (Cox & Miller 1995);
-//! - [`gibbs`]: the Gibbs sampler of the efficient delta-GLMB filter (Vo, Vo, Hoang 2017)
+//!   the shortest augmenting path method (\[JonkerVolgenant1987\], laid out as in \[Crouse2016\]);
+//! - [`Murty`]: the k best assignments in non-decreasing cost (\[Murty1968\], with the dual
+//!   inheritance speed-up of \[Miller1997\]), with the likelihood-ratio early stop used by
+//!   \[Kaltiokallio2024\] (\[CoxMiller1995\]);
+//! - [`gibbs`]: the Gibbs sampler of the efficient delta-GLMB filter (\[Vo2017\])
 //!   that draws association / survival / birth decisions for delta-GLMB-SLAM and LMB-SLAM.
 //!
 //! Costs are *negative log-likelihoods*: lower is better, an assignment's likelihood is
@@ -30,7 +30,7 @@ pub use cost::CostMatrix;
 pub use error::AssignError;
 pub use gibbs::{GibbsSampler, GibbsTable};
 pub use lap::{Assignment, LapSolver, solve_lap};
-pub use murty::{Murty, MurtyOptions, MurtyStats, SEED000_MAX_LOG_RATIO};
+pub use murty::{Murty, MurtyOptions, MurtyStats, PHD_SLAM3_MAX_LOG_RATIO};
 
 /// Shared helpers of the unit and property tests.
 #[cfg(test)]

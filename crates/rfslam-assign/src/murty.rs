@@ -1,4 +1,5 @@
-//! Murty's ranked assignment (note 05 §3) with the Cox–Miller likelihood-ratio early stop.
+//! Murty's ranked assignment (\[Murty1968\]) with the likelihood-ratio early stop of
+//! \[CoxMiller1995\].
 
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -7,24 +8,25 @@ use crate::cost::transpose_into;
 use crate::lap::{NONE, Sap};
 use crate::{AssignError, Assignment, CostMatrix};
 
-/// Seed 000's hypothesis-generation threshold as a cost gap: `ln(1e3) ≈ 6.9078`.
+/// The hypothesis-generation threshold of PHD-SLAM 3.0 (\[Kaltiokallio2024\]) as a cost gap:
+/// `ln(1e3) ≈ 6.9078`.
 ///
 /// The paper writes the threshold as `T_gamma = ln(1e-3)` on the log-likelihood ratio
-/// `ln(gamma_t / gamma_1) = cost_1 - cost_t` (eqs. 32–33 and §VI). In this crate's cost
+/// `ln(gamma_t / gamma_1) = cost_1 - cost_t` (eqs. 32–33 and Section VI). In this crate's cost
 /// convention (negative log-likelihoods) the same rule reads `cost_t - cost_1 >
-/// SEED000_MAX_LOG_RATIO` ⇒ stop, i.e. `gamma_t / gamma_1 < 1e-3`.
-pub const SEED000_MAX_LOG_RATIO: f64 = 6.907_755_278_982_137;
+/// PHD_SLAM3_MAX_LOG_RATIO` ⇒ stop, i.e. `gamma_t / gamma_1 < 1e-3`.
+pub const PHD_SLAM3_MAX_LOG_RATIO: f64 = 6.907_755_278_982_137;
 
 /// When to stop enumerating assignments in [`Murty::k_best`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MurtyOptions {
-    /// Maximum number of assignments returned (`Gamma-bar`; 50 in seed 000).
+    /// Maximum number of assignments returned (`Gamma-bar`; 50 in \[Kaltiokallio2024\]).
     pub max_count: usize,
     /// Largest allowed cost gap to the best assignment, `cost_t - cost_1`, i.e. the
     /// negative log of the likelihood ratio `gamma_t / gamma_1` (eq. 32). The first
     /// assignment whose gap exceeds it is discarded and enumeration stops. This is
-    /// `-T_gamma` of seed 000 (`T_gamma = ln 1e-3`, so the value is `+ln 1e3`, see
-    /// [`SEED000_MAX_LOG_RATIO`]); it must be `>= 0`. `None` disables the test.
+    /// `-T_gamma` of \[Kaltiokallio2024\] (`T_gamma = ln 1e-3`, so the value is `+ln 1e3`, see
+    /// [`PHD_SLAM3_MAX_LOG_RATIO`]); it must be `>= 0`. `None` disables the test.
     pub max_log_ratio: Option<f64>,
 }
 
@@ -34,9 +36,10 @@ impl MurtyOptions {
         Self { max_count, max_log_ratio: None }
     }
 
-    /// Seed 000 §VI: `Gamma-bar = 50`, `T_gamma = ln 1e-3`.
-    pub const fn seed000() -> Self {
-        Self { max_count: 50, max_log_ratio: Some(SEED000_MAX_LOG_RATIO) }
+    /// The settings of PHD-SLAM 3.0 (\[Kaltiokallio2024\] Section VI): `Gamma-bar = 50`,
+    /// `T_gamma = ln 1e-3`.
+    pub const fn phd_slam3() -> Self {
+        Self { max_count: 50, max_log_ratio: Some(PHD_SLAM3_MAX_LOG_RATIO) }
     }
 }
 
@@ -104,9 +107,10 @@ impl Eq for HeapEntry {}
 /// The problem as the solver sees it: oriented so that the real rows are the smaller side
 /// (`nr_full <= nc_full`, every real row assigned), reduced by [`Reduction`], then padded
 /// to an `n x n` square (`n` = kept columns) with zero-cost dummy rows, so that every
-/// column is matched and a child's only free column is the one it forbids (note 05 §3,
-/// dual inheritance caveat). Only the `nr` kept real rows are ever partitioned on.
-/// The padded costs themselves live in [`Murty::padded`].
+/// column is matched and a child's only free column is the one it forbids. (Without the
+/// padding, a column freed in a child may keep a negative dual and the inherited duals are
+/// no longer optimal; \[Miller1997\] dual inheritance needs the square.) Only the `nr` kept real
+/// rows are ever partitioned on. The padded costs themselves live in [`Murty::padded`].
 struct Problem<'a> {
     /// Kept real rows.
     nr: usize,
@@ -211,8 +215,7 @@ impl Reduction {
     }
 }
 
-/// Reusable Murty ranked-assignment solver (Murty 1968; Miller, Stone & Cox 1997;
-/// note 05 §3).
+/// Reusable Murty ranked-assignment solver (\[Murty1968\]; \[Miller1997\]).
 ///
 /// Enumerates the assignments of eq. (28) in non-decreasing cost: the best `gamma^1`,
 /// then `gamma^2 >= ...` in the paper's likelihood terms (eq. 32). Each popped node is
@@ -285,7 +288,7 @@ impl Murty {
     /// Writes into `out` the best assignments of `cost` in non-decreasing cost (ties in
     /// discovery order), all distinct, stopping at `opts.max_count` or at the first
     /// assignment whose cost exceeds the best by more than `opts.max_log_ratio` (which
-    /// is discarded). `Gamma-tilde` of seed 000 is `out.len()` afterwards.
+    /// is discarded). `Gamma-tilde` of \[Kaltiokallio2024\] is `out.len()` afterwards.
     ///
     /// Costs are recomputed from `cost` for every output. Because each child's cost is
     /// summed independently, equal-cost assignments can differ in the last bits, so
@@ -434,8 +437,9 @@ impl Murty {
         self.full_sol = full;
     }
 
-    /// Partitions node `idx` over its free real rows (note 05 §3 step 3) and pushes the
-    /// feasible children within the ratio bound.
+    /// Partitions node `idx` over its free real rows (\[Murty1968\]: child `t` forces the
+    /// parent's first `t - 1` free pairs and forbids its `t`-th) and pushes the feasible children
+    /// within the ratio bound.
     fn expand(&mut self, p: &Problem<'_>, idx: usize, best: f64, max_log_ratio: Option<f64>) {
         let n = p.n;
         let base = idx * n;
@@ -684,7 +688,7 @@ mod tests {
     fn reduction_gives_the_unreduced_enumeration() {
         use rand::RngExt;
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(7);
-        let opts = MurtyOptions { max_count: 50, max_log_ratio: Some(SEED000_MAX_LOG_RATIO) };
+        let opts = MurtyOptions { max_count: 50, max_log_ratio: Some(PHD_SLAM3_MAX_LOG_RATIO) };
         let mut fixed_seen = 0;
         for k in 0..200 {
             let (m, j) = (rng.random_range(1..14usize), rng.random_range(1..14usize));
@@ -749,9 +753,9 @@ mod tests {
     }
 
     #[test]
-    fn seed000_ratio_is_ln_1000() {
-        assert!((SEED000_MAX_LOG_RATIO - 1e3f64.ln()).abs() < 1e-15);
-        assert_eq!(MurtyOptions::seed000().max_count, 50);
+    fn phd_slam3_ratio_is_ln_1000() {
+        assert!((PHD_SLAM3_MAX_LOG_RATIO - 1e3f64.ln()).abs() < 1e-15);
+        assert_eq!(MurtyOptions::phd_slam3().max_count, 50);
     }
 
     #[test]
@@ -786,7 +790,7 @@ mod tests {
         // One landmark, one measurement: detect (cost 0) or miss (1000.5x less likely).
         let gap = 1000.5f64.ln();
         let m = CostMatrix::with_missed_diagonal(&[0.0], &[gap], 1, 1).unwrap();
-        let stop = MurtyOptions { max_count: 50, max_log_ratio: Some(SEED000_MAX_LOG_RATIO) };
+        let stop = MurtyOptions { max_count: 50, max_log_ratio: Some(PHD_SLAM3_MAX_LOG_RATIO) };
         let out = k_best(&m, stop).unwrap();
         assert_eq!(out.len(), 1);
         assert_eq!(out[0].col_for_row, vec![Some(0)]);
@@ -804,8 +808,10 @@ mod tests {
 
     #[test]
     fn two_landmarks_three_measurements() {
-        // Note 05 §7.4. Landmarks at (0, 0) and (50, 0); z0 near the first, z1 near the
-        // second (farther off, so a smaller likelihood), z2 far from both.
+        // Ranking by hand: both detected, then the two single detections (the larger
+        // `pD eta N / kappa` first), both missed last; z2 is never assigned. Landmarks at (0, 0)
+        // and (50, 0); z0 near the first, z1 near the second (farther off, so a smaller
+        // likelihood), z2 far from both.
         let landmarks: [(f64, f64); 2] = [(0.0, 0.0), (50.0, 0.0)];
         let z: [(f64, f64); 3] = [(0.1, -0.1), (51.0, 0.8), (20.0, 30.0)];
         let (p_d, sigma2, kappa, gate) = (0.95f64, 1.0f64, 1e-5f64, 41.4465);

@@ -4,6 +4,11 @@
 //! Exit codes: 0 success; 2 bad input (usage, configuration, parameters, data, directories
 //! that do not belong together); 1 a failure while running (I/O, an incomplete merge).
 
+// The `///` comments of the clap types below are the `--help` text, written for a terminal:
+// `<experiment name>` there is a placeholder, not an HTML tag.
+#![allow(rustdoc::invalid_html_tags)]
+
+mod init_dataset;
 mod plot;
 mod run;
 
@@ -47,6 +52,14 @@ enum Command {
         /// Output directory.
         #[arg(long)]
         out: PathBuf,
+    },
+    /// Write a template dataset directory for your own recorded log: a small simulated run in
+    /// the dataset format (valid as it is) and a README.md saying what each file holds, with
+    /// units (format: docs/datasets.md).
+    InitDataset {
+        /// Directory to create (must not hold a data set).
+        #[arg(value_name = "DIR")]
+        dir: PathBuf,
     },
     /// Run one filter on a data set or on one run of a scenario; write trajectory.csv, map.csv,
     /// metrics.json, the truth and dead-reckoning files a plot needs, and on request steps.csv
@@ -210,6 +223,7 @@ fn simulate(scenario: &Path, seed: u64, set: &[String], out: &Path) -> Result<()
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let res: Result<(), Failure> = match cli.command {
+        Command::InitDataset { dir } => init_dataset::init_dataset(&dir),
         Command::Filters => {
             for e in registry::REGISTRY {
                 println!("{:<22} {}", e.name, e.summary);

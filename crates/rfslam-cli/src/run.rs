@@ -135,6 +135,17 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let out = args.out.as_path();
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let o = run_with_outputs(args, &ds, f.as_mut(), &ov.metrics)?;
+    // A score that is not a finite number is a failed run (exit 1), not a result.
+    if let Some(what) = o.not_finite(&ov.metrics) {
+        trace::remove_stale(&out.join("metrics.json"))?;
+        return Err(anyhow!(
+            "{filter} N={} seed={} failed: {what}, not a finite number (trajectory.csv in {} shows the estimate; no metrics.json is written)",
+            args.particles,
+            args.seed,
+            out.display()
+        )
+        .into());
+    }
     write_map(out, &o)?;
     trace::write_run_context(&ds, out)?;
     write_metrics(args, &ds, &o, &ov.metrics)?;

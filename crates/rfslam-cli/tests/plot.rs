@@ -214,3 +214,28 @@ fn bad_input_is_a_clear_error() {
     );
     fails(tmp.path(), &["plot", "s", "--where", "filter", "--out", "a.png"], 2, &["--where filter", "KEY=VALUE"]);
 }
+
+#[test]
+fn bars_without_a_drawable_value_are_marked_and_output_errors_give_the_reason() {
+    // A bar whose value was NaN, inf or not positive on a log axis was dropped silently.
+    let tmp = TempDir::new("plot-marks");
+    std::fs::create_dir_all(tmp.join("s")).unwrap();
+    tmp.write(
+        "s/summary.csv",
+        "filter,particles,pos_rmse_m,pos_std_m\nphd,1,2.5,0.1\nphd,10,,\nphd,100,inf,\nother,1,0,0\nother,10,1.5,0.2\n",
+    );
+    ok(tmp.path(), &["plot", "s", "--metric", "pos_rmse_m", "--log-y", "--out", "b.svg"]);
+    let svg = tmp.read("b.svg");
+    // plotters writes a text element's content on a line of its own.
+    for mark in ["\nn/a\n", "\ninf\n", "\n&lt;= 0\n"] {
+        assert!(svg.contains(mark), "the SVG lacks the mark {mark}");
+    }
+    ok(tmp.path(), &["plot", "s", "--metric", "pos_rmse_m", "--out", "lin.svg"]);
+    let svg = tmp.read("lin.svg");
+    assert!(svg.contains("\nn/a\n") && svg.contains("\ninf\n") && !svg.contains("&lt;= 0"));
+    // An output path that cannot be written: the path and the operating system's reason,
+    // not a debug dump of the image encoder's error.
+    std::fs::create_dir_all(tmp.join("dir.png")).unwrap();
+    let o = fails(tmp.path(), &["plot", "s", "--metric", "pos_rmse_m", "--out", "dir.png"], 1, &["dir.png"]);
+    assert!(o.stderr.contains("Is a directory") && !o.stderr.contains("Os {"), "{}", o.stderr);
+}

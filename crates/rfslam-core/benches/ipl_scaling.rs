@@ -3,9 +3,11 @@
 //! with one measurement.
 //!
 //! - `partitioned/M`: PHD-SLAM 3.0's Algorithm 1 ([`rfslam_core::ipl::ipl_update`]), the
-//!   time of one GM component (seed 000: 14.0 us per component on its scenario);
+//!   time of one GM component (\[Kaltiokallio2024\]: 14.0 us per component on its
+//!   scenario);
 //! - `joint/M`: PHD-SLAM 2.0b's joint IPL on the 3 + 2M state
-//!   ([`rfslam_core::joint_ipl::JointIpl`]), the time per particle (seed 000: 173.4 us).
+//!   ([`rfslam_core::joint_ipl::JointIpl`]), the time per particle (\[Kaltiokallio2024\]: 173.4
+//!   us).
 //!
 //! Both with the Table II sensor (sigma_r 0.8 m, sigma_phi 0.3 deg), L = 5, KL 1e-3, the
 //! predicted pose 1 m and 0.5 deg off the truth, landmarks 20-140 m away across the FOV

@@ -7,7 +7,8 @@ use serde::{Deserialize, Serialize};
 use crate::angle::wrap;
 use crate::{Point2, Pose, RangeBearing};
 
-/// Largest detection probability used, so that `ln(1 - p_D)` stays finite (00-index §7).
+/// Largest detection probability used, so that `ln(1 - p_D)` stays finite (our
+/// choice of bound).
 pub const PD_MAX: f64 = 1.0 - 1e-12;
 
 /// A range / half-angle field of view around the heading.
@@ -119,12 +120,13 @@ impl PlacedFov {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "model", rename_all = "snake_case", deny_unknown_fields)]
 pub enum DetectionModel {
-    /// `p_D` constant inside the FOV (seed 000 synthetic: 0.95).
+    /// `p_D` constant inside the FOV (\[Kaltiokallio2024\] synthetic: 0.95).
     Constant {
         /// Detection probability inside the FOV.
         pd: f64,
     },
-    /// `p_D = pd0 (1 - r / max_range)` inside the FOV (seed 000 Victoria Park: `pd0 = 0.7`).
+    /// `p_D = pd0 (1 - r / max_range)` inside the FOV (\[Kaltiokallio2024\] Victoria Park: `pd0 =
+    /// 0.7`).
     RangeLinear {
         /// Detection probability at zero range.
         pd0: f64,
@@ -169,7 +171,10 @@ impl DetectionModel {
     }
 }
 
-/// How the filters express the clutter intensity `c(z)` (00-index §6).
+/// How the filters express the clutter intensity `c(z)`. The clutter of \[Kaltiokallio2024\] is
+/// uniform in range and bearing, so as a density in measurement space it is
+/// `lambda_c / (max_range * 2 half_angle)`; the two choices change every `pD eta N / c` ratio,
+/// the births and the association ranking.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum ClutterIntensity {

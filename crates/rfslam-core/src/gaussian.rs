@@ -1,7 +1,8 @@
 //! Gaussian helpers on fixed-size nalgebra types: log densities by Cholesky, sampling.
 //!
 //! Every function that factorises a covariance returns `None` when Cholesky fails, so the
-//! caller handles (and counts) it instead of unwrapping (ARCHITECTURE.md, Conventions).
+//! caller handles (and counts) it instead of unwrapping (a failed factorisation is
+//! never a panic).
 
 use nalgebra::{SMatrix, SVector};
 use rand_distr::{Distribution, StandardNormal};

@@ -1,13 +1,15 @@
 //! Iterated posterior linearisation (IPL) of the optimal importance density with the
-//! partitioned update of seed 000 Algorithm 1 (Hostettler et al. 2020; seed 000 eqs. 42-43).
+//! partitioned update of \[Kaltiokallio2024\] Algorithm 1 (\[Hostettler2020\]; \[Kaltiokallio2024\]
+//! eqs. 42-43).
 //!
-//! Two Gaussians are kept apart (note 04 §3): the linearisation density `pi`, fixed during
-//! an iteration, and the running posterior `s`, restarted from the prior `N(x_bar, Q)` at
-//! every iteration and updated one associated landmark at a time. The statistical linear
-//! regression is the first-order Taylor expansion at `pi`'s mean, so eq. (43) gives
+//! Two Gaussians are kept apart (Algorithm 1 writes both as `mu~^x_l`): the linearisation density
+//! `pi`, fixed during an iteration, and the running posterior `s`, restarted from the prior
+//! `N(x_bar, Q)` at every iteration and updated one associated landmark at a time. The statistical
+//! linear regression is the first-order Taylor expansion at `pi`'s mean, so eq. (43) gives
 //! `B_l = A = G_x(m_pi)`, `mu^z = z_hat + A (m_s - m_pi)` and
 //! `Sigma^zz = A P_s A^T + Omega` with `Omega = G_m P_i G_m^T + R`; the cross-covariance is
-//! `P_s A^T` (eq. 43d as printed is a typo, note 04 §3). Cost O(M) per iteration with
+//! `P_s A^T` (eq. 43d as printed, `Sigma~^zx B_l^T`, is 2x2 and
+//! cannot be the 3x2 cross-covariance: a typo, our reading). Cost O(M) per iteration with
 //! fixed-size 3x3 / 2x2 algebra only.
 
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector3};
@@ -19,9 +21,9 @@ use crate::{Pose, RangeBearing};
 /// Settings of [`ipl_update`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IplSettings {
-    /// Maximum number of iterations `L` (seed 000: 5).
+    /// Maximum number of iterations `L` (\[Kaltiokallio2024\]: 5).
     pub max_iterations: usize,
-    /// Stop when `KL(pi_{l-1} || pi_l)` falls below this (seed 000: 1e-3).
+    /// Stop when `KL(pi_{l-1} || pi_l)` falls below this (\[Kaltiokallio2024\]: 1e-3).
     pub kl_threshold: f64,
 }
 
@@ -186,6 +188,47 @@ mod tests {
         assert_relative_eq!(res.cov, cov, epsilon = 1e-12);
         assert_eq!(res.iterations, 2, "second iterate has KL 0 and stops the loop");
         assert!(!res.lost_definiteness);
+    }
+
+    /// The stop of Algorithm 1 on the nonlinear range-bearing sensor: the loop ends at the
+    /// first iterate `l` with `KL(pi_{l-1} || pi_l)` below the threshold, well before a large
+    /// iteration budget, and not earlier. (Running with a budget of `k` iterations returns
+    /// iterate `k` when the loop has not stopped before.)
+    #[test]
+    fn nonlinear_update_stops_at_the_first_iterate_below_the_kl_threshold() {
+        use crate::Point2;
+        use crate::sensor::RangeBearingSensor;
+        let sensor = RangeBearingSensor::default();
+        let truth = Pose::new(1.5, -1.0, 0.35);
+        let x_bar = Pose::new(0.0, 0.0, 0.0);
+        let q = Matrix3::from_diagonal(&nalgebra::Vector3::new(2.0, 2.0, 0.4f64.powi(2)));
+        let marks = [Point2::new(6.0, 2.0), Point2::new(-2.0, 7.0), Point2::new(4.0, -6.0)];
+        let r = Matrix2::from_diagonal(&nalgebra::Vector2::new(0.1, 0.01f64.powi(2)));
+        let z: Vec<RangeBearing> = marks.iter().map(|m| sensor.predict(&truth, m)).collect();
+        let p_m = Matrix2::identity() * 0.05;
+        let run = |max_iterations: usize| {
+            let settings = IplSettings { max_iterations, kl_threshold: 1e-3 };
+            ipl_update(
+                &x_bar,
+                &q,
+                &z,
+                |k, x| {
+                    let l = sensor.linearise(x, &marks[k]);
+                    (l.z, l.hx, l.hm * p_m * l.hm.transpose() + r)
+                },
+                &settings,
+            )
+        };
+        let stopped = run(1000);
+        let l = stopped.iterations;
+        assert!((3..1000).contains(&l), "stopped after {l} iterations");
+        for k in 2..=l {
+            let (prev, this) = (run(k - 1), run(k));
+            assert_eq!(this.iterations, k);
+            let kl = kl_divergence(&prev.mean, &prev.cov, &this.mean, &this.cov).unwrap();
+            assert_eq!(kl < 1e-3, k == l, "iterate {k}: KL {kl}");
+        }
+        assert_eq!(run(l).mean, stopped.mean);
     }
 
     #[test]

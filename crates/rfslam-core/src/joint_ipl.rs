@@ -1,8 +1,8 @@
 //! Iterated posterior linearisation on the **joint** state of the pose and the associated
 //! landmarks, marginalised to the pose: the importance density of PHD-SLAM 2.0b
-//! (Kaltiokallio et al., SPAWC 2022; seed 000 §V-B: "finding the joint approximation of the
-//! robot and map first, and then by conditioning on the measurements of the most likely
-//! DA"; note 03 §2.4).
+//! (\[Kaltiokallio2022\], as \[Kaltiokallio2024\] Section V-B describes it: "finding the joint
+//! approximation of the robot and map first, and then by conditioning on the measurements of the
+//! most likely DA").
 //!
 //! The state is `y = [x; m_1; ...; m_M]` of dimension `n = 3 + 2M` with the block-diagonal
 //! prior `N([x_bar; m_1; ...], blkdiag(Q, P_1, ..., P_M))`. Iteration `l` linearises the
@@ -16,9 +16,10 @@
 //! The cost of an iteration is O(M^3): the Cholesky factor of the `2M x 2M` innovation
 //! covariance, `L^-1 P_0 A^T` and the dense `n x n` posterior. This is the cost PHD-SLAM 3.0
 //! avoids with its partitioned update ([`crate::ipl::ipl_update`], O(M)); for a linear
-//! sensor the two give the same pose marginal (note 03 §3), so they differ only through
-//! re-linearisation at the updated landmark means. All buffers are kept between calls and
-//! grow to the largest `M` seen: no allocation once warmed up.
+//! sensor the two give the same pose marginal (the landmarks are independent a priori and each
+//! measurement involves one landmark; our derivation, checked by the tests below), so they differ
+//! only through re-linearisation at the updated landmark means. All buffers are kept between calls
+//! and grow to the largest `M` seen: no allocation once warmed up.
 
 use nalgebra::{DMatrix, Matrix2, Matrix2x3, Matrix3};
 use serde::{Deserialize, Serialize};
@@ -29,7 +30,7 @@ use crate::ipl::{IplResult, kl_divergence};
 use crate::{Point2, Pose, RangeBearing};
 
 /// On which density the convergence test `KL(pi_{l-1} || pi_l) < threshold` is evaluated
-/// (not stated in the sources, note 03 §2.4).
+/// (\[Kaltiokallio2024\]'s description of 2.0b does not say: our choice, a parameter).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum KlOn {
@@ -355,7 +356,7 @@ mod tests {
         (Matrix2x3::new(1.0, 0.5 - 0.1 * s, -0.2, 0.1 * s, 1.0, 0.7), Matrix2::new(-1.0, 0.05 * s, 0.3, -1.0 + 0.1 * s))
     }
 
-    /// Note 03 §6.1 and §6.2: with a linear sensor the first iterate is the exact Kalman
+    /// With a linear sensor the first iterate is the exact Kalman
     /// posterior, the second has KL = 0 (the loop stops at l = 2), and the pose marginal
     /// equals PHD-SLAM 3.0's partitioned Algorithm 1 for the same association.
     #[test]

@@ -1,12 +1,13 @@
 //! rfslam-core: the types, models and utilities every rfslam filter shares.
 //!
 //! - [`types`]: poses, controls, scans, estimates, step reports;
-//! - [`motion`]: velocity (seed 000 eq. 49), Ackermann (Victoria Park) and 2-D odometry
+//! - [`motion`]: velocity (\[Kaltiokallio2024\] eq. 49), Ackermann (Victoria Park) and 2-D odometry
 //!   models with Jacobians wrt state and control;
 //! - [`sensor`]: the range-bearing sensor (eq. 50), its Jacobians and inverse;
 //! - [`detection`]: field of view, detection probability, Poisson clutter;
 //! - [`gaussian`]: log densities and sampling by Cholesky, failures returned not unwrapped;
-//! - [`ipl`], [`joint_ipl`]: the IPL importance densities (partitioned, seed 000 Algorithm 1;
+//! - [`ipl`], [`joint_ipl`]: the IPL importance densities (partitioned, \[Kaltiokallio2024\]
+//!   Algorithm 1;
 //!   joint on pose and landmarks, PHD-SLAM 2.0b);
 //! - [`rbpf`]: log-sum-exp, ESS, systematic resampling, and the particle set every RBPF
 //!   steps through ([`rbpf::ParticleSet`]);

@@ -1,7 +1,7 @@
 //! Motion models `x_k = f(x_{k-1}, u_k)` with Jacobians wrt state and control.
 //!
-//! Control noise enters through the control (seed 000 §VI-A): the predicted pose covariance
-//! of one segment is `F P F^T + F_u Q_u F_u^T`. Controls are `Vector3`; a model with two
+//! Control noise enters through the control (\[Kaltiokallio2024\] Section VI-A): the predicted pose
+//! covariance of one segment is `F P F^T + F_u Q_u F_u^T`. Controls are `Vector3`; a model with two
 //! control inputs ignores the third entry and has a zero third column in `F_u`.
 
 use nalgebra::Matrix3;
@@ -37,7 +37,7 @@ fn dsinc(a: f64) -> f64 {
     if a.abs() < 1e-4 { -a / 3.0 } else { (a * a.cos() - a.sin()) / (a * a) }
 }
 
-/// Velocity motion model of seed 000 eq. (49), control `[v, omega]`.
+/// Velocity motion model of \[Kaltiokallio2024\] eq. (49), control `[v, omega]`.
 ///
 /// Eq. (49) is evaluated in the algebraically equal chord form
 /// `p' = p + v T sinc(omega T / 2) [cos, sin](theta + omega T / 2)`, which has no

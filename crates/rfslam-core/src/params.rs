@@ -132,9 +132,9 @@ pub struct RbpfParams {
     pub resample_ess_fraction: f64,
     /// Resample when `ESS <=` this absolute value instead (Victoria Park: 1); none by default.
     pub resample_ess: Option<f64>,
-    /// Jitter added to the diagonal of the predicted pose covariance `Q` (m^2, m^2, rad^2),
-    /// keeping it positive definite when the control noise is singular; the public
-    /// PHD-SLAM 3.0 code's `[1e-9, 1e-9, 1e-18]`.
+    /// Jitter added to the diagonal of the predicted pose covariance (m^2, m^2, rad^2): two
+    /// control noises drive three pose coordinates, so `F_u Q_u F_u^T` has rank 2 and its
+    /// density is undefined without it (\[PHD-SLAM-3.0-code\]: `[1e-9, 1e-9, 1e-18]`).
     pub q_jitter: [f64; 3],
 }
 

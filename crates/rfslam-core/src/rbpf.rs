@@ -29,7 +29,8 @@ pub fn normalise_log_weights(log_w: &mut [f64]) -> f64 {
     z
 }
 
-/// Effective sample size `1 / sum w_n^2` of normalised log weights (00-index §10).
+/// Effective sample size `1 / sum w_n^2` of normalised log weights (the correct form;
+/// \[Kaltiokallio2024\] Algorithm 3 prints `1 / sum w`, a typo).
 pub fn ess(normalised_log_w: &[f64]) -> f64 {
     let s: f64 = normalised_log_w.iter().map(|l| (2.0 * l).exp()).sum();
     if s > 0.0 { 1.0 / s } else { 0.0 }

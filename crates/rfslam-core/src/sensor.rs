@@ -1,4 +1,5 @@
-//! Range-bearing sensor of seed 000 eq. (50), its Jacobians and its inverse (landmark birth).
+//! Range-bearing sensor of \[Kaltiokallio2024\] eq. (50), its Jacobians and its inverse (landmark
+//! birth).
 
 use nalgebra::{Matrix2, Matrix2x3, Vector2};
 use serde::{Deserialize, Serialize};

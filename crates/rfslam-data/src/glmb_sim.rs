@@ -1,4 +1,4 @@
-//! The simulated world of delta-GLMB-SLAM 2.0 (Moratuwage et al., Sensors 2019, §4.1):
+//! The simulated world of delta-GLMB-SLAM 2.0 (\[Moratuwage2019\] Section 4.1):
 //! 23 landmarks beside a pre-planned path driven at 1 m/s that closes a loop
 //! (`[world] kind = "glmb-sim"`, optional key `dt`).
 //!

@@ -80,7 +80,7 @@ pub enum WorldSpec {
         /// Heading of the initial pose (deg).
         initial_heading_deg: f64,
     },
-    /// The simulated world of delta-GLMB-SLAM 2.0 (Moratuwage et al. 2019, §4.1): 23
+    /// The simulated world of delta-GLMB-SLAM 2.0 (\[Moratuwage2019\] Section 4.1): 23
     /// landmarks beside a racetrack driven at 1 m/s with a loop closure
     /// ([`crate::glmb_sim::glmb_sim_world`]), driven by the scenario's `velocity` or
     /// `ackermann` controls; key `dt`: the control and scan period (s, default 1).

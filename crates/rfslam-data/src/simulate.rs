@@ -1,5 +1,5 @@
-//! The synthetic data generator of the PHD-SLAM papers (Gao et al. 2021, Kaltiokallio et
-//! al. 2024, Section VI-A): a world plus models plus a run seed gives a data set with
+//! The synthetic data generator of the PHD-SLAM papers (\[Gao2021\],
+//! \[Kaltiokallio2024\] Section VI-A): a world plus models plus a run seed gives a data set with
 //! truth labels.
 
 use rand::RngExt;

@@ -1,6 +1,6 @@
 //! Importer of the Victoria Park data set (J. Guivant, E. Nebot, ACFR) in the form
 //! distributed with K. Leung's RFS-SLAM C++ library (tree detections already extracted from
-//! the laser scans), with the artificial clutter of Kaltiokallio et al. 2024 (PHD-SLAM 3.0),
+//! the laser scans), with the artificial clutter of \[Kaltiokallio2024\] (PHD-SLAM 3.0),
 //! Section VI-B and Table III.
 //!
 //! # The files

@@ -8,9 +8,9 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MetricsConfig {
-    /// GOSPA cut-off `c` (m); Kaltiokallio et al. 2024 use 20.
+    /// GOSPA cut-off `c` (m); \[Kaltiokallio2024\] uses 20.
     pub gospa_c: f64,
-    /// GOSPA order `p`; Kaltiokallio et al. 2024 use 2.
+    /// GOSPA order `p`; \[Kaltiokallio2024\] uses 2.
     pub gospa_p: f64,
     /// A scan's pose is scored against the ground-truth row nearest in time when it lies
     /// within this many seconds (Victoria Park: 25 ms of a GPS fix).
@@ -27,7 +27,7 @@ fn is_false(b: &bool) -> bool {
     !*b
 }
 
-/// Settings of the OSPA metric (Schuhmacher et al. 2008); a key left out takes its default.
+/// Settings of the OSPA metric (\[Schuhmacher2008\]); a key left out takes its default.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct OspaSettings {
@@ -38,7 +38,7 @@ pub struct OspaSettings {
 }
 
 impl Default for OspaSettings {
-    /// Moratuwage et al. 2019's map OSPA: c = 0.5 m, p = 1.
+    /// The map OSPA of \[Moratuwage2019\]: c = 0.5 m, p = 1.
     fn default() -> Self {
         OspaSettings { c: 0.5, p: 1.0 }
     }

@@ -35,7 +35,7 @@ pub enum Pool {
     /// The mean over runs.
     Mean,
     /// The RMSE over all scored steps of all runs, `sqrt(sum_r x_r^2 n_r / sum_r n_r)` with
-    /// `n_r` the run's value of the column `steps` (as Kaltiokallio et al. 2024 pool their
+    /// `n_r` the run's value of the column `steps` (as \[Kaltiokallio2024\] pools its
     /// position and heading RMSE).
     Rmse {
         /// The column counting the steps each run's RMSE is over.
@@ -438,7 +438,7 @@ fn final_map(end: &RunEnd) -> Option<(Vec<Point2>, Vec<Point2>)> {
     Some((truth, est))
 }
 
-/// GOSPA (alpha = 2) of the final map with its parts (Rahmathullah et al. 2017).
+/// GOSPA (alpha = 2) of the final map with its parts (\[Rahmathullah2017\]).
 struct GospaMetric {
     c: f64,
     p: f64,
@@ -459,8 +459,8 @@ impl Observer for GospaMetric {
     }
 }
 
-/// OSPA of the final map with its localisation and cardinality parts (Schuhmacher et al.
-/// 2008), the map metric of Leung et al. and of Moratuwage et al. 2019.
+/// OSPA of the final map with its localisation and cardinality parts (\[Schuhmacher2008\]),
+/// the map metric of \[LeungInostrozaAdams\] and of \[Moratuwage2019\].
 struct OspaMetric {
     c: f64,
     p: f64,

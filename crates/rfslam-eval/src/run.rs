@@ -111,3 +111,33 @@ pub fn run_filter(
     }
     JobOutcome { values, final_estimate: estimate }
 }
+
+impl JobOutcome {
+    /// The first score of the metrics `m` turns on that is not a finite number where it
+    /// must be one, described (`pos_rmse_m is NaN over 200 scored steps`): an infinite value
+    /// anywhere; NaN in the position RMSE of a run with scored steps (every scored step has a
+    /// true position, unlike a true heading) or in a rate of a run with the events it is
+    /// over. NaN elsewhere means "not available" (no true heading, landmarks or labels). A
+    /// run with such a score failed: its scores are never written as a row.
+    pub fn not_finite(&self, m: &MetricsConfig) -> Option<String> {
+        let get = |name: &str| self.values.get(name).unwrap_or(f64::NAN);
+        for c in crate::metric::columns(m) {
+            let v = get(c.name);
+            if v.is_infinite() {
+                return Some(format!("{} is {v}", c.name));
+            }
+            let over = match c.figure.map(|f| f.pool) {
+                Some(crate::metric::Pool::Rmse { steps }) if c.name == "pos_rmse_m" => Some((steps, "scored steps")),
+                Some(crate::metric::Pool::Rate { events }) => Some((events, "events")),
+                _ => None,
+            };
+            if let Some((count, what)) = over
+                && v.is_nan()
+                && get(count) > 0.0
+            {
+                return Some(format!("{} is NaN over {} {what}", c.name, get(count)));
+            }
+        }
+        None
+    }
+}

@@ -2,7 +2,7 @@
 //! FastSLAM 2.0 at N = 1 and N = 100,
 //! from a warmed-up state (1000 steps into a run: a map of the landmarks seen so far), on
 //! the papers' synthetic environment when it is found (else the procedural world).
-//! Compare with seed 000 Table II's time column (one recursion, one core).
+//! Compare with the time column of \[Kaltiokallio2024\] Table II (one recursion, one core).
 
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use rfslam_core::FilterBuild;

@@ -86,6 +86,27 @@ pub enum HarnessError {
     /// The published table named by the experiment could not be read.
     #[error("{0}")]
     Published(String),
+    /// A `runs.csv` holds a row that cannot be taken: malformed, a value that is not a
+    /// finite number, a row that is not a job of the sweep, a wrong run seed, or two rows of
+    /// one job that differ.
+    #[error("{}{}: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+    BadRows {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line, when known.
+        line: Option<usize>,
+        /// What is wrong.
+        message: String,
+    },
+    /// Another process holds the output directory's lock (a sweep, merge or report writing
+    /// it now): refused rather than waited for, since two writers would lose rows.
+    #[error("{holder} holds {}: another rfslam process is writing that directory; wait for it to end (the operating system releases the lock when it does, also when it is killed), or choose another --out", lock.display())]
+    Locked {
+        /// The lock file.
+        lock: PathBuf,
+        /// Who holds it (process id, host, start time, command), as its lock file says.
+        holder: String,
+    },
     /// A failure while running (the thread pool could not start, ...).
     #[error("{0}")]
     Run(String),
@@ -103,6 +124,8 @@ impl HarnessError {
                 | HarnessError::Parameter { .. }
                 | HarnessError::UnsuitedData { .. }
                 | HarnessError::ResumeConflict { .. }
+                | HarnessError::Locked { .. }
+                | HarnessError::BadRows { .. }
                 | HarnessError::ShardMismatch(_)
                 | HarnessError::Published(_)
         )

@@ -2,14 +2,15 @@
 //!
 //! - [`registry`]: filter name -> typed parameters -> `Box<dyn SlamFilter>`;
 //! - [`experiment`]: experiment TOML -> validated [`experiment::Plan`] of jobs;
-//! - [`sweep`]: parallel, deterministic, resumable execution; `runs.csv`;
+//! - [`sweep`](mod@sweep): parallel, deterministic, resumable execution; `runs.csv`;
 //! - [`shard`]: `sweep --shard I/N` (disjoint parts of a sweep) and `merge`;
-//! - [`summary`], [`report`]: `summary.csv` with seed 000's columns and `report.md` beside
-//!   the published figures.
+//! - [`summary`], [`report`]: `summary.csv` with the columns of
+//!   \[Kaltiokallio2024\] Table II and `report.md` beside the published figures.
 
 pub mod error;
 pub mod experiment;
 pub mod locate;
+pub mod lock;
 pub mod registry;
 pub mod report;
 pub mod resolved;

@@ -1,7 +1,7 @@
 //! `runs.csv`: one row per finished job, appended as jobs end so an interrupted sweep can
 //! resume, and rewritten in canonical job order when the sweep completes.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::io::Write;
 use std::path::Path;
 
@@ -9,6 +9,7 @@ use rfslam_eval::MetricsConfig;
 use rfslam_eval::metric::{Column, Kind, Values, columns};
 
 use crate::error::HarnessError;
+use crate::experiment::JobKey;
 
 pub use rfslam_eval::fmt_f;
 
@@ -126,27 +127,34 @@ impl HeaderMap {
         Ok(HeaderMap { id, metrics, grid, width: header.len() })
     }
 
-    /// Parses a record; `None` for a malformed (e.g. truncated) one.
-    fn parse(&self, rec: &csv::StringRecord) -> Option<RunRow> {
+    /// Parses a record, or says what is wrong with it: the number of fields, a field that
+    /// is not a number, or a number that is not finite (a `runs.csv` never holds one: a value
+    /// that is not available is an empty cell).
+    fn parse(&self, rec: &csv::StringRecord) -> Result<RunRow, String> {
         if rec.len() != self.width {
-            return None;
+            return Err(format!("{} fields where the header has {}", rec.len(), self.width));
         }
         let g = |i: usize| rec.get(i).unwrap_or("");
         let mut values = Values::default();
         for (name, i) in &self.metrics {
-            values.set(
-                name,
-                match i {
-                    Some(i) => parse_f(g(*i))?,
-                    None => f64::NAN,
+            let v = match i {
+                Some(i) => match parse_f(g(*i)) {
+                    Some(v) if v.is_finite() || g(*i).is_empty() => v,
+                    Some(_) => return Err(format!("column `{name}`: `{}` is not a finite number", g(*i))),
+                    None => return Err(format!("column `{name}`: `{}` is not a number", g(*i))),
                 },
-            );
+                None => f64::NAN,
+            };
+            values.set(name, v);
         }
-        Some(RunRow {
-            run: g(self.id[0]).parse().ok()?,
+        let int = |col: usize, name: &str| -> Result<u64, String> {
+            g(self.id[col]).parse().map_err(|_| format!("column `{name}`: `{}` is not a whole number", g(self.id[col])))
+        };
+        Ok(RunRow {
+            run: int(0, "run")? as usize,
             filter: g(self.id[1]).to_string(),
-            particles: g(self.id[2]).parse().ok()?,
-            seed: g(self.id[3]).parse().ok()?,
+            particles: int(2, "particles")? as usize,
+            seed: int(3, "seed")?,
             values,
             grid: self.grid.iter().map(|&i| g(i).to_string()).collect(),
         })
@@ -181,16 +189,85 @@ pub fn read_rows(path: &Path, layout: &RunsLayout) -> Result<Vec<RunRow>, Harnes
     })?;
     let mut rows = Vec::new();
     for rec in rdr.records() {
-        match rec {
-            Ok(r) => {
-                if let Some(row) = map.parse(&r) {
-                    rows.push(row);
-                }
-            }
-            Err(_) => continue,
-        }
+        let bad = |line: Option<u64>, message: String| HarnessError::BadRows {
+            path: path.to_path_buf(),
+            line: line.map(|l| l as usize),
+            message,
+        };
+        let rec = rec.map_err(|e| bad(e.position().map(|p| p.line()), e.to_string()))?;
+        let line = rec.position().map(|p| p.line());
+        rows.push(map.parse(&rec).map_err(|why| bad(line, why))?);
     }
     Ok(rows)
+}
+
+/// The rows of a `runs.csv` checked against the jobs of the sweep it belongs to, as
+/// `--resume`, `rfslam report` and `rfslam merge` take them: every row a job of the sweep
+/// (`jobs`), with the run seed of that job (`master seed + run`), each job once. A job
+/// found twice with rows equal but for the wall time (a job run twice) is kept once, the
+/// first row, and described in the second return value; two rows of one job that differ in
+/// anything else are refused, and so is any other row that does not belong.
+pub fn read_job_rows(
+    path: &Path,
+    layout: &RunsLayout,
+    jobs: &HashSet<JobKey>,
+    master_seed: u64,
+) -> Result<(Vec<RunRow>, Vec<String>), HarnessError> {
+    let rows = read_rows(path, layout)?;
+    let mut first: HashMap<JobKey, usize> = HashMap::new();
+    let mut kept = Vec::with_capacity(rows.len());
+    let mut duplicates = Vec::new();
+    for (i, row) in rows.into_iter().enumerate() {
+        // Row i is on line i + 2: one line per row (no field holds a line break).
+        let bad = |message: String| HarnessError::BadRows { path: path.to_path_buf(), line: Some(i + 2), message };
+        let job = describe_row(&layout.grid_keys, &row);
+        let key = row.key();
+        if !jobs.contains(&key) {
+            return Err(bad(format!("{job} is not a job of this sweep")));
+        }
+        let seed = master_seed.wrapping_add(row.run as u64);
+        if row.seed != seed {
+            return Err(bad(format!("{job} has seed {}, but run {} of this sweep has seed {seed}", row.seed, row.run)));
+        }
+        match first.get(&key) {
+            Some(&k) => {
+                let earlier: &RunRow = &kept[k];
+                if fields_but_time(earlier, layout) != fields_but_time(&row, layout) {
+                    return Err(bad(format!(
+                        "{job} is a second row of that job with other values: one of the two is not what the job gives"
+                    )));
+                }
+                duplicates.push(format!(
+                    "{}:{}: {job} repeats an earlier row of that job; kept once",
+                    path.display(),
+                    i + 2
+                ));
+            }
+            None => {
+                first.insert(key, kept.len());
+                kept.push(row);
+            }
+        }
+    }
+    Ok((kept, duplicates))
+}
+
+/// `phd-1.0 N=10 run 3 (at scenario.clutter.rate = 5.0)`.
+pub fn describe_row(grid_keys: &[String], row: &RunRow) -> String {
+    let at = if grid_keys.is_empty() {
+        String::new()
+    } else {
+        let g: Vec<String> = grid_keys.iter().zip(&row.grid).map(|(k, v)| format!("{k} = {v}")).collect();
+        format!(" (at {})", g.join(", "))
+    };
+    format!("{} N={} run {}{at}", row.filter, row.particles, row.run)
+}
+
+/// The CSV fields of `row` without the wall-time column: what must agree between two
+/// executions of the same job.
+pub fn fields_but_time(row: &RunRow, layout: &RunsLayout) -> Vec<String> {
+    let time = layout.header().iter().position(|c| c == "time_ms_per_step");
+    row.fields(layout).into_iter().enumerate().filter(|(i, _)| Some(*i) != time).map(|(_, f)| f).collect()
 }
 
 /// Writes a whole `runs.csv` atomically (temporary file, then rename).

@@ -1,8 +1,8 @@
 //! `summary.csv`: one row per (grid point, filter, particles), one figure per summarised
 //! column of the metric table ([`rfslam_eval::metric`]), pooled over runs as the column
-//! declares: position and heading RMSE over all steps of all runs (as Kaltiokallio et al.
-//! 2024, Table II), mean final-map GOSPA, ESS %, % of steps that resampled, mean ms per
-//! recursion, pooled TPR/TNR. Each figure is followed by the standard deviation of the
+//! declares: position and heading RMSE over all steps of all runs (as
+//! \[Kaltiokallio2024\] Table II), mean final-map GOSPA, ESS %, % of steps that resampled, mean ms
+//! per recursion, pooled TPR/TNR. Each figure is followed by the standard deviation of the
 //! per-run values where the table names one, and by the two ends of its 95 % interval
 //! (`<figure>_lo95`, `<figure>_hi95`; see [`rfslam_eval::Pool::pool`]).
 

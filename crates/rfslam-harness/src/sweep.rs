@@ -18,10 +18,11 @@ use rayon::prelude::*;
 
 use crate::error::HarnessError;
 use crate::experiment::{ExperimentConfig, Job, JobFilter, JobKey, Plan};
+use crate::lock::DirLock;
 use crate::registry;
 use crate::report::{PublishedTable, ReportInfo, render};
 use crate::resolved::{RESOLVED_FILE, ResolvedExperiment};
-use crate::runs::{RunRow, RunsAppender, read_rows, write_rows};
+use crate::runs::{RunRow, RunsAppender, read_job_rows, read_rows, write_rows};
 use crate::shard::{Shard, ShardRecord};
 use crate::summary::{summarise, write_summary};
 use rfslam_eval::run_filter;
@@ -73,6 +74,14 @@ pub fn run_job(plan: &Plan, job: &Job) -> Result<RunRow, HarnessError> {
     let mut filter = (entry.build)(&f.params, &models, job.particles)
         .map_err(|source| HarnessError::Parameter { filter: f.label.clone(), source })?;
     let o = run_filter(&dataset, filter.as_mut(), job.seed, &plan.config.metrics, &mut |_| {});
+    // A result that is not a finite number is a failed job, never a row.
+    if let Some(what) = o.not_finite(&plan.config.metrics) {
+        let at = if plan.grid_keys.is_empty() { String::new() } else { format!(" at grid point {}", job.point + 1) };
+        return Err(HarnessError::Run(format!(
+            "run {} of {} N={}{at} (seed {}) failed: {what}, not a finite number; no row is written",
+            job.run, f.label, job.particles, job.seed
+        )));
+    }
     Ok(RunRow {
         run: job.run,
         filter: f.label.clone(),
@@ -116,14 +125,15 @@ impl Progress {
                 let mut d = done.lock().unwrap_or_else(|p| p.into_inner());
                 *d += 1;
                 if *d % every == 0 || *d == *total {
+                    let pos = row.get("pos_rmse_m");
+                    let pos = if pos.is_finite() { format!("{pos:.2} m") } else { "n/a".into() };
                     eprintln!(
-                        "[{}/{}] {} N={} run {}: pos RMSE {:.2} m, {:.3} ms/step",
+                        "[{}/{}] {} N={} run {}: pos RMSE {pos}, {:.3} ms/step",
                         *d,
                         total,
                         row.filter,
                         row.particles,
                         row.run,
-                        row.get("pos_rmse_m"),
                         row.get("time_ms_per_step")
                     );
                 }
@@ -144,6 +154,8 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
     let start = Instant::now();
     let out = &opts.out;
     std::fs::create_dir_all(out).map_err(|e| HarnessError::io(out, e))?;
+    // Held until the sweep returns: a second sweep into `out` is refused, not interleaved.
+    let _lock = DirLock::acquire(out, &format!("rfslam sweep {}", plan.path.display()))?;
     let runs_path = out.join("runs.csv");
     let resolved_path = out.join(RESOLVED_FILE);
     let resolved = plan.resolved();
@@ -188,7 +200,19 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
                 ),
             ));
         }
-        previous = read_rows(&runs_path, &plan.layout())?;
+        // Only rows of this sweep's jobs, with their seeds, each job once.
+        let jobs = match opts.shard {
+            Some(shard) => shard.select(&plan.jobs(&opts.select)),
+            None => plan.jobs(&JobFilter::default()),
+        };
+        let keys: HashSet<JobKey> = jobs.iter().map(|j| plan.job_key(j)).collect();
+        let (rows, repeated) = read_job_rows(&runs_path, &plan.layout(), &keys, plan.config.seed)?;
+        if !opts.quiet {
+            for r in &repeated {
+                eprintln!("warning: {r}");
+            }
+        }
+        previous = rows;
     }
     std::fs::write(&resolved_path, resolved.to_toml()).map_err(|e| HarnessError::io(&resolved_path, e))?;
     match opts.shard {
@@ -417,7 +441,14 @@ pub fn report_dir(dir: &Path) -> Result<usize, HarnessError> {
     if !runs_path.is_file() {
         return Err(HarnessError::resume(dir, format!("{}: no runs.csv", dir.display())));
     }
-    let rows = read_rows(&runs_path, &config.layout())?;
+    let _lock = DirLock::acquire(dir, &format!("rfslam report {}", dir.display()))?;
+    // The rows of the jobs of the resolved experiment (all of them: a report may be of a
+    // selection or a shard), each once.
+    let keys: HashSet<JobKey> = config.jobs(&JobFilter::default()).iter().map(|j| config.job_key(j)).collect();
+    let (rows, repeated) = read_job_rows(&runs_path, &config.layout(), &keys, config.seed)?;
+    for r in &repeated {
+        eprintln!("warning: {r}");
+    }
     let copy = dir.join(crate::shard::PUBLISHED_COPY);
     let published = match &resolved.published {
         Some(p) if Path::new(p).is_file() => Some(PublishedTable::read(Path::new(p)).map_err(HarnessError::Published)?),

@@ -40,8 +40,8 @@ fn phd3_one_particle_tracks_and_maps() {
 
 #[test]
 fn phd1_needs_particles_phd3_does_not() {
-    // PHD-SLAM 1.0 with one particle drifts (seed 000 Table II: 254 m at N = 1); on the same
-    // data phd-3.0 with one particle is far better.
+    // PHD-SLAM 1.0 with one particle drifts ([Kaltiokallio2024] Table II: 254 m at N = 1); on the
+    // same data phd-3.0 with one particle is far better.
     let (p1, _) = pos_rmse("phd-1.0", 1, 1);
     let (p3, _) = pos_rmse("phd-3.0", 1, 1);
     assert!(p1 > 5.0 * p3, "phd-1.0 {p1:.2} m vs phd-3.0 {p3:.2} m");

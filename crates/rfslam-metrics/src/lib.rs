@@ -1,14 +1,14 @@
 //! rfslam-metrics: the accuracy measures the rfslam papers report.
 //!
 //! - [`gospa`] (alpha = 2) and [`ospa`]: map error between the true landmark set and a
-//!   filter's map estimate (seed 000 §VI uses GOSPA with `c = 20 m`, `p = 2`; seed 001
-//!   uses OSPA with `c = 0.5 m`, `p = 1`). Both use the optimal assignment of
+//!   filter's map estimate (\[Kaltiokallio2024\] Section VI uses GOSPA with `c = 20 m`, `p = 2`;
+//!   \[Moratuwage2019\] uses OSPA with `c = 0.5 m`, `p = 1`). Both use the optimal assignment of
 //!   [`rfslam_assign`].
 //! - [`PoseErrors`]: position and wrapped-heading RMSE over steps, poolable across runs.
 //! - [`Se2AlignedRmse`]: position RMSE after the best rigid (SE(2)) alignment of the
 //!   estimated trajectory to the truth, accumulated in constant memory.
 //! - [`DaCounts`] / [`score_associations`]: data-association true-positive and
-//!   true-negative ratios (seed 000 §VI-A-1).
+//!   true-negative ratios (\[Kaltiokallio2024\] Section VI-A-1).
 //! - [`RunningMean`] / [`EssStats`]: mean effective sample size and resampling rate.
 
 #![warn(missing_docs)]

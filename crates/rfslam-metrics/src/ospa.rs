@@ -1,11 +1,13 @@
-//! GOSPA (alpha = 2) and OSPA between two finite sets of 2-D points (note 06 §1–2).
+//! GOSPA (alpha = 2) and OSPA between two finite sets of 2-D points (\[Rahmathullah2017\],
+//! \[Schuhmacher2008\]).
 
 use rfslam_assign::{CostMatrix, solve_lap};
 use rfslam_core::Point2;
 
 use crate::MetricError;
 
-/// GOSPA with `alpha = 2` and its decomposition (Rahmathullah et al. 2017; seed 000 §VI).
+/// GOSPA with `alpha = 2` and its decomposition (\[Rahmathullah2017\]; \[Kaltiokallio2024\] Section
+/// VI).
 ///
 /// `total^p = loc_term + missed_term + false_term`, where, with `k` real pairs (optimal
 /// pairs at distance `< c`), `loc_term = sum d^p` over real pairs, `missed_term =
@@ -38,7 +40,7 @@ impl Gospa {
     }
 }
 
-/// OSPA (Schuhmacher, Vo & Vo 2008) and its two components before the root.
+/// OSPA (\[Schuhmacher2008\]) and its two components before the root.
 ///
 /// With `n = max(|X|, |Y|)`: `loc = (1/n) sum_{optimal pairs} min(d, c)^p`, `card = c^p
 /// (n - min(|X|, |Y|)) / n` (both m^p) and `total = (loc + card)^(1/p)`. All zero when
@@ -84,7 +86,7 @@ fn validate(truth: &[Point2], est: &[Point2], c: f64, p: f64) -> Result<(), Metr
 }
 
 /// Optimal pairs `(i, j, d(x_i, y_j))` minimising `sum min(d, c)^p` with every point of
-/// the smaller set paired (note 06 §1 "Computation").
+/// the smaller set paired (one rectangular assignment, no forbidden pairs).
 fn optimal_pairs(truth: &[Point2], est: &[Point2], c: f64, p: f64) -> Result<Vec<(usize, usize, f64)>, MetricError> {
     let cp = c.powf(p);
     let cost = CostMatrix::from_fn(truth.len(), est.len(), |i, j| {
@@ -96,11 +98,11 @@ fn optimal_pairs(truth: &[Point2], est: &[Point2], c: f64, p: f64) -> Result<Vec
 }
 
 /// GOSPA with `alpha = 2` between the true points `truth` and the estimate `est`, cut-off
-/// `c > 0` (metres) and order `1 <= p < inf` (note 06 §1).
+/// `c > 0` (metres) and order `1 <= p < inf` (\[Rahmathullah2017\]).
 ///
 /// Solves one rectangular assignment on `min(d, c)^p`; a pair is *real* (localisation)
-/// only if `d < c` strictly, a capped pair counts as one missed plus one false. Seed 000
-/// uses `c = 20`, `p = 2` on the final map estimate.
+/// only if `d < c` strictly, a capped pair counts as one missed plus one false.
+/// \[Kaltiokallio2024\] uses `c = 20`, `p = 2` on the final map estimate.
 pub fn gospa(truth: &[Point2], est: &[Point2], c: f64, p: f64) -> Result<Gospa, MetricError> {
     validate(truth, est, c, p)?;
     let half_cp = 0.5 * c.powf(p);
@@ -129,7 +131,7 @@ pub fn gospa(truth: &[Point2], est: &[Point2], c: f64, p: f64) -> Result<Gospa, 
 }
 
 /// OSPA between `truth` and `est` with cut-off `c > 0` and order `1 <= p < inf`
-/// (note 06 §2). Normalised by `max(|X|, |Y|)`, so it is a per-object error that does
+/// (\[Schuhmacher2008\]). Normalised by `max(|X|, |Y|)`, so it is a per-object error that does
 /// not grow with the map size; `OSPA(empty, Y) = c` for non-empty `Y`.
 pub fn ospa(truth: &[Point2], est: &[Point2], c: f64, p: f64) -> Result<Ospa, MetricError> {
     validate(truth, est, c, p)?;
@@ -266,7 +268,7 @@ mod tests {
 
     impl Brute<'_> {
         /// Minimum over partial matchings whose pairs have `d < c` of
-        /// `sum d^p + (c^p / 2)(|x| + |y| - 2 k)` (the assignment form of note 06 §1).
+        /// `sum d^p + (c^p / 2)(|x| + |y| - 2 k)` (the assignment form of GOSPA for `alpha = 2`).
         fn gospa_partial(&self, i: usize, used: &mut [bool], acc: f64, k: usize) -> f64 {
             if i == self.x.len() {
                 let half = 0.5 * self.c.powf(self.p);

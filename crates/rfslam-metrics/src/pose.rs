@@ -1,4 +1,5 @@
-//! Pose RMSE accumulation (note 06 §3) and the rigidly aligned position RMSE.
+//! Pose RMSE accumulation (over all steps of all runs, the heading error wrapped, as in
+//! \[Kaltiokallio2024\] Table II) and the rigidly aligned position RMSE.
 
 use rfslam_core::{Point2, Pose, angle};
 

@@ -1,4 +1,6 @@
-//! Running statistics for per-step filter health figures (note 06 §3).
+//! Running statistics for per-step filter health figures (mean `ESS / N` over steps, the
+//! fraction of steps that resampled: the ESS and resampling columns of \[Kaltiokallio2024\]
+//! Table II).
 
 use crate::MetricError;
 
@@ -59,7 +61,7 @@ impl RunningMean {
 }
 
 /// Particle-filter health over steps: mean `ESS / N` and the fraction of steps that
-/// resampled (seed 000 reports both as percentages).
+/// resampled (\[Kaltiokallio2024\] reports both as percentages).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct EssStats {
     ess_fraction: RunningMean,

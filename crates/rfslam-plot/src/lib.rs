@@ -2,7 +2,7 @@
 //! output's extension) with an embedded font, so no Python, system font or fontconfig is
 //! needed.
 //!
-//! Kinds (the figures of Kaltiokallio et al. 2024, PHD-SLAM 3.0):
+//! Kinds (the figures of \[Kaltiokallio2024\], PHD-SLAM 3.0):
 //! - of a run directory (`rfslam run`): [`Kind::Map`] (Fig. 1; Fig. 4 with GPS for Victoria
 //!   Park), [`Kind::Steps`] (Fig. 2, needs `--save-steps`), [`Kind::Particles`] (Fig. 3,
 //!   needs `--save-particles`);

@@ -53,7 +53,15 @@ pub fn render<F: Figure>(fig: &F, path: &Path) -> Result<(), PlotError> {
         std::fs::create_dir_all(dir)
             .map_err(|e| PlotError::Output { path: path.to_path_buf(), message: e.to_string() })?;
     }
-    let out_err = |e: PlotError| PlotError::Output { path: path.to_path_buf(), message: e.to_string() };
+    // The file must be writable: say so with the operating system's reason before drawing
+    // (the image encoder's own error is a debug dump of nested types).
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create(true)
+        .truncate(true)
+        .open(path)
+        .map_err(|e| PlotError::Output { path: path.to_path_buf(), message: e.to_string() })?;
+    let out_err = |e: PlotError| PlotError::Output { path: path.to_path_buf(), message: readable(&e.to_string()) };
     let size = fig.size();
     match format {
         Format::Png => {
@@ -68,5 +76,27 @@ pub fn render<F: Figure>(fig: &F, path: &Path) -> Result<(), PlotError> {
             fig.draw(&root)?;
             root.present().map_err(draw_err).map_err(out_err)
         }
+    }
+}
+
+/// A backend error's text without the debug dump some backends give (`ImageError(IoError(Os
+/// { code: 28, kind: StorageFull, message: "No space left on device" }))` becomes `No space
+/// left on device`).
+fn readable(text: &str) -> String {
+    match text.split_once("message: \"").and_then(|(_, rest)| rest.split_once('"')) {
+        Some((message, _)) => message.to_string(),
+        None => text.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn backend_errors_read_as_the_reason() {
+        let dump = r#"Drawing backend error: ImageError(IoError(Os { code: 28, kind: StorageFull, message: "No space left on device" }))"#;
+        assert_eq!(readable(dump), "No space left on device");
+        assert_eq!(readable("drawing failed: bad range"), "drawing failed: bad range");
     }
 }

@@ -11,7 +11,7 @@ pub fn title() -> TextStyle<'static> {
     (FAMILY, 30).into()
 }
 
-/// Axis descriptions ("x [m]").
+/// Axis descriptions (`"x [m]"`).
 pub fn axis_desc() -> TextStyle<'static> {
     (FAMILY, 28).into()
 }

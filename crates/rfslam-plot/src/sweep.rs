@@ -385,11 +385,20 @@ struct Bar {
     std: f64,
 }
 
+/// A selected row whose value cannot be drawn as a bar: marked in its slot with why.
+struct MissingBar {
+    group: usize,
+    series: usize,
+    /// `n/a` (no value), `inf`, `-inf`, or `<= 0` (on a log axis).
+    why: String,
+}
+
 /// The `bars` figure.
 pub struct BarsFigure {
     groups: Vec<String>,
     series: Vec<String>,
     bars: Vec<Bar>,
+    missing: Vec<MissingBar>,
     y_desc: String,
     log_y: bool,
     title: Option<String>,
@@ -411,6 +420,7 @@ impl BarsFigure {
             .map(|g| t.col(g))
             .collect::<Result<_, _>>()?;
         let (mut groups, mut series, mut bars) = (Vec::<String>::new(), Vec::<String>::new(), Vec::new());
+        let mut missing = Vec::new();
         for i in input.selected(0, o.conditions)? {
             let mut g = t.text(i, fc).to_string();
             for &c in &grid {
@@ -423,6 +433,15 @@ impl BarsFigure {
             let std = sc.map(|c| t.num(i, c)).transpose()?.unwrap_or(f64::NAN);
             if value.is_finite() && (!o.log_y || value > 0.0) {
                 bars.push(Bar { group: gi, series: si, value, std });
+            } else {
+                let why = if value.is_nan() {
+                    "n/a".to_string()
+                } else if value.is_infinite() {
+                    format!("{value}")
+                } else {
+                    "<= 0".to_string()
+                };
+                missing.push(MissingBar { group: gi, series: si, why });
             }
         }
         if bars.is_empty() {
@@ -447,6 +466,7 @@ impl BarsFigure {
             groups,
             series,
             bars,
+            missing,
             y_desc: describe(o.metric),
             log_y: o.log_y,
             title: o.title.clone(),
@@ -457,8 +477,13 @@ impl BarsFigure {
 
     /// Centre and half width of a bar.
     fn slot(&self, b: &Bar) -> (f64, f64) {
+        self.slot_at(b.group, b.series)
+    }
+
+    /// Centre and half width of the slot of (group, series).
+    fn slot_at(&self, group: usize, series: usize) -> (f64, f64) {
         let w = 0.8 / self.series.len() as f64;
-        (b.group as f64 - 0.4 + (b.series as f64 + 0.5) * w, 0.45 * w)
+        (group as f64 - 0.4 + (series as f64 + 0.5) * w, 0.45 * w)
     }
 
     fn draw_on<DB, Y>(
@@ -509,6 +534,15 @@ impl BarsFigure {
                 ErrorBar::new_vertical(c, lo, b.value, b.value + b.std, BLACK.stroke_width(2), 12)
             }))
             .map_err(draw_err)?;
+        // A row without a drawable value keeps its slot, marked with why, in its series' colour.
+        let above = Pos::new(HPos::Center, VPos::Bottom);
+        for m in &self.missing {
+            let (c, _) = self.slot_at(m.group, m.series);
+            let (px, py) = chart.backend_coord(&(c, base));
+            let colour = style::color(m.series);
+            let style = style::tick().color(&colour).pos(above);
+            area.draw(&Text::new(m.why.clone(), (px - bx, py - by - 4), style)).map_err(draw_err)?;
+        }
         Ok(())
     }
 }

@@ -9,9 +9,10 @@ use super::record::ShardRecord;
 use super::{MERGED_FILE, PUBLISHED_COPY, RESOLVED_FILE, SHARD_FILE};
 use crate::error::HarnessError;
 use crate::experiment::JobKey;
+use crate::lock::DirLock;
 use crate::report::PublishedTable;
 use crate::resolved::ResolvedExperiment;
-use crate::runs::{GroupKey, RunRow, RunsLayout, read_rows};
+use crate::runs::{GroupKey, RunRow, RunsLayout, fields_but_time, read_rows};
 use crate::sweep::{INVOCATIONS, OutputContext, read_invocations, write_outputs};
 
 /// One input directory of a merge.
@@ -101,13 +102,6 @@ fn describe_jobs(grid_keys: &[String], keys: &[&JobKey]) -> String {
         .join("\n")
 }
 
-/// The CSV fields of `row` without the wall-time column: what must agree between two
-/// executions of the same job.
-fn fields_but_time(row: &RunRow, layout: &RunsLayout) -> Vec<String> {
-    let time = layout.header().iter().position(|c| c == "time_ms_per_step");
-    row.fields(layout).into_iter().enumerate().filter(|(i, _)| Some(*i) != time).map(|(_, f)| f).collect()
-}
-
 /// Merges the shard directories `dirs` into `out` (see the module docs of [`super`]).
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeOutcome, HarnessError> {
     let inputs = read_inputs(dirs, out)?;
@@ -123,11 +117,12 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeOutcome, HarnessError>
     let layout = config.layout();
     let expected: Vec<JobKey> =
         config.jobs(&first.record.selection.job_filter()).iter().map(|j| config.job_key(j)).collect();
-    let mut by_job = rows_by_job(&inputs, &layout, &expected)?;
+    let mut by_job = rows_by_job(&inputs, &layout, &expected, config.seed)?;
     let identical = check_complete(&inputs, &layout, &expected, &by_job)?;
 
     // The merged directory: the rows of the canonical jobs, written as a sweep writes them.
     std::fs::create_dir_all(out).map_err(|e| HarnessError::io(out, e))?;
+    let _lock = DirLock::acquire(out, &format!("rfslam merge into {}", out.display()))?;
     let rows: Vec<RunRow> = expected
         .iter()
         .filter_map(|k| by_job.remove(k).and_then(|mut v| (!v.is_empty()).then(|| v.remove(0).1)))
@@ -159,6 +154,8 @@ fn read_inputs(dirs: &[PathBuf], out: &Path) -> Result<Vec<Input>, HarnessError>
     let mut seen: HashMap<PathBuf, &PathBuf> = HashMap::new();
     let mut inputs = Vec::new();
     for d in dirs {
+        // A shard still being written (its sweep holds the lock) is not merged half done.
+        DirLock::check_free(d)?;
         let input = Input::read(d)?;
         let canon = d.canonicalize().map_err(|e| HarnessError::io(d, e))?;
         if let Some(first) = seen.insert(canon.clone(), d) {
@@ -227,12 +224,13 @@ fn published_table(first: &Input) -> Result<Option<PublishedTable>, HarnessError
     }
 }
 
-/// Step 3: the rows of every shard, by job, each row a job of the sweep; a shard's
-/// `runs.csv` must have this sweep's columns.
+/// Step 3: the rows of every shard, by job, each row a job of the sweep with that job's run
+/// seed (master seed + run); a shard's `runs.csv` must have this sweep's columns.
 fn rows_by_job(
     inputs: &[Input],
     layout: &RunsLayout,
     expected: &[JobKey],
+    master_seed: u64,
 ) -> Result<HashMap<JobKey, Vec<(usize, RunRow)>>, HarnessError> {
     let expected_set: HashSet<&JobKey> = expected.iter().collect();
     let want = layout.header().join(",");
@@ -251,6 +249,19 @@ fn rows_by_job(
             )));
         }
         for row in read_rows(&path, layout)? {
+            let seed = master_seed.wrapping_add(row.run as u64);
+            if row.seed != seed {
+                return Err(HarnessError::BadRows {
+                    path: path.clone(),
+                    line: None,
+                    message: format!(
+                        "{} has seed {}, but run {} of this sweep has seed {seed}",
+                        crate::runs::describe_row(&layout.grid_keys, &row),
+                        row.seed,
+                        row.run
+                    ),
+                });
+            }
             let key = row.key();
             if !expected_set.contains(&key) {
                 let job = describe_job(&layout.grid_keys, &key);

@@ -5,8 +5,8 @@
 //!
 //! **Assignment.** Shards are numbered from 1. The jobs of the sweep (after `--runs`,
 //! `--filters` and `--particles`) are taken in canonical order — grid point, filter entry,
-//! particle count, run (see [`ExperimentConfig::jobs`]) — and job `k` (0-based) belongs to
-//! shard `(k mod N) + 1`. Runs vary fastest, so this deals the runs of every
+//! particle count, run (see [`crate::experiment::ExperimentConfig::jobs`]) — and job `k` (0-based)
+//! belongs to shard `(k mod N) + 1`. Runs vary fastest, so this deals the runs of every
 //! (grid point, filter, N) group round-robin over the shards: each shard gets the same mix
 //! of cheap and expensive jobs, and the shards take about the same time without a cost
 //! model (contiguous blocks would give one shard all the N = 100 jobs). Shard sizes differ
@@ -32,7 +32,7 @@
 //! the code path of an unsharded sweep.
 
 //! The parts: [`assign`] (which shard a job belongs to, `--shard I/N`), [`record`] (what a
-//! shard's directory records about itself) and [`merge`] (combining the directories).
+//! shard's directory records about itself) and [`merge`](mod@merge) (combining the directories).
 
 pub mod assign;
 pub mod merge;

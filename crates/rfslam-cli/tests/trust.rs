@@ -1,0 +1,241 @@
+//! What a sweep directory may hold, and who may write it: the output directory's lock,
+//! the checks `--resume`, `rfslam report` and `rfslam merge` apply to the rows they read,
+//! and jobs whose results are not finite numbers. Each test reproduces a failure found by
+//! trying rfslam as a demanding user would.
+
+mod common;
+
+use common::*;
+use rfslam_harness::lock::{DirLock, LOCK_FILE};
+
+/// Five dead-reckoning runs (5 jobs) of a short procedural world.
+fn setup(tmp: &TempDir) {
+    tmp.write("scen.toml", &scenario(200, 20, 0.95, 2.0));
+    tmp.write("exp.toml", &experiment("scen.toml", 5, 3, &[Entry::new("dead-reckoning", "dr", &[1])], ""));
+    let o = ok(tmp.path(), &["sweep", "exp.toml", "--jobs", "1", "--quiet", "--out", "out"]);
+    assert!(o.stdout.contains("5 jobs run (0 already done)"), "{}", o.stdout);
+}
+
+/// `runs.csv` of `out` with line `i` (1 = first row) changed by `edit`.
+fn edit_row(tmp: &TempDir, i: usize, edit: &RowEdit) {
+    let text = tmp.read("out/runs.csv");
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let mut fields: Vec<String> = lines[i].split(',').map(String::from).collect();
+    edit(&mut fields, &header);
+    lines[i] = fields.join(",");
+    tmp.write("out/runs.csv", &(lines.join("\n") + "\n"));
+}
+
+/// A change to the fields of one row, given the header.
+type RowEdit = dyn Fn(&mut Vec<String>, &[&str]);
+
+fn col(header: &[&str], name: &str) -> usize {
+    header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}"))
+}
+
+#[test]
+fn a_second_sweep_into_a_locked_directory_is_refused_naming_the_lock_and_its_holder() {
+    // Two `sweep --resume` at once into one directory both exited 0 and the final runs.csv
+    // lacked finished rows. Now the second is refused (exit 2) and the first's rows stay.
+    let tmp = TempDir::new("lock");
+    setup(&tmp);
+    let rows_before = tmp.read("out/runs.csv");
+    let held = DirLock::acquire(&tmp.join("out"), "rfslam sweep exp.toml (the test)").unwrap();
+    let o = fails(tmp.path(), &["sweep", "exp.toml", "--runs", "8", "--resume", "--out", "out"], 2, &[LOCK_FILE]);
+    assert!(o.stderr.contains(&format!("pid {}", std::process::id())), "{}", o.stderr);
+    assert!(o.stderr.contains("rfslam sweep exp.toml (the test)"), "{}", o.stderr);
+    assert_eq!(tmp.read("out/runs.csv"), rows_before, "the refused sweep wrote rows");
+    // `rfslam report` writes the directory too; `merge` refuses a shard still being written.
+    fails(tmp.path(), &["report", "out"], 2, &[LOCK_FILE]);
+    drop(held);
+    // Once the holder has ended, the lock file left behind does not block.
+    let o = ok(tmp.path(), &["sweep", "exp.toml", "--runs", "8", "--resume", "--quiet", "--out", "out"]);
+    assert!(o.stdout.contains("3 jobs run (5 already done)"), "{}", o.stdout);
+}
+
+#[test]
+fn a_running_shard_is_not_merged() {
+    let tmp = TempDir::new("lock-merge");
+    tmp.write("scen.toml", &scenario(200, 20, 0.95, 2.0));
+    tmp.write("exp.toml", &experiment("scen.toml", 4, 3, &[Entry::new("dead-reckoning", "dr", &[1])], ""));
+    for s in ["1/2", "2/2"] {
+        let dir = format!("s{}", &s[..1]);
+        ok(tmp.path(), &["sweep", "exp.toml", "--shard", s, "--quiet", "--out", &dir]);
+    }
+    let held = DirLock::acquire(&tmp.join("s2"), "rfslam sweep exp.toml --shard 2/2").unwrap();
+    fails(tmp.path(), &["merge", "s1", "s2", "--out", "m"], 2, &[LOCK_FILE, "--shard 2/2"]);
+    drop(held);
+    ok(tmp.path(), &["merge", "s1", "s2", "--out", "m"]);
+}
+
+#[test]
+fn resume_takes_a_repeated_identical_row_once() {
+    // A duplicated row was pooled as a further Monte Carlo run (runs = 6 of a 5-run sweep).
+    let tmp = TempDir::new("dup-same");
+    setup(&tmp);
+    let text = tmp.read("out/runs.csv");
+    let second = text.lines().nth(2).unwrap().to_string();
+    tmp.write("out/runs.csv", &format!("{text}{second}\n"));
+    let o = ok(tmp.path(), &["sweep", "exp.toml", "--resume", "--out", "out"]);
+    assert!(o.stderr.contains("repeats an earlier row of that job; kept once"), "{}", o.stderr);
+    let summary = Csv::read(&tmp.join("out/summary.csv"));
+    assert_eq!(summary.get(0, "runs"), "5");
+    assert_eq!(tmp.read("out/runs.csv").lines().count(), 6);
+}
+
+#[test]
+fn resume_refuses_rows_that_do_not_belong() {
+    let cases: [(&str, &str, &RowEdit); 5] = [
+        // Two rows of one job with different values.
+        ("conflict", "second row of that job with other values", &|f, h| {
+            f[col(h, "run")] = "0".into();
+            f[col(h, "seed")] = "3".into();
+        }),
+        // A run that is not a job of this 5-run sweep.
+        ("foreign", "not a job of this sweep", &|f, h| {
+            f[col(h, "run")] = "7".into();
+            f[col(h, "seed")] = "10".into();
+        }),
+        // A seed that is not master seed + run.
+        ("seed", "has seed 99, but run 1 of this sweep has seed 4", &|f, h| f[col(h, "seed")] = "99".into()),
+        // Cells that are not finite numbers.
+        ("nan", "`NaN` is not a finite number", &|f, h| f[col(h, "pos_rmse_m")] = "NaN".into()),
+        ("inf", "`inf` is not a finite number", &|f, h| f[col(h, "gospa_m")] = "inf".into()),
+    ];
+    for (name, needle, edit) in cases {
+        let tmp = TempDir::new(&format!("bad-{name}"));
+        setup(&tmp);
+        edit_row(&tmp, 2, edit);
+        let before = tmp.read("out/runs.csv");
+        let o = fails(tmp.path(), &["sweep", "exp.toml", "--resume", "--out", "out"], 2, &[needle]);
+        assert!(o.stderr.contains("runs.csv:3"), "{name}: the line is named: {}", o.stderr);
+        assert_eq!(tmp.read("out/runs.csv"), before, "{name}: the directory was rewritten");
+        // `rfslam report` reads the rows the same way.
+        fails(tmp.path(), &["report", "out"], 2, &[needle]);
+    }
+}
+
+#[test]
+fn a_malformed_row_inside_the_file_is_refused_and_a_cut_last_line_is_not() {
+    let tmp = TempDir::new("malformed");
+    setup(&tmp);
+    let text = tmp.read("out/runs.csv");
+    let mut lines: Vec<&str> = text.lines().collect();
+    let short = lines[2].rsplit_once(',').unwrap().0.to_string();
+    lines[2] = &short;
+    tmp.write("out/runs.csv", &(lines.join("\n") + "\n"));
+    fails(tmp.path(), &["sweep", "exp.toml", "--resume", "--out", "out"], 2, &["runs.csv:3", "fields"]);
+    // A last line cut by a kill (no line end) is an unfinished job: dropped and rerun.
+    let mut cut = text.clone();
+    cut.truncate(text.len() - 10);
+    tmp.write("out/runs.csv", &cut);
+    let o = ok(tmp.path(), &["sweep", "exp.toml", "--resume", "--out", "out"]);
+    assert!(o.stdout.contains("1 jobs run (4 already done)"), "{}", o.stdout);
+    // The rerun job gives its row again (but for the wall time).
+    let (before, after) = (text.lines().collect::<Vec<_>>(), tmp.read("out/runs.csv"));
+    let after: Vec<&str> = after.lines().collect();
+    assert_eq!(after[..5], before[..5]);
+    let t = col(&before[0].split(',').collect::<Vec<_>>(), "time_ms_per_step");
+    let no_time =
+        |l: &str| l.split(',').enumerate().filter(|(i, _)| *i != t).map(|(_, f)| f.to_string()).collect::<Vec<_>>();
+    assert_eq!(no_time(after[5]), no_time(before[5]));
+}
+
+#[test]
+fn merge_refuses_a_cell_that_is_not_a_finite_number_and_a_wrong_seed() {
+    for (name, column, value, needle) in
+        [("nan", "pos_rmse_m", "nan", "not a finite number"), ("seed", "seed", "1000", "has seed 1000")]
+    {
+        let tmp = TempDir::new(&format!("merge-{name}"));
+        tmp.write("scen.toml", &scenario(200, 20, 0.95, 2.0));
+        tmp.write("exp.toml", &experiment("scen.toml", 4, 3, &[Entry::new("dead-reckoning", "dr", &[1])], ""));
+        for s in ["1/2", "2/2"] {
+            ok(tmp.path(), &["sweep", "exp.toml", "--shard", s, "--quiet", "--out", &format!("s{}", &s[..1])]);
+        }
+        let path = tmp.join("s2/runs.csv");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let mut lines: Vec<String> = text.lines().map(String::from).collect();
+        let header: Vec<&str> = lines[0].split(',').collect();
+        let mut f: Vec<String> = lines[1].split(',').map(String::from).collect();
+        f[col(&header, column)] = value.into();
+        lines[1] = f.join(",");
+        std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+        fails(tmp.path(), &["merge", "s1", "s2", "--out", "m"], 2, &[needle]);
+        assert!(!tmp.join("m/runs.csv").exists(), "{name}: nothing is merged");
+    }
+}
+
+#[test]
+fn a_result_that_is_not_a_finite_number_fails_the_job() {
+    // An absurd but finite jitter drove the pose to 1e154 m: the RMSE overflowed to inf, and
+    // `run` exited 0 while a sweep wrote `inf` into runs.csv and pooled it.
+    let tmp = TempDir::new("inf");
+    tmp.write("scen.toml", &scenario(200, 20, 0.95, 2.0));
+    let jitter = "q_jitter=[1e308, 1e308, 1e308]";
+    let o =
+        rfslam(tmp.path(), &["run", "--scenario", "scen.toml", "--filter", "phd-1.0", "--set", jitter, "--out", "r"]);
+    assert_eq!(o.code, 1, "{}", o.stderr);
+    assert!(o.stderr.contains("pos_rmse_m is inf, not a finite number"), "{}", o.stderr);
+    assert!(!tmp.join("r/metrics.json").exists());
+    let params = "params = { q_jitter = [1e308, 1e308, 1e308] }\n";
+    let exp = experiment("scen.toml", 2, 3, &[Entry::new("phd-1.0", "p1", &[1])], "")
+        .replace("particles = [1]\n", &format!("particles = [1]\n{params}"));
+    tmp.write("exp.toml", &exp);
+    let o = rfslam(tmp.path(), &["sweep", "exp.toml", "--jobs", "1", "--quiet", "--out", "s"]);
+    assert_eq!(o.code, 1, "{}", o.stderr);
+    assert!(o.stderr.contains("run 0 of p1 N=1 (seed 3) failed: pos_rmse_m is inf"), "{}", o.stderr);
+    assert_eq!(tmp.read("s/runs.csv").lines().count(), 1, "only the header: no row of a failed job");
+}
+
+#[test]
+fn two_sweeps_started_at_once_lose_no_row() {
+    // The reproduction as a user met it: two `sweep --resume` into one directory at once.
+    // Whichever order the processes take, each either completes or is refused for the lock,
+    // and the directory ends with every row.
+    let tmp = TempDir::new("two-at-once");
+    tmp.write("scen.toml", &scenario(300, 20, 0.95, 2.0));
+    tmp.write("exp.toml", &experiment("scen.toml", 20, 1, &[Entry::new("phd-1.0", "p1", &[1, 10])], ""));
+    let args = ["sweep", "exp.toml", "--resume", "--quiet", "--jobs", "1", "--out", "out"];
+    let spawn = || {
+        std::process::Command::new(env!("CARGO_BIN_EXE_rfslam"))
+            .args(args)
+            .current_dir(tmp.path())
+            .env("RFSLAM_DATA", tmp.join("data"))
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("start rfslam")
+    };
+    let (a, b) = (spawn(), spawn());
+    let outs = [a.wait_with_output().unwrap(), b.wait_with_output().unwrap()];
+    for o in &outs {
+        let err = String::from_utf8_lossy(&o.stderr);
+        match o.status.code() {
+            Some(0) => {}
+            Some(2) => assert!(err.contains(LOCK_FILE), "{err}"),
+            c => panic!("exit {c:?}: {err}"),
+        }
+    }
+    assert!(outs.iter().any(|o| o.status.success()));
+    assert_eq!(tmp.read("out/runs.csv").lines().count(), 41);
+    let summary = Csv::read(&tmp.join("out/summary.csv"));
+    assert_eq!((summary.get(0, "runs"), summary.get(1, "runs")), ("20", "20"));
+}
+
+#[test]
+fn init_dataset_writes_a_template_that_runs_and_is_never_overwritten() {
+    let tmp = TempDir::new("init-dataset");
+    let o = ok(tmp.path(), &["init-dataset", "mine"]);
+    assert!(o.stdout.contains("mine/README.md"), "{}", o.stdout);
+    for f in ["dataset.toml", "scans.csv", "measurements.csv", "odometry.csv", "groundtruth.csv", "landmarks.csv"] {
+        assert!(tmp.join("mine").join(f).is_file(), "{f}");
+        assert!(tmp.read("mine/README.md").contains(&format!("`{f}`")), "README.md explains {f}");
+    }
+    assert!(tmp.read("mine/dataset.toml").starts_with("name = \"my-dataset\""));
+    let o = ok(tmp.path(), &["run", "--dataset", "mine", "--filter", "phd-3.0", "--particles", "2", "--out", "run"]);
+    assert!(o.stdout.contains("30 steps"), "{}", o.stdout);
+    let before = tmp.read("mine/measurements.csv");
+    fails(tmp.path(), &["init-dataset", "mine"], 2, &["already holds a data set"]);
+    assert_eq!(tmp.read("mine/measurements.csv"), before);
+}
