@@ -6,6 +6,7 @@
 use rfslam_core::motion::propagate;
 use rfslam_core::{
     ControlSegment, Estimate, FilterBuild, Motion, ParamError, Pose, Rng, Scan, SlamFilter, SlamModels, StepReport,
+    Validated,
 };
 use serde::{Deserialize, Serialize};
 
@@ -43,14 +44,14 @@ impl SlamFilter for DeadReckoning {
 impl FilterBuild for DeadReckoning {
     type Params = Params;
 
-    fn validate(_params: &Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+    fn check(_params: &Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
         if particles != 1 {
             return Err(ParamError::new("particles", "dead-reckoning has no particles: use 1"));
         }
         Ok(())
     }
 
-    fn build(_params: Params, models: &SlamModels, _particles: usize) -> Self {
+    fn build(_params: Validated<Self>, models: &SlamModels) -> Self {
         DeadReckoning { motion: models.motion, pose: models.initial_pose }
     }
 }

@@ -6,26 +6,27 @@
 //! Bayes existence filter of eqs. (29)-(32) (prior 0.5) for map management. The machinery
 //! is [`crate::da::DaFastSlam`]; neither filter reads truth labels.
 
+use rfslam_core::params::{Interval, at_least_one};
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, ParamError, Pose, Rng, Scan, SlamFilter, SlamModels, StepReport,
+    ControlSegment, Estimate, FilterBuild, ParamError, Pose, RbpfParams, Rng, Scan, SlamFilter, SlamModels, StepReport,
+    Validated,
 };
 use serde::{Deserialize, Serialize};
 
 use crate::da::{DaFastSlam, DaSettings};
 
-/// Parameters of `fastslam-1.0`.
+/// Parameters of `fastslam-1.0` (and, with the branching, of `mh-fastslam`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(remote = "Self", default)]
 pub struct FastSlam1Params {
     /// Gate on the squared Mahalanobis distance (chi^2_2 at 0.99: 9.21).
     pub gate: f64,
     /// `ln p_0` of a new landmark; default the density of `N(0, 2R)` at the gate boundary.
     pub new_landmark_log_likelihood: Option<f64>,
-    /// Resample when `ESS <= resample_ess_fraction * N` (\[LeungInostrozaAdams\]: 6.25 of 25,
-    /// 0.25).
-    pub resample_ess_fraction: f64,
-    /// Jitter added to the diagonal of the predicted pose covariance.
-    pub q_jitter: [f64; 3],
+    /// `resample_ess_fraction` (`ESS <= fraction * N`, nominal N; \[LeungInostrozaAdams\]:
+    /// 6.25 of 25, 0.25), `resample_ess` and `q_jitter`.
+    #[serde(flatten)]
+    pub rbpf: RbpfParams,
     /// Existence probability of a new landmark (eqs. 31-32: 0.5).
     pub prior_existence: f64,
     /// Landmarks whose existence probability falls below this are removed (0.05).
@@ -37,106 +38,57 @@ impl Default for FastSlam1Params {
         FastSlam1Params {
             gate: 9.21,
             new_landmark_log_likelihood: None,
-            resample_ess_fraction: 0.25,
-            q_jitter: [1e-9, 1e-9, 1e-18],
+            rbpf: RbpfParams::with_fraction(0.25),
             prior_existence: 0.5,
             delete_existence: 0.05,
         }
     }
 }
 
-/// Parameters of `mh-fastslam`: those of [`FastSlam1Params`] plus the branching.
+rfslam_core::flat_params!(FastSlam1Params);
+
+/// Parameters of `mh-fastslam`: the branching, and those of [`FastSlam1Params`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(remote = "Self", default)]
 pub struct MhParams {
     /// Children per particle: its most likely joint associations (\[LeungInostrozaAdams\]: 4).
     pub hypotheses: usize,
-    /// Resample to the nominal count whenever the population exceeds this (\[LeungInostrozaAdams\]:
-    /// 125).
+    /// Resample to the nominal count whenever the population exceeds this
+    /// (\[LeungInostrozaAdams\]: 125); also when the ESS falls to the threshold of
+    /// [`FastSlam1Params::rbpf`].
     pub max_population: usize,
-    /// Gate on the squared Mahalanobis distance (chi^2_2 at 0.99: 9.21).
-    pub gate: f64,
-    /// `ln p_0` of a new landmark; default the density of `N(0, 2R)` at the gate boundary.
-    pub new_landmark_log_likelihood: Option<f64>,
-    /// Also resample when `ESS <= resample_ess_fraction * N` (nominal N; 0.25).
-    pub resample_ess_fraction: f64,
-    /// Jitter added to the diagonal of the predicted pose covariance.
-    pub q_jitter: [f64; 3],
-    /// Existence probability of a new landmark (0.5).
-    pub prior_existence: f64,
-    /// Landmarks whose existence probability falls below this are removed (0.05).
-    pub delete_existence: f64,
+    /// Gate, new-landmark likelihood, resampling, jitter and existence, as `fastslam-1.0`.
+    #[serde(flatten)]
+    pub base: FastSlam1Params,
 }
 
 impl Default for MhParams {
     fn default() -> Self {
-        let f = FastSlam1Params::default();
-        MhParams {
-            hypotheses: 4,
-            max_population: 125,
-            gate: f.gate,
-            new_landmark_log_likelihood: f.new_landmark_log_likelihood,
-            resample_ess_fraction: f.resample_ess_fraction,
-            q_jitter: f.q_jitter,
-            prior_existence: f.prior_existence,
-            delete_existence: f.delete_existence,
-        }
+        MhParams { hypotheses: 4, max_population: 125, base: FastSlam1Params::default() }
     }
 }
 
-fn check_common(s: &DaSettings, particles: usize) -> Result<(), ParamError> {
-    if particles == 0 {
-        return Err(ParamError::new("particles", "at least one particle"));
-    }
-    if !(s.gate > 0.0 && s.gate.is_finite()) {
-        return Err(ParamError::new("gate", format!("must be > 0 (got {})", s.gate)));
-    }
-    if let Some(l) = s.new_landmark_log_likelihood
-        && !l.is_finite()
-    {
-        return Err(ParamError::new("new_landmark_log_likelihood", "must be finite"));
-    }
-    if !(0.0..=1.0).contains(&s.resample_ess_fraction) {
-        return Err(ParamError::new("resample_ess_fraction", "must be in [0, 1]"));
-    }
-    if s.q_jitter.iter().any(|j| !(*j >= 0.0 && j.is_finite())) {
-        return Err(ParamError::new("q_jitter", "entries must be finite and >= 0"));
-    }
-    if !(s.prior_existence > 0.0 && s.prior_existence < 1.0) {
-        return Err(ParamError::new("prior_existence", "must be in (0, 1)"));
-    }
-    if !(s.delete_existence >= 0.0 && s.delete_existence < 1.0) {
-        return Err(ParamError::new("delete_existence", "must be in [0, 1)"));
-    }
-    Ok(())
-}
+rfslam_core::flat_params!(MhParams);
 
 impl FastSlam1Params {
-    /// The engine's settings.
-    pub fn settings(&self) -> DaSettings {
-        DaSettings {
-            hypotheses: 1,
-            max_population: None,
-            gate: self.gate,
-            new_landmark_log_likelihood: self.new_landmark_log_likelihood,
-            resample_ess_fraction: self.resample_ess_fraction,
-            q_jitter: self.q_jitter,
-            prior_existence: self.prior_existence,
-            delete_existence: self.delete_existence,
-        }
+    /// Checks ranges (and that there is at least one particle).
+    pub fn validate(&self, particles: usize) -> Result<(), ParamError> {
+        Interval::POSITIVE.check("gate", self.gate)?;
+        Interval::FINITE.check_opt("new_landmark_log_likelihood", self.new_landmark_log_likelihood)?;
+        self.rbpf.validate(particles)?;
+        Interval::OPEN_UNIT.check("prior_existence", self.prior_existence)?;
+        Interval::BELOW_ONE.check("delete_existence", self.delete_existence)
     }
-}
 
-impl MhParams {
-    /// The engine's settings.
-    pub fn settings(&self) -> DaSettings {
+    /// The engine's settings, with `hypotheses` children per particle and the population
+    /// cap `max_population`.
+    pub fn settings(&self, hypotheses: usize, max_population: Option<usize>) -> DaSettings {
         DaSettings {
-            hypotheses: self.hypotheses,
-            max_population: Some(self.max_population),
+            hypotheses,
+            max_population,
             gate: self.gate,
             new_landmark_log_likelihood: self.new_landmark_log_likelihood,
-            resample_ess_fraction: self.resample_ess_fraction,
-            q_jitter: self.q_jitter,
+            rbpf: self.rbpf,
             prior_existence: self.prior_existence,
             delete_existence: self.delete_existence,
         }
@@ -195,23 +147,22 @@ baseline!(
 impl FilterBuild for FastSlam1 {
     type Params = FastSlam1Params;
 
-    fn validate(params: &FastSlam1Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
-        check_common(&params.settings(), particles)
+    fn check(params: &FastSlam1Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+        params.validate(particles)
     }
 
-    fn build(params: FastSlam1Params, models: &SlamModels, particles: usize) -> Self {
-        FastSlam1(DaFastSlam::new(Self::NAME, params.settings(), models, particles))
+    fn build(params: Validated<Self>, models: &SlamModels) -> Self {
+        let settings = params.params().settings(1, None);
+        FastSlam1(DaFastSlam::new(Self::NAME, settings, models, params.particles()))
     }
 }
 
 impl FilterBuild for MhFastSlam {
     type Params = MhParams;
 
-    fn validate(params: &MhParams, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
-        check_common(&params.settings(), particles)?;
-        if params.hypotheses == 0 {
-            return Err(ParamError::new("hypotheses", "must be at least 1"));
-        }
+    fn check(params: &MhParams, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+        params.base.validate(particles)?;
+        at_least_one("hypotheses", params.hypotheses)?;
         if params.max_population < particles {
             return Err(ParamError::new(
                 "max_population",
@@ -221,7 +172,9 @@ impl FilterBuild for MhFastSlam {
         Ok(())
     }
 
-    fn build(params: MhParams, models: &SlamModels, particles: usize) -> Self {
-        MhFastSlam(DaFastSlam::new(Self::NAME, params.settings(), models, particles))
+    fn build(params: Validated<Self>, models: &SlamModels) -> Self {
+        let p = params.params();
+        let settings = p.base.settings(p.hypotheses, Some(p.max_population));
+        MhFastSlam(DaFastSlam::new(Self::NAME, settings, models, params.particles()))
     }
 }

@@ -45,14 +45,13 @@
 //!   pose stays at the predicted mean). An assignment failure keeps the particle unchanged
 //!   but for its pose (counted as well).
 
-use nalgebra::{Matrix2, Matrix3};
+use nalgebra::Matrix2;
 use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
 use rfslam_core::gaussian::{sample, symmetrise};
-use rfslam_core::motion::propagate_with_covariance;
-use rfslam_core::rbpf::{ess, normalise_log_weights, systematic_resample};
+use rfslam_core::rbpf::{LogWeighted, ParticleSet, ResampleRule};
 use rfslam_core::{
-    ControlSegment, Estimate, MapPoint, Point2, Pose, RangeBearing, RangeBearingSensor, Rng, Scan, SlamModels,
-    StepReport,
+    ControlSegment, Estimate, MapPoint, Point2, Pose, RangeBearing, RangeBearingSensor, RbpfParams, Rng, Scan,
+    SlamModels, StepReport,
 };
 
 use crate::proposal::{Landmark, landmark_update};
@@ -92,6 +91,16 @@ pub struct DaParticle {
     pub associations: Vec<Option<Point2>>,
 }
 
+impl LogWeighted for DaParticle {
+    fn log_weight(&self) -> f64 {
+        self.log_w
+    }
+
+    fn set_log_weight(&mut self, log_w: f64) {
+        self.log_w = log_w;
+    }
+}
+
 /// The existence probability of one scan, \[LeungInostrozaAdams\] eq. (31) (`associated`) or eq.
 /// (32), with prior `pe`, detection probability `pd` and false-alarm probability `pf`.
 pub fn existence_given_scan(associated: bool, pd: f64, pf: f64, pe: f64) -> f64 {
@@ -120,10 +129,8 @@ pub struct DaSettings {
     pub gate: f64,
     /// `ln p_0`; `None`: the density of `N(0, 2R)` at the gate boundary.
     pub new_landmark_log_likelihood: Option<f64>,
-    /// Resample when `ESS <= resample_ess_fraction * N` (nominal N).
-    pub resample_ess_fraction: f64,
-    /// Jitter added to the diagonal of the predicted pose covariance.
-    pub q_jitter: [f64; 3],
+    /// Resampling (`ESS <=` the threshold for the nominal N) and the pose jitter.
+    pub rbpf: RbpfParams,
     /// Prior existence probability of a new landmark (0.5).
     pub prior_existence: f64,
     /// A landmark whose existence probability falls below this is removed.
@@ -148,9 +155,10 @@ pub struct DaFastSlam {
     settings: DaSettings,
     models: SlamModels,
     nominal: usize,
-    particles: Vec<DaParticle>,
+    /// The population: normalisation, resampling to the nominal count, spare particles.
+    set: ParticleSet<DaParticle>,
+    /// The children of this step, built from the set's spares.
     next: Vec<DaParticle>,
-    best: usize,
     log_p0: f64,
     clutter_density: f64,
     // reusable buffers
@@ -160,16 +168,13 @@ pub struct DaFastSlam {
     murty: Murty,
     hyps: Vec<Assignment>,
     associated: Vec<bool>,
-    log_w: Vec<f64>,
-    parents: Vec<usize>,
     fresh: Vec<DaLandmark>,
-    /// Spare particles whose allocations are reused for children and resampled copies.
-    pool: Vec<DaParticle>,
 }
 
 impl DaFastSlam {
-    /// A filter named `name` with `n` particles at the initial pose, empty maps.
-    pub fn new(name: &'static str, settings: DaSettings, models: &SlamModels, n: usize) -> Self {
+    /// A filter named `name` with `n` particles at the initial pose, empty maps (the
+    /// settings as [`crate::FastSlam1Params::validate`] checked them).
+    pub(crate) fn new(name: &'static str, settings: DaSettings, models: &SlamModels, n: usize) -> Self {
         let n = n.max(1);
         let r2 = 2.0 * models.measurement_noise;
         let log_p0 = settings
@@ -177,15 +182,14 @@ impl DaFastSlam {
             .unwrap_or_else(|| -0.5 * settings.gate - LN_2PI - 0.5 * r2.determinant().max(1e-300).ln());
         let volume = models.fov.measurement_volume();
         let clutter_density = if volume > 0.0 { models.clutter.rate / volume } else { 0.0 };
-        let p0 = DaParticle { log_w: -(n as f64).ln(), pose: models.initial_pose, ..Default::default() };
+        let p0 = DaParticle { pose: models.initial_pose, ..Default::default() };
         DaFastSlam {
             name,
             settings,
             models: models.clone(),
             nominal: n,
-            particles: vec![p0; n],
+            set: ParticleSet::new(p0, n),
             next: Vec::new(),
-            best: 0,
             log_p0,
             clutter_density,
             lin: Vec::new(),
@@ -194,16 +198,13 @@ impl DaFastSlam {
             murty: Murty::new(),
             hyps: Vec::new(),
             associated: Vec::new(),
-            log_w: Vec::new(),
-            parents: Vec::new(),
             fresh: Vec::new(),
-            pool: Vec::new(),
         }
     }
 
     /// The particles (for inspection and tests).
     pub fn particle_set(&self) -> &[DaParticle] {
-        &self.particles
+        self.set.particles()
     }
 
     /// The filter's registered name.
@@ -214,12 +215,12 @@ impl DaFastSlam {
     /// Number of particles now (MH: between the nominal count and the cap times the
     /// hypotheses).
     pub fn len(&self) -> usize {
-        self.particles.len()
+        self.set.len()
     }
 
     /// Whether there is no particle (never, after construction).
     pub fn is_empty(&self) -> bool {
-        self.particles.is_empty()
+        self.set.is_empty()
     }
 
     /// `ln p_0`, the new-landmark likelihood used in the cost matrix.
@@ -232,7 +233,7 @@ impl DaFastSlam {
         let models = &self.models;
         let r = models.measurement_noise;
         let mut failures = 0u32;
-        let p = &self.particles[parent];
+        let p = &self.set.particles()[parent];
         let nl = p.landmarks.len();
         let nz = z.len();
         // Linearise every landmark near the field of view at x.
@@ -321,9 +322,9 @@ impl DaFastSlam {
         };
         for h in 0..self.hyps.len() {
             let slot = self.next.len();
-            let spare = self.pool.pop().unwrap_or_default();
+            let spare = self.set.spare();
             self.next.push(spare);
-            let parent_p = &self.particles[parent];
+            let parent_p = &self.set.particles()[parent];
             let child = &mut self.next[slot];
             child.clone_from(parent_p);
             child.pose = x;
@@ -374,15 +375,11 @@ impl DaFastSlam {
 impl DaFastSlam {
     /// One recursion (see the module docs).
     pub fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
-        let jitter = Matrix3::from_diagonal(&self.settings.q_jitter.into());
         let mut failures = 0u32;
-        // Last step's particles become spares (their allocations are reused).
-        self.pool.append(&mut self.next);
-        for parent in 0..self.particles.len() {
-            let p = &self.particles[parent];
-            let (x_bar, q) =
-                propagate_with_covariance(&self.models.motion, &p.pose, odometry, &self.models.control_noise);
-            let x = match sample(&x_bar, &(q + jitter), rng) {
+        for parent in 0..self.set.len() {
+            let p = &self.set.particles()[parent];
+            let (x_bar, q) = self.settings.rbpf.predict(&self.models, &p.pose, odometry);
+            let x = match sample(&x_bar, &q, rng) {
                 Some(mut x) => {
                     x[2] = rfslam_core::angle::wrap(x[2]);
                     x
@@ -394,39 +391,24 @@ impl DaFastSlam {
             };
             failures += self.branch(parent, x, &scan.z);
         }
-        std::mem::swap(&mut self.particles, &mut self.next);
+        // The children replace their parents (whose allocations are reused).
+        self.set.replace(&mut self.next);
 
         // Normalise, ESS, best; resample to the nominal count when needed.
-        self.log_w.clear();
-        self.log_w.extend(self.particles.iter().map(|p| p.log_w));
-        normalise_log_weights(&mut self.log_w);
-        for (p, &l) in self.particles.iter_mut().zip(&self.log_w) {
-            p.log_w = l;
-        }
-        let ess_now = ess(&self.log_w);
-        let n = self.particles.len();
-        self.best = (0..n).max_by(|&i, &j| self.log_w[i].total_cmp(&self.log_w[j]).then(j.cmp(&i))).unwrap_or(0);
-        let components: usize = self.particles.iter().map(|p| p.landmarks.len()).sum();
-        let associations = Some(self.particles[self.best].associations.clone());
-        let over_cap = self.settings.max_population.is_some_and(|cap| n > cap);
-        let low_ess = ess_now <= self.settings.resample_ess_fraction * self.nominal as f64;
-        let resampled = (over_cap || low_ess) && (n > 1 || self.nominal > 1);
-        if resampled {
-            systematic_resample(&self.log_w, self.nominal, rng, &mut self.parents);
-            let uniform = -(self.nominal as f64).ln();
-            self.pool.append(&mut self.next);
-            for &parent in &self.parents {
-                let mut dst = self.pool.pop().unwrap_or_default();
-                dst.clone_from(&self.particles[parent]);
-                dst.log_w = uniform;
-                self.next.push(dst);
-            }
-            std::mem::swap(&mut self.particles, &mut self.next);
-            self.best = self.parents.iter().position(|&p| p == self.best).unwrap_or(0);
-        }
+        let n = self.set.len();
+        let rule = ResampleRule {
+            threshold: self.settings.rbpf.threshold(self.nominal),
+            force: self.settings.max_population.is_some_and(|cap| n > cap),
+            n_out: self.nominal,
+        };
+        let (mut components, mut associations) = (0, None);
+        let out = self.set.normalise_and_resample(rule, rng, |particles, best| {
+            components = particles.iter().map(|p| p.landmarks.len()).sum();
+            associations = Some(particles[best].associations.clone());
+        });
         StepReport {
-            ess: ess_now,
-            resampled,
+            ess: out.ess,
+            resampled: out.resampled,
             components,
             proposal_components: 0,
             associations,
@@ -437,12 +419,12 @@ impl DaFastSlam {
     /// Every particle's pose and normalised log weight (see `SlamFilter::particle_poses`).
     pub fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) {
         out.clear();
-        out.extend(self.particles.iter().map(|p| (p.pose, p.log_w)));
+        out.extend(self.set.particles().iter().map(|p| (p.pose, p.log_w)));
     }
 
     /// The highest-weight particle's pose and its landmarks with `P_E > 0.5`.
     pub fn estimate(&self) -> Estimate {
-        let p = &self.particles[self.best];
+        let p = self.set.best_particle();
         let map = p
             .landmarks
             .iter()
@@ -457,6 +439,7 @@ impl DaFastSlam {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+    use nalgebra::Matrix3;
     use rand::SeedableRng;
     use rfslam_core::{ClutterIntensity, ClutterModel, DetectionModel, Fov, Motion};
 
@@ -479,8 +462,7 @@ mod tests {
             max_population: Some(cap),
             gate: 9.21,
             new_landmark_log_likelihood: None,
-            resample_ess_fraction: 0.25,
-            q_jitter: [0.0; 3],
+            rbpf: RbpfParams { q_jitter: [0.0; 3], ..RbpfParams::with_fraction(0.25) },
             prior_existence: 0.5,
             delete_existence: 0.05,
         }
@@ -511,7 +493,7 @@ mod tests {
     fn mh_branches_into_one_child_per_feasible_association() {
         let m = models();
         let mut f = DaFastSlam::new("mh-fastslam", mh(4, 125), &m, 1);
-        f.particles[0].landmarks = vec![landmark(20.0, 0.6, 3.0), landmark(20.0, -0.6, 3.0)];
+        f.set.particles_mut()[0].landmarks = vec![landmark(20.0, 0.6, 3.0), landmark(20.0, -0.6, 3.0)];
         let z = RangeBearing::new(20.2, 0.004);
         let mut rng = Rng::seed_from_u64(1);
         let report = f.step(&[], &Scan { t: 1.0, z: vec![z], truth: None }, &mut rng);
@@ -530,7 +512,8 @@ mod tests {
         let total: f64 = expect.iter().sum();
         expect.iter_mut().for_each(|w| *w /= total);
         let mut got: Vec<(usize, f64)> = f
-            .particles
+            .set
+            .particles()
             .iter()
             .map(|p| {
                 // Which hypothesis: the landmark the measurement updated, or a new one.
@@ -548,7 +531,7 @@ mod tests {
             assert_relative_eq!(w, expect[k], epsilon = 1e-9);
         }
         // The new-landmark child has three landmarks, the others two.
-        let sizes: Vec<usize> = f.particles.iter().map(|p| p.landmarks.len()).collect();
+        let sizes: Vec<usize> = f.set.particles().iter().map(|p| p.landmarks.len()).collect();
         assert_eq!(sizes.iter().filter(|&&s| s == 3).count(), 1);
     }
 
@@ -558,7 +541,7 @@ mod tests {
     fn mh_population_cap_resamples_to_nominal() {
         let m = models();
         let mut f = DaFastSlam::new("mh-fastslam", mh(4, 125), &m, 25);
-        for p in &mut f.particles {
+        for p in f.set.particles_mut() {
             p.landmarks = vec![landmark(20.0, 0.6, 3.0), landmark(20.0, -0.6, 3.0)];
         }
         let scan = Scan { t: 1.0, z: vec![RangeBearing::new(20.0, 0.03), RangeBearing::new(20.0, -0.03)], truth: None };
@@ -569,9 +552,9 @@ mod tests {
         let r2 = f.step(&[], &scan, &mut rng);
         assert!(r2.resampled, "400 > 125");
         assert_eq!(f.len(), 25);
-        let w: f64 = f.particles.iter().map(|p| p.log_w.exp()).sum();
+        let w: f64 = f.set.particles().iter().map(|p| p.log_w.exp()).sum();
         assert_relative_eq!(w, 1.0, epsilon = 1e-12);
-        assert!(f.particles.iter().all(|p| (p.log_w - (-(25f64).ln())).abs() < 1e-12));
+        assert!(f.set.particles().iter().all(|p| (p.log_w - (-(25f64).ln())).abs() < 1e-12));
     }
 
     /// FastSLAM 1.0 keeps one child per particle; a landmark seen twice is reported, a
@@ -587,10 +570,10 @@ mod tests {
         let clutter = RangeBearing::new(30.0, -0.8);
         f.step(&[], &Scan { t: 1.0, z: vec![zl, clutter], truth: None }, &mut rng);
         assert_eq!(f.len(), 3);
-        assert!(f.particles.iter().all(|p| p.landmarks.len() == 2));
+        assert!(f.set.particles().iter().all(|p| p.landmarks.len() == 2));
         assert!(f.estimate().map.is_empty(), "P_E = 0.5 after the first sighting: not reported");
         f.step(&[], &Scan { t: 2.0, z: vec![zl], truth: None }, &mut rng);
-        assert!(f.particles.iter().all(|p| p.landmarks.len() == 1), "the clutter landmark was missed in view");
+        assert!(f.set.particles().iter().all(|p| p.landmarks.len() == 1), "the clutter landmark was missed in view");
         let e = f.estimate();
         assert_eq!(e.map.len(), 1);
         assert!((e.map[0].position - lm).norm() < 0.5);

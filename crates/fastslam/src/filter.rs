@@ -1,13 +1,11 @@
 //! The oracle FastSLAM 2.0 filter (\[Kaltiokallio2024\] Section VI-A-2).
 
-use nalgebra::Matrix3;
 use rfslam_core::gaussian::symmetrise;
 use rfslam_core::ipl::IplSettings;
-use rfslam_core::motion::propagate_with_covariance;
-use rfslam_core::rbpf::{LogWeighted, Population};
+use rfslam_core::rbpf::{LogWeighted, ParticleSet};
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, Point2, Pose, RangeBearing, Rng, Scan, SlamFilter,
-    SlamModels, StepReport,
+    ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, Pose, RangeBearing, Rng, Scan, SlamFilter, SlamModels,
+    StepReport, Validated,
 };
 
 use crate::params::{Params, WeightMode};
@@ -39,14 +37,10 @@ pub struct OracleFastSlam2 {
     params: Params,
     models: SlamModels,
     ipl: IplSettings,
-    jitter: Matrix3<f64>,
-    particles: Vec<Particle>,
-    /// Normalisation, resampling and the families of identical copies.
-    population: Population,
-    best: usize,
+    /// The particles, their families of identical copies, normalisation and resampling.
+    set: ParticleSet<Particle>,
     unlabelled_scans: usize,
     // reusable buffers
-    spare: Vec<Particle>,
     /// (measurement index, landmark id) of the scan's labelled measurements.
     obs: Vec<(usize, i64)>,
     /// Landmark index (in the group's map) of each measurement of a known landmark...
@@ -62,21 +56,15 @@ impl OracleFastSlam2 {
     pub const NAME: &'static str = "fastslam-2.0-oracle";
 
     /// A filter with `n` particles at the scenario's initial pose with empty maps.
-    pub fn new(params: Params, models: &SlamModels, n: usize) -> Self {
-        let n = n.max(1);
+    fn new(params: Params, models: &SlamModels, n: usize) -> Self {
         let ipl = IplSettings { max_iterations: params.ipl_iterations, kl_threshold: params.ipl_kl_threshold };
-        let jitter = Matrix3::from_diagonal(&params.q_jitter.into());
-        let p0 = Particle { log_w: -(n as f64).ln(), pose: models.initial_pose, landmarks: Vec::new() };
+        let p0 = Particle { log_w: 0.0, pose: models.initial_pose, landmarks: Vec::new() };
         OracleFastSlam2 {
             params,
             models: models.clone(),
             ipl,
-            jitter,
-            particles: vec![p0; n],
-            population: Population::new(n),
-            best: 0,
+            set: ParticleSet::new(p0, n),
             unlabelled_scans: 0,
-            spare: Vec::new(),
             obs: Vec::new(),
             known: Vec::new(),
             known_z: Vec::new(),
@@ -86,12 +74,12 @@ impl OracleFastSlam2 {
 
     /// The particles (for inspection and tests).
     pub fn particle_set(&self) -> &[Particle] {
-        &self.particles
+        self.set.particles()
     }
 
     /// Index of the particle the estimate comes from.
     pub fn best_index(&self) -> usize {
-        self.best
+        self.set.best()
     }
 
     /// Scans with measurements that were processed as prediction only because they had no
@@ -125,11 +113,10 @@ impl SlamFilter for OracleFastSlam2 {
     }
 
     fn particles(&self) -> usize {
-        self.particles.len()
+        self.set.len()
     }
 
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
-        let n = self.particles.len();
         let labelled = self.collect_labelled(scan);
         let models = &self.models;
         let r = models.measurement_noise;
@@ -137,17 +124,11 @@ impl SlamFilter for OracleFastSlam2 {
         let mut chol = 0u32;
         let mut families = 0usize;
 
-        let mut a = 0;
-        while a < n {
-            let mut b = a + 1;
-            while b < n && self.population.family()[b] == self.population.family()[a] {
-                b += 1;
-            }
+        for family in self.set.families_mut() {
             families += 1;
-            // Prediction, association lookup and proposal, shared by the copies a..b.
-            let rep = &self.particles[a];
-            let (x_bar, q) = propagate_with_covariance(&models.motion, &rep.pose, odometry, &models.control_noise);
-            let q = q + self.jitter;
+            // Prediction, association lookup and proposal, shared by the copies of the family.
+            let rep = &family[0];
+            let (x_bar, q) = self.params.rbpf.predict(models, &rep.pose, odometry);
             self.known.clear();
             self.known_z.clear();
             self.fresh.clear();
@@ -184,7 +165,7 @@ impl SlamFilter for OracleFastSlam2 {
             };
             let sampler = ProposalSampler::new(&res.mean, &res.cov, &x_bar, &q);
 
-            for p in &mut self.particles[a..b] {
+            for p in family.iter_mut() {
                 let drawn = sampler.as_ref().map(|s| s.draw(rng));
                 let (x, corr) = drawn.unwrap_or_else(|| {
                     chol += 1;
@@ -222,28 +203,26 @@ impl SlamFilter for OracleFastSlam2 {
                     }
                 }
             }
-            a = b;
         }
 
         // Normalise, estimate (highest weight), resample.
-        let (ess_now, best) = self.population.normalise(&mut self.particles);
-        self.best = best;
-        let best = &self.particles[self.best];
-        let associations: Vec<Option<Point2>> = match (&scan.truth, labelled) {
-            (Some(t), true) => {
+        let (mut components, mut associations) = (0, Vec::new());
+        let rule = self.params.rbpf.rule(self.set.len());
+        let out = self.set.normalise_and_resample(rule, rng, |particles, best| {
+            let best = &particles[best];
+            associations = match (&scan.truth, labelled) {
                 // Every labelled landmark exists in the best particle after this update.
-                t.iter().map(|&id| if id >= 0 { best.find(id).map(|i| best.landmarks[i].mean) } else { None }).collect()
-            }
-            _ => vec![None; scan.z.len()],
-        };
-        let components: usize = self.particles.iter().map(|p| p.landmarks.len()).sum();
-        let threshold = self.params.resample_ess_fraction * n as f64;
-        let (resampled, best) =
-            self.population.resample(&mut self.particles, &mut self.spare, ess_now, threshold, self.best, rng);
-        self.best = best;
+                (Some(t), true) => t
+                    .iter()
+                    .map(|&id| if id >= 0 { best.find(id).map(|i| best.landmarks[i].mean) } else { None })
+                    .collect(),
+                _ => vec![None; scan.z.len()],
+            };
+            components = particles.iter().map(|p| p.landmarks.len()).sum();
+        });
         StepReport {
-            ess: ess_now,
-            resampled,
+            ess: out.ess,
+            resampled: out.resampled,
             components,
             proposal_components: families,
             associations: Some(associations),
@@ -252,13 +231,13 @@ impl SlamFilter for OracleFastSlam2 {
     }
 
     fn estimate(&self) -> Estimate {
-        let p = &self.particles[self.best];
+        let p = self.set.best_particle();
         Estimate { pose: p.pose, map: p.landmarks.iter().map(|l| MapPoint { position: l.mean, weight: 1.0 }).collect() }
     }
 
     fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
         out.clear();
-        out.extend(self.particles.iter().map(|p| (p.pose, p.log_w)));
+        out.extend(self.set.particles().iter().map(|p| (p.pose, p.log_w)));
         true
     }
 }
@@ -267,11 +246,12 @@ impl FilterBuild for OracleFastSlam2 {
     type Params = Params;
     const REQUIRES_TRUTH: bool = crate::requires_truth_labels();
 
-    fn validate(params: &Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+    fn check(params: &Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
         params.validate(particles)
     }
 
-    fn build(params: Params, models: &SlamModels, particles: usize) -> Self {
+    fn build(params: Validated<Self>, models: &SlamModels) -> Self {
+        let (params, particles) = params.into_parts();
         OracleFastSlam2::new(params, models, particles)
     }
 }

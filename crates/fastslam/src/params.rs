@@ -1,7 +1,8 @@
 //! Parameters of `fastslam-2.0-oracle` (defaults: \[Kaltiokallio2024\] Section VI, as for
 //! PHD-SLAM 3.0).
 
-use rfslam_core::ParamError;
+use rfslam_core::params::{Interval, at_least_one};
+use rfslam_core::{ParamError, RbpfParams};
 use serde::{Deserialize, Serialize};
 
 /// How a particle's weight is updated (\[Kaltiokallio2024\] does not say which weight its
@@ -22,18 +23,16 @@ pub enum WeightMode {
 
 /// Parameters of [`crate::OracleFastSlam2`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(remote = "Self", default)]
 pub struct Params {
     /// Maximum IPL iterations `L` (\[Kaltiokallio2024\]: 5).
     pub ipl_iterations: usize,
     /// IPL stops when `KL(pi_{l-1} || pi_l)` falls below this (\[Kaltiokallio2024\]: 1e-3).
     pub ipl_kl_threshold: f64,
-    /// Resample when `ESS <= resample_ess_fraction * N` (\[Kaltiokallio2024\] Table II: 0.2; 0:
-    /// never).
-    pub resample_ess_fraction: f64,
-    /// Jitter added to the diagonal of the predicted pose covariance (the control
-    /// noise has rank 2; \[PHD-SLAM-3.0-code\]: `[1e-9, 1e-9, 1e-18]`).
-    pub q_jitter: [f64; 3],
+    /// `resample_ess_fraction` (\[Kaltiokallio2024\] Table II: 0.2; 0: never), `resample_ess`
+    /// and `q_jitter`.
+    #[serde(flatten)]
+    pub rbpf: RbpfParams,
     /// Particle weight update.
     pub weight: WeightMode,
 }
@@ -43,31 +42,19 @@ impl Default for Params {
         Params {
             ipl_iterations: 5,
             ipl_kl_threshold: 1e-3,
-            resample_ess_fraction: 0.2,
-            q_jitter: [1e-9, 1e-9, 1e-18],
+            rbpf: RbpfParams::with_fraction(0.2),
             weight: WeightMode::Importance,
         }
     }
 }
 
+rfslam_core::flat_params!(Params);
+
 impl Params {
     /// Checks ranges (and that there is at least one particle).
     pub fn validate(&self, particles: usize) -> Result<(), ParamError> {
-        if particles == 0 {
-            return Err(ParamError::new("particles", "at least one particle"));
-        }
-        if self.ipl_iterations == 0 {
-            return Err(ParamError::new("ipl_iterations", "must be at least 1"));
-        }
-        if !(self.ipl_kl_threshold >= 0.0 && self.ipl_kl_threshold.is_finite()) {
-            return Err(ParamError::new("ipl_kl_threshold", format!("must be >= 0 (got {})", self.ipl_kl_threshold)));
-        }
-        if !(0.0..=1.0).contains(&self.resample_ess_fraction) {
-            return Err(ParamError::new("resample_ess_fraction", "must be in [0, 1]"));
-        }
-        if self.q_jitter.iter().any(|j| !(*j >= 0.0 && j.is_finite())) {
-            return Err(ParamError::new("q_jitter", "entries must be finite and >= 0"));
-        }
-        Ok(())
+        self.rbpf.validate(particles)?;
+        at_least_one("ipl_iterations", self.ipl_iterations)?;
+        Interval::NON_NEGATIVE.check("ipl_kl_threshold", self.ipl_kl_threshold)
     }
 }

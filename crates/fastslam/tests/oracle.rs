@@ -7,7 +7,7 @@ use nalgebra::{Matrix2, Matrix3, Vector3};
 use rand::SeedableRng;
 use rfslam_core::{
     ClutterIntensity, ClutterModel, ControlSegment, DetectionModel, Estimate, FilterBuild, Fov, Motion, Point2, Pose,
-    RangeBearing, RangeBearingSensor, Rng, Scan, SlamFilter, SlamModels,
+    RangeBearing, RangeBearingSensor, RbpfParams, Rng, Scan, SlamFilter, SlamModels,
 };
 use rfslam_data::ScenarioConfig;
 use rfslam_eval::MetricsConfig;
@@ -50,7 +50,7 @@ const L1: Point2 = Point2::new(40.0, -12.0);
 
 /// A filter after one step that saw landmarks 0 and 1 and one clutter measurement.
 fn after_first_step(n: usize) -> (OracleFastSlam2, Rng) {
-    let mut f = OracleFastSlam2::new(Params::default(), &models(), n);
+    let mut f = OracleFastSlam2::try_build(Params::default(), &models(), n).unwrap();
     let mut rng = Rng::seed_from_u64(5);
     let x1 = Pose::new(1.0, 0.0, 0.0);
     let s = scan(1.0, vec![meas(&x1, &L0), RangeBearing::new(60.0, 0.3), meas(&x1, &L1)], Some(vec![0, -1, 1]));
@@ -132,7 +132,7 @@ fn scan_without_labels_is_prediction_only() {
 /// A brand-new landmark seen twice in one scan is created once and updated once.
 #[test]
 fn duplicate_first_sighting_creates_one_landmark() {
-    let mut f = OracleFastSlam2::new(Params::default(), &models(), 1);
+    let mut f = OracleFastSlam2::try_build(Params::default(), &models(), 1).unwrap();
     let mut rng = Rng::seed_from_u64(1);
     let x1 = Pose::new(1.0, 0.0, 0.0);
     let z = meas(&x1, &L0);
@@ -173,7 +173,7 @@ rate = 5.0
 }
 
 fn run(ds: &rfslam_data::Dataset, params: &Params, n: usize, seed: u64) -> Vec<Vec<u64>> {
-    let mut f = OracleFastSlam2::build(params.clone(), &ds.models(), n);
+    let mut f = OracleFastSlam2::try_build(params.clone(), &ds.models(), n).unwrap();
     let mut out = Vec::new();
     run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |r| out.push(bits(r.estimate)));
     out
@@ -199,14 +199,20 @@ fn same_seed_same_output() {
 #[test]
 fn parameters_are_checked() {
     let m = models();
-    assert!(OracleFastSlam2::validate(&Params::default(), &m, 1).is_ok());
-    assert_eq!(OracleFastSlam2::validate(&Params::default(), &m, 0).unwrap_err().key, "particles");
-    let bad = |p: Params| OracleFastSlam2::validate(&p, &m, 3).unwrap_err().key;
+    assert!(OracleFastSlam2::check(&Params::default(), &m, 1).is_ok());
+    assert_eq!(OracleFastSlam2::check(&Params::default(), &m, 0).unwrap_err().key, "particles");
+    let bad = |p: Params| OracleFastSlam2::check(&p, &m, 3).unwrap_err().key;
     assert_eq!(bad(Params { ipl_iterations: 0, ..Params::default() }), "ipl_iterations");
     assert_eq!(bad(Params { ipl_kl_threshold: -1.0, ..Params::default() }), "ipl_kl_threshold");
-    assert_eq!(bad(Params { resample_ess_fraction: 1.5, ..Params::default() }), "resample_ess_fraction");
-    assert_eq!(bad(Params { q_jitter: [0.0, f64::NAN, 0.0], ..Params::default() }), "q_jitter");
-    let f = OracleFastSlam2::build(Params::default(), &m, 3);
+    assert_eq!(bad(Params { rbpf: RbpfParams::with_fraction(1.5), ..Params::default() }), "resample_ess_fraction");
+    assert_eq!(
+        bad(Params {
+            rbpf: RbpfParams { q_jitter: [0.0, f64::NAN, 0.0], ..RbpfParams::default() },
+            ..Params::default()
+        }),
+        "q_jitter"
+    );
+    let f = OracleFastSlam2::try_build(Params::default(), &m, 3).unwrap();
     assert_eq!(f.name(), "fastslam-2.0-oracle");
     assert_eq!(SlamFilter::particles(&f), 3);
     assert_eq!(f.estimate().pose, m.initial_pose);
@@ -219,8 +225,8 @@ fn parameters_are_checked() {
 fn copies_share_the_proposal_but_draw_their_own_poses() {
     let ds = small_dataset(4);
     let n = 10;
-    let params = Params { resample_ess_fraction: 0.6, ..Params::default() };
-    let mut f = OracleFastSlam2::build(params, &ds.models(), n);
+    let params = Params { rbpf: RbpfParams::with_fraction(0.6), ..Params::default() };
+    let mut f = OracleFastSlam2::try_build(params, &ds.models(), n).unwrap();
     let mut rng = Rng::seed_from_u64(9);
     let mut segments = Vec::new();
     let (mut families_before, mut checked) = (None, 0);

@@ -2,8 +2,8 @@
 //! their log weights, the best particle's hypotheses and its map against the truth.
 //! `cargo run --release -p glmb-slam --example glmb_debug -- <filter> <clutter> <seed> [N] [steering or turn-rate noise, deg]`
 
-use rfslam_core::ControlSegment;
 use rfslam_core::rng::{purpose, stream};
+use rfslam_core::{ControlSegment, FilterBuild};
 use rfslam_data::ScenarioConfig;
 
 fn main() {
@@ -24,12 +24,13 @@ fn main() {
     let sc: ScenarioConfig = toml::Value::Table(table).try_into().unwrap();
     let ds = sc.build_dataset(None, seed).unwrap();
     let params = glmb_slam::Params::default();
-    let variant = match filter.as_str() {
-        "glmb-1.0" => glmb_slam::Variant::Glmb1,
-        "glmb-2.0" => glmb_slam::Variant::Glmb2,
-        _ => glmb_slam::Variant::Lmb,
-    };
-    let mut f = glmb_slam::GlmbSlam::new(variant, params, &ds.models(), n);
+    let m = ds.models();
+    let mut f = match filter.as_str() {
+        "glmb-1.0" => glmb_slam::Glmb1::try_build(params, &m, n).map(|f| f.0),
+        "glmb-2.0" => glmb_slam::Glmb2::try_build(params, &m, n).map(|f| f.0),
+        _ => glmb_slam::LmbSlam::try_build(params, &m, n).map(|f| f.0),
+    }
+    .unwrap();
     let mut rng = stream(&[seed, purpose::FILTER, n as u64]);
     let mut segs: Vec<ControlSegment> = Vec::new();
     let gt = ds.groundtruth.as_ref().unwrap();

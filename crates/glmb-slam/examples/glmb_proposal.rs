@@ -18,7 +18,7 @@ use nalgebra::Matrix3;
 use rfslam_core::ipl::IplSettings;
 use rfslam_core::motion::propagate_with_covariance;
 use rfslam_core::rng::{purpose, stream};
-use rfslam_core::{ControlSegment, SlamFilter};
+use rfslam_core::{ControlSegment, FilterBuild, SlamFilter};
 use rfslam_data::ScenarioConfig;
 
 fn ratios(sig: &Matrix3<f64>, q: &Matrix3<f64>) -> (f64, f64) {
@@ -39,11 +39,11 @@ fn main() {
     let ds = sc.build_dataset(None, seed).unwrap();
     let models = ds.models();
     let params = glmb_slam::Params { survival_fov: ps, ..Default::default() };
-    let mut g = glmb_slam::GlmbSlam::new(glmb_slam::Variant::Glmb2, params, &models, n);
+    let mut g = glmb_slam::Glmb2::try_build(params, &models, n).unwrap().0;
     let mut rng = stream(&[seed, purpose::FILTER, n as u64]);
     let op = fastslam::Params::default();
     let ipl = IplSettings { max_iterations: op.ipl_iterations, kl_threshold: op.ipl_kl_threshold };
-    let mut o = fastslam::OracleFastSlam2::new(op, &models, n);
+    let mut o = fastslam::OracleFastSlam2::try_build(op, &models, n).unwrap();
     let mut orng = stream(&[seed, purpose::FILTER, n as u64 + 1000]);
     let gt = ds.groundtruth.as_ref().unwrap();
     let mut segs: Vec<ControlSegment> = Vec::new();

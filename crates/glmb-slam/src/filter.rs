@@ -3,11 +3,10 @@
 use nalgebra::Matrix3;
 use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
-use rfslam_core::motion::propagate_with_covariance;
-use rfslam_core::rbpf::{LogWeighted, Population};
+use rfslam_core::rbpf::{LogWeighted, ParticleSet};
 use rfslam_core::{
     ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, Pose, RangeBearing, Rng, Scan, SlamFilter, SlamModels,
-    StepReport,
+    StepReport, Validated,
 };
 
 use crate::map::{
@@ -76,12 +75,10 @@ pub struct GlmbSlam {
     variant: Variant,
     params: Params,
     models: SlamModels,
-    jitter: Matrix3<f64>,
     log_kappa: f64,
-    particles: Vec<Particle>,
-    population: Population,
-    spare: Vec<Particle>,
-    best: usize,
+    /// The particles (every one its own family: each draws its own proposal), normalisation
+    /// and resampling.
+    set: ParticleSet<Particle>,
     step: u64,
     prev_z: Vec<RangeBearing>,
     ws: Workspace,
@@ -89,22 +86,17 @@ pub struct GlmbSlam {
 }
 
 impl GlmbSlam {
-    /// A filter with `n` particles at the initial pose with empty maps.
-    pub fn new(variant: Variant, params: Params, models: &SlamModels, n: usize) -> Self {
-        let n = n.max(1);
-        let jitter = Matrix3::from_diagonal(&params.q_jitter.into());
+    /// A filter with `n` particles at the initial pose with empty maps (through
+    /// [`FilterBuild::build`] of a variant: validated).
+    fn new(variant: Variant, params: Params, models: &SlamModels, n: usize) -> Self {
         let log_kappa = models.clutter.intensity(&models.fov).max(params.min_clutter_intensity).ln();
-        let p0 = Particle { log_w: -(n as f64).ln(), pose: models.initial_pose, ..Default::default() };
+        let p0 = Particle { pose: models.initial_pose, ..Default::default() };
         GlmbSlam {
             variant,
             params,
             models: models.clone(),
-            jitter,
             log_kappa,
-            particles: vec![p0; n],
-            population: Population::new(n),
-            spare: Vec::new(),
-            best: 0,
+            set: ParticleSet::new(p0, n),
             step: 0,
             prev_z: Vec::new(),
             ws: Workspace::default(),
@@ -114,7 +106,7 @@ impl GlmbSlam {
 
     /// The particles (for inspection and tests).
     pub fn particle_set(&self) -> &[Particle] {
-        &self.particles
+        self.set.particles()
     }
 
     /// The proposal of every particle in the last step, in the order of the particles
@@ -125,7 +117,7 @@ impl GlmbSlam {
 
     /// Index of the particle the estimate comes from.
     pub fn best_index(&self) -> usize {
-        self.best
+        self.set.best()
     }
 
     /// One recursion (what `SlamFilter::step` of the three variants calls).
@@ -148,7 +140,7 @@ impl GlmbSlam {
         let mut proposal_components = 0usize;
         let ws = &mut self.ws;
         self.trace.clear();
-        for part in &mut self.particles {
+        for part in self.set.particles_mut() {
             // Adaptive birth from the previous scan at the previous pose (eq. 27).
             ws.births.clear();
             for (j, zj) in self.prev_z.iter().enumerate() {
@@ -161,8 +153,8 @@ impl GlmbSlam {
                 }
             }
             // Proposal: transition density (eq. 32) or the optimal kernel (eqs. 30-31).
-            let (x_bar, q) = propagate_with_covariance(&models.motion, &part.pose, odometry, &models.control_noise);
-            let q = symmetrise(&(q + self.jitter));
+            let (x_bar, q) = p.rbpf.predict(models, &part.pose, odometry);
+            let q = symmetrise(&q);
             // `marginal`: the weight of eq. (33), replacing the update's `ln Delta w(x_k)`.
             let mut marginal = None;
             let mut tr = ProposalTrace { x_bar, q, mu: x_bar, sig: q, components: 0 };
@@ -225,23 +217,28 @@ impl GlmbSlam {
         self.prev_z.clear();
         self.prev_z.extend_from_slice(&scan.z);
 
-        let (ess, best) = self.population.normalise(&mut self.particles);
-        self.best = best;
-        let components = match self.variant {
-            Variant::Lmb => self.particles.iter().map(|p| p.lmb.tracks.len()).sum(),
-            _ => self.particles.iter().map(|p| p.glmb.hyps.len()).sum(),
-        };
-        let n = self.particles.len();
-        let threshold = self.params.resample_ess_fraction * n as f64;
-        let (resampled, best) =
-            self.population.resample(&mut self.particles, &mut self.spare, ess, threshold, self.best, rng);
-        self.best = best;
-        StepReport { ess, resampled, components, proposal_components, associations: None, cholesky_failures: chol }
+        let mut components = 0;
+        let variant = self.variant;
+        let rule = self.params.rbpf.rule(self.set.len());
+        let out = self.set.normalise_and_resample(rule, rng, |particles, _| {
+            components = match variant {
+                Variant::Lmb => particles.iter().map(|p| p.lmb.tracks.len()).sum(),
+                _ => particles.iter().map(|p| p.glmb.hyps.len()).sum(),
+            };
+        });
+        StepReport {
+            ess: out.ess,
+            resampled: out.resampled,
+            components,
+            proposal_components,
+            associations: None,
+            cholesky_failures: chol,
+        }
     }
 
     /// The estimate (what `SlamFilter::estimate` of the three variants returns).
     pub fn estimate_impl(&self) -> Estimate {
-        let p = &self.particles[self.best];
+        let p = self.set.best_particle();
         let map = match self.variant {
             Variant::Lmb => p
                 .lmb
@@ -286,10 +283,6 @@ macro_rules! variant_filter {
             /// Registered name.
             pub const NAME: &'static str = $name;
 
-            /// A filter with `n` particles at the scenario's initial pose with empty maps.
-            pub fn new(params: Params, models: &SlamModels, n: usize) -> Self {
-                $ty(GlmbSlam::new($variant, params, models, n))
-            }
         }
 
         impl SlamFilter for $ty {
@@ -298,7 +291,7 @@ macro_rules! variant_filter {
             }
 
             fn particles(&self) -> usize {
-                self.0.particles.len()
+                self.0.set.len()
             }
 
             fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
@@ -313,12 +306,13 @@ macro_rules! variant_filter {
         impl FilterBuild for $ty {
             type Params = Params;
 
-            fn validate(params: &Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+            fn check(params: &Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
                 params.validate(particles)
             }
 
-            fn build(params: Params, models: &SlamModels, particles: usize) -> Self {
-                $ty::new(params, models, particles)
+            fn build(params: Validated<Self>, models: &SlamModels) -> Self {
+                let (params, particles) = params.into_parts();
+                $ty(GlmbSlam::new($variant, params, models, particles))
             }
         }
     };

@@ -1,7 +1,8 @@
 //! Parameters of `glmb-1.0`, `glmb-2.0` and `lmb-slam` (defaults: \[Moratuwage2019\] Section 4.1,
 //! and our choices where the paper gives no value: gate, hypothesis cap, sweeps).
 
-use rfslam_core::ParamError;
+use rfslam_core::params::{Interval, at_least_one};
+use rfslam_core::{ParamError, RbpfParams};
 use serde::{Deserialize, Serialize};
 
 /// How `glmb-2.0` weights a particle after sampling its pose from the optimal kernel.
@@ -22,7 +23,7 @@ pub enum ProposalWeight {
 
 /// Parameters shared by the three filters (each ignores the keys of the others' steps).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(remote = "Self", default)]
 pub struct Params {
     /// Survival probability `p_S` of a landmark inside the FOV (\[Moratuwage2019\]: 0.95; 1
     /// outside, eqs. 7-9).
@@ -59,12 +60,10 @@ pub struct Params {
     pub existence_prune: f64,
     /// `lmb-slam`: the map estimate holds the tracks with existence above this.
     pub existence_estimate: f64,
-    /// Resample when `ESS <= resample_ess_fraction * N` (1: every step, as \[Moratuwage2019\]
-    /// Section 3.2).
-    pub resample_ess_fraction: f64,
-    /// Jitter added to the diagonal of the predicted pose covariance (the control noise has
-    /// rank 2, so the predicted covariance is singular without it).
-    pub q_jitter: [f64; 3],
+    /// `resample_ess_fraction` (1: every step, as \[Moratuwage2019\] Section 3.2),
+    /// `resample_ess` and `q_jitter`.
+    #[serde(flatten)]
+    pub rbpf: RbpfParams,
     /// Lower bound of the clutter intensity `kappa` (so that a scenario without clutter
     /// keeps `ln kappa` finite).
     pub min_clutter_intensity: f64,
@@ -86,57 +85,30 @@ impl Default for Params {
             proposal_weight: ProposalWeight::Marginal,
             existence_prune: 0.019,
             existence_estimate: 0.5,
-            resample_ess_fraction: 1.0,
-            q_jitter: [1e-9, 1e-9, 1e-18],
+            rbpf: RbpfParams::with_fraction(1.0),
             min_clutter_intensity: 1e-12,
         }
     }
 }
 
-fn prob(key: &str, v: f64, open_low: bool) -> Result<(), ParamError> {
-    let ok = if open_low { v > 0.0 && v <= 1.0 } else { (0.0..=1.0).contains(&v) };
-    if ok { Ok(()) } else { Err(ParamError::new(key, format!("must be a probability (got {v})"))) }
-}
+rfslam_core::flat_params!(Params);
 
 impl Params {
     /// Checks ranges (and that there is at least one particle).
     pub fn validate(&self, particles: usize) -> Result<(), ParamError> {
-        if particles == 0 {
-            return Err(ParamError::new("particles", "at least one particle"));
-        }
-        prob("survival_fov", self.survival_fov, true)?;
-        prob("birth_new", self.birth_new, false)?;
-        prob("birth_existing", self.birth_existing, false)?;
-        if self.birth_new >= 1.0 || self.birth_existing >= 1.0 {
-            return Err(ParamError::new("birth_new", "birth probabilities must be below 1"));
-        }
-        prob("explained_threshold", self.explained_threshold, false)?;
-        if self.gate.is_nan() || self.gate <= 0.0 {
-            return Err(ParamError::new("gate", format!("must be > 0 (got {})", self.gate)));
-        }
-        if !(0.0..1.0).contains(&self.hypothesis_prune) {
-            return Err(ParamError::new("hypothesis_prune", "must be in [0, 1)"));
-        }
-        for (k, v) in [
-            ("max_hypotheses", self.max_hypotheses),
-            ("gibbs_sweeps", self.gibbs_sweeps),
-            ("proposal_hypotheses", self.proposal_hypotheses),
-        ] {
-            if v == 0 {
-                return Err(ParamError::new(k, "must be at least 1"));
-            }
-        }
-        if !(0.0..1.0).contains(&self.existence_prune) {
-            return Err(ParamError::new("existence_prune", "must be in [0, 1)"));
-        }
-        prob("existence_estimate", self.existence_estimate, false)?;
-        prob("resample_ess_fraction", self.resample_ess_fraction, false)?;
-        if self.q_jitter.iter().any(|j| !(*j >= 0.0 && j.is_finite())) {
-            return Err(ParamError::new("q_jitter", "entries must be finite and >= 0"));
-        }
-        if !(self.min_clutter_intensity > 0.0 && self.min_clutter_intensity.is_finite()) {
-            return Err(ParamError::new("min_clutter_intensity", "must be finite and > 0"));
-        }
-        Ok(())
+        self.rbpf.validate(particles)?;
+        Interval::PROBABILITY.check("survival_fov", self.survival_fov)?;
+        // A birth probability of 1 would make every measurement a certain landmark.
+        Interval::BELOW_ONE.check("birth_new", self.birth_new)?;
+        Interval::BELOW_ONE.check("birth_existing", self.birth_existing)?;
+        Interval::UNIT.check("explained_threshold", self.explained_threshold)?;
+        Interval::POSITIVE.check("gate", self.gate)?;
+        Interval::BELOW_ONE.check("hypothesis_prune", self.hypothesis_prune)?;
+        at_least_one("max_hypotheses", self.max_hypotheses)?;
+        at_least_one("gibbs_sweeps", self.gibbs_sweeps)?;
+        at_least_one("proposal_hypotheses", self.proposal_hypotheses)?;
+        Interval::BELOW_ONE.check("existence_prune", self.existence_prune)?;
+        Interval::UNIT.check("existence_estimate", self.existence_estimate)?;
+        Interval::POSITIVE.check("min_clutter_intensity", self.min_clutter_intensity)
     }
 }

@@ -191,12 +191,12 @@ fn short_run_end_to_end() {
     let sc: rfslam_data::ScenarioConfig = toml::Value::Table(table).try_into().unwrap();
     let ds = sc.build_dataset(None, 1).unwrap();
     let metrics = MetricsConfig::default();
-    let mut dr = dead_reckoning::DeadReckoning::build(Default::default(), &ds.models(), 1);
+    let mut dr = dead_reckoning::DeadReckoning::try_build(Default::default(), &ds.models(), 1).unwrap();
     let o_dr = run_filter(&ds, &mut dr, 1, &metrics, &mut |_| {});
     let filters: [(&str, Box<dyn rfslam_core::SlamFilter>); 3] = [
-        ("glmb-1.0", Box::new(glmb_slam::Glmb1::build(Default::default(), &ds.models(), 5))),
-        ("glmb-2.0", Box::new(glmb_slam::Glmb2::build(Default::default(), &ds.models(), 5))),
-        ("lmb-slam", Box::new(glmb_slam::LmbSlam::build(Default::default(), &ds.models(), 5))),
+        ("glmb-1.0", Box::new(glmb_slam::Glmb1::try_build(Default::default(), &ds.models(), 5).unwrap())),
+        ("glmb-2.0", Box::new(glmb_slam::Glmb2::try_build(Default::default(), &ds.models(), 5).unwrap())),
+        ("lmb-slam", Box::new(glmb_slam::LmbSlam::try_build(Default::default(), &ds.models(), 5).unwrap())),
     ];
     for (name, mut f) in filters {
         let mut landmarks = 0;

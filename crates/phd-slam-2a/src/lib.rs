@@ -796,8 +796,9 @@ mod tests {
         let d = Gao2021Params::default();
         assert!(!d.use_mean);
         assert_eq!(d.pair_normalisation, PairNormalisation::Global);
-        assert!(toml::from_str::<rbphd::PhdParams<Gao2021Params>>("use_means = true").is_err());
-        assert!(toml::from_str::<rbphd::PhdParams<Gao2021Params>>("pair_normalisation = \"x\"").is_err());
+        let read = |s: &str| rfslam_core::params::from_table::<rbphd::PhdParams<Gao2021Params>>(&s.parse().unwrap());
+        assert_eq!(read("use_means = true").unwrap_err().key, "use_means");
+        assert!(read("pair_normalisation = \"x\"").is_err());
         assert_eq!(<Gao2021Proposal as Proposal>::NAME, "phd-2.0a");
     }
 }

@@ -12,7 +12,7 @@ use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
 
 fn run(ds: &Dataset, params: Gao2021Params, n: usize, seed: u64) -> JobOutcome {
     let params = PhdParams { proposal: params, ..Default::default() };
-    let mut f = PhdSlam2a::build(params, &ds.models(), n);
+    let mut f = PhdSlam2a::try_build(params, &ds.models(), n).unwrap();
     run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {})
 }
 
@@ -31,7 +31,7 @@ fn tracks_better_than_dead_reckoning() {
         let o1 = run(&ds, Gao2021Params::default(), 1, seed);
         let o10 = run(&ds, Gao2021Params::default(), 10, seed);
         let om = run(&ds, Gao2021Params { use_mean: true, ..Default::default() }, 1, seed);
-        let mut f1 = phd_slam_1::PhdSlam1::build(Default::default(), &ds.models(), 1);
+        let mut f1 = phd_slam_1::PhdSlam1::try_build(Default::default(), &ds.models(), 1).unwrap();
         let b1 = run_filter(&ds, &mut f1, seed, &MetricsConfig::default(), &mut |_| {});
         sum_2a += o1["pos_rmse_m"];
         sum_1 += b1["pos_rmse_m"];

@@ -28,6 +28,7 @@ use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample};
 use rfslam_core::ipl::pose_diff;
 use rfslam_core::joint_ipl::{JointIpl, JointIplSettings, KlOn};
+use rfslam_core::params::{Interval, at_least_one};
 use rfslam_core::{ParamError, Point2, Pose, RangeBearing, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
 
@@ -103,13 +104,8 @@ impl Proposal for JointProposal {
     type Params = JointParams;
 
     fn validate(p: &JointParams) -> Result<(), ParamError> {
-        if p.ipl_iterations == 0 {
-            return Err(ParamError::new("ipl_iterations", "must be at least 1"));
-        }
-        if p.ipl_kl_threshold.is_nan() || p.ipl_kl_threshold < 0.0 {
-            return Err(ParamError::new("ipl_kl_threshold", "must be >= 0"));
-        }
-        Ok(())
+        at_least_one("ipl_iterations", p.ipl_iterations)?;
+        Interval::NON_NEGATIVE.check("ipl_kl_threshold", p.ipl_kl_threshold)
     }
 
     fn new(params: &JointParams, _models: &SlamModels) -> Self {

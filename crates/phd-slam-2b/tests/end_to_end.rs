@@ -9,7 +9,7 @@ use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
 
 /// Runs filter `F` with default parameters and `n` particles.
 fn run<F: FilterBuild>(ds: &Dataset, n: usize, seed: u64) -> JobOutcome {
-    let mut f = F::build(F::Params::default(), &ds.models(), n);
+    let mut f = F::try_build(F::Params::default(), &ds.models(), n).unwrap();
     run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {})
 }
 

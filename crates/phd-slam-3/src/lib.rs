@@ -25,6 +25,7 @@ use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
 use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
 use rfslam_core::ipl::{IplSettings, Linearised, ipl_update_slr, pose_diff};
+use rfslam_core::params::{Interval, at_least_one};
 use rfslam_core::rbpf::log_sum_exp;
 use rfslam_core::{ParamError, Point2, Pose, RangeBearing, RangeBearingSensor, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
@@ -192,19 +193,10 @@ impl<S: PoseSlr> MhProposal<S> {
 impl<S: PoseSlr> MhProposal<S> {
     /// Checks the parameters (errors name the key).
     pub fn validate_params(p: &MhParams) -> Result<(), ParamError> {
-        if p.max_assignments == 0 {
-            return Err(ParamError::new("max_assignments", "must be at least 1"));
-        }
-        if !(p.assignment_ratio > 0.0 && p.assignment_ratio <= 1.0) {
-            return Err(ParamError::new("assignment_ratio", "must be in (0, 1]"));
-        }
-        if p.ipl_iterations == 0 {
-            return Err(ParamError::new("ipl_iterations", "must be at least 1"));
-        }
-        if p.ipl_kl_threshold.is_nan() || p.ipl_kl_threshold < 0.0 {
-            return Err(ParamError::new("ipl_kl_threshold", "must be >= 0"));
-        }
-        Ok(())
+        at_least_one("max_assignments", p.max_assignments)?;
+        Interval::PROBABILITY.check("assignment_ratio", p.assignment_ratio)?;
+        at_least_one("ipl_iterations", p.ipl_iterations)?;
+        Interval::NON_NEGATIVE.check("ipl_kl_threshold", p.ipl_kl_threshold)
     }
 
     /// The importance density with parameters `params` and the SLR `slr`.

@@ -59,9 +59,9 @@ use phd_slam_3::{MhParams, MhProposal, PoseSlr};
 use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
 use rfslam_core::gaussian::{log_normal, symmetrise};
 use rfslam_core::ipl::Linearised;
+use rfslam_core::params::Interval;
 use rfslam_core::{ParamError, Point2, Pose, RangeBearing, RangeBearingSensor, Rng, SlamModels};
-use serde::de::Error as _;
-use serde::{Deserialize, Deserializer, Serialize};
+use serde::{Deserialize, Serialize};
 
 pub use sigma::{Moments, SigmaRule, sigma_moments};
 
@@ -97,9 +97,6 @@ impl Default for SigmaParams {
     }
 }
 
-/// Keys of [`SigmaParams`].
-pub const SIGMA_KEYS: &[&str] = &["sigma_alpha", "sigma_beta", "sigma_kappa", "slr_space"];
-
 impl SigmaParams {
     /// The rule.
     pub fn rule(&self) -> SigmaRule {
@@ -116,12 +113,8 @@ impl SigmaParams {
 
     /// Checks ranges (errors name the key).
     pub fn validate(&self) -> Result<(), ParamError> {
-        if !(self.sigma_alpha > 0.0 && self.sigma_alpha.is_finite()) {
-            return Err(ParamError::new("sigma_alpha", format!("must be > 0 (got {})", self.sigma_alpha)));
-        }
-        if !self.sigma_beta.is_finite() {
-            return Err(ParamError::new("sigma_beta", "must be finite"));
-        }
+        Interval::POSITIVE.check("sigma_alpha", self.sigma_alpha)?;
+        Interval::FINITE.check("sigma_beta", self.sigma_beta)?;
         let n = self.dimension();
         if !(self.sigma_kappa.is_finite() && self.rule().spread2(n) > 0.0) {
             return Err(ParamError::new(
@@ -135,7 +128,8 @@ impl SigmaParams {
 
 /// The parameters of `phd-3.0-sp`'s proposal: phd-3.0's [`MhParams`] and the
 /// [`SigmaParams`], one flat table.
-#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(remote = "Self", default)]
 pub struct SpParams {
     /// phd-3.0's settings (Murty, IPL iterations and threshold, missed-detection cost).
     #[serde(flatten)]
@@ -145,26 +139,7 @@ pub struct SpParams {
     pub sigma: SigmaParams,
 }
 
-impl<'de> Deserialize<'de> for SpParams {
-    /// Splits the table into the [`SIGMA_KEYS`] and the rest (phd-3.0's keys; an unknown key
-    /// is reported by [`MhParams`]'s `deny_unknown_fields`).
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let all = toml::Table::deserialize(d)?;
-        let (mut sigma, mut mh) = (toml::Table::new(), toml::Table::new());
-        for (k, v) in all {
-            if SIGMA_KEYS.contains(&k.as_str()) {
-                sigma.insert(k, v);
-            } else {
-                mh.insert(k, v);
-            }
-        }
-        let conv = |e: toml::de::Error| D::Error::custom(e.message());
-        Ok(SpParams {
-            mh: toml::Value::Table(mh).try_into().map_err(conv)?,
-            sigma: toml::Value::Table(sigma).try_into().map_err(conv)?,
-        })
-    }
-}
+rfslam_core::flat_params!(SpParams);
 
 /// The sigma-point SLR of Algorithm 1 (eqs. 42-43) and eq. (44) (see the crate docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -420,7 +395,12 @@ mod tests {
         assert_eq!(back, d);
         let p: SpParams = toml::from_str("max_assignments = 10\nslr_space = \"joint\"\nsigma_kappa = 1.0").unwrap();
         assert_eq!((p.mh.max_assignments, p.sigma.slr_space, p.sigma.sigma_kappa), (10, SlrSpace::Joint, 1.0));
-        assert!(toml::from_str::<SpParams>("sigma_gamma = 1.0").unwrap_err().to_string().contains("sigma_gamma"));
+        let unknown = rfslam_core::params::from_table::<SpParams>(&"sigma_gamma = 1.0".parse().unwrap()).unwrap_err();
+        assert_eq!(unknown.key, "sigma_gamma");
+        assert!(
+            unknown.message.contains("`sigma_alpha`") && unknown.message.contains("`max_assignments`"),
+            "{unknown}"
+        );
         assert!(toml::from_str::<SpParams>("slr_space = \"both\"").is_err());
         let bad = |s: &str| SpProposal::validate(&toml::from_str::<SpParams>(s).unwrap()).unwrap_err().key;
         assert_eq!(bad("sigma_alpha = 0.0"), "sigma_alpha");

@@ -11,8 +11,7 @@ use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
 /// Runs filter `F` with the parameters written in `params` (TOML) and `n` particles.
 fn run<F: FilterBuild>(params: &str, ds: &Dataset, n: usize, seed: u64) -> JobOutcome {
     let params: F::Params = toml::from_str(params).unwrap();
-    F::validate(&params, &ds.models(), n).unwrap();
-    let mut f = F::build(params, &ds.models(), n);
+    let mut f = F::try_build(params, &ds.models(), n).unwrap();
     run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {})
 }
 

@@ -1,11 +1,9 @@
 //! The RB-PHD SLAM filter (\[Kaltiokallio2024\] Algorithm 3) generic over the importance density.
 
-use nalgebra::Matrix3;
-use rfslam_core::motion::propagate_with_covariance;
-use rfslam_core::rbpf::{LogWeighted, Population};
+use rfslam_core::rbpf::{LogWeighted, ParticleSet};
 use rfslam_core::{
     ControlSegment, Estimate, FilterBuild, Fov, MapPoint, ParamError, Point2, Pose, RangeBearing, Rng, Scan,
-    SlamFilter, SlamModels, StepReport,
+    SlamFilter, SlamModels, StepReport, Validated,
 };
 
 use crate::gm::{GmMap, ReduceScratch, ReduceSettings, UpdateScratch, UpdateSettings, phd_update, reduce};
@@ -35,16 +33,13 @@ pub struct RbPhd<P: Proposal> {
     params: RbPhdParams,
     models: SlamModels,
     proposal: P,
-    particles: Vec<Particle>,
-    /// Normalisation, resampling and the families of identical copies.
-    population: Population,
-    best: usize,
+    /// The particles, their families of identical copies, normalisation and resampling.
+    set: ParticleSet<Particle>,
     log_clutter: f64,
     fov_active: Fov,
     estimate_threshold: f64,
     has_associations: bool,
     // reusable buffers
-    spare: Vec<Particle>,
     samples: Vec<PoseSample>,
     active: Vec<usize>,
     is_active: Vec<bool>,
@@ -61,8 +56,8 @@ pub struct RbPhd<P: Proposal> {
 impl<P: Proposal> RbPhd<P> {
     /// A filter with `n` particles at the scenario's initial pose, empty maps.
     /// The filter assumes the scenario's models with the overrides of
-    /// [`RbPhdParams::filter_models`].
-    pub fn new(params: RbPhdParams, proposal: P, models: &SlamModels, n: usize) -> Self {
+    /// [`RbPhdParams::filter_models`]. (Through [`FilterBuild::build`]: validated.)
+    fn new(params: RbPhdParams, proposal: P, models: &SlamModels, n: usize) -> Self {
         let models = &params.filter_models(models);
         // A zero clutter rate makes c(z) = 0; keep ln c finite so unexplained measurements
         // do not produce NaN weights.
@@ -70,19 +65,16 @@ impl<P: Proposal> RbPhd<P> {
         let mf = params.multi_feature();
         let fov_active = models.fov.enlarged(params.fov_buffer_range, params.fov_buffer_deg.to_radians());
         let estimate_threshold = params.estimate_threshold(models);
-        let p0 = Particle { log_w: -(n as f64).ln(), pose: models.initial_pose, ..Default::default() };
+        let p0 = Particle { pose: models.initial_pose, ..Default::default() };
         RbPhd {
             params,
             models: models.clone(),
             proposal,
-            particles: vec![p0; n],
-            population: Population::new(n),
-            best: 0,
+            set: ParticleSet::new(p0, n),
             log_clutter,
             fov_active,
             estimate_threshold,
             has_associations: false,
-            spare: Vec::new(),
             samples: Vec::new(),
             active: Vec::new(),
             is_active: Vec::new(),
@@ -99,7 +91,7 @@ impl<P: Proposal> RbPhd<P> {
 
     /// The particles (for inspection and tests).
     pub fn particles(&self) -> &[Particle] {
-        &self.particles
+        self.set.particles()
     }
 
     /// Births (eq. 19): each `z` of `Z^B_{k-1}` becomes a component placed with the pose at
@@ -119,14 +111,12 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
     }
 
     fn particles(&self) -> usize {
-        self.particles.len()
+        self.set.len()
     }
 
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
-        let n = self.particles.len();
         let models = &self.models;
         let ln_birth = self.params.birth_weight.ln();
-        let jitter = Matrix3::from_diagonal(&self.params.q_jitter.into());
         let upd_settings = UpdateSettings {
             gate: self.params.gate,
             log_clutter: self.log_clutter,
@@ -137,19 +127,13 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
         let mut chol = 0u32;
         let mut gm_components = 0usize;
 
-        let mut a = 0;
-        while a < n {
-            let mut b = a + 1;
-            while b < n && self.population.family()[b] == self.population.family()[a] {
-                b += 1;
-            }
-            for p in &mut self.particles[a..b] {
+        for family in self.set.families_mut() {
+            for p in family.iter_mut() {
                 Self::add_births(models, ln_birth, p);
             }
-            // Prediction and the active set, shared by the identical copies a..b.
-            let rep = &self.particles[a];
-            let (x_bar, q) = propagate_with_covariance(&models.motion, &rep.pose, odometry, &models.control_noise);
-            let q = q + jitter;
+            // Prediction and the active set, shared by the identical copies of the family.
+            let rep = &family[0];
+            let (x_bar, q) = self.params.rbpf.predict(models, &rep.pose, odometry);
             self.active.clear();
             self.detectable.clear();
             self.pd.clear();
@@ -179,15 +163,13 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                 log_clutter: self.log_clutter,
                 gate: self.params.gate,
             };
-            let stats = self.proposal.propose(&ctx, b - a, rng, &mut self.samples);
+            let stats = self.proposal.propose(&ctx, family.len(), rng, &mut self.samples);
             chol += stats.cholesky_failures;
             gm_components += stats.components;
 
-            for (off, sample) in self.samples.iter().enumerate() {
-                let idx = a + off;
+            for (p, sample) in family.iter_mut().zip(&self.samples) {
                 // Associations refer to the family's (shared) predicted map.
                 self.has_associations = self.proposal.associations(sample.component, &mut self.assoc_idx);
-                let p = &mut self.particles[idx];
                 p.associations.clear();
                 if self.has_associations {
                     p.associations.extend(self.assoc_idx.iter().map(|i| i.map(|i| p.map.mean[i])));
@@ -240,21 +222,19 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                 p.map.retain_indices(|i, log_w| !is_active[i] && log_w >= ln_prune);
                 reduce(&self.updated, &red_settings, &mut self.red, &mut p.map);
             }
-            a = b;
         }
 
         // Normalise, estimate (highest weight), resample.
-        let (ess_now, best) = self.population.normalise(&mut self.particles);
-        self.best = best;
-        let components: usize = self.particles.iter().map(|p| p.map.len()).sum();
-        let associations = self.has_associations.then(|| self.particles[self.best].associations.clone());
-        let threshold = self.params.resample_ess.unwrap_or(self.params.resample_ess_fraction * n as f64);
-        let (resampled, best) =
-            self.population.resample(&mut self.particles, &mut self.spare, ess_now, threshold, self.best, rng);
-        self.best = best;
+        let (mut components, mut associations) = (0, None);
+        let has_associations = self.has_associations;
+        let rule = self.params.rbpf.rule(self.set.len());
+        let out = self.set.normalise_and_resample(rule, rng, |particles, best| {
+            components = particles.iter().map(|p| p.map.len()).sum();
+            associations = has_associations.then(|| particles[best].associations.clone());
+        });
         StepReport {
-            ess: ess_now,
-            resampled,
+            ess: out.ess,
+            resampled: out.resampled,
             components,
             proposal_components: gm_components,
             associations,
@@ -264,12 +244,12 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
 
     fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
         out.clear();
-        out.extend(self.particles.iter().map(|p| (p.pose, p.log_w)));
+        out.extend(self.set.particles().iter().map(|p| (p.pose, p.log_w)));
         true
     }
 
     fn estimate(&self) -> Estimate {
-        let p = &self.particles[self.best];
+        let p = self.set.best_particle();
         let ln_t = self.estimate_threshold.ln();
         let map = (0..p.map.len())
             .filter(|&i| p.map.log_w[i] > ln_t)
@@ -282,7 +262,7 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
 impl<P: Proposal> FilterBuild for RbPhd<P> {
     type Params = PhdParams<P::Params>;
 
-    fn validate(params: &Self::Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+    fn check(params: &Self::Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
         params.common.validate(particles)?;
         P::validate(&params.proposal)?;
         if let Some(w) = P::weighting(&params.proposal)
@@ -297,7 +277,8 @@ impl<P: Proposal> FilterBuild for RbPhd<P> {
         Ok(())
     }
 
-    fn build(params: Self::Params, models: &SlamModels, particles: usize) -> Self {
+    fn build(params: Validated<Self>, models: &SlamModels) -> Self {
+        let (params, particles) = params.into_parts();
         let proposal = P::new(&params.proposal, &params.common.filter_models(models));
         let mut common = params.common;
         if let Some(w) = P::weighting(&params.proposal) {

@@ -1,16 +1,16 @@
 //! Parameters shared by every RB-PHD variant, and the flat parameter table of a variant
 //! (shared keys plus its proposal's keys, e.g. `merge = 10`, `max_assignments = 50`).
 
-use rfslam_core::{DetectionModel, ParamError, SlamModels};
-use serde::de::{DeserializeOwned, Error as _};
-use serde::{Deserialize, Deserializer, Serialize};
+use rfslam_core::params::Interval;
+use rfslam_core::{DetectionModel, ParamError, RbpfParams, SlamModels};
+use serde::{Deserialize, Serialize};
 
 use crate::weighting::{MfTerms, MultiFeatureSettings, Weighting};
 
 /// The RB-PHD settings of \[Kaltiokallio2024\] (Section VI, and \[PHD-SLAM-3.0-code\] where the
 /// paper is silent).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(remote = "Self", default)]
 pub struct RbPhdParams {
     /// Weight `eta` of a new component (eq. 19): 1e-6.
     pub birth_weight: f64,
@@ -26,15 +26,10 @@ pub struct RbPhdParams {
     pub fov_buffer_deg: f64,
     /// Map estimate threshold `T_eta`; default `(1 - pD)^2` of the detection model.
     pub estimate_threshold: Option<f64>,
-    /// Resample when `ESS <= resample_ess_fraction * N` (\[Kaltiokallio2024\] Table II: 0.2;
-    /// Table I: 0, never).
-    pub resample_ess_fraction: f64,
-    /// Resample when `ESS <=` this absolute value instead (Victoria Park: 1).
-    pub resample_ess: Option<f64>,
-    /// Jitter added to the diagonal of the predicted pose covariance: two control noises drive
-    /// three pose coordinates, so `F_u Q_u F_u^T` has rank 2 and its density is undefined
-    /// without it (\[PHD-SLAM-3.0-code\]: `diag(1e-9, 1e-9, 1e-18)`).
-    pub q_jitter: [f64; 3],
+    /// `resample_ess_fraction` (\[Kaltiokallio2024\] Table II: 0.2; Table I: 0, never),
+    /// `resample_ess` (Victoria Park: 1) and `q_jitter`.
+    #[serde(flatten)]
+    pub rbpf: RbpfParams,
     /// Include `-sum_i pD_i eta_i` in the particle weight (the exact Poisson marginal
     /// likelihood of a Poisson predicted map, `-lambda_c - sum_i pD_i eta_i + sum_j ln D_j`;
     /// the term depends on the pose through which components are in view). `false` is eq. (46) as
@@ -81,9 +76,7 @@ impl Default for RbPhdParams {
             fov_buffer_range: 10.0,
             fov_buffer_deg: 10.0,
             estimate_threshold: None,
-            resample_ess_fraction: 0.2,
-            resample_ess: None,
-            q_jitter: [1e-9, 1e-9, 1e-18],
+            rbpf: RbpfParams::with_fraction(0.2),
             exact_pd_term: false,
             clutter_intensity: None,
             detection_pd: None,
@@ -98,29 +91,7 @@ impl Default for RbPhdParams {
     }
 }
 
-/// Keys of [`RbPhdParams`].
-pub const COMMON_KEYS: &[&str] = &[
-    "birth_weight",
-    "gate",
-    "prune",
-    "merge",
-    "fov_buffer_range",
-    "fov_buffer_deg",
-    "estimate_threshold",
-    "resample_ess_fraction",
-    "resample_ess",
-    "q_jitter",
-    "exact_pd_term",
-    "clutter_intensity",
-    "detection_pd",
-    "clutter_rate",
-    "weighting",
-    "mf_weight_threshold",
-    "mf_max_features",
-    "mf_likelihood_ratio",
-    "mf_separation",
-    "mf_terms",
-];
+rfslam_core::flat_params!(RbPhdParams);
 
 impl RbPhdParams {
     /// The models the filter assumes: the scenario's, with [`RbPhdParams::detection_pd`],
@@ -144,45 +115,18 @@ impl RbPhdParams {
 
     /// Checks ranges.
     pub fn validate(&self, particles: usize) -> Result<(), ParamError> {
-        let pos = |k: &str, v: f64| {
-            if v > 0.0 && v.is_finite() { Ok(()) } else { Err(ParamError::new(k, format!("must be > 0 (got {v})"))) }
-        };
-        pos("birth_weight", self.birth_weight)?;
-        pos("gate", self.gate)?;
-        pos("prune", self.prune)?;
-        pos("merge", self.merge)?;
-        if self.fov_buffer_range < 0.0 || self.fov_buffer_deg < 0.0 || self.fov_buffer_deg > 180.0 {
-            return Err(ParamError::new("fov_buffer_range", "FOV buffers must be >= 0 (angle <= 180 deg)"));
-        }
-        if let Some(t) = self.estimate_threshold {
-            pos("estimate_threshold", t)?;
-        }
-        if !(0.0..=1.0).contains(&self.resample_ess_fraction) {
-            return Err(ParamError::new("resample_ess_fraction", "must be in [0, 1]"));
-        }
-        if let Some(e) = self.resample_ess
-            && !(e >= 0.0 && e <= particles as f64)
+        for (key, v) in
+            [("birth_weight", self.birth_weight), ("gate", self.gate), ("prune", self.prune), ("merge", self.merge)]
         {
-            return Err(ParamError::new("resample_ess", format!("must be in [0, N = {particles}]")));
+            Interval::POSITIVE.check(key, v)?;
         }
-        if self.q_jitter.iter().any(|j| !(*j >= 0.0 && j.is_finite())) {
-            return Err(ParamError::new("q_jitter", "entries must be >= 0"));
-        }
-        if let Some(pd) = self.detection_pd
-            && !(pd > 0.0 && pd <= 1.0)
-        {
-            return Err(ParamError::new("detection_pd", format!("must be in (0, 1] (got {pd})")));
-        }
-        if let Some(c) = self.clutter_rate
-            && !(c >= 0.0 && c.is_finite())
-        {
-            return Err(ParamError::new("clutter_rate", format!("must be >= 0 (got {c})")));
-        }
-        self.multi_feature().validate()?;
-        if particles == 0 {
-            return Err(ParamError::new("particles", "at least one particle"));
-        }
-        Ok(())
+        Interval::NON_NEGATIVE.check("fov_buffer_range", self.fov_buffer_range)?;
+        Interval::closed(0.0, 180.0).check("fov_buffer_deg", self.fov_buffer_deg)?;
+        Interval::POSITIVE.check_opt("estimate_threshold", self.estimate_threshold)?;
+        self.rbpf.validate(particles)?;
+        Interval::PROBABILITY.check_opt("detection_pd", self.detection_pd)?;
+        Interval::NON_NEGATIVE.check_opt("clutter_rate", self.clutter_rate)?;
+        self.multi_feature().validate()
     }
 
     /// The multi-feature strategy's settings.
@@ -211,7 +155,8 @@ impl RbPhdParams {
 }
 
 /// A variant's flat parameter table: the shared [`RbPhdParams`] keys plus the proposal's.
-#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(remote = "Self", default)]
 pub struct PhdParams<PP> {
     /// Shared settings.
     #[serde(flatten)]
@@ -221,24 +166,7 @@ pub struct PhdParams<PP> {
     pub proposal: PP,
 }
 
-impl<'de, PP: DeserializeOwned> Deserialize<'de> for PhdParams<PP> {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let all = toml::Table::deserialize(d)?;
-        let (mut common, mut rest) = (toml::Table::new(), toml::Table::new());
-        for (k, v) in all {
-            if COMMON_KEYS.contains(&k.as_str()) {
-                common.insert(k, v);
-            } else {
-                rest.insert(k, v);
-            }
-        }
-        let common =
-            toml::Value::Table(common).try_into().map_err(|e: toml::de::Error| D::Error::custom(e.message()))?;
-        let proposal =
-            toml::Value::Table(rest).try_into().map_err(|e: toml::de::Error| D::Error::custom(e.message()))?;
-        Ok(PhdParams { common, proposal })
-    }
-}
+rfslam_core::flat_params!(PhdParams<PP>);
 
 #[cfg(test)]
 mod tests {

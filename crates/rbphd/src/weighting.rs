@@ -48,6 +48,7 @@
 
 use nalgebra::Matrix2;
 use rfslam_core::gaussian::mahalanobis_and_log_det;
+use rfslam_core::params::{Interval, at_least_one};
 use rfslam_core::{ParamError, Point2, Pose, RangeBearing, RangeBearingSensor};
 use serde::{Deserialize, Serialize};
 
@@ -115,19 +116,10 @@ impl Default for MultiFeatureSettings {
 impl MultiFeatureSettings {
     /// Checks ranges; keys as in the flat parameter table (`mf_*`).
     pub fn validate(&self) -> Result<(), ParamError> {
-        if !(self.weight_threshold >= 0.0 && self.weight_threshold.is_finite()) {
-            return Err(ParamError::new("mf_weight_threshold", "must be finite and >= 0"));
-        }
-        if self.max_features == 0 {
-            return Err(ParamError::new("mf_max_features", "must be at least 1"));
-        }
-        if !(self.likelihood_ratio >= 0.0 && self.likelihood_ratio < 1.0) {
-            return Err(ParamError::new("mf_likelihood_ratio", "must be in [0, 1)"));
-        }
-        if !(self.separation >= 0.0 && self.separation.is_finite()) {
-            return Err(ParamError::new("mf_separation", "must be finite and >= 0"));
-        }
-        Ok(())
+        Interval::NON_NEGATIVE.check("mf_weight_threshold", self.weight_threshold)?;
+        at_least_one("mf_max_features", self.max_features)?;
+        Interval::BELOW_ONE.check("mf_likelihood_ratio", self.likelihood_ratio)?;
+        Interval::NON_NEGATIVE.check("mf_separation", self.separation)
     }
 }
 

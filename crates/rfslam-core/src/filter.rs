@@ -4,6 +4,7 @@ use nalgebra::{Matrix2, Matrix3};
 
 use crate::detection::{ClutterModel, DetectionModel, Fov};
 use crate::motion::Motion;
+use crate::params::ParamError;
 use crate::sensor::RangeBearingSensor;
 use crate::types::{ControlSegment, Estimate, Scan, StepReport};
 use crate::{Pose, Rng};
@@ -61,25 +62,42 @@ pub trait SlamFilter: Send {
     }
 }
 
-/// An invalid filter parameter: the key and what is wrong with it.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{key}: {message}")]
-pub struct ParamError {
-    /// Parameter name (as in the configuration).
-    pub key: String,
-    /// What is wrong.
-    pub message: String,
+/// Parameters that passed [`FilterBuild::validate`] for the filter `F` and a number of
+/// particles: the only form [`FilterBuild::build`] takes, so no filter is built from
+/// unchecked parameters. Only [`FilterBuild::validate`] makes one.
+pub struct Validated<F: FilterBuild> {
+    params: F::Params,
+    particles: usize,
 }
 
-impl ParamError {
-    /// A new error for `key`.
-    pub fn new(key: impl Into<String>, message: impl Into<String>) -> Self {
-        ParamError { key: key.into(), message: message.into() }
+impl<F: FilterBuild> Validated<F> {
+    /// The parameters.
+    pub fn params(&self) -> &F::Params {
+        &self.params
+    }
+
+    /// The number of particles they were checked for.
+    pub fn particles(&self) -> usize {
+        self.particles
+    }
+
+    /// The parameters and the number of particles.
+    pub fn into_parts(self) -> (F::Params, usize) {
+        (self.params, self.particles)
     }
 }
 
-/// How the registry builds a filter: typed parameters with defaults, validated before any
-/// run starts (unknown keys are rejected by `deny_unknown_fields` on `Params`).
+impl<F: FilterBuild> std::fmt::Debug for Validated<F>
+where
+    F::Params: std::fmt::Debug,
+{
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Validated").field("params", &self.params).field("particles", &self.particles).finish()
+    }
+}
+
+/// How the registry builds a filter: typed parameters with defaults (a flat table whose keys
+/// [`crate::params::check_keys`] checks), validated before any run starts.
 pub trait FilterBuild: SlamFilter + Sized + 'static {
     /// The filter's parameters; `Default` gives the published settings.
     type Params: serde::de::DeserializeOwned + serde::Serialize + Default + Clone;
@@ -88,10 +106,22 @@ pub trait FilterBuild: SlamFilter + Sized + 'static {
     /// harness refuses data without them before running.
     const REQUIRES_TRUTH: bool = false;
 
-    /// Checks ranges and consistency of the parameters (with the scenario's models and the
-    /// number of particles, which some checks need).
-    fn validate(params: &Self::Params, models: &SlamModels, particles: usize) -> Result<(), ParamError>;
+    /// The filter's checks of ranges and consistency (with the scenario's models and the
+    /// number of particles, which some checks need), in the words of [`crate::params`].
+    fn check(params: &Self::Params, models: &SlamModels, particles: usize) -> Result<(), ParamError>;
 
-    /// Builds a filter at the scenario's initial pose.
-    fn build(params: Self::Params, models: &SlamModels, particles: usize) -> Self;
+    /// [`FilterBuild::check`]s the parameters and returns them in the form
+    /// [`FilterBuild::build`] takes.
+    fn validate(params: Self::Params, models: &SlamModels, particles: usize) -> Result<Validated<Self>, ParamError> {
+        Self::check(&params, models, particles)?;
+        Ok(Validated { params, particles })
+    }
+
+    /// Builds a filter with `params.particles()` particles at the scenario's initial pose.
+    fn build(params: Validated<Self>, models: &SlamModels) -> Self;
+
+    /// [`FilterBuild::validate`] then [`FilterBuild::build`].
+    fn try_build(params: Self::Params, models: &SlamModels, particles: usize) -> Result<Self, ParamError> {
+        Ok(Self::build(Self::validate(params, models, particles)?, models))
+    }
 }

@@ -9,8 +9,12 @@
 //! - [`ipl`], [`joint_ipl`]: the IPL importance densities (partitioned, \[Kaltiokallio2024\]
 //!   Algorithm 1;
 //!   joint on pose and landmarks, PHD-SLAM 2.0b);
-//! - [`rbpf`]: log-sum-exp, ESS, systematic resampling;
-//! - [`filter`]: the [`SlamFilter`] trait and the [`SlamModels`] a filter is built with;
+//! - [`rbpf`]: log-sum-exp, ESS, systematic resampling, and the particle set every RBPF
+//!   steps through ([`rbpf::ParticleSet`]);
+//! - [`params`]: the parameter vocabulary (ranges, [`ParamError`]), the population
+//!   parameters every RBPF shares ([`RbpfParams`]) and key lists from serde;
+//! - [`filter`]: the [`SlamFilter`] and [`FilterBuild`] traits and the [`SlamModels`] a
+//!   filter is built with;
 //! - [`rng`]: the random generator and seed derivation.
 
 pub mod angle;
@@ -20,14 +24,16 @@ pub mod gaussian;
 pub mod ipl;
 pub mod joint_ipl;
 pub mod motion;
+pub mod params;
 pub mod rbpf;
 pub mod rng;
 pub mod sensor;
 pub mod types;
 
 pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov, PlacedFov};
-pub use filter::{FilterBuild, ParamError, SlamFilter, SlamModels};
+pub use filter::{FilterBuild, SlamFilter, SlamModels, Validated};
 pub use motion::{AckermannModel, Motion, MotionModel, OdometryModel, VelocityModel};
+pub use params::{ParamError, RbpfParams};
 pub use rng::Rng;
 pub use sensor::RangeBearingSensor;
 pub use types::{Control, ControlSegment, Estimate, MapPoint, Scan, StepReport, TRUTH_UNKNOWN};

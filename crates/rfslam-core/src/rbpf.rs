@@ -1,5 +1,6 @@
 //! Rao-Blackwellised particle filter utilities shared by every particle filter: log-weight
-//! normalisation, effective sample size and systematic resampling.
+//! normalisation, effective sample size, systematic resampling, and the [`ParticleSet`]
+//! whose families, normalisation and resampling every RBPF of rfslam steps through.
 
 use rand::RngExt;
 
@@ -71,72 +72,178 @@ pub trait LogWeighted {
     fn set_log_weight(&mut self, log_w: f64);
 }
 
-/// The population bookkeeping every RBPF of rfslam shares: normalisation, ESS, the
-/// highest-weight particle, systematic resampling with uniform weights, and the families of
-/// identical copies that resampling leaves (`family()[n] == family()[n - 1]`: particle n is
-/// an unmoved copy of particle n - 1, so a proposal can be computed once for both).
+/// The particles of an RBPF and the bookkeeping every filter of rfslam shares, written
+/// once: the families of identical copies that resampling leaves (so a prediction or a
+/// proposal is computed once per family), normalisation with the ESS and the
+/// highest-weight particle, systematic resampling to a given count with uniform weights,
+/// and spare particles whose allocations are reused (no allocation per step once warm).
+///
+/// One recursion: iterate [`ParticleSet::families_mut`] (or [`ParticleSet::particles_mut`]
+/// when copies share nothing), predicting with [`crate::RbpfParams::predict`]; a filter
+/// whose population changes size builds the new one from [`ParticleSet::spare`] particles
+/// and hands it over with [`ParticleSet::replace`]; then
+/// [`ParticleSet::normalise_and_resample`].
 #[derive(Debug, Clone, Default)]
-pub struct Population {
+pub struct ParticleSet<P> {
+    particles: Vec<P>,
+    best: usize,
     log_w: Vec<f64>,
     parents: Vec<usize>,
+    /// `family[n] == family[n - 1]`: particle n is an unmoved copy of particle n - 1.
     family: Vec<usize>,
+    next: Vec<P>,
+    pool: Vec<P>,
 }
 
-impl Population {
-    /// `n` particles that start as copies of one (all in one family).
-    pub fn new(n: usize) -> Self {
-        Population { log_w: Vec::with_capacity(n), parents: Vec::with_capacity(n), family: vec![0; n] }
+/// What [`ParticleSet::normalise_and_resample`] did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Normalised {
+    /// Effective sample size `1 / sum w^2` before resampling.
+    pub ess: f64,
+    /// Whether the particles were resampled.
+    pub resampled: bool,
+}
+
+/// When and to how many particles [`ParticleSet::normalise_and_resample`] resamples.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ResampleRule {
+    /// Resample when `ESS <= threshold` ([`crate::RbpfParams::threshold`]).
+    pub threshold: f64,
+    /// Resample whatever the ESS (MH-FastSLAM: the population exceeds its cap).
+    pub force: bool,
+    /// Number of particles after resampling (the current number, or MH-FastSLAM's nominal
+    /// count).
+    pub n_out: usize,
+}
+
+impl<P: LogWeighted + Clone + Default> ParticleSet<P> {
+    /// `n` copies of `first`, each with log weight `-ln n` (one family).
+    pub fn new(mut first: P, n: usize) -> Self {
+        first.set_log_weight(-(n as f64).ln());
+        ParticleSet {
+            particles: vec![first; n],
+            best: 0,
+            log_w: Vec::with_capacity(n),
+            parents: Vec::with_capacity(n),
+            family: vec![0; n],
+            next: Vec::new(),
+            pool: Vec::new(),
+        }
     }
 
-    /// Family tag of each particle.
-    pub fn family(&self) -> &[usize] {
-        &self.family
+    /// The particles.
+    pub fn particles(&self) -> &[P] {
+        &self.particles
     }
 
-    /// Normalises the particles' log weights in place; returns the ESS (`1 / sum w^2`) and
-    /// the index of the highest-weight particle (lowest index on ties).
-    pub fn normalise<P: LogWeighted>(&mut self, particles: &mut [P]) -> (f64, usize) {
+    /// The particles, to update in place (every one its own family).
+    pub fn particles_mut(&mut self) -> &mut [P] {
+        &mut self.particles
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.particles.len()
+    }
+
+    /// Whether there is no particle.
+    pub fn is_empty(&self) -> bool {
+        self.particles.is_empty()
+    }
+
+    /// Index of the highest-weight particle of the last step (after resampling: of a copy
+    /// of it); 0 before the first step.
+    pub fn best(&self) -> usize {
+        self.best
+    }
+
+    /// The highest-weight particle (see [`ParticleSet::best`]).
+    pub fn best_particle(&self) -> &P {
+        &self.particles[self.best]
+    }
+
+    /// The families of identical copies, in order, as slices of the particles: the copies
+    /// of one parent after the last resampling, else one particle each.
+    pub fn families_mut(&mut self) -> FamiliesMut<'_, P> {
+        FamiliesMut { rest: &mut self.particles, family: &self.family }
+    }
+
+    /// A spare particle (its allocations reused), for building a new population.
+    pub fn spare(&mut self) -> P {
+        self.pool.pop().unwrap_or_default()
+    }
+
+    /// Replaces the particles by `next` (a population of another size); the old particles
+    /// become spares and `next` is left empty. Every particle is its own family.
+    pub fn replace(&mut self, next: &mut Vec<P>) {
+        std::mem::swap(&mut self.particles, next);
+        self.pool.append(next);
+        self.family.clear();
+        self.family.extend(0..self.particles.len());
+    }
+
+    /// Normalises the log weights in place; hands the weighted particles and the index of
+    /// the highest-weight one (lowest index on ties) to `inspect` (the step's estimate and
+    /// report are read there); then resamples to `rule.n_out` particles when
+    /// `rule.force || ess <= rule.threshold` (and there is more than one particle before or
+    /// after): systematic resampling with one uniform draw from `rng`, copies with uniform
+    /// weights and adjacent by parent (their families). Without resampling every particle
+    /// is its own family.
+    pub fn normalise_and_resample<R: rand::Rng + ?Sized>(
+        &mut self,
+        rule: ResampleRule,
+        rng: &mut R,
+        inspect: impl FnOnce(&[P], usize),
+    ) -> Normalised {
         self.log_w.clear();
-        self.log_w.extend(particles.iter().map(|p| p.log_weight()));
+        self.log_w.extend(self.particles.iter().map(|p| p.log_weight()));
         normalise_log_weights(&mut self.log_w);
-        for (p, &l) in particles.iter_mut().zip(&self.log_w) {
+        for (p, &l) in self.particles.iter_mut().zip(&self.log_w) {
             p.set_log_weight(l);
         }
-        let n = particles.len();
+        let n = self.particles.len();
         let best = (0..n).max_by(|&i, &j| self.log_w[i].total_cmp(&self.log_w[j]).then(j.cmp(&i))).unwrap_or(0);
-        (ess(&self.log_w), best)
-    }
-
-    /// After [`Population::normalise`]: when `n > 1` and `ess <= threshold`, replaces the
-    /// particles by systematic resampling (copies made with `clone_from` into `spare`, so no
-    /// allocation once warm), sets uniform weights and records the families; otherwise every
-    /// particle is its own family. Returns whether it resampled and the new index of `best`.
-    pub fn resample<P: LogWeighted + Clone + Default, R: rand::Rng + ?Sized>(
-        &mut self,
-        particles: &mut Vec<P>,
-        spare: &mut Vec<P>,
-        ess: f64,
-        threshold: f64,
-        best: usize,
-        rng: &mut R,
-    ) -> (bool, usize) {
-        let n = particles.len();
-        if n > 1 && ess <= threshold {
-            systematic_resample(&self.log_w, n, rng, &mut self.parents);
-            spare.resize_with(n, P::default);
-            let uniform = -(n as f64).ln();
-            for (dst, &parent) in spare.iter_mut().zip(&self.parents) {
-                dst.clone_from(&particles[parent]);
+        let ess = ess(&self.log_w);
+        self.best = best;
+        inspect(&self.particles, best);
+        let resampled = (rule.force || ess <= rule.threshold) && (n > 1 || rule.n_out > 1);
+        if resampled {
+            systematic_resample(&self.log_w, rule.n_out, rng, &mut self.parents);
+            let uniform = -(rule.n_out as f64).ln();
+            for &parent in &self.parents {
+                let mut dst = self.pool.pop().unwrap_or_default();
+                dst.clone_from(&self.particles[parent]);
                 dst.set_log_weight(uniform);
+                self.next.push(dst);
             }
-            std::mem::swap(particles, spare);
+            std::mem::swap(&mut self.particles, &mut self.next);
+            self.pool.append(&mut self.next);
             self.family.clone_from(&self.parents);
-            (true, self.parents.iter().position(|&p| p == best).unwrap_or(0))
+            self.best = self.parents.iter().position(|&p| p == best).unwrap_or(0);
         } else {
             self.family.clear();
             self.family.extend(0..n);
-            (false, best)
         }
+        Normalised { ess, resampled }
+    }
+}
+
+/// The families of a [`ParticleSet`] as mutable slices ([`ParticleSet::families_mut`]).
+pub struct FamiliesMut<'a, P> {
+    rest: &'a mut [P],
+    family: &'a [usize],
+}
+
+impl<'a, P> Iterator for FamiliesMut<'a, P> {
+    type Item = &'a mut [P];
+
+    fn next(&mut self) -> Option<&'a mut [P]> {
+        let (&first, tags) = self.family.split_first()?;
+        let len = 1 + tags.iter().take_while(|&&f| f == first).count();
+        let (head, tail) = std::mem::take(&mut self.rest).split_at_mut(len);
+        self.rest = tail;
+        self.family = &self.family[len..];
+        Some(head)
     }
 }
 
@@ -180,5 +287,61 @@ mod tests {
         // Systematic resampling gives floor or ceil of n w_i copies: exact here.
         assert_eq!(counts, [4, 2, 1, 1]);
         assert!(parents.windows(2).all(|p| p[0] <= p[1]));
+    }
+
+    #[derive(Debug, Clone, Default, PartialEq)]
+    struct P {
+        log_w: f64,
+        id: usize,
+    }
+
+    impl LogWeighted for P {
+        fn log_weight(&self) -> f64 {
+            self.log_w
+        }
+        fn set_log_weight(&mut self, log_w: f64) {
+            self.log_w = log_w;
+        }
+    }
+
+    fn rule(threshold: f64, n_out: usize) -> ResampleRule {
+        ResampleRule { threshold, force: false, n_out }
+    }
+
+    /// Copies of one parent form a family until the next step; without resampling every
+    /// particle is its own; the best particle follows its copy; weights end uniform.
+    #[test]
+    fn families_follow_resampling() {
+        let mut rng = crate::Rng::seed_from_u64(7);
+        let mut set = ParticleSet::new(P::default(), 4);
+        assert_eq!(set.families_mut().map(|f| f.len()).collect::<Vec<_>>(), [4]);
+        let w = [0.5f64, 0.25, 0.125, 0.125];
+        for (i, p) in set.particles_mut().iter_mut().enumerate() {
+            *p = P { log_w: w[i].ln() + 3.0, id: i };
+        }
+        let mut seen = None;
+        let out = set.normalise_and_resample(rule(4.0, 8), &mut rng, |ps, best| seen = Some((ps[best].id, ps.len())));
+        assert_eq!(seen, Some((0, 4)));
+        assert!(out.resampled && (out.ess - 1.0 / w.iter().map(|x| x * x).sum::<f64>()).abs() < 1e-12);
+        assert_eq!(set.len(), 8);
+        assert_eq!(set.best_particle().id, 0);
+        let ids: Vec<Vec<usize>> = set.families_mut().map(|f| f.iter().map(|p| p.id).collect()).collect();
+        assert_eq!(ids, [vec![0; 4], vec![1; 2], vec![2], vec![3]]);
+        assert!(set.particles().iter().all(|p| (p.log_w + 8f64.ln()).abs() < 1e-12));
+        // ESS 8 > threshold 1: no resampling, every particle its own family.
+        let out = set.normalise_and_resample(rule(1.0, 8), &mut rng, |_, _| {});
+        assert!(!out.resampled && (out.ess - 8.0).abs() < 1e-9);
+        assert_eq!(set.families_mut().count(), 8);
+        // A forced resampling to fewer particles; a new population replaces the old.
+        let forced = ResampleRule { threshold: 0.0, force: true, n_out: 2 };
+        assert!(set.normalise_and_resample(forced, &mut rng, |_, _| {}).resampled);
+        assert_eq!(set.len(), 2);
+        let mut next = vec![set.spare(), set.spare(), set.spare()];
+        set.replace(&mut next);
+        assert!(next.is_empty());
+        assert_eq!((set.len(), set.families_mut().count()), (3, 3));
+        // One particle is never resampled to one.
+        let mut one = ParticleSet::new(P::default(), 1);
+        assert!(!one.normalise_and_resample(rule(1.0, 1), &mut rng, |_, _| {}).resampled);
     }
 }

@@ -66,7 +66,7 @@ pub struct WarmedUp<F> {
 /// Builds `F` with default parameters and `n` particles on `ds`'s models and steps it through
 /// scans `0..warm` with the filter stream of run seed 1 (as a sweep's run 0 would).
 pub fn warmed_up<F: FilterBuild>(ds: &Dataset, n: usize, warm: usize) -> WarmedUp<F> {
-    let mut filter = F::build(F::Params::default(), &ds.models(), n);
+    let mut filter = F::try_build(F::Params::default(), &ds.models(), n).expect("the default parameters are valid");
     let mut rng = stream(&[1, purpose::FILTER, n as u64]);
     let mut segments: Vec<ControlSegment> = Vec::new();
     for k in 0..warm {

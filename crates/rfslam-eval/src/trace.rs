@@ -292,7 +292,8 @@ mod tests {
     fn steps_rows_score_the_estimate_against_the_truth() {
         let ds = dataset();
         let mut w = StepsWriter::new(csv::Writer::from_writer(Vec::new()), &ds, &MetricsConfig::default()).unwrap();
-        let filter = <dead_reckoning::DeadReckoning as FilterBuild>::build(Default::default(), &ds.models(), 1);
+        let filter =
+            <dead_reckoning::DeadReckoning as FilterBuild>::try_build(Default::default(), &ds.models(), 1).unwrap();
         let truth = &ds.groundtruth.as_ref().unwrap()[5];
         let est = Estimate {
             pose: Pose::new(truth.position.x + 3.0, truth.position.y - 4.0, truth.heading.unwrap() + 0.1),

@@ -72,15 +72,19 @@ fn param_key<P: serde::de::DeserializeOwned>(table: &toml::Table, msg: &str) -> 
     quoted.filter(|k| table.contains_key(*k)).unwrap_or("params").to_string()
 }
 
+/// A filter's parameters from a table: a key the filter does not accept is named with every
+/// key it does ([`rfslam_core::params::check_keys`]), then [`parse_params`].
+fn filter_params<F: FilterBuild>(t: &toml::Table) -> Result<F::Params, ParamError> {
+    rfslam_core::params::check_keys::<F::Params>(t)?;
+    parse_params(t)
+}
+
 fn validate_with<F: FilterBuild>(t: &toml::Table, m: &SlamModels, n: usize) -> Result<(), ParamError> {
-    let p: F::Params = parse_params(t)?;
-    F::validate(&p, m, n)
+    F::validate(filter_params::<F>(t)?, m, n).map(drop)
 }
 
 fn build_with<F: FilterBuild>(t: &toml::Table, m: &SlamModels, n: usize) -> Result<Box<dyn SlamFilter>, ParamError> {
-    let p: F::Params = parse_params(t)?;
-    F::validate(&p, m, n)?;
-    Ok(Box::new(F::build(p, m, n)))
+    Ok(Box::new(F::try_build(filter_params::<F>(t)?, m, n)?))
 }
 
 fn defaults_with<F: FilterBuild>() -> toml::Table {

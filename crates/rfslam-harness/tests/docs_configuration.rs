@@ -5,9 +5,9 @@
 //! The key lists come from the code itself, cheaply: serde's "unknown field `x`, expected
 //! one of `a`, `b`" error for a probe key in each table (the tables deny unknown fields),
 //! its "unknown variant" error for a probe tag, and for the filters the registry's default
-//! parameter table plus the unknown-field error of its `validate` (which also lists the
-//! keys whose default is "none") plus `rbphd::COMMON_KEYS` for the PHD variants, whose
-//! probe error lists only the importance density's own keys.
+//! parameter table plus the unknown-field error of its `validate`, which lists every key the
+//! filter accepts (its own, its proposal's and the shared ones, those whose default is
+//! "none" included).
 
 use std::collections::BTreeSet;
 
@@ -128,9 +128,6 @@ fn filter_keys(entry: &rfslam_harness::registry::FilterEntry) -> BTreeSet<String
     let e = (entry.validate)(&probe, &models, 1).expect_err("an unknown parameter must be rejected");
     assert!(e.to_string().contains(PROBE), "{}: {e}", entry.name);
     keys.extend(quoted(&e.to_string()));
-    if keys.contains("birth_weight") {
-        keys.extend(rbphd::params::COMMON_KEYS.iter().map(|k| k.to_string()));
-    }
     keys
 }
 

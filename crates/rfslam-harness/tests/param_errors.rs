@@ -69,3 +69,27 @@ fn errors_behind_a_custom_deserializer_name_the_parameter() {
     assert_eq!(key::<Flat>("gate = \"x\"\nprune = \"x\""), "gate");
     assert_eq!(key::<Flat>("gate = 1.0\nzzz = 1"), "zzz");
 }
+
+/// A misspelt key of a registered filter is named, and the list of what was expected holds
+/// every key the filter accepts: its own, its importance density's and the shared RBPF keys
+/// (a misspelt shared key of phd-3.0 used to get a list of phd-3.0's own keys only).
+#[test]
+fn a_misspelt_key_lists_every_accepted_key() {
+    use rfslam_harness::registry::REGISTRY;
+    let models = rfslam_data::ModelConfig::phd_slam_synthetic().to_models(rfslam_core::Pose::zeros());
+    let phd3 = REGISTRY.iter().find(|e| e.name == "phd-3.0").expect("registered");
+    let t: toml::Table = "resample_ess_fracton = 0.5".parse().unwrap();
+    let e = (phd3.validate)(&t, &models, 10).expect_err("a misspelt key");
+    assert_eq!(e.key, "resample_ess_fracton");
+    for k in ["resample_ess_fraction", "resample_ess", "q_jitter", "birth_weight", "weighting", "max_assignments"] {
+        assert!(e.message.contains(&format!("`{k}`")), "{k} not listed: {e}");
+    }
+    for entry in REGISTRY {
+        let t: toml::Table = "zz_misspelt = 1".parse().unwrap();
+        let e = (entry.validate)(&t, &models, 1).expect_err("an unknown key");
+        assert_eq!(e.key, "zz_misspelt", "{}", entry.name);
+        for k in (entry.defaults)().keys() {
+            assert!(e.message.contains(&format!("`{k}`")), "{}: {k} not listed: {e}", entry.name);
+        }
+    }
+}
