@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Full reproductions of the published tables. For each experiment name (default: table1
 # table2) runs `rfslam sweep configs/<config>.toml` into results/runs/<name>/ (resumable: rerun
-# the script after an interruption), then copies summary.csv, report.md and the resolved
-# configuration into results/<name>/, appending results/<name>/discussion.md to the report
+# the script after an interruption), then copies runs.csv, summary.csv, invocations.csv,
+# report.md and the resolved configuration into results/<name>/, appending results/<name>/discussion.md to the report
 # when it exists. JOBS (default 2) sets the number of parallel jobs.
 #
 # Names: table1, table2 (configs/<name>.toml) and table3 (alias table3-victoria-park:
@@ -23,7 +23,7 @@ for name in "${experiments[@]}"; do
   ./target/release/rfslam sweep "configs/$config.toml" --jobs "${JOBS:-2}" --out "$out" --resume
   echo "$exp: $(( $(date +%s) - start )) s wall time"
   mkdir -p "results/$exp"
-  cp "$out/summary.csv" "$out/experiment.resolved.toml" "results/$exp/"
+  cp "$out/summary.csv" "$out/experiment.resolved.toml" "$out/invocations.csv" "$out/runs.csv" "results/$exp/"
   cp "$out/report.md" "results/$exp/report.md"
   if [ -f "results/$exp/discussion.md" ]; then
     { echo; cat "results/$exp/discussion.md"; } >> "results/$exp/report.md"
