@@ -9,6 +9,7 @@ use rfslam_core::FilterBuild;
 use rfslam_data::{Dataset, ScenarioConfig};
 use rfslam_eval::fixtures::{dead_reckoning_rmse, procedural_500};
 use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
+use rfslam_sim::ScenarioData;
 
 fn run(ds: &Dataset, params: Gao2021Params, n: usize, seed: u64) -> JobOutcome {
     let params = PhdParams { proposal: params, ..Default::default() };

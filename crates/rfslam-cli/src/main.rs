@@ -14,6 +14,7 @@ use anyhow::anyhow;
 use clap::{Parser, Subcommand};
 use rfslam_harness::experiment::{load_scenario_table, parse_cli_value, scenario_from_table, set_dotted};
 use rfslam_harness::{HarnessError, JobFilter, Plan, Shard, SweepOptions, registry};
+use rfslam_sim::ScenarioData;
 
 #[derive(Parser)]
 #[command(

@@ -33,7 +33,7 @@ impl ConfigError {
     }
 
     /// The same error with `prefix.` in front of the key.
-    pub(crate) fn prefixed(self, prefix: &str) -> Self {
+    pub fn prefixed(self, prefix: &str) -> Self {
         ConfigError { key: format!("{prefix}.{}", self.key), message: self.message }
     }
 }
@@ -140,7 +140,7 @@ pub enum DataError {
 
 impl DataError {
     /// An I/O error on `path`.
-    pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
+    pub fn io(path: &Path, source: std::io::Error) -> Self {
         if source.kind() == std::io::ErrorKind::NotFound {
             DataError::MissingFile { path: path.to_path_buf() }
         } else {
@@ -149,12 +149,12 @@ impl DataError {
     }
 
     /// A bad value in `column` at `path:line`.
-    pub(crate) fn value(path: &Path, line: u64, column: &str, message: impl Into<String>) -> Self {
+    pub fn value(path: &Path, line: u64, column: &str, message: impl Into<String>) -> Self {
         DataError::Invalid { path: path.to_path_buf(), line, column: Some(column.to_string()), message: message.into() }
     }
 
     /// A bad row at `path:line`.
-    pub(crate) fn row(path: &Path, line: u64, message: impl Into<String>) -> Self {
+    pub fn row(path: &Path, line: u64, message: impl Into<String>) -> Self {
         DataError::Invalid { path: path.to_path_buf(), line, column: None, message: message.into() }
     }
 
@@ -174,7 +174,7 @@ impl DataError {
     }
 
     /// A validation error of values that did not come from a file.
-    pub(crate) fn config(source: ConfigError) -> Self {
+    pub fn config(source: ConfigError) -> Self {
         DataError::Config { path: None, line: None, source }
     }
 

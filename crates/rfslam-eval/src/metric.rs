@@ -571,6 +571,7 @@ mod tests {
     use super::*;
     use crate::config::OspaSettings;
     use rfslam_core::{Estimate, MapPoint};
+    use rfslam_sim::ScenarioData;
 
     fn end_values(m: &MetricsConfig, map: &[(f64, f64)]) -> (Values, Vec<Point2>, Vec<Point2>) {
         let sc = crate::fixtures::procedural_500();

@@ -6,7 +6,9 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use rfslam_data::{ScenarioConfig, World};
+use rfslam_data::ScenarioConfig;
+use rfslam_sim::ScenarioData;
+use rfslam_sim::World;
 use serde::{Deserialize, Serialize};
 
 use crate::error::HarnessError;

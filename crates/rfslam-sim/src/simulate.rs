@@ -8,9 +8,8 @@ use rfslam_core::angle::wrap;
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{RangeBearing, RangeBearingSensor, Scan};
 
-use crate::config::ModelConfig;
-use crate::dataset::{Dataset, DatasetMeta, OdometryRow, TruthPose};
-use crate::error::DataError;
+use rfslam_data::{DataError, Dataset, DatasetMeta, ModelConfig, OdometryRow, TruthPose};
+
 use crate::world::World;
 
 /// Generates one Monte Carlo data set from `world` with the sensor and noise of `models`.
@@ -125,9 +124,8 @@ pub fn simulate(world: &World, models: &ModelConfig, run_seed: u64) -> Result<Da
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::MotionConfig;
-    use crate::testutil::TempDir;
-    use crate::world::ProceduralParams;
+    use rfslam_data::testutil::TempDir;
+    use rfslam_data::{MotionConfig, ProceduralParams};
 
     fn small_world() -> World {
         World::procedural(&ProceduralParams { steps: 300, landmarks: 40, ..Default::default() }, 3).unwrap()

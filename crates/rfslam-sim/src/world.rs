@@ -15,13 +15,10 @@ use rand_distr::{Distribution, StandardNormal};
 use rfslam_core::angle::wrap;
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{Control, Motion, MotionModel, Point2, Pose};
-use serde::{Deserialize, Serialize};
-
-use crate::config::positive;
-use crate::csvio::{CsvOut, CsvRows};
-use crate::dataset::{Landmark, read_landmarks, write_landmarks};
-use crate::error::{ConfigError, DataError};
-use crate::mat::{MatArray, MatFile};
+use rfslam_data::csvio::{CsvOut, CsvRows};
+use rfslam_data::dataset::{read_landmarks, write_landmarks};
+use rfslam_data::mat::{MatArray, MatFile};
+use rfslam_data::{ConfigError, DataError, Landmark, ProceduralParams};
 
 /// A simulation world: landmarks, true controls and the true poses they produce.
 ///
@@ -42,61 +39,6 @@ pub struct World {
     pub poses: Vec<(f64, Pose)>,
     /// Motion model of the controls.
     pub motion: Motion,
-}
-
-/// Parameters of [`World::procedural`]; every field has a default (TOML `[world]` with
-/// `kind = "procedural"`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ProceduralParams {
-    /// World seed (the world stream is `stream(&[seed, purpose::WORLD])`). Default 1.
-    pub seed: u64,
-    /// Number of poses (and controls). Default 4000.
-    pub steps: usize,
-    /// Time step (s). Default 1.
-    pub dt: f64,
-    /// Mean speed (m/s). Default 1.
-    pub speed: f64,
-    /// Largest turn rate (deg/s). Default 1.
-    pub max_turn_rate_deg: f64,
-    /// Side of the square the robot stays in (m). Default 1000 (1 km^2).
-    pub extent: f64,
-    /// Number of landmarks. Default 160.
-    pub landmarks: usize,
-}
-
-impl Default for ProceduralParams {
-    fn default() -> Self {
-        ProceduralParams {
-            seed: 1,
-            steps: 4000,
-            dt: 1.0,
-            speed: 1.0,
-            max_turn_rate_deg: 1.0,
-            extent: 1000.0,
-            landmarks: 160,
-        }
-    }
-}
-
-impl ProceduralParams {
-    /// Smallest lateral offset of a landmark from the route (m).
-    pub const MIN_OFFSET: f64 = 5.0;
-    /// Largest lateral offset of a landmark from the route (m).
-    pub const MAX_OFFSET: f64 = 100.0;
-    /// Smallest distance between two landmarks (m).
-    pub const MIN_SEPARATION: f64 = 5.0;
-
-    /// Checks the values; keys are relative to the `[world]` table (`steps`).
-    pub fn validate(&self) -> Result<(), ConfigError> {
-        if self.steps < 2 {
-            return Err(ConfigError::new("steps", "must be >= 2"));
-        }
-        positive("dt", self.dt)?;
-        positive("speed", self.speed)?;
-        positive("max_turn_rate_deg", self.max_turn_rate_deg)?;
-        positive("extent", self.extent)
-    }
 }
 
 impl World {
@@ -398,8 +340,8 @@ fn propagate_poses(motion: &Motion, dt: f64, x0: Pose, controls: &[(f64, Control
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mat::build;
-    use crate::testutil::{TempDir, shared_data};
+    use rfslam_data::mat::build;
+    use rfslam_data::testutil::{TempDir, shared_data};
 
     #[test]
     fn csv_world_propagation_matches_groundtruth_csv() {
@@ -516,13 +458,13 @@ mod tests {
         let p = tmp.path().join("cut.mat");
         std::fs::write(&p, &bytes[..bytes.len() - 20]).unwrap();
         let e = World::from_mat(&p).unwrap_err();
-        assert!(matches!(e, DataError::Mat { source: crate::mat::MatError::Truncated { .. }, .. }), "{e:?}");
+        assert!(matches!(e, DataError::Mat { source: rfslam_data::MatError::Truncated { .. }, .. }), "{e:?}");
         assert!(e.to_string().contains("cut.mat") && e.to_string().contains("truncated"), "{e}");
         // Not a MAT file.
         let p = tmp.path().join("text.mat");
         std::fs::write(&p, "t,v,omega\n0,1,0\n").unwrap();
         let e = World::from_mat(&p).unwrap_err();
-        assert!(matches!(e, DataError::Mat { source: crate::mat::MatError::NotMat(_), .. }), "{e:?}");
+        assert!(matches!(e, DataError::Mat { source: rfslam_data::MatError::NotMat(_), .. }), "{e:?}");
         // Missing variable.
         let mut f = build::header();
         f.extend(build::double_matrix("Robot_Control", 2, 2, &[1.0, 0.0, 1.0, 0.0]));

@@ -64,9 +64,7 @@ use rfslam_core::angle::wrap;
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{Control, Point2, Pose, RangeBearing, Scan, TRUTH_UNKNOWN};
 
-use crate::config::{ModelConfig, MotionConfig};
-use crate::dataset::{Dataset, DatasetMeta, OdometryRow, TruthPose};
-use crate::error::DataError;
+use rfslam_data::{DataError, Dataset, DatasetMeta, ModelConfig, MotionConfig, OdometryRow, TruthPose};
 
 /// File names of the distribution.
 pub mod files {
@@ -345,9 +343,9 @@ fn for_each_row(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::SensorConfig;
-    use crate::testutil::{TempDir, shared_data};
     use rfslam_core::{AckermannModel, ClutterIntensity, ControlSegment, DetectionModel, MotionModel};
+    use rfslam_data::SensorConfig;
+    use rfslam_data::testutil::{TempDir, shared_data};
 
     /// A hand-made excerpt in the distributed layout: three scans (the second with a
     /// detection behind the FOV's range and one beyond its angle), odometry rows before,
@@ -384,7 +382,7 @@ mod tests {
                 offset: [0.0, 0.0],
             },
             detection: DetectionModel::RangeLinear { pd0: 0.7 },
-            clutter: crate::config::ClutterConfig { rate: 5.0, intensity: ClutterIntensity::Cartesian },
+            clutter: rfslam_data::ClutterConfig { rate: 5.0, intensity: ClutterIntensity::Cartesian },
         }
     }
 
