@@ -182,7 +182,7 @@ pub(crate) fn scenario_with_overrides(
             sets.iter().find(|(k, _)| key == k || key.strip_prefix(k.as_str()).is_some_and(|r| r.starts_with('.')));
         HarnessError::Config {
             file: path.to_path_buf(),
-            line: if set.is_some() { None } else { rfslam_harness::locate::locate(&text, key) },
+            line: if set.is_some() { None } else { rfslam_data::locate::locate(&text, key) },
             key: key.to_string(),
             message: match set {
                 Some((k, _)) => format!("{msg} (set by --set {k}=...)"),

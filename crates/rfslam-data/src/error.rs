@@ -162,7 +162,7 @@ impl DataError {
     pub(crate) fn toml(path: &Path, text: &str, e: &toml::de::Error) -> Self {
         let (line, column, snippet) = match e.span() {
             Some(span) => {
-                let (l, c) = line_col(text, span.start);
+                let (l, c) = crate::locate::line_col(text, span.start);
                 let content = text.lines().nth(l - 1).unwrap_or("");
                 let width = span.end.saturating_sub(span.start).clamp(1, content.len().saturating_sub(c - 1).max(1));
                 let snippet = format!("\n{l:>5} | {content}\n      | {}{}", " ".repeat(c - 1), "^".repeat(width));
@@ -180,7 +180,7 @@ impl DataError {
 
     /// A validation error of the TOML `text` of `path`, located at the line of its key.
     pub(crate) fn config_in(path: &Path, text: &str, source: ConfigError) -> Self {
-        let line = source.key().and_then(|k| crate::locate::line_of_key(text, k));
+        let line = source.key().and_then(|k| crate::locate::locate(text, k));
         DataError::Config { path: Some(path.to_path_buf()), line, source }
     }
 
@@ -193,15 +193,6 @@ impl DataError {
             _ => None,
         }
     }
-}
-
-/// 1-based line and column (in characters) of byte `offset` in `text`.
-pub(crate) fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let offset = offset.min(text.len());
-    let before = text.get(..offset).unwrap_or(text);
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map(|s| s.chars().count()).unwrap_or(0) + 1;
-    (line, col)
 }
 
 fn column_prefix(column: &Option<String>) -> String {

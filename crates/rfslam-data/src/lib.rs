@@ -11,7 +11,8 @@
 //! - [`mat`]: a reader of MATLAB MAT v5 files (numeric arrays, compressed or not).
 //! - [`csvio`]: CSV reading and writing whose errors name `file:line` and the column.
 //! - [`find_data`]: external data through `RFSLAM_DATA`, `../shared/data`, `./data`.
-//! - [`locate`]: the line of a dotted key in a TOML text, for `file:line` errors.
+//! - [`locate`]: the TOML key locator (the line of a dotted key, the key at a span), for
+//!   `file:line` errors here and in the harness.
 //!
 //! Worlds, the synthetic generators and the Victoria Park importer, which turn a scenario
 //! into data sets, are the crate `rfslam-sim`. Angles are radians in data files and degrees
@@ -23,6 +24,7 @@ pub mod config;
 pub mod csvio;
 pub mod dataset;
 pub mod error;
+pub mod find;
 pub mod locate;
 pub mod mat;
 pub mod scenario;
@@ -33,6 +35,6 @@ pub mod testutil;
 pub use config::{ClutterConfig, ModelConfig, MotionConfig, SensorConfig};
 pub use dataset::{Dataset, DatasetMeta, Landmark, OdometryRow, TruthPose};
 pub use error::{ConfigError, DataError};
-pub use locate::{DATA_ENV, data_dirs, find_data};
+pub use find::{DATA_ENV, data_dirs, find_data};
 pub use mat::{MatArray, MatError, MatFile};
 pub use scenario::{ProceduralParams, ScenarioConfig, WorldSpec};

@@ -34,7 +34,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{ClutterConfig, ModelConfig, MotionConfig, SensorConfig, need, only_keys, positive};
 use crate::error::{ConfigError, DataError};
-use crate::locate::find_data;
+use crate::find::find_data;
 
 /// Parameters of the procedural world (`World::procedural` of `rfslam-sim`); every field has
 /// a default (TOML `[world]` with `kind = "procedural"`).

@@ -9,7 +9,6 @@
 
 pub mod error;
 pub mod experiment;
-pub mod locate;
 pub mod registry;
 pub mod report;
 pub mod resolved;

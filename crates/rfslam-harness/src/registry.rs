@@ -48,7 +48,7 @@ fn param_key<P: serde::de::DeserializeOwned>(table: &toml::Table, msg: &str) -> 
     }
     if let Ok(text) = toml::to_string(table)
         && let Err(e) = toml::from_str::<P>(&text)
-        && let Some(key) = e.span().and_then(|s| crate::locate::key_at(&text, s))
+        && let Some(key) = e.span().and_then(|s| rfslam_data::locate::key_at(&text, s))
     {
         return key;
     }
