@@ -44,24 +44,27 @@ pub fn find_in(rel: &str, dirs: &[PathBuf]) -> Result<PathBuf, DataError> {
     if let Some(found) = tried.iter().find(|c| c.exists()) {
         return Ok(found.clone());
     }
-    Err(DataError::NotFound { name: rel.to_string(), tried, hint: hint(rel) })
+    Err(DataError::NotFound { name: rel.to_string(), tried, hint: where_to_get(rel) })
 }
 
-/// Where to get a known external data set.
-fn hint(rel: &str) -> String {
+/// Where to download the external data set that `rel` is in (its first path component:
+/// `phd-slam-synthetic`, `victoria-park`) and how to point the project at it: the hint of
+/// [`DataError::NotFound`].
+pub fn where_to_get(rel: &str) -> String {
     let first = Path::new(rel).components().next().map(|c| c.as_os_str().to_string_lossy().into_owned());
     let how = match first.as_deref() {
         Some("phd-slam-synthetic") => {
-            "`phd-slam-synthetic` is the simulated environment of the PHD-SLAM 2.0 / 3.0 papers: get \
-             `Synthetic Data/measurements/SD data set/Environment_SLAM.mat` from the PHD-SLAM-3.0 repository \
-             of O. Kaltiokallio on GitHub and put it in a directory `phd-slam-synthetic/`; rfslam-data reads \
-             the .mat directly (world kind \"mat\") and converts it to landmarks.csv, controls.csv and \
-             groundtruth.csv (World::from_mat, then World::write_csv_dir)."
+            "`phd-slam-synthetic` is the simulated environment of the PHD-SLAM 2.0 / 3.0 papers: download \
+             `Synthetic Data/measurements/SD data set/Environment_SLAM.mat` from O. Kaltiokallio's PHD-SLAM-3.0 \
+             repository (https://github.com/okaltiok/PHD-SLAM-3.0) into a directory `phd-slam-synthetic/`. \
+             That file is enough: a world of kind \"environment\" reads it when the CSV layout (landmarks.csv, \
+             controls.csv, groundtruth.csv) is absent."
         }
         Some("victoria-park") => {
             "`victoria-park` is the ACFR Victoria Park data set (J. Guivant, E. Nebot) with the tree \
-             detections extracted from the laser scans as distributed with K. Leung's RFS-SLAM C++ library \
-             (measurements.dat, inputs.dat, gps.dat); put those files in a directory `victoria-park/`."
+             detections extracted from the laser scans as distributed with K. Leung's RFS-SLAM C++ library: \
+             download measurements.dat, inputs.dat and gps.dat from data/VictoriaPark/ of \
+             https://github.com/kykleung/RFS-SLAM into a directory `victoria-park/`."
         }
         _ => "This is external data that is not part of the project.",
     };
@@ -81,9 +84,17 @@ mod tests {
         let e = find_in("phd-slam-synthetic/landmarks.csv", &dirs).unwrap_err().to_string();
         assert!(e.contains("/nonexistent/a/phd-slam-synthetic/landmarks.csv"), "{e}");
         assert!(e.contains("/nonexistent/b/phd-slam-synthetic/landmarks.csv"), "{e}");
-        assert!(e.contains("PHD-SLAM-3.0") && e.contains("Environment_SLAM.mat") && e.contains("RFSLAM_DATA"), "{e}");
+        assert!(
+            e.contains("github.com/okaltiok/PHD-SLAM-3.0") && e.contains("SD data set/Environment_SLAM.mat"),
+            "{e}"
+        );
+        assert!(e.contains("RFSLAM_DATA"), "{e}");
         let e = find_in("victoria-park", &dirs).unwrap_err().to_string();
-        assert!(e.contains("Guivant") && e.contains("RFS-SLAM") && e.contains("RFSLAM_DATA"), "{e}");
+        assert!(
+            e.contains("Guivant") && e.contains("github.com/kykleung/RFS-SLAM") && e.contains("RFSLAM_DATA"),
+            "{e}"
+        );
+        assert!(e.contains("data/VictoriaPark/"), "{e}");
     }
 
     #[test]

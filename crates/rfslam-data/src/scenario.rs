@@ -98,7 +98,8 @@ impl ProceduralParams {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "lowercase", try_from = "RawWorld")]
 pub enum WorldSpec {
-    /// A directory in the phd-slam-synthetic CSV layout (`World::from_csv_dir` of `rfslam-sim`).
+    /// A phd-slam-synthetic directory: its CSV layout, or when that is absent the
+    /// `Environment_SLAM.mat` it holds (`World::from_environment_dir` of `rfslam-sim`).
     Environment {
         /// Directory; relative paths are looked up with [`find_data`].
         path: String,

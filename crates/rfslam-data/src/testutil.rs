@@ -62,3 +62,13 @@ pub fn small_scenario(overrides: &[(&str, toml::Value)]) -> String {
     }
     toml::to_string(&doc).expect("the test scenario serializes")
 }
+
+/// The published PHD-SLAM environment in both forms: the directory of its CSV layout and
+/// its `Environment_SLAM.mat`, each looked up with [`shared_data`] (so that a data root
+/// holding only the .mat does not hide the CSV files). `None` (with a printed note) when
+/// either is missing.
+pub fn synthetic_csv_and_mat() -> Option<(PathBuf, PathBuf)> {
+    let csv = shared_data("phd-slam-synthetic/landmarks.csv")?;
+    let mat = shared_data("phd-slam-synthetic/Environment_SLAM.mat")?;
+    Some((csv.parent()?.to_path_buf(), mat))
+}

@@ -36,7 +36,7 @@ pub trait ScenarioData {
 impl ScenarioData for ScenarioConfig {
     fn load_world(&self) -> Result<Option<World>, DataError> {
         match &self.world {
-            WorldSpec::Environment { path } => World::from_csv_dir(&find_data(path)?).map(Some),
+            WorldSpec::Environment { path } => World::from_environment_dir(&find_data(path)?).map(Some),
             WorldSpec::Mat { path } => World::from_mat(&find_data(path)?).map(Some),
             WorldSpec::Procedural(p) => World::procedural(p, p.seed).map(Some),
             WorldSpec::GlmbSim { dt } => Ok(glmb_sim_world(self.motion.motion(), *dt)),
@@ -105,7 +105,8 @@ fn check_same_motion(scenario: &MotionConfig, dataset: &MotionConfig, name: &str
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rfslam_data::testutil::{SMALL_SCENARIO, TempDir, shared_data};
+    use crate::world::ENVIRONMENT_MAT;
+    use rfslam_data::testutil::{SMALL_SCENARIO, TempDir, shared_data, synthetic_csv_and_mat};
     use rfslam_data::{ModelConfig, ProceduralParams};
 
     /// The `[world]` keys of the test scenario.
@@ -157,16 +158,35 @@ mod tests {
 
     #[test]
     fn environment_and_mat_scenarios_load_the_shared_data() {
-        let Some(dir) = shared_data("phd-slam-synthetic") else { return };
+        let Some((dir, mat_path)) = synthetic_csv_and_mat() else { return };
         let env = with_world(&format!("kind = \"environment\"\npath = {:?}\n", dir.display().to_string()));
         let sc = ScenarioConfig::from_toml_str(&env, "env.toml").unwrap();
         let w = sc.load_world().unwrap().unwrap();
         assert_eq!(w.poses.len(), 4000);
-        let mat = env
-            .replace("kind = \"environment\"", "kind = \"mat\"")
-            .replace("phd-slam-synthetic\"", "phd-slam-synthetic/Environment_SLAM.mat\"");
+        let mat = with_world(&format!("kind = \"mat\"\npath = {:?}\n", mat_path.display().to_string()));
         let sc = ScenarioConfig::from_toml_str(&mat, "mat.toml").unwrap();
         assert_eq!(sc.load_world().unwrap().unwrap().landmarks.len(), 160);
+    }
+
+    /// `scenarios/phd-slam-synthetic.toml` on a directory holding only the downloaded
+    /// `Environment_SLAM.mat` gives the data sets of the CSV layout.
+    #[test]
+    fn shipped_environment_scenario_runs_on_the_mat_alone() {
+        let Some((shared, mat)) = synthetic_csv_and_mat() else { return };
+        let tmp = TempDir::new("scenario-mat-only");
+        let dir = tmp.path().join("phd-slam-synthetic");
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::copy(mat, dir.join(ENVIRONMENT_MAT)).unwrap();
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/phd-slam-synthetic.toml");
+        let text = std::fs::read_to_string(path).unwrap();
+        let at = |d: &std::path::Path| {
+            text.replace("path = \"phd-slam-synthetic\"", &format!("path = {:?}", d.display().to_string()))
+        };
+        let mat_only = ScenarioConfig::from_toml_str(&at(&dir), "mat-only.toml").unwrap();
+        let csv = ScenarioConfig::from_toml_str(&at(&shared), "csv.toml").unwrap();
+        let (wm, wc) = (mat_only.load_world().unwrap(), csv.load_world().unwrap());
+        assert_eq!(wm, wc);
+        assert_eq!(mat_only.build_dataset(wm.as_ref(), 1).unwrap(), csv.build_dataset(wc.as_ref(), 1).unwrap());
     }
 
     /// `scenarios/victoria-park.toml`.
