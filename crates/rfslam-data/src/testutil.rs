@@ -72,3 +72,14 @@ pub fn synthetic_csv_and_mat() -> Option<(PathBuf, PathBuf)> {
     let mat = shared_data("phd-slam-synthetic/Environment_SLAM.mat")?;
     Some((csv.parent()?.to_path_buf(), mat))
 }
+
+/// A fresh `<temp>/phd-slam-synthetic/` holding only a copy of `mat`: the published
+/// environment as a user downloads it. Returns the temporary directory (removed on drop)
+/// and the folder.
+pub fn mat_only_environment(mat: &Path, label: &str) -> (TempDir, PathBuf) {
+    let tmp = TempDir::new(label);
+    let dir = tmp.path().join("phd-slam-synthetic");
+    std::fs::create_dir_all(&dir).expect("create the environment folder");
+    std::fs::copy(mat, dir.join("Environment_SLAM.mat")).expect("copy the .mat");
+    (tmp, dir)
+}

@@ -105,8 +105,7 @@ fn check_same_motion(scenario: &MotionConfig, dataset: &MotionConfig, name: &str
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::world::ENVIRONMENT_MAT;
-    use rfslam_data::testutil::{SMALL_SCENARIO, TempDir, shared_data, synthetic_csv_and_mat};
+    use rfslam_data::testutil::{SMALL_SCENARIO, TempDir, mat_only_environment, shared_data, synthetic_csv_and_mat};
     use rfslam_data::{ModelConfig, ProceduralParams};
 
     /// The `[world]` keys of the test scenario.
@@ -173,10 +172,7 @@ mod tests {
     #[test]
     fn shipped_environment_scenario_runs_on_the_mat_alone() {
         let Some((shared, mat)) = synthetic_csv_and_mat() else { return };
-        let tmp = TempDir::new("scenario-mat-only");
-        let dir = tmp.path().join("phd-slam-synthetic");
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::copy(mat, dir.join(ENVIRONMENT_MAT)).unwrap();
+        let (_tmp, dir) = mat_only_environment(&mat, "scenario-mat-only");
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/phd-slam-synthetic.toml");
         let text = std::fs::read_to_string(path).unwrap();
         let at = |d: &std::path::Path| {

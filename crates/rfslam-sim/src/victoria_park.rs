@@ -59,12 +59,13 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use std::path::Path;
 
 use nalgebra::Rotation2;
-use rand::RngExt;
 use rfslam_core::angle::wrap;
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{Control, Point2, Pose, RangeBearing, Scan, TRUTH_UNKNOWN};
 
 use rfslam_data::{DataError, Dataset, DatasetMeta, ModelConfig, MotionConfig, OdometryRow, TruthPose};
+
+use crate::simulate::shuffle_scan;
 
 /// File names of the distribution.
 pub mod files {
@@ -210,12 +211,7 @@ impl VictoriaPark {
             false_alarms += z.len() - real;
             let mut labels = vec![TRUTH_UNKNOWN; real];
             labels.resize(z.len(), -1);
-            // Fisher-Yates, measurements and labels together.
-            for i in (1..z.len()).rev() {
-                let j = rng.random_range(0..=i);
-                z.swap(i, j);
-                labels.swap(i, j);
-            }
+            shuffle_scan(&mut z, &mut labels, &mut rng);
             scans.push(Scan { t, z, truth: Some(labels) });
         }
         let odometry = self.inputs.clone();

@@ -387,7 +387,7 @@ fn propagate_poses(motion: &Motion, dt: f64, x0: Pose, controls: &[(f64, Control
 mod tests {
     use super::*;
     use rfslam_data::mat::build;
-    use rfslam_data::testutil::{TempDir, synthetic_csv_and_mat};
+    use rfslam_data::testutil::{TempDir, mat_only_environment, synthetic_csv_and_mat};
 
     #[test]
     fn csv_world_propagation_matches_groundtruth_csv() {
@@ -500,10 +500,7 @@ mod tests {
     #[test]
     fn published_mat_alone_gives_the_csv_world_bit_for_bit() {
         let Some((shared, mat)) = synthetic_csv_and_mat() else { return };
-        let tmp = TempDir::new("world-mat-only");
-        let dir = tmp.path().join("phd-slam-synthetic");
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::copy(mat, dir.join(ENVIRONMENT_MAT)).unwrap();
+        let (_tmp, dir) = mat_only_environment(&mat, "world-mat-only");
         assert_eq!(World::from_environment_dir(&dir).unwrap(), World::from_csv_dir(&shared).unwrap());
     }
 
