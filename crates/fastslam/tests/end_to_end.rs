@@ -11,6 +11,7 @@ use rfslam_data::Dataset;
 use rfslam_eval::MetricsConfig;
 use rfslam_eval::fixtures::{dead_reckoning_rmse, procedural_500};
 use rfslam_eval::run_filter;
+use rfslam_sim::ScenarioData;
 
 /// The true landmarks that were measured at least once.
 fn seen_landmarks(ds: &Dataset) -> Vec<Point2> {

@@ -3,28 +3,19 @@
 //! output, and the parameters are checked.
 
 use fastslam::{OracleFastSlam2, Params, WeightMode, requires_truth_labels};
-use nalgebra::{Matrix2, Matrix3, Vector3};
+use nalgebra::Vector3;
 use rand::SeedableRng;
 use rfslam_core::{
-    ClutterIntensity, ClutterModel, ControlSegment, DetectionModel, Estimate, FilterBuild, Fov, Motion, Point2, Pose,
-    RangeBearing, RangeBearingSensor, RbpfParams, Rng, Scan, SlamFilter, SlamModels,
+    ControlSegment, Estimate, FilterBuild, Point2, Pose, RangeBearing, RangeBearingSensor, RbpfParams, Rng, Scan,
+    SlamFilter,
 };
 use rfslam_data::ScenarioConfig;
+use rfslam_data::testutil::small_scenario;
 use rfslam_eval::MetricsConfig;
 use rfslam_eval::run_filter;
+use rfslam_sim::ScenarioData;
 
-fn models() -> SlamModels {
-    SlamModels {
-        motion: Motion::Velocity,
-        control_noise: Matrix3::from_diagonal(&Vector3::new(0.64, 0.5f64.to_radians().powi(2), 0.0)),
-        sensor: RangeBearingSensor::default(),
-        measurement_noise: Matrix2::new(0.64, 0.0, 0.0, 0.3f64.to_radians().powi(2)),
-        fov: Fov { max_range: 150.0, half_angle: std::f64::consts::FRAC_PI_2 },
-        detection: DetectionModel::Constant { pd: 0.95 },
-        clutter: ClutterModel { rate: 5.0, intensity: ClutterIntensity::Cartesian },
-        initial_pose: Pose::zeros(),
-    }
-}
+use rfslam_eval::fixtures::phd_slam_synthetic_models as models;
 
 const ODO: [ControlSegment; 1] = [ControlSegment { dt: 1.0, u: Vector3::new(1.0, 0.0, 0.0) }];
 
@@ -147,29 +138,8 @@ fn duplicate_first_sighting_creates_one_landmark() {
 }
 
 fn small_dataset(seed: u64) -> rfslam_data::Dataset {
-    let text = r#"name = "small"
-[world]
-kind = "procedural"
-seed = 3
-steps = 120
-extent = 300.0
-landmarks = 25
-[motion]
-model = "velocity"
-sigma_v = 0.8
-sigma_omega_deg = 0.5
-[sensor]
-max_range = 150.0
-half_angle_deg = 90.0
-sigma_range = 0.8
-sigma_bearing_deg = 0.3
-[detection]
-model = "constant"
-pd = 0.95
-[clutter]
-rate = 5.0
-"#;
-    ScenarioConfig::from_toml_str(text, "small.toml").unwrap().build_dataset(None, seed).unwrap()
+    let text = small_scenario(&[("world.seed", 3.into())]);
+    ScenarioConfig::from_toml_str(&text, "small.toml").unwrap().build_dataset(None, seed).unwrap()
 }
 
 fn run(ds: &rfslam_data::Dataset, params: &Params, n: usize, seed: u64) -> Vec<Vec<u64>> {

@@ -7,6 +7,7 @@ use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use rfslam_core::FilterBuild;
 use rfslam_data::{Dataset, ScenarioConfig};
 use rfslam_eval::fixtures::warmed_up;
+use rfslam_sim::ScenarioData;
 
 const WARM: usize = 600;
 

@@ -5,6 +5,7 @@
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{ControlSegment, FilterBuild};
 use rfslam_data::ScenarioConfig;
+use rfslam_sim::ScenarioData;
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();

@@ -20,6 +20,7 @@ use rfslam_core::motion::propagate_with_covariance;
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{ControlSegment, FilterBuild, SlamFilter};
 use rfslam_data::ScenarioConfig;
+use rfslam_sim::ScenarioData;
 
 fn ratios(sig: &Matrix3<f64>, q: &Matrix3<f64>) -> (f64, f64) {
     ((sig[(2, 2)] / q[(2, 2)]).sqrt(), ((sig[(0, 0)] + sig[(1, 1)]) / (q[(0, 0)] + q[(1, 1)])).sqrt())

@@ -9,6 +9,7 @@ use rand::SeedableRng;
 use rfslam_core::gaussian::log_normal;
 use rfslam_core::sensor::RangeBearingSensor;
 use rfslam_core::{DetectionModel, Fov, Point2, Pose, RangeBearing};
+use rfslam_sim::ScenarioData;
 
 const PD: f64 = 0.7;
 const KAPPA: f64 = 0.3;

@@ -9,6 +9,7 @@ use rfslam_core::FilterBuild;
 use rfslam_data::{Dataset, ScenarioConfig};
 use rfslam_eval::fixtures::{dead_reckoning_rmse, procedural_500};
 use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
+use rfslam_sim::ScenarioData;
 
 fn run(ds: &Dataset, params: Gao2021Params, n: usize, seed: u64) -> JobOutcome {
     let params = PhdParams { proposal: params, ..Default::default() };
@@ -75,11 +76,10 @@ fn tracks_better_than_dead_reckoning() {
 #[ignore = "4000-step runs: use a release build"]
 fn published_environment_figures() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/phd-slam-synthetic.toml");
-    let mut text = std::fs::read_to_string(path).unwrap();
-    let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/phd-slam-synthetic");
-    if std::env::var_os("RFSLAM_DATA").is_none() && std::path::Path::new(data).is_dir() {
-        text = text.replace("path = \"phd-slam-synthetic\"", &format!("path = \"{data}\""));
-    }
+    let Some(data) = rfslam_data::testutil::shared_data("phd-slam-synthetic") else { return };
+    let text = std::fs::read_to_string(path)
+        .unwrap()
+        .replace("path = \"phd-slam-synthetic\"", &format!("path = {:?}", data.display().to_string()));
     let sc = ScenarioConfig::from_toml_str(&text, "phd-slam-synthetic.toml").unwrap();
     let world = sc.load_world().unwrap();
     let seeds: u64 = std::env::var("PHD2A_SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(10);

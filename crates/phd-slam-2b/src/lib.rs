@@ -235,20 +235,8 @@ mod tests {
     use nalgebra::Vector3;
     use rand::SeedableRng;
     use rbphd::GmMap;
-    use rfslam_core::{ClutterIntensity, ClutterModel, DetectionModel, Fov, Motion, RangeBearingSensor};
 
-    fn models() -> SlamModels {
-        SlamModels {
-            motion: Motion::Velocity,
-            control_noise: Matrix3::from_diagonal(&Vector3::new(0.64, (0.5f64).to_radians().powi(2), 0.0)),
-            sensor: RangeBearingSensor::default(),
-            measurement_noise: Matrix2::new(0.64, 0.0, 0.0, (0.3f64).to_radians().powi(2)),
-            fov: Fov { max_range: 150.0, half_angle: std::f64::consts::FRAC_PI_2 },
-            detection: DetectionModel::Constant { pd: 0.95 },
-            clutter: ClutterModel { rate: 5.0, intensity: ClutterIntensity::Cartesian },
-            initial_pose: Pose::zeros(),
-        }
-    }
+    use rfslam_eval::fixtures::phd_slam_synthetic_models as models;
 
     fn ctx<'a>(
         m: &'a SlamModels,

@@ -6,6 +6,7 @@ use rfslam_core::FilterBuild;
 use rfslam_data::Dataset;
 use rfslam_eval::fixtures::{dead_reckoning_rmse, procedural_500};
 use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
+use rfslam_sim::ScenarioData;
 
 /// Runs filter `F` with default parameters and `n` particles.
 fn run<F: FilterBuild>(ds: &Dataset, n: usize, seed: u64) -> JobOutcome {

@@ -275,8 +275,9 @@ mod tests {
     use phd_slam_3::TaylorSlr;
     use rfslam_core::ipl::{IplSettings, ipl_update, ipl_update_slr};
 
+    /// `R` of the PHD-SLAM synthetic experiment.
     fn r() -> Matrix2<f64> {
-        Matrix2::new(0.64, 0.0, 0.0, 0.3f64.to_radians().powi(2))
+        rfslam_eval::fixtures::phd_slam_synthetic_models().measurement_noise
     }
 
     /// A linear measurement function `z = A x + C m + e`: the sigma-point SLR is exactly the

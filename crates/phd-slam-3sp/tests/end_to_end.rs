@@ -7,6 +7,7 @@ use rfslam_core::FilterBuild;
 use rfslam_data::Dataset;
 use rfslam_eval::fixtures::{dead_reckoning_rmse, procedural_500};
 use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
+use rfslam_sim::ScenarioData;
 
 /// Runs filter `F` with the parameters written in `params` (TOML) and `n` particles.
 fn run<F: FilterBuild>(params: &str, ds: &Dataset, n: usize, seed: u64) -> JobOutcome {

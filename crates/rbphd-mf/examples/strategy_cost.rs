@@ -17,6 +17,7 @@ use rbphd::PhdParams;
 use rbphd_mf::{MfParams, RbPhdMf, Strategy};
 use rfslam_core::{ControlSegment, FilterBuild, SlamFilter};
 use rfslam_data::ScenarioConfig;
+use rfslam_sim::ScenarioData;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();

@@ -8,6 +8,7 @@ use std::path::Path;
 
 use anyhow::{Context, anyhow};
 use rfslam_data::ScenarioConfig;
+use rfslam_sim::ScenarioData;
 
 use crate::Failure;
 

@@ -21,6 +21,7 @@ use clap::{Parser, Subcommand};
 use rfslam_harness::compare::Side;
 use rfslam_harness::experiment::{load_scenario_table, parse_cli_value, scenario_from_table, set_dotted};
 use rfslam_harness::{HarnessError, JobFilter, Plan, Shard, SweepOptions, registry};
+use rfslam_sim::ScenarioData;
 
 #[derive(Parser)]
 #[command(
@@ -218,7 +219,7 @@ pub(crate) fn scenario_with_overrides(
             sets.iter().find(|(k, _)| key == k || key.strip_prefix(k.as_str()).is_some_and(|r| r.starts_with('.')));
         HarnessError::Config {
             file: path.to_path_buf(),
-            line: if set.is_some() { None } else { rfslam_harness::locate::locate(&text, key) },
+            line: if set.is_some() { None } else { rfslam_data::locate::locate(&text, key) },
             key: key.to_string(),
             message: match set {
                 Some((k, _)) => format!("{msg} (set by --set {k}=...)"),

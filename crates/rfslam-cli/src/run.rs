@@ -19,6 +19,7 @@ use rfslam_eval::trace::{self, ParticlesWriter, StepsWriter};
 use rfslam_eval::{JobOutcome, MetricsConfig};
 use rfslam_harness::experiment::set_dotted;
 use rfslam_harness::{HarnessError, registry};
+use rfslam_sim::ScenarioData;
 
 use crate::{Failure, scenario_with_overrides, split_set, usage};
 

@@ -162,9 +162,12 @@ fn bad_grid_keys_and_values_name_the_grid_key() {
 
 #[test]
 fn missing_external_data_lists_the_directories_and_how_to_get_it() {
-    let (tmp, scen, exp) = setup("missing-data");
-    let world = "kind = \"procedural\"\nseed = 1\nsteps = 50\nextent = 300.0\nlandmarks = 10";
-    let env_scen = replace_once(&scen, world, "kind = \"environment\"\npath = \"definitely-missing-dataset\"");
+    let (tmp, _, exp) = setup("missing-data");
+    let world = toml::Table::from_iter([
+        ("kind".to_string(), toml::Value::from("environment")),
+        ("path".to_string(), toml::Value::from("definitely-missing-dataset")),
+    ]);
+    let env_scen = rfslam_data::testutil::small_scenario(&[("world", world.into())]);
     tmp.write("env.toml", &env_scen);
     tmp.write("env-exp.toml", &exp.replace("scen.toml", "env.toml"));
     let data = tmp.join("data");

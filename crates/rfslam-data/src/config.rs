@@ -404,26 +404,16 @@ pub(crate) fn non_negative(key: &str, v: f64) -> Result<(), ConfigError> {
 mod tests {
     use super::*;
 
-    const TEXT: &str = r#"
-[motion]
-model = "velocity"
-sigma_v = 0.8
-sigma_omega_deg = 0.5
-[sensor]
-max_range = 150.0
-half_angle_deg = 90.0
-sigma_range = 0.8
-sigma_bearing_deg = 0.3
-[detection]
-model = "constant"
-pd = 0.95
-[clutter]
-rate = 5.0
-"#;
+    /// The model tables of the test scenario (the documented example): its text from
+    /// `[motion]` on.
+    fn tables() -> &'static str {
+        let s = crate::testutil::SMALL_SCENARIO;
+        &s[s.find("[motion]").expect("[motion] in the test scenario")..]
+    }
 
     #[test]
     fn parses_the_documented_example_and_converts_units() {
-        let c: ModelConfig = toml::from_str(TEXT).unwrap();
+        let c: ModelConfig = toml::from_str(tables()).unwrap();
         assert_eq!(c, ModelConfig::phd_slam_synthetic());
         c.validate().unwrap();
         let x0 = Pose::new(1.0, 2.0, 0.3);
@@ -442,14 +432,14 @@ rate = 5.0
 
     #[test]
     fn ackermann_defaults_and_odometry_sigmas() {
-        let text = TEXT.replace(
+        let text = tables().replace(
             "model = \"velocity\"\nsigma_v = 0.8\nsigma_omega_deg = 0.5",
             "model = \"ackermann\"\nsigma_v = 1.0\nsigma_steer_deg = 4.0",
         );
         let c: ModelConfig = toml::from_str(&text).unwrap();
         assert_eq!(c.motion.motion(), Motion::Ackermann(AckermannModel::default()));
         assert!((c.motion.sigmas()[1] - 4f64.to_radians()).abs() < 1e-15);
-        let text = TEXT.replace(
+        let text = tables().replace(
             "model = \"velocity\"\nsigma_v = 0.8\nsigma_omega_deg = 0.5",
             "model = \"odometry2d\"\nsigma_dx = 0.1\nsigma_dy = 0.05\nsigma_dtheta_deg = 1.0",
         );
@@ -479,25 +469,25 @@ rate = 5.0
 
     #[test]
     fn unknown_keys_and_models_are_rejected() {
-        let e = toml::from_str::<ModelConfig>(&TEXT.replace("pd = 0.95", "pd = 0.95\npdd = 1")).unwrap_err();
+        let e = toml::from_str::<ModelConfig>(&tables().replace("pd = 0.95", "pd = 0.95\npdd = 1")).unwrap_err();
         assert!(e.message().contains("pdd"), "{e}");
-        let e = toml::from_str::<ModelConfig>(&TEXT.replace("\"velocity\"", "\"bicycle\"")).unwrap_err();
+        let e = toml::from_str::<ModelConfig>(&tables().replace("\"velocity\"", "\"bicycle\"")).unwrap_err();
         assert!(e.message().contains("bicycle"), "{e}");
-        let e = toml::from_str::<ModelConfig>(&TEXT.replace("sigma_v = 0.8", "sigma_dx = 0.8")).unwrap_err();
+        let e = toml::from_str::<ModelConfig>(&tables().replace("sigma_v = 0.8", "sigma_dx = 0.8")).unwrap_err();
         assert!(e.message().contains("`motion.sigma_dx` is not a key of motion model \"velocity\""), "{e}");
-        let e = toml::from_str::<ModelConfig>(&TEXT.replace("sigma_v = 0.8\n", "")).unwrap_err();
+        let e = toml::from_str::<ModelConfig>(&tables().replace("sigma_v = 0.8\n", "")).unwrap_err();
         assert!(e.message().contains("missing field `sigma_v`"), "{e}");
-        let e = toml::from_str::<ModelConfig>(&TEXT.replace("pd = 0.95", "pd0 = 0.95")).unwrap_err();
+        let e = toml::from_str::<ModelConfig>(&tables().replace("pd = 0.95", "pd0 = 0.95")).unwrap_err();
         assert!(e.message().contains("`detection.pd0` is not a key"), "{e}");
         // A wrong type is reported at the key itself.
-        let text = TEXT.replace("sigma_omega_deg = 0.5", "sigma_omega_deg = \"half\"");
+        let text = tables().replace("sigma_omega_deg = 0.5", "sigma_omega_deg = \"half\"");
         let e = toml::from_str::<ModelConfig>(&text).unwrap_err();
         assert_eq!(&text[e.span().unwrap()], "\"half\"", "{e}");
-        let text = TEXT.replace("pd = 0.95", "pd = true");
+        let text = tables().replace("pd = 0.95", "pd = true");
         let e = toml::from_str::<ModelConfig>(&text).unwrap_err();
         assert_eq!(&text[e.span().unwrap()], "true", "{e}");
-        let e =
-            toml::from_str::<ModelConfig>(&TEXT.replace("rate = 5.0", "rate = 5.0\nintensity = \"x\"")).unwrap_err();
+        let e = toml::from_str::<ModelConfig>(&tables().replace("rate = 5.0", "rate = 5.0\nintensity = \"x\""))
+            .unwrap_err();
         assert!(e.message().contains("unknown variant"), "{e}");
     }
 

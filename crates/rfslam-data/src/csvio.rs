@@ -9,7 +9,7 @@ use crate::error::DataError;
 /// A CSV file read row by row, with the requested columns located by header name.
 /// Columns are addressed by their position in the list given to [`CsvRows::open`]
 /// (required ones first, then optional ones). Extra columns are ignored.
-pub(crate) struct CsvRows {
+pub struct CsvRows {
     path: PathBuf,
     reader: csv::Reader<Cursor<Vec<u8>>>,
     /// Byte offset and line of the last located record (lines are counted from the bytes:
@@ -23,7 +23,7 @@ pub(crate) struct CsvRows {
 
 impl CsvRows {
     /// Opens `path` and locates `required` (error if absent) and `optional` columns.
-    pub(crate) fn open(path: &Path, required: &[&'static str], optional: &[&'static str]) -> Result<Self, DataError> {
+    pub fn open(path: &Path, required: &[&'static str], optional: &[&'static str]) -> Result<Self, DataError> {
         let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
         let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).flexible(false).from_reader(Cursor::new(bytes));
         let header = match reader.byte_headers() {
@@ -61,17 +61,17 @@ impl CsvRows {
     }
 
     /// Line of the current row.
-    pub(crate) fn line(&self) -> u64 {
+    pub fn line(&self) -> u64 {
         self.line
     }
 
     /// Whether optional column `i` is present.
-    pub(crate) fn has(&self, i: usize) -> bool {
+    pub fn has(&self, i: usize) -> bool {
         self.index[i].is_some()
     }
 
     /// Advances to the next row; `false` at the end of the file.
-    pub(crate) fn next_row(&mut self) -> Result<bool, DataError> {
+    pub fn next_row(&mut self) -> Result<bool, DataError> {
         let more = match self.reader.read_byte_record(&mut self.record) {
             Ok(m) => m,
             Err(e) => return Err(csv_error(&self.path, e, self.reader.get_ref().get_ref())),
@@ -100,17 +100,17 @@ impl CsvRows {
     }
 
     /// An error about column `i` of the current row.
-    pub(crate) fn err(&self, i: usize, message: impl Into<String>) -> DataError {
+    pub fn err(&self, i: usize, message: impl Into<String>) -> DataError {
         DataError::value(&self.path, self.line, self.names[i], message)
     }
 
     /// A finite number in column `i`.
-    pub(crate) fn f64(&self, i: usize) -> Result<f64, DataError> {
+    pub fn f64(&self, i: usize) -> Result<f64, DataError> {
         self.opt_f64(i)?.ok_or_else(|| self.err(i, "is empty"))
     }
 
     /// A finite number in column `i`, or `None` when it is empty.
-    pub(crate) fn opt_f64(&self, i: usize) -> Result<Option<f64>, DataError> {
+    pub fn opt_f64(&self, i: usize) -> Result<Option<f64>, DataError> {
         let s = self.text(i)?;
         if s.is_empty() {
             return Ok(None);
@@ -123,7 +123,7 @@ impl CsvRows {
     }
 
     /// An integer in column `i`, or `None` when it is empty.
-    pub(crate) fn opt_i64(&self, i: usize) -> Result<Option<i64>, DataError> {
+    pub fn opt_i64(&self, i: usize) -> Result<Option<i64>, DataError> {
         let s = self.text(i)?;
         if s.is_empty() {
             return Ok(None);
@@ -132,12 +132,12 @@ impl CsvRows {
     }
 
     /// An integer in column `i`.
-    pub(crate) fn i64(&self, i: usize) -> Result<i64, DataError> {
+    pub fn i64(&self, i: usize) -> Result<i64, DataError> {
         self.opt_i64(i)?.ok_or_else(|| self.err(i, "is empty"))
     }
 
     /// Checks that time `t` in column `i` does not go back from `prev`.
-    pub(crate) fn check_time(&self, i: usize, t: f64, prev: Option<f64>) -> Result<(), DataError> {
+    pub fn check_time(&self, i: usize, t: f64, prev: Option<f64>) -> Result<(), DataError> {
         match prev {
             Some(p) if t < p => Err(self.err(i, format!("time {t} goes backwards (previous row: {p})"))),
             _ => Ok(()),
@@ -167,14 +167,14 @@ fn csv_error(path: &Path, e: csv::Error, bytes: &[u8]) -> DataError {
 }
 
 /// A buffered CSV writer for numbers (full precision: `{}` of `f64` round-trips exactly).
-pub(crate) struct CsvOut {
+pub struct CsvOut {
     path: PathBuf,
     out: BufWriter<File>,
 }
 
 impl CsvOut {
     /// Creates `path` and writes the header line.
-    pub(crate) fn create(path: &Path, header: &str) -> Result<Self, DataError> {
+    pub fn create(path: &Path, header: &str) -> Result<Self, DataError> {
         let file = File::create(path).map_err(|e| DataError::io(path, e))?;
         let mut w = CsvOut { path: path.to_path_buf(), out: BufWriter::new(file) };
         w.line(format_args!("{header}"))?;
@@ -182,12 +182,12 @@ impl CsvOut {
     }
 
     /// Writes one line.
-    pub(crate) fn line(&mut self, args: std::fmt::Arguments<'_>) -> Result<(), DataError> {
+    pub fn line(&mut self, args: std::fmt::Arguments<'_>) -> Result<(), DataError> {
         self.out.write_fmt(args).and_then(|_| self.out.write_all(b"\n")).map_err(|e| DataError::io(&self.path, e))
     }
 
     /// Flushes the file.
-    pub(crate) fn finish(mut self) -> Result<(), DataError> {
+    pub fn finish(mut self) -> Result<(), DataError> {
         self.out.flush().map_err(|e| DataError::io(&self.path, e))
     }
 }

@@ -358,7 +358,7 @@ fn remove_if_exists(path: &Path) -> Result<(), DataError> {
 }
 
 /// Reads `landmarks.csv` (`id,x,y`); ids must be unique.
-pub(crate) fn read_landmarks(path: &Path) -> Result<Vec<Landmark>, DataError> {
+pub fn read_landmarks(path: &Path) -> Result<Vec<Landmark>, DataError> {
     let mut r = CsvRows::open(path, &["id", "x", "y"], &[])?;
     let mut out = Vec::new();
     let mut seen = HashSet::new();
@@ -372,7 +372,8 @@ pub(crate) fn read_landmarks(path: &Path) -> Result<Vec<Landmark>, DataError> {
     Ok(out)
 }
 
-pub(crate) fn write_landmarks(path: &Path, lms: &[Landmark]) -> Result<(), DataError> {
+/// Writes `landmarks.csv` (`id,x,y`) at full precision.
+pub fn write_landmarks(path: &Path, lms: &[Landmark]) -> Result<(), DataError> {
     let mut w = CsvOut::create(path, "id,x,y")?;
     for l in lms {
         w.line(format_args!("{},{},{}", l.id, l.position.x, l.position.y))?;

@@ -33,7 +33,7 @@ impl ConfigError {
     }
 
     /// The same error with `prefix.` in front of the key.
-    pub(crate) fn prefixed(self, prefix: &str) -> Self {
+    pub fn prefixed(self, prefix: &str) -> Self {
         ConfigError { key: format!("{prefix}.{}", self.key), message: self.message }
     }
 }
@@ -140,7 +140,7 @@ pub enum DataError {
 
 impl DataError {
     /// An I/O error on `path`.
-    pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
+    pub fn io(path: &Path, source: std::io::Error) -> Self {
         if source.kind() == std::io::ErrorKind::NotFound {
             DataError::MissingFile { path: path.to_path_buf() }
         } else {
@@ -149,12 +149,12 @@ impl DataError {
     }
 
     /// A bad value in `column` at `path:line`.
-    pub(crate) fn value(path: &Path, line: u64, column: &str, message: impl Into<String>) -> Self {
+    pub fn value(path: &Path, line: u64, column: &str, message: impl Into<String>) -> Self {
         DataError::Invalid { path: path.to_path_buf(), line, column: Some(column.to_string()), message: message.into() }
     }
 
     /// A bad row at `path:line`.
-    pub(crate) fn row(path: &Path, line: u64, message: impl Into<String>) -> Self {
+    pub fn row(path: &Path, line: u64, message: impl Into<String>) -> Self {
         DataError::Invalid { path: path.to_path_buf(), line, column: None, message: message.into() }
     }
 
@@ -162,7 +162,7 @@ impl DataError {
     pub(crate) fn toml(path: &Path, text: &str, e: &toml::de::Error) -> Self {
         let (line, column, snippet) = match e.span() {
             Some(span) => {
-                let (l, c) = line_col(text, span.start);
+                let (l, c) = crate::locate::line_col(text, span.start);
                 let content = text.lines().nth(l - 1).unwrap_or("");
                 let width = span.end.saturating_sub(span.start).clamp(1, content.len().saturating_sub(c - 1).max(1));
                 let snippet = format!("\n{l:>5} | {content}\n      | {}{}", " ".repeat(c - 1), "^".repeat(width));
@@ -174,13 +174,13 @@ impl DataError {
     }
 
     /// A validation error of values that did not come from a file.
-    pub(crate) fn config(source: ConfigError) -> Self {
+    pub fn config(source: ConfigError) -> Self {
         DataError::Config { path: None, line: None, source }
     }
 
     /// A validation error of the TOML `text` of `path`, located at the line of its key.
     pub(crate) fn config_in(path: &Path, text: &str, source: ConfigError) -> Self {
-        let line = source.key().and_then(|k| crate::locate::line_of_key(text, k));
+        let line = source.key().and_then(|k| crate::locate::locate(text, k));
         DataError::Config { path: Some(path.to_path_buf()), line, source }
     }
 
@@ -193,15 +193,6 @@ impl DataError {
             _ => None,
         }
     }
-}
-
-/// 1-based line and column (in characters) of byte `offset` in `text`.
-pub(crate) fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let offset = offset.min(text.len());
-    let before = text.get(..offset).unwrap_or(text);
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map(|s| s.chars().count()).unwrap_or(0) + 1;
-    (line, col)
 }
 
 fn column_prefix(column: &Option<String>) -> String {

@@ -363,9 +363,9 @@ fn numeric(el: &Element<'_>, n: usize) -> Result<Vec<f64>, MatError> {
     Ok(v)
 }
 
-/// Builders of MAT v5 byte streams for the tests of this crate.
-#[cfg(test)]
-pub(crate) mod build {
+/// Builders of MAT v5 byte streams, for tests (here and in the crates that read worlds).
+#[cfg(any(test, feature = "testutil"))]
+pub mod build {
     /// Appends a data element (tag, payload, padding to 8 bytes).
     pub fn element(out: &mut Vec<u8>, ty: u32, payload: &[u8]) {
         out.extend_from_slice(&ty.to_le_bytes());

@@ -29,16 +29,67 @@
 
 use std::path::{Path, PathBuf};
 
-use rfslam_core::{DetectionModel, Pose, SlamModels};
+use rfslam_core::{DetectionModel, Pose};
 use serde::{Deserialize, Serialize};
 
-use crate::config::{ClutterConfig, ModelConfig, MotionConfig, SensorConfig, need, only_keys};
-use crate::dataset::{Dataset, DatasetMeta};
+use crate::config::{ClutterConfig, ModelConfig, MotionConfig, SensorConfig, need, only_keys, positive};
 use crate::error::{ConfigError, DataError};
-use crate::locate::find_data;
-use crate::simulate::simulate;
-use crate::victoria_park::VictoriaPark;
-use crate::world::{ProceduralParams, World};
+use crate::find::find_data;
+
+/// Parameters of the procedural world (`World::procedural` of `rfslam-sim`); every field has
+/// a default (TOML `[world]` with `kind = "procedural"`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ProceduralParams {
+    /// World seed (the world stream is `stream(&[seed, purpose::WORLD])`). Default 1.
+    pub seed: u64,
+    /// Number of poses (and controls). Default 4000.
+    pub steps: usize,
+    /// Time step (s). Default 1.
+    pub dt: f64,
+    /// Mean speed (m/s). Default 1.
+    pub speed: f64,
+    /// Largest turn rate (deg/s). Default 1.
+    pub max_turn_rate_deg: f64,
+    /// Side of the square the robot stays in (m). Default 1000 (1 km^2).
+    pub extent: f64,
+    /// Number of landmarks. Default 160.
+    pub landmarks: usize,
+}
+
+impl Default for ProceduralParams {
+    fn default() -> Self {
+        ProceduralParams {
+            seed: 1,
+            steps: 4000,
+            dt: 1.0,
+            speed: 1.0,
+            max_turn_rate_deg: 1.0,
+            extent: 1000.0,
+            landmarks: 160,
+        }
+    }
+}
+
+impl ProceduralParams {
+    /// Smallest lateral offset of a landmark from the route (m).
+    pub const MIN_OFFSET: f64 = 5.0;
+    /// Largest lateral offset of a landmark from the route (m).
+    pub const MAX_OFFSET: f64 = 100.0;
+    /// Smallest distance between two landmarks (m).
+    pub const MIN_SEPARATION: f64 = 5.0;
+
+    /// Checks the values; keys are relative to the `[world]` table (`steps`).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if self.steps < 2 {
+            return Err(ConfigError::new("steps", "must be >= 2"));
+        }
+        positive("dt", self.dt)?;
+        positive("speed", self.speed)?;
+        positive("max_turn_rate_deg", self.max_turn_rate_deg)?;
+        positive("extent", self.extent)
+    }
+}
 
 /// The `[world]` table of a scenario, tagged by `kind`.
 ///
@@ -47,17 +98,18 @@ use crate::world::{ProceduralParams, World};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "lowercase", try_from = "RawWorld")]
 pub enum WorldSpec {
-    /// A directory in the phd-slam-synthetic CSV layout ([`World::from_csv_dir`]).
+    /// A phd-slam-synthetic directory: its CSV layout, or when that is absent the
+    /// `Environment_SLAM.mat` it holds (`World::from_environment_dir` of `rfslam-sim`).
     Environment {
         /// Directory; relative paths are looked up with [`find_data`].
         path: String,
     },
-    /// A MATLAB `Environment_SLAM.mat` file ([`World::from_mat`]).
+    /// A MATLAB `Environment_SLAM.mat` file (`World::from_mat`).
     Mat {
         /// File; relative paths are looked up with [`find_data`].
         path: String,
     },
-    /// The procedural world ([`World::procedural`]); every field has a default.
+    /// The procedural world (`World::procedural`); every field has a default.
     Procedural(ProceduralParams),
     /// A recorded data set directory: its measurements are used as they are.
     Dataset {
@@ -65,7 +117,7 @@ pub enum WorldSpec {
         path: String,
     },
     /// The Victoria Park recording (`measurements.dat`, `inputs.dat`, `gps.dat`), imported
-    /// per run with artificial clutter ([`VictoriaPark::import`], PHD-SLAM 3.0 Section VI-B).
+    /// per run with artificial clutter (`VictoriaPark::import` of `rfslam-sim`, PHD-SLAM 3.0 Section VI-B).
     /// The filter starts at `(initial_x, initial_y, initial_heading_deg)` (default the
     /// origin heading along +x, the frame of `gps.dat`) and the GPS truth is moved into the
     /// frame of that pose.
@@ -82,7 +134,7 @@ pub enum WorldSpec {
     },
     /// The simulated world of delta-GLMB-SLAM 2.0 (\[Moratuwage2019\] Section 4.1): 23
     /// landmarks beside a racetrack driven at 1 m/s with a loop closure
-    /// ([`crate::glmb_sim::glmb_sim_world`]), driven by the scenario's `velocity` or
+    /// (`glmb_sim_world` of `rfslam-sim`), driven by the scenario's `velocity` or
     /// `ackermann` controls; key `dt`: the control and scan period (s, default 1).
     #[serde(rename = "glmb-sim")]
     GlmbSim {
@@ -317,18 +369,6 @@ impl ScenarioConfig {
         Ok(())
     }
 
-    /// Loads the world (`None` for a data-set scenario). Slow for large worlds: callers
-    /// load it once and pass it to [`ScenarioConfig::build_dataset`] for every run.
-    pub fn load_world(&self) -> Result<Option<World>, DataError> {
-        match &self.world {
-            WorldSpec::Environment { path } => World::from_csv_dir(&find_data(path)?).map(Some),
-            WorldSpec::Mat { path } => World::from_mat(&find_data(path)?).map(Some),
-            WorldSpec::Procedural(p) => World::procedural(p, p.seed).map(Some),
-            WorldSpec::GlmbSim { dt } => Ok(crate::glmb_sim::glmb_sim_world(self.motion.motion(), *dt)),
-            WorldSpec::Dataset { .. } | WorldSpec::VictoriaPark { .. } => Ok(None),
-        }
-    }
-
     /// The directory of a data-set scenario (looked up with [`find_data`]).
     pub fn dataset_dir(&self) -> Option<Result<PathBuf, DataError>> {
         match &self.world {
@@ -336,125 +376,35 @@ impl ScenarioConfig {
             _ => None,
         }
     }
-
-    /// The models the filters are built with: the scenario's tables, starting at the
-    /// world's first pose (or the data set's initial pose, or Victoria Park's
-    /// `world.initial_*`). `world` is the loaded world (loaded here when `None` and the
-    /// scenario has one).
-    pub fn models_for(&self, world: Option<&World>) -> Result<SlamModels, DataError> {
-        let models = self.models();
-        models.validate().map_err(DataError::config)?;
-        if let Some(x0) = self.world.victoria_park_initial_pose() {
-            return Ok(models.to_models(x0));
-        }
-        if let Some(dir) = self.dataset_dir() {
-            let meta = DatasetMeta::read(&dir?)?;
-            check_same_motion(&self.motion, &meta.models.motion, &meta.name)?;
-            return Ok(models.to_models(meta.initial_pose));
-        }
-        let loaded;
-        let world = match world {
-            Some(w) => w,
-            None => {
-                loaded = self.load_world()?;
-                loaded.as_ref().ok_or_else(|| DataError::Mismatch("the scenario has no world".into()))?
-            }
-        };
-        let x0 =
-            world.poses.first().map(|p| p.1).ok_or_else(|| DataError::Mismatch("the world has no poses".into()))?;
-        Ok(models.to_models(x0))
-    }
-
-    /// The data set of Monte Carlo run `run_seed`: [`simulate()`] on the world (loaded here
-    /// when `world` is `None`); for `kind = "dataset"`, the recorded data set with the
-    /// scenario's model tables as its models (its measurements as they are); for
-    /// `kind = "victoria-park"`, the recording imported with the run's clutter
-    /// ([`VictoriaPark::import`]; the files are read on every call).
-    pub fn build_dataset(&self, world: Option<&World>, run_seed: u64) -> Result<Dataset, DataError> {
-        if let WorldSpec::VictoriaPark { path, .. } = &self.world {
-            let x0 = self.world.victoria_park_initial_pose().unwrap_or_else(Pose::zeros);
-            return VictoriaPark::read(&find_data(path)?)?.import(&self.models(), x0, run_seed);
-        }
-        if let Some(dir) = self.dataset_dir() {
-            let mut d = Dataset::read(&dir?)?;
-            check_same_motion(&self.motion, &d.meta.models.motion, &d.meta.name)?;
-            d.meta.models = self.models();
-            return Ok(d);
-        }
-        match world {
-            Some(w) => simulate(w, &self.models(), run_seed),
-            None => {
-                let w = self.load_world()?.ok_or_else(|| DataError::Mismatch("the scenario has no world".into()))?;
-                simulate(&w, &self.models(), run_seed)
-            }
-        }
-    }
-}
-
-fn check_same_motion(scenario: &MotionConfig, dataset: &MotionConfig, name: &str) -> Result<(), DataError> {
-    let (a, b) = (scenario.motion(), dataset.motion());
-    if a.name() == b.name() {
-        Ok(())
-    } else {
-        Err(DataError::Mismatch(format!(
-            "motion.model is `{}` but data set `{name}` has `{}` odometry",
-            a.name(),
-            b.name()
-        )))
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{TempDir, shared_data};
+    use crate::testutil::{SMALL_SCENARIO, TempDir};
 
-    const PROCEDURAL: &str = r#"name = "quick"
-description = "a small procedural world"
+    /// The `[world]` table of the test scenario after its header.
+    const SMALL_WORLD: &str = "kind = \"procedural\"\nseed = 1\nsteps = 120\nextent = 300.0\nlandmarks = 25\n";
 
-[world]
-kind = "procedural"
-steps = 200
-landmarks = 30
-
-[motion]
-model = "velocity"
-sigma_v = 0.8
-sigma_omega_deg = 0.5
-
-[sensor]
-max_range = 150.0
-half_angle_deg = 90.0
-sigma_range = 0.8
-sigma_bearing_deg = 0.3
-
-[detection]
-model = "constant"
-pd = 0.95
-
-[clutter]
-rate = 5.0
-"#;
+    /// 1-based line of the first line of the test scenario that starts with `needle`.
+    fn line(needle: &str) -> usize {
+        SMALL_SCENARIO.lines().position(|l| l.starts_with(needle)).expect("needle in the test scenario") + 1
+    }
 
     #[test]
-    fn procedural_scenario_parses_with_defaults_and_builds() {
-        let sc = ScenarioConfig::from_toml_str(PROCEDURAL, "quick.toml").unwrap();
+    fn procedural_scenario_parses_with_defaults() {
+        let sc = ScenarioConfig::from_toml_str(SMALL_SCENARIO, "small.toml").unwrap();
         let WorldSpec::Procedural(p) = sc.world else { panic!("{:?}", sc.world) };
-        assert_eq!(p, ProceduralParams { steps: 200, landmarks: 30, ..Default::default() });
+        assert_eq!(p, ProceduralParams { steps: 120, extent: 300.0, landmarks: 25, ..Default::default() });
         assert_eq!(sc.models(), ModelConfig::phd_slam_synthetic());
-        let w = sc.load_world().unwrap().unwrap();
-        let m = sc.models_for(Some(&w)).unwrap();
-        assert_eq!(m.initial_pose, w.poses[0].1);
-        let a = sc.build_dataset(Some(&w), 3).unwrap();
-        let b = sc.build_dataset(None, 3).unwrap();
-        assert_eq!(a, b);
-        assert_eq!(a.scans.len(), 200);
-        assert_eq!(a.models(), m);
+        let bare = SMALL_SCENARIO.replace(SMALL_WORLD, "kind = \"procedural\"\n");
+        let sc = ScenarioConfig::from_toml_str(&bare, "bare.toml").unwrap();
+        assert_eq!(sc.world, WorldSpec::Procedural(ProceduralParams::default()));
     }
 
     #[test]
     fn toml_value_round_trip_and_dotted_override() {
-        let sc = ScenarioConfig::from_toml_str(PROCEDURAL, "quick.toml").unwrap();
+        let sc = ScenarioConfig::from_toml_str(SMALL_SCENARIO, "small.toml").unwrap();
         let mut v = sc.to_toml_value().unwrap();
         assert_eq!(ScenarioConfig::deserialize(v.clone()).unwrap(), sc);
         v["clutter"].as_table_mut().unwrap().insert("rate".into(), toml::Value::Integer(10));
@@ -470,84 +420,43 @@ rate = 5.0
 
     #[test]
     fn errors_name_file_line_and_key() {
-        let e = err(&PROCEDURAL.replace("rate = 5.0", "rate = -5.0"));
-        assert!(e.starts_with("scen.toml:25: clutter.rate must be >= 0"), "{e}");
-        let e = err(&PROCEDURAL.replace("steps = 200", "steps = 1"));
-        assert!(e.starts_with("scen.toml:6: world.steps must be >= 2"), "{e}");
-        let e = err(&PROCEDURAL.replace("landmarks = 30", "landmarks = 30\nlandmark_count = 3"));
-        assert!(e.starts_with("scen.toml:8:") && e.contains("unknown field `landmark_count`"), "{e}");
-        let e = err(&PROCEDURAL.replace("kind = \"procedural\"", "kind = \"maze\""));
-        assert!(e.starts_with("scen.toml:5:") && e.contains("maze"), "{e}");
-        let e = err(&PROCEDURAL.replace("sigma_v = 0.8", "sigma_v = \"fast\""));
-        assert!(e.starts_with("scen.toml:11:") && e.contains("sigma_v = \"fast\""), "{e}");
-        let e = err(&PROCEDURAL.replace("steps = 200", "steps = 2.5"));
-        assert!(e.starts_with("scen.toml:6:") && e.contains("steps = 2.5"), "{e}");
-        let e = err(&PROCEDURAL.replace("steps = 200", "path = \"x\""));
+        let at = |n: &str| format!("scen.toml:{}:", line(n));
+        let e = err(&SMALL_SCENARIO.replace("rate = 5.0", "rate = -5.0"));
+        assert!(e.starts_with(&format!("{} clutter.rate must be >= 0", at("rate"))), "{e}");
+        let e = err(&SMALL_SCENARIO.replace("steps = 120", "steps = 1"));
+        assert!(e.starts_with(&format!("{} world.steps must be >= 2", at("steps"))), "{e}");
+        let e = err(&SMALL_SCENARIO.replace("landmarks = 25", "landmarks = 25\nlandmark_count = 3"));
+        let next = format!("scen.toml:{}:", line("landmarks") + 1);
+        assert!(e.starts_with(&next) && e.contains("unknown field `landmark_count`"), "{e}");
+        let e = err(&SMALL_SCENARIO.replace("kind = \"procedural\"", "kind = \"maze\""));
+        assert!(e.starts_with(&at("kind")) && e.contains("maze"), "{e}");
+        let e = err(&SMALL_SCENARIO.replace("sigma_v = 0.8", "sigma_v = \"fast\""));
+        assert!(e.starts_with(&at("sigma_v")) && e.contains("sigma_v = \"fast\""), "{e}");
+        let e = err(&SMALL_SCENARIO.replace("steps = 120", "steps = 2.5"));
+        assert!(e.starts_with(&at("steps")) && e.contains("steps = 2.5"), "{e}");
+        let e = err(&SMALL_SCENARIO.replace("steps = 120", "path = \"x\""));
         assert!(
-            e.starts_with("scen.toml:4:") && e.contains("`world.path` is not a key of world kind \"procedural\""),
+            e.starts_with(&at("[world]")) && e.contains("`world.path` is not a key of world kind \"procedural\""),
             "{e}"
         );
-        let e = err(&PROCEDURAL.replace("[clutter]\nrate = 5.0\n", ""));
+        let e = err(&SMALL_SCENARIO.replace("[clutter]\nrate = 5.0\n", ""));
         assert!(e.contains("scen.toml") && e.contains("missing field `clutter`"), "{e}");
-        let e = err(&PROCEDURAL.replace(
+        let e = err(&SMALL_SCENARIO.replace(
             "model = \"velocity\"\nsigma_v = 0.8\nsigma_omega_deg = 0.5",
             "model = \"odometry2d\"\nsigma_dx = 0.8\nsigma_dy = 0.8\nsigma_dtheta_deg = 0.5",
         ));
-        assert!(e.starts_with("scen.toml:10: motion.model must be \"velocity\""), "{e}");
+        assert!(e.starts_with(&format!("{} motion.model must be \"velocity\"", at("model = \"velocity\""))), "{e}");
         // From a file: the message names the path.
         let tmp = TempDir::new("scenario");
         let p = tmp.path().join("bad.toml");
-        std::fs::write(&p, PROCEDURAL.replace("pd = 0.95", "pd = 1.5")).unwrap();
+        std::fs::write(&p, SMALL_SCENARIO.replace("pd = 0.95", "pd = 1.5")).unwrap();
         let e = ScenarioConfig::from_file(&p).unwrap_err();
         assert_eq!(e.key(), Some("detection.pd"));
-        assert!(e.to_string().contains(&format!("{}:22: detection.pd must be in [0, 1]", p.display())), "{e}");
+        let want = format!("{}:{}: detection.pd must be in [0, 1]", p.display(), line("pd"));
+        assert!(e.to_string().contains(&want), "{e}");
     }
 
-    #[test]
-    fn dataset_scenario_uses_recorded_measurements_with_the_scenario_models() {
-        let tmp = TempDir::new("scenario-ds");
-        let w = World::procedural(&ProceduralParams { steps: 50, landmarks: 10, ..Default::default() }, 2).unwrap();
-        let recorded = simulate(&w, &ModelConfig::phd_slam_synthetic(), 9).unwrap();
-        let dir = tmp.path().join("rec");
-        recorded.write(&dir).unwrap();
-        let text = PROCEDURAL
-            .replace(
-                "kind = \"procedural\"\nsteps = 200\nlandmarks = 30",
-                &format!("kind = \"dataset\"\npath = {:?}", dir.display().to_string()),
-            )
-            .replace("rate = 5.0", "rate = 2.0");
-        let sc = ScenarioConfig::from_toml_str(&text, "ds.toml").unwrap();
-        assert!(sc.load_world().unwrap().is_none());
-        let d = sc.build_dataset(None, 1).unwrap();
-        assert_eq!(d.scans, recorded.scans);
-        assert_eq!(d.meta.models.clutter.rate, 2.0);
-        assert_eq!(sc.models_for(None).unwrap().initial_pose, recorded.meta.initial_pose);
-        let bad = text.replace(
-            "model = \"velocity\"\nsigma_v = 0.8\nsigma_omega_deg = 0.5",
-            "model = \"ackermann\"\nsigma_v = 1.0\nsigma_steer_deg = 4.0",
-        );
-        let sc = ScenarioConfig::from_toml_str(&bad, "ds.toml").unwrap();
-        let e = sc.build_dataset(None, 1).unwrap_err().to_string();
-        assert!(e.contains("ackermann") && e.contains("velocity"), "{e}");
-    }
-
-    #[test]
-    fn environment_and_mat_scenarios_load_the_shared_data() {
-        let Some(dir) = shared_data("phd-slam-synthetic") else { return };
-        let env = PROCEDURAL.replace(
-            "kind = \"procedural\"\nsteps = 200\nlandmarks = 30",
-            &format!("kind = \"environment\"\npath = {:?}", dir.display().to_string()),
-        );
-        let sc = ScenarioConfig::from_toml_str(&env, "env.toml").unwrap();
-        let w = sc.load_world().unwrap().unwrap();
-        assert_eq!(w.poses.len(), 4000);
-        let mat = env
-            .replace("kind = \"environment\"", "kind = \"mat\"")
-            .replace("phd-slam-synthetic\"", "phd-slam-synthetic/Environment_SLAM.mat\"");
-        let sc = ScenarioConfig::from_toml_str(&mat, "mat.toml").unwrap();
-        assert_eq!(sc.load_world().unwrap().unwrap().landmarks.len(), 160);
-    }
-
+    /// `scenarios/victoria-park.toml`.
     fn victoria_park_scenario() -> String {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/victoria-park.toml");
         std::fs::read_to_string(path).unwrap()
@@ -560,9 +469,7 @@ rate = 5.0
         assert_eq!(sc.world.kind(), "victoria-park");
         assert_eq!(sc.world.victoria_park_initial_pose(), Some(Pose::zeros()));
         assert_eq!(sc.detection, DetectionModel::RangeLinear { pd0: 0.7 });
-        assert!(sc.load_world().unwrap().is_none());
-        let m = sc.models_for(None).unwrap();
-        assert_eq!(m.initial_pose, Pose::zeros());
+        let m = sc.models().to_models(Pose::zeros());
         assert!((m.fov.half_angle - 85f64.to_radians()).abs() < 1e-15 && m.fov.max_range == 50.0);
         let q = m.control_noise;
         assert!((q[(0, 0)] - 1.0).abs() < 1e-15 && (q[(1, 1)] - 4f64.to_radians().powi(2)).abs() < 1e-15);
@@ -571,7 +478,7 @@ rate = 5.0
         // Another initial pose: the defaults are only defaults.
         let moved = text.replace("initial_heading_deg = 0.0", "initial_heading_deg = 35.5");
         let sc = ScenarioConfig::from_toml_str(&moved, "vp.toml").unwrap();
-        let x0 = sc.models_for(None).unwrap().initial_pose;
+        let x0 = sc.world.victoria_park_initial_pose().unwrap();
         assert!((x0[2] - 35.5f64.to_radians()).abs() < 1e-15);
 
         let e = err(&text
@@ -588,33 +495,7 @@ rate = 5.0
         assert!(e.contains("world.initial_x must be finite"), "{e}");
         let e = err(&text.replace("initial_x = 0.0", "steps = 3"));
         assert!(e.contains("`world.steps` is not a key of world kind \"victoria-park\""), "{e}");
-        let e = err(&PROCEDURAL.replace("steps = 200", "initial_x = 1.0"));
+        let e = err(&SMALL_SCENARIO.replace("steps = 120", "initial_x = 1.0"));
         assert!(e.contains("`world.initial_x` is not a key of world kind \"procedural\""), "{e}");
-    }
-
-    #[test]
-    fn victoria_park_scenario_builds_per_run_data_sets() {
-        let Some(dir) = shared_data("victoria-park") else { return };
-        let text = victoria_park_scenario()
-            .replace("path = \"victoria-park\"", &format!("path = {:?}", dir.display().to_string()));
-        let sc = ScenarioConfig::from_toml_str(&text, "vp.toml").unwrap();
-        let a = sc.build_dataset(None, 4).unwrap();
-        assert_eq!(a.scans.len(), 7230);
-        assert_eq!(a.models(), sc.models_for(None).unwrap());
-        assert_eq!(a.meta.initial_t, 0.852);
-        let b = sc.build_dataset(None, 5).unwrap();
-        assert_ne!(a.scans, b.scans);
-        assert_eq!(a.odometry, b.odometry);
-    }
-
-    #[test]
-    fn missing_relative_data_is_reported_with_the_paths_tried() {
-        let text = PROCEDURAL.replace(
-            "kind = \"procedural\"\nsteps = 200\nlandmarks = 30",
-            "kind = \"environment\"\npath = \"no-such-data-set\"",
-        );
-        let sc = ScenarioConfig::from_toml_str(&text, "x.toml").unwrap();
-        let e = sc.load_world().unwrap_err().to_string();
-        assert!(e.contains("no-such-data-set") && e.contains("looked for") && e.contains("RFSLAM_DATA"), "{e}");
     }
 }

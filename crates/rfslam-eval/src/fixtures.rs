@@ -1,11 +1,21 @@
-//! Fixtures shared by the filter crates' end-to-end tests and benchmarks: the procedural
-//! world of `scenarios/procedural.toml` cut to 500 steps, the dead-reckoning baseline error
-//! on a data set, the recursion benchmarks' data set and their warmed-up filter state.
+//! Fixtures shared by the filter crates' tests and benchmarks: the models of the PHD-SLAM
+//! synthetic experiment, the procedural world of `scenarios/procedural.toml` cut to 500
+//! steps, the dead-reckoning baseline error on a data set, the recursion benchmarks' data set
+//! and their warmed-up filter state.
 
 use rfslam_core::motion::propagate;
 use rfslam_core::rng::{purpose, stream};
-use rfslam_core::{ControlSegment, FilterBuild, Rng};
-use rfslam_data::{Dataset, ScenarioConfig};
+use rfslam_core::{ControlSegment, FilterBuild, Pose, Rng, SlamModels};
+use rfslam_data::{Dataset, ModelConfig, ScenarioConfig};
+use rfslam_sim::ScenarioData;
+
+/// The models of the PHD-SLAM 3.0 synthetic experiment (Tables I and II,
+/// [`ModelConfig::phd_slam_synthetic`]) for a robot starting at the origin: velocity model
+/// with `sigma_v = 0.8 m/s`, `sigma_omega = 0.5 deg/s`; `+-90 deg`, 150 m FOV;
+/// `sigma_r = 0.8 m`, `sigma_phi = 0.3 deg`; `p_D = 0.95`; 5 clutter per scan (cartesian).
+pub fn phd_slam_synthetic_models() -> SlamModels {
+    ModelConfig::phd_slam_synthetic().to_models(Pose::zeros())
+}
 
 /// `scenarios/procedural.toml` (the synthetic experiment's sensor, noise and clutter on a
 /// procedural world) cut from 4000 to 500 steps. Panics if the scenario file is missing or

@@ -767,6 +767,7 @@ mod tests {
     use super::*;
     use crate::config::OspaSettings;
     use rfslam_core::{Estimate, MapPoint};
+    use rfslam_sim::ScenarioData;
 
     fn end_values(m: &MetricsConfig, map: &[(f64, f64)]) -> (Values, Vec<Point2>, Vec<Point2>) {
         let sc = crate::fixtures::procedural_500();
@@ -836,7 +837,7 @@ mod tests {
         let sc = crate::fixtures::procedural_500();
         let world = sc.load_world().unwrap();
         let ds = sc.build_dataset(world.as_ref(), 3).unwrap();
-        let build = || dead_reckoning::DeadReckoning::build(Default::default(), &ds.models(), 1);
+        let build = || dead_reckoning::DeadReckoning::try_build(Default::default(), &ds.models(), 1).unwrap();
         let mut f = build();
         let m = MetricsConfig { xy: true, split_step: Some(200), ..Default::default() };
         let mut err_200 = f64::NAN;

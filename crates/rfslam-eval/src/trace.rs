@@ -281,6 +281,7 @@ fn write_csv<T>(
 mod tests {
     use super::*;
     use rfslam_core::{Estimate, FilterBuild, MapPoint, StepReport};
+    use rfslam_sim::ScenarioData;
 
     fn dataset() -> Dataset {
         let sc = crate::fixtures::procedural_500();

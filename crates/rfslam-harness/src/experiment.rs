@@ -6,12 +6,14 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use rfslam_data::{ScenarioConfig, World};
+use rfslam_data::ScenarioConfig;
+use rfslam_sim::ScenarioData;
+use rfslam_sim::World;
 use serde::{Deserialize, Serialize};
 
 use crate::error::HarnessError;
-use crate::locate::locate;
 use crate::registry;
+use rfslam_data::locate::locate;
 
 pub use rfslam_eval::MetricsConfig;
 
@@ -282,7 +284,7 @@ pub(crate) fn toml_error(file: &Path, text: &str, e: &toml::de::Error) -> Harnes
     // An empty span at the very start is toml's "somewhere in the document" (a missing
     // top-level field): no line to point at.
     let span = e.span().filter(|s| !(s.is_empty() && s.start == 0));
-    let written = span.clone().and_then(|s| crate::locate::key_at(text, s));
+    let written = span.clone().and_then(|s| rfslam_data::locate::key_at(text, s));
     let quoted = msg.split("field `").nth(1).and_then(|r| r.split('`').next()).unwrap_or("");
     let key = if msg.starts_with("missing field") {
         match &written {
@@ -292,7 +294,7 @@ pub(crate) fn toml_error(file: &Path, text: &str, e: &toml::de::Error) -> Harnes
     } else {
         written.unwrap_or_else(|| quoted.to_string())
     };
-    let line = span.as_ref().map(|s| crate::locate::line_of(text, s.start));
+    let line = span.as_ref().map(|s| rfslam_data::locate::line_of(text, s.start));
     let mut message = msg;
     if let (Some(l), Some(content)) = (line, line.and_then(|l| text.lines().nth(l - 1))) {
         message.push_str(&format!("\n{l:>5} | {}", content.trim_end()));

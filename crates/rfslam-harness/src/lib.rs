@@ -11,7 +11,6 @@
 pub mod compare;
 pub mod error;
 pub mod experiment;
-pub mod locate;
 pub mod lock;
 pub mod registry;
 pub mod report;

@@ -48,7 +48,7 @@ fn param_key<P: serde::de::DeserializeOwned>(table: &toml::Table, msg: &str) -> 
     }
     if let Ok(text) = toml::to_string(table)
         && let Err(e) = toml::from_str::<P>(&text)
-        && let Some(key) = e.span().and_then(|s| crate::locate::key_at(&text, s))
+        && let Some(key) = e.span().and_then(|s| rfslam_data::locate::key_at(&text, s))
     {
         return key;
     }
@@ -235,31 +235,19 @@ pub fn names() -> String {
 mod tests {
     use super::*;
     use rfslam_data::{Dataset, ScenarioConfig};
+    use rfslam_sim::ScenarioData;
 
     /// A short labelled procedural data set (clutter and detections, every label known).
     fn labelled() -> Dataset {
-        let text = r#"name = "registry-test"
-[world]
-kind = "procedural"
-steps = 30
-extent = 300.0
-landmarks = 40
-[motion]
-model = "velocity"
-sigma_v = 0.1
-sigma_omega_deg = 0.1
-[sensor]
-max_range = 150.0
-half_angle_deg = 90.0
-sigma_range = 0.8
-sigma_bearing_deg = 0.3
-[detection]
-model = "constant"
-pd = 0.9
-[clutter]
-rate = 2.0
-"#;
-        let sc = ScenarioConfig::from_toml_str(text, "registry-test.toml").expect("valid scenario");
+        let text = rfslam_data::testutil::small_scenario(&[
+            ("world.steps", 30.into()),
+            ("world.landmarks", 40.into()),
+            ("motion.sigma_v", 0.1.into()),
+            ("motion.sigma_omega_deg", 0.1.into()),
+            ("detection.pd", 0.9.into()),
+            ("clutter.rate", 2.0.into()),
+        ]);
+        let sc = ScenarioConfig::from_toml_str(&text, "registry-test.toml").expect("valid scenario");
         sc.build_dataset(None, 1).expect("dataset")
     }
 

@@ -26,6 +26,7 @@ use crate::runs::{RunRow, RunsAppender, read_job_rows, read_rows, write_rows};
 use crate::shard::{Shard, ShardRecord};
 use crate::summary::{summarise, write_summary};
 use rfslam_eval::run_filter;
+use rfslam_sim::ScenarioData;
 
 /// Options of one sweep invocation.
 #[derive(Debug, Clone, Default)]

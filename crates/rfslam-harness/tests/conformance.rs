@@ -12,10 +12,12 @@
 use rfslam_core::angle::wrap;
 use rfslam_core::motion::propagate;
 use rfslam_core::{ControlSegment, Estimate, Pose, SlamModels};
+use rfslam_data::testutil::small_scenario;
 use rfslam_data::{Dataset, ScenarioConfig};
 use rfslam_eval::MetricsConfig;
 use rfslam_eval::{JobOutcome, run_filter};
 use rfslam_harness::registry::{FilterEntry, REGISTRY};
+use rfslam_sim::ScenarioData;
 
 /// A procedural scenario in a 300 m square with the given control noise, detection
 /// probability and clutter rate (the PHD-SLAM 3.0 synthetic sensor otherwise).
@@ -27,30 +29,15 @@ fn scenario(
     pd: f64,
     clutter: f64,
 ) -> ScenarioConfig {
-    let text = format!(
-        r#"name = "conformance"
-[world]
-kind = "procedural"
-seed = 2
-steps = {steps}
-extent = 300.0
-landmarks = {landmarks}
-[motion]
-model = "velocity"
-sigma_v = {sigma_v:?}
-sigma_omega_deg = {sigma_omega_deg:?}
-[sensor]
-max_range = 150.0
-half_angle_deg = 90.0
-sigma_range = 0.8
-sigma_bearing_deg = 0.3
-[detection]
-model = "constant"
-pd = {pd:?}
-[clutter]
-rate = {clutter:?}
-"#
-    );
+    let text = small_scenario(&[
+        ("world.seed", 2.into()),
+        ("world.steps", (steps as i64).into()),
+        ("world.landmarks", (landmarks as i64).into()),
+        ("motion.sigma_v", sigma_v.into()),
+        ("motion.sigma_omega_deg", sigma_omega_deg.into()),
+        ("detection.pd", pd.into()),
+        ("clutter.rate", clutter.into()),
+    ]);
     ScenarioConfig::from_toml_str(&text, "conformance.toml").expect("valid scenario")
 }
 

@@ -36,24 +36,7 @@ fn listed<T: serde::de::DeserializeOwned + std::fmt::Debug>(text: &str) -> BTree
     quoted(&msg)
 }
 
-const SCENARIO: &str = r#"name = "s"
-[world]
-kind = "procedural"
-[motion]
-model = "velocity"
-sigma_v = 0.8
-sigma_omega_deg = 0.5
-[sensor]
-max_range = 150.0
-half_angle_deg = 90.0
-sigma_range = 0.8
-sigma_bearing_deg = 0.3
-[detection]
-model = "constant"
-pd = 0.95
-[clutter]
-rate = 5.0
-"#;
+const SCENARIO: &str = rfslam_data::testutil::SMALL_SCENARIO;
 
 const EXPERIMENT: &str = r#"name = "e"
 scenario = "s.toml"

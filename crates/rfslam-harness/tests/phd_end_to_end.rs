@@ -7,6 +7,7 @@ use rfslam_data::ScenarioConfig;
 use rfslam_eval::MetricsConfig;
 use rfslam_eval::run_filter;
 use rfslam_harness::registry;
+use rfslam_sim::ScenarioData;
 
 fn scenario() -> ScenarioConfig {
     let text =

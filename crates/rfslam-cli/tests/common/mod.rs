@@ -7,7 +7,9 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use rfslam_data::testutil::small_scenario;
 use rfslam_harness::registry::{FilterEntry, REGISTRY};
+use rfslam_sim::ScenarioData;
 
 /// A directory under the system temp dir, unique per process and test, removed when the
 /// test passes (kept, and its path printed, when it fails).
@@ -104,39 +106,16 @@ pub fn fails(dir: &Path, args: &[&str], code: i32, needles: &[&str]) -> Output {
     o
 }
 
-/// A procedural scenario: a `extent = 300` m world with `steps` poses and `landmarks`
-/// landmarks, the PHD-SLAM 3.0 synthetic sensor and noise, detection `pd`, `clutter` per scan.
+/// The test scenario (`rfslam_data::testutil::SMALL_SCENARIO`: a procedural world in a
+/// 300 m square, the PHD-SLAM 3.0 synthetic sensor and noise) with `steps` poses,
+/// `landmarks` landmarks, detection `pd` and `clutter` per scan.
 pub fn scenario(steps: usize, landmarks: usize, pd: f64, clutter: f64) -> String {
-    format!(
-        r#"name = "small"
-description = "a small procedural world for the acceptance tests"
-
-[world]
-kind = "procedural"
-seed = 1
-steps = {steps}
-extent = 300.0
-landmarks = {landmarks}
-
-[motion]
-model = "velocity"
-sigma_v = 0.8
-sigma_omega_deg = 0.5
-
-[sensor]
-max_range = 150.0
-half_angle_deg = 90.0
-sigma_range = 0.8
-sigma_bearing_deg = 0.3
-
-[detection]
-model = "constant"
-pd = {pd:?}
-
-[clutter]
-rate = {clutter:?}
-"#
-    )
+    small_scenario(&[
+        ("world.steps", (steps as i64).into()),
+        ("world.landmarks", (landmarks as i64).into()),
+        ("detection.pd", pd.into()),
+        ("clutter.rate", clutter.into()),
+    ])
 }
 
 /// One `[[filters]]` entry of an experiment.

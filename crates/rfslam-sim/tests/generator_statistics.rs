@@ -7,7 +7,8 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 use rfslam_core::RangeBearingSensor;
-use rfslam_data::{Dataset, ModelConfig, ProceduralParams, World, simulate};
+use rfslam_data::{Dataset, ModelConfig, ProceduralParams};
+use rfslam_sim::{World, simulate};
 
 /// Sample mean and standard deviation.
 fn mean_std(x: &[f64]) -> (f64, f64) {

@@ -6,11 +6,10 @@ use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 use rfslam_core::angle::wrap;
 use rfslam_core::rng::{purpose, stream};
-use rfslam_core::{RangeBearing, RangeBearingSensor, Scan};
+use rfslam_core::{RangeBearing, RangeBearingSensor, Rng, Scan};
 
-use crate::config::ModelConfig;
-use crate::dataset::{Dataset, DatasetMeta, OdometryRow, TruthPose};
-use crate::error::DataError;
+use rfslam_data::{DataError, Dataset, DatasetMeta, ModelConfig, OdometryRow, TruthPose};
+
 use crate::world::World;
 
 /// Generates one Monte Carlo data set from `world` with the sensor and noise of `models`.
@@ -94,12 +93,7 @@ pub fn simulate(world: &World, models: &ModelConfig, run_seed: u64) -> Result<Da
         }
         clutter.sample(&fov, &mut rng, &mut z);
         labels.resize(z.len(), -1);
-        // Fisher-Yates, measurements and labels together.
-        for i in (1..z.len()).rev() {
-            let j = rng.random_range(0..=i);
-            z.swap(i, j);
-            labels.swap(i, j);
-        }
+        shuffle_scan(&mut z, &mut labels, &mut rng);
         scans.push(Scan { t, z, truth: Some(labels) });
     }
     let groundtruth =
@@ -122,12 +116,21 @@ pub fn simulate(world: &World, models: &ModelConfig, run_seed: u64) -> Result<Da
     })
 }
 
+/// Shuffles a scan's measurements and their truth labels together (Fisher-Yates with the
+/// draws of `rng`), so that the order of the measurements tells nothing.
+pub(crate) fn shuffle_scan(z: &mut [RangeBearing], labels: &mut [i64], rng: &mut Rng) {
+    for i in (1..z.len()).rev() {
+        let j = rng.random_range(0..=i);
+        z.swap(i, j);
+        labels.swap(i, j);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::MotionConfig;
-    use crate::testutil::TempDir;
-    use crate::world::ProceduralParams;
+    use rfslam_data::testutil::TempDir;
+    use rfslam_data::{MotionConfig, ProceduralParams};
 
     fn small_world() -> World {
         World::procedural(&ProceduralParams { steps: 300, landmarks: 40, ..Default::default() }, 3).unwrap()

@@ -23,7 +23,8 @@
 
 use rfslam_core::{Control, Motion, MotionModel, Point2, Pose};
 
-use crate::dataset::Landmark;
+use rfslam_data::Landmark;
+
 use crate::world::World;
 
 /// Length of each half circle of the racetrack (m): radius `22 / pi`, about 7 m.

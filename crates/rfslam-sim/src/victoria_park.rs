@@ -59,14 +59,13 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use std::path::Path;
 
 use nalgebra::Rotation2;
-use rand::RngExt;
 use rfslam_core::angle::wrap;
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{Control, Point2, Pose, RangeBearing, Scan, TRUTH_UNKNOWN};
 
-use crate::config::{ModelConfig, MotionConfig};
-use crate::dataset::{Dataset, DatasetMeta, OdometryRow, TruthPose};
-use crate::error::DataError;
+use rfslam_data::{DataError, Dataset, DatasetMeta, ModelConfig, MotionConfig, OdometryRow, TruthPose};
+
+use crate::simulate::shuffle_scan;
 
 /// File names of the distribution.
 pub mod files {
@@ -212,12 +211,7 @@ impl VictoriaPark {
             false_alarms += z.len() - real;
             let mut labels = vec![TRUTH_UNKNOWN; real];
             labels.resize(z.len(), -1);
-            // Fisher-Yates, measurements and labels together.
-            for i in (1..z.len()).rev() {
-                let j = rng.random_range(0..=i);
-                z.swap(i, j);
-                labels.swap(i, j);
-            }
+            shuffle_scan(&mut z, &mut labels, &mut rng);
             scans.push(Scan { t, z, truth: Some(labels) });
         }
         let odometry = self.inputs.clone();
@@ -345,9 +339,9 @@ fn for_each_row(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::SensorConfig;
-    use crate::testutil::{TempDir, shared_data};
     use rfslam_core::{AckermannModel, ClutterIntensity, ControlSegment, DetectionModel, MotionModel};
+    use rfslam_data::SensorConfig;
+    use rfslam_data::testutil::{TempDir, shared_data};
 
     /// A hand-made excerpt in the distributed layout: three scans (the second with a
     /// detection behind the FOV's range and one beyond its angle), odometry rows before,
@@ -384,7 +378,7 @@ mod tests {
                 offset: [0.0, 0.0],
             },
             detection: DetectionModel::RangeLinear { pd0: 0.7 },
-            clutter: crate::config::ClutterConfig { rate: 5.0, intensity: ClutterIntensity::Cartesian },
+            clutter: rfslam_data::ClutterConfig { rate: 5.0, intensity: ClutterIntensity::Cartesian },
         }
     }
 

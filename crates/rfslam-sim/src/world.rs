@@ -15,13 +15,25 @@ use rand_distr::{Distribution, StandardNormal};
 use rfslam_core::angle::wrap;
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{Control, Motion, MotionModel, Point2, Pose};
-use serde::{Deserialize, Serialize};
+use rfslam_data::csvio::{CsvOut, CsvRows};
+use rfslam_data::dataset::{read_landmarks, write_landmarks};
+use rfslam_data::find::where_to_get;
+use rfslam_data::mat::{MatArray, MatFile};
+use rfslam_data::{ConfigError, DataError, Landmark, ProceduralParams};
 
-use crate::config::positive;
-use crate::csvio::{CsvOut, CsvRows};
-use crate::dataset::{Landmark, read_landmarks, write_landmarks};
-use crate::error::{ConfigError, DataError};
-use crate::mat::{MatArray, MatFile};
+/// The MATLAB environment file of the PHD-SLAM papers, as published in O. Kaltiokallio's
+/// PHD-SLAM-3.0 repository (`Synthetic Data/measurements/SD data set/Environment_SLAM.mat`).
+pub const ENVIRONMENT_MAT: &str = "Environment_SLAM.mat";
+
+/// File names of the phd-slam-synthetic CSV layout.
+pub mod files {
+    /// `id,x,y`: the landmarks.
+    pub const LANDMARKS: &str = "landmarks.csv";
+    /// `t,v,omega`: the true controls, uniformly spaced.
+    pub const CONTROLS: &str = "controls.csv";
+    /// `t,x,y,heading`: the true poses; the first row is the initial pose.
+    pub const GROUNDTRUTH: &str = "groundtruth.csv";
+}
 
 /// A simulation world: landmarks, true controls and the true poses they produce.
 ///
@@ -44,61 +56,6 @@ pub struct World {
     pub motion: Motion,
 }
 
-/// Parameters of [`World::procedural`]; every field has a default (TOML `[world]` with
-/// `kind = "procedural"`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ProceduralParams {
-    /// World seed (the world stream is `stream(&[seed, purpose::WORLD])`). Default 1.
-    pub seed: u64,
-    /// Number of poses (and controls). Default 4000.
-    pub steps: usize,
-    /// Time step (s). Default 1.
-    pub dt: f64,
-    /// Mean speed (m/s). Default 1.
-    pub speed: f64,
-    /// Largest turn rate (deg/s). Default 1.
-    pub max_turn_rate_deg: f64,
-    /// Side of the square the robot stays in (m). Default 1000 (1 km^2).
-    pub extent: f64,
-    /// Number of landmarks. Default 160.
-    pub landmarks: usize,
-}
-
-impl Default for ProceduralParams {
-    fn default() -> Self {
-        ProceduralParams {
-            seed: 1,
-            steps: 4000,
-            dt: 1.0,
-            speed: 1.0,
-            max_turn_rate_deg: 1.0,
-            extent: 1000.0,
-            landmarks: 160,
-        }
-    }
-}
-
-impl ProceduralParams {
-    /// Smallest lateral offset of a landmark from the route (m).
-    pub const MIN_OFFSET: f64 = 5.0;
-    /// Largest lateral offset of a landmark from the route (m).
-    pub const MAX_OFFSET: f64 = 100.0;
-    /// Smallest distance between two landmarks (m).
-    pub const MIN_SEPARATION: f64 = 5.0;
-
-    /// Checks the values; keys are relative to the `[world]` table (`steps`).
-    pub fn validate(&self) -> Result<(), ConfigError> {
-        if self.steps < 2 {
-            return Err(ConfigError::new("steps", "must be >= 2"));
-        }
-        positive("dt", self.dt)?;
-        positive("speed", self.speed)?;
-        positive("max_turn_rate_deg", self.max_turn_rate_deg)?;
-        positive("extent", self.extent)
-    }
-}
-
 impl World {
     /// A world from its controls: poses are `controls` propagated from `x0` with `motion`
     /// and time step `dt`; pose `i` carries the time of control `i`.
@@ -114,12 +71,39 @@ impl World {
         World { name: name.into(), dt, landmarks, controls, poses, motion }
     }
 
+    /// Reads an environment directory (`[world] kind = "environment"`): the phd-slam-synthetic
+    /// CSV layout ([`World::from_csv_dir`]) when it holds `landmarks.csv`, else the MATLAB
+    /// file [`ENVIRONMENT_MAT`] it holds, as downloaded ([`World::from_mat`], named after the
+    /// directory like the CSV world). On the published file both give the same world bit for
+    /// bit. A directory with neither is a [`DataError::NotFound`] that lists both and says
+    /// where to download the data.
+    pub fn from_environment_dir(dir: &Path) -> Result<World, DataError> {
+        let csv = dir.join(files::LANDMARKS);
+        let mat = dir.join(ENVIRONMENT_MAT);
+        let partial_csv = [files::CONTROLS, files::GROUNDTRUTH].iter().any(|f| dir.join(f).exists());
+        if csv.exists() || (!mat.exists() && partial_csv) {
+            // (Partial CSV layouts: the CSV reader names the missing file.)
+            return World::from_csv_dir(dir);
+        }
+        if !mat.exists() {
+            let name = dir_name(dir);
+            return Err(DataError::NotFound {
+                name: format!("{name}/{} or {name}/{ENVIRONMENT_MAT}", files::LANDMARKS),
+                tried: vec![csv, mat],
+                hint: where_to_get("phd-slam-synthetic"),
+            });
+        }
+        let mut world = World::from_mat(&mat)?;
+        world.name = dir_name(dir);
+        Ok(world)
+    }
+
     /// Reads the phd-slam-synthetic CSV layout: `landmarks.csv` (`id,x,y`), `controls.csv`
     /// (`t,v,omega`, uniformly spaced: `dt` is the spacing) and `groundtruth.csv`
     /// (`t,x,y,heading`, of which the first row is the initial pose). Velocity model.
     pub fn from_csv_dir(dir: &Path) -> Result<World, DataError> {
-        let landmarks = read_landmarks(&dir.join("landmarks.csv"))?;
-        let controls_path = dir.join("controls.csv");
+        let landmarks = read_landmarks(&dir.join(files::LANDMARKS))?;
+        let controls_path = dir.join(files::CONTROLS);
         let mut r = CsvRows::open(&controls_path, &["t", "v", "omega"], &[])?;
         let mut controls: Vec<(f64, Control)> = Vec::new();
         let mut dt = f64::NAN;
@@ -144,7 +128,7 @@ impl World {
         if controls.len() < 2 {
             return Err(DataError::row(&controls_path, r.line(), "needs at least two rows (dt is their spacing)"));
         }
-        let gt_path = dir.join("groundtruth.csv");
+        let gt_path = dir.join(files::GROUNDTRUTH);
         let mut g = CsvRows::open(&gt_path, &["t", "x", "y", "heading"], &[])?;
         if !g.next_row()? {
             return Err(DataError::row(&gt_path, 1, "has no rows (its first row is the initial pose)"));
@@ -156,8 +140,7 @@ impl World {
             );
         }
         let x0 = Pose::new(g.f64(1)?, g.f64(2)?, wrap(g.f64(3)?));
-        let name = dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "environment".into());
-        Ok(World::from_controls(name, Motion::Velocity, dt, x0, controls, landmarks))
+        Ok(World::from_controls(dir_name(dir), Motion::Velocity, dt, x0, controls, landmarks))
     }
 
     /// Reads the MATLAB environment file of the PHD-SLAM papers (`Environment_SLAM.mat`):
@@ -250,9 +233,9 @@ impl World {
     /// reads it back. This converts `Environment_SLAM.mat` to CSV.
     pub fn write_csv_dir(&self, dir: &Path) -> Result<(), DataError> {
         std::fs::create_dir_all(dir).map_err(|e| DataError::io(dir, e))?;
-        write_landmarks(&dir.join("landmarks.csv"), &self.landmarks)?;
+        write_landmarks(&dir.join(files::LANDMARKS), &self.landmarks)?;
         let cols = self.motion.control_columns();
-        let mut w = CsvOut::create(&dir.join("controls.csv"), &format!("t,{}", cols.join(",")))?;
+        let mut w = CsvOut::create(&dir.join(files::CONTROLS), &format!("t,{}", cols.join(",")))?;
         for (t, u) in &self.controls {
             match cols.len() {
                 3 => w.line(format_args!("{t},{},{},{}", u[0], u[1], u[2]))?,
@@ -260,7 +243,7 @@ impl World {
             }
         }
         w.finish()?;
-        let mut w = CsvOut::create(&dir.join("groundtruth.csv"), "t,x,y,heading")?;
+        let mut w = CsvOut::create(&dir.join(files::GROUNDTRUTH), "t,x,y,heading")?;
         for (t, x) in &self.poses {
             w.line(format_args!("{t},{},{},{}", x.x, x.y, x.z))?;
         }
@@ -384,6 +367,11 @@ impl World {
 
 /// `poses[0] = (t_0, x0)`, `poses[i+1] = (t_{i+1}, f(poses[i], u_i, dt))`: one pose per
 /// control, the last control unused.
+/// The name of the world of an environment directory: the directory's name.
+fn dir_name(dir: &Path) -> String {
+    dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "environment".into())
+}
+
 fn propagate_poses(motion: &Motion, dt: f64, x0: Pose, controls: &[(f64, Control)]) -> Vec<(f64, Pose)> {
     let mut poses = Vec::with_capacity(controls.len().max(1));
     let mut x = x0;
@@ -398,12 +386,12 @@ fn propagate_poses(motion: &Motion, dt: f64, x0: Pose, controls: &[(f64, Control
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mat::build;
-    use crate::testutil::{TempDir, shared_data};
+    use rfslam_data::mat::build;
+    use rfslam_data::testutil::{TempDir, mat_only_environment, synthetic_csv_and_mat};
 
     #[test]
     fn csv_world_propagation_matches_groundtruth_csv() {
-        let Some(dir) = shared_data("phd-slam-synthetic") else { return };
+        let Some((dir, _)) = synthetic_csv_and_mat() else { return };
         let w = World::from_csv_dir(&dir).unwrap();
         assert_eq!(w.landmarks.len(), 160);
         assert_eq!(w.controls.len(), 4000);
@@ -427,8 +415,7 @@ mod tests {
 
     #[test]
     fn mat_world_equals_csv_world() {
-        let Some(dir) = shared_data("phd-slam-synthetic") else { return };
-        let mat_path = dir.join("Environment_SLAM.mat");
+        let Some((dir, mat_path)) = synthetic_csv_and_mat() else { return };
         let m = World::from_mat(&mat_path).unwrap();
         let c = World::from_csv_dir(&dir).unwrap();
         assert_eq!(m.landmarks.len(), c.landmarks.len());
@@ -480,6 +467,43 @@ mod tests {
         assert!(e.contains("controls.csv:1: missing column `omega`"), "{e}");
     }
 
+    #[test]
+    fn environment_dir_reads_the_mat_when_the_csv_layout_is_absent() {
+        let tmp = TempDir::new("world-env");
+        let dir = tmp.path().join("my-env");
+        std::fs::create_dir_all(&dir).unwrap();
+        // Neither: both candidates are listed, with where to download the data.
+        let e = World::from_environment_dir(&dir).unwrap_err();
+        assert!(matches!(e, DataError::NotFound { ref tried, .. } if tried.len() == 2), "{e:?}");
+        let e = e.to_string();
+        assert!(e.contains("landmarks.csv") && e.contains(ENVIRONMENT_MAT), "{e}");
+        assert!(e.contains("github.com/okaltiok/PHD-SLAM-3.0") && e.contains("SD data set"), "{e}");
+        // Only the .mat: read, named after the directory.
+        std::fs::write(dir.join(ENVIRONMENT_MAT), small_mat(2)).unwrap();
+        let from_mat = World::from_environment_dir(&dir).unwrap();
+        let mut expect = World::from_mat(&dir.join(ENVIRONMENT_MAT)).unwrap();
+        assert_eq!(from_mat.name, "my-env");
+        expect.name = "my-env".into();
+        assert_eq!(from_mat, expect);
+        // The CSV layout, when present, is read instead of the .mat.
+        let other = World::procedural(&ProceduralParams { steps: 5, landmarks: 2, ..Default::default() }, 4).unwrap();
+        other.write_csv_dir(&dir).unwrap();
+        assert_eq!(World::from_environment_dir(&dir).unwrap(), World::from_csv_dir(&dir).unwrap());
+        // A partial CSV layout without the .mat: the CSV reader names the missing file.
+        std::fs::remove_file(dir.join(ENVIRONMENT_MAT)).unwrap();
+        std::fs::remove_file(dir.join(files::LANDMARKS)).unwrap();
+        let e = World::from_environment_dir(&dir).unwrap_err().to_string();
+        assert!(e.contains("landmarks.csv") && !e.contains(ENVIRONMENT_MAT), "{e}");
+    }
+
+    /// The published environment as downloaded (the .mat alone) is the CSV world bit for bit.
+    #[test]
+    fn published_mat_alone_gives_the_csv_world_bit_for_bit() {
+        let Some((shared, mat)) = synthetic_csv_and_mat() else { return };
+        let (_tmp, dir) = mat_only_environment(&mat, "world-mat-only");
+        assert_eq!(World::from_environment_dir(&dir).unwrap(), World::from_csv_dir(&shared).unwrap());
+    }
+
     /// A small MAT file with the three variables (landmarks compressed, like MATLAB -v7).
     fn small_mat(control_rows: usize) -> Vec<u8> {
         let mut f = build::header();
@@ -516,13 +540,13 @@ mod tests {
         let p = tmp.path().join("cut.mat");
         std::fs::write(&p, &bytes[..bytes.len() - 20]).unwrap();
         let e = World::from_mat(&p).unwrap_err();
-        assert!(matches!(e, DataError::Mat { source: crate::mat::MatError::Truncated { .. }, .. }), "{e:?}");
+        assert!(matches!(e, DataError::Mat { source: rfslam_data::MatError::Truncated { .. }, .. }), "{e:?}");
         assert!(e.to_string().contains("cut.mat") && e.to_string().contains("truncated"), "{e}");
         // Not a MAT file.
         let p = tmp.path().join("text.mat");
         std::fs::write(&p, "t,v,omega\n0,1,0\n").unwrap();
         let e = World::from_mat(&p).unwrap_err();
-        assert!(matches!(e, DataError::Mat { source: crate::mat::MatError::NotMat(_), .. }), "{e:?}");
+        assert!(matches!(e, DataError::Mat { source: rfslam_data::MatError::NotMat(_), .. }), "{e:?}");
         // Missing variable.
         let mut f = build::header();
         f.extend(build::double_matrix("Robot_Control", 2, 2, &[1.0, 0.0, 1.0, 0.0]));

@@ -1,0 +1,28 @@
+//! rfslam-sim: what turns a scenario into the data set of each Monte Carlo run.
+//!
+//! - [`World`]: landmarks and true trajectory, from the phd-slam-synthetic CSV layout, the
+//!   MATLAB `Environment_SLAM.mat` (read with [`rfslam_data::mat`]) or procedurally.
+//! - [`simulate()`]: the PHD-SLAM papers' synthetic generator (world + models + run seed ->
+//!   data set with truth labels).
+//! - [`glmb_sim`]: the simulated world of delta-GLMB-SLAM 2.0.
+//! - [`VictoriaPark`]: the Victoria Park recording (`measurements.dat`, `inputs.dat`,
+//!   `gps.dat`) imported into a data set with the artificial clutter of PHD-SLAM 3.0
+//!   Section VI-B ([`victoria_park`]).
+//! - [`ScenarioData`]: a scenario's world, filter models and per-run data sets.
+//!
+//! The formats (data set directories, CSV, MAT, scenario files) are `rfslam-data`'s. Random
+//! draws come from [`rfslam_core::rng::stream`] with the purposes `WORLD` (procedural
+//! worlds) and `SCENARIO` (measurements and odometry of a run).
+
+#![warn(missing_docs)]
+
+pub mod glmb_sim;
+pub mod scenario;
+pub mod simulate;
+pub mod victoria_park;
+pub mod world;
+
+pub use scenario::ScenarioData;
+pub use simulate::simulate;
+pub use victoria_park::VictoriaPark;
+pub use world::World;
