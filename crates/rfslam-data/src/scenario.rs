@@ -242,7 +242,7 @@ impl ScenarioConfig {
 
     /// Reads, parses and validates a scenario file.
     pub fn from_file(path: &Path) -> Result<ScenarioConfig, DataError> {
-        let text = std::fs::read_to_string(path).map_err(|e| DataError::io(path, e))?;
+        let text = DataError::read_text(path)?;
         ScenarioConfig::from_toml_str(&text, path)
     }
 
@@ -473,7 +473,15 @@ rate = 5.0
         let e = err(&PROCEDURAL.replace("rate = 5.0", "rate = -5.0"));
         assert!(e.starts_with("scen.toml:25: clutter.rate must be >= 0"), "{e}");
         let e = err(&PROCEDURAL.replace("steps = 200", "steps = 1"));
-        assert!(e.starts_with("scen.toml:6: world.steps must be >= 2"), "{e}");
+        assert!(e.starts_with("scen.toml:6: world.steps must be in [2, 1000000]"), "{e}");
+        // Absurd sizes are refused before anything is allocated (they aborted the process).
+        let e = err(&PROCEDURAL.replace("steps = 200", "steps = 1000000000000"));
+        assert!(e.starts_with("scen.toml:6: world.steps must be in [2, 1000000]"), "{e}");
+        let e = err(&PROCEDURAL.replace("landmarks = 30", "landmarks = 4294967296"));
+        assert!(e.starts_with("scen.toml:7: world.landmarks must be in [0, 100000]"), "{e}");
+        // An extent of 1e308 overflowed the landmark grid's cell index (a panic in debug).
+        let e = err(&PROCEDURAL.replace("[world]", "[world]\nextent = 1e308"));
+        assert!(e.contains("world.extent must be at most 1e7"), "{e}");
         let e = err(&PROCEDURAL.replace("landmarks = 30", "landmarks = 30\nlandmark_count = 3"));
         assert!(e.starts_with("scen.toml:8:") && e.contains("unknown field `landmark_count`"), "{e}");
         let e = err(&PROCEDURAL.replace("kind = \"procedural\"", "kind = \"maze\""));

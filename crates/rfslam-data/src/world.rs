@@ -87,15 +87,31 @@ impl ProceduralParams {
     /// Smallest distance between two landmarks (m).
     pub const MIN_SEPARATION: f64 = 5.0;
 
+    /// Largest number of poses: more is refused before anything is allocated (a mistyped
+    /// count would otherwise abort the process on allocation).
+    pub const MAX_STEPS: usize = 1_000_000;
+    /// Largest number of landmarks, refused likewise.
+    pub const MAX_LANDMARKS: usize = 100_000;
+    /// Largest side of the square (m): beyond it a double no longer resolves the
+    /// centimetres of the noise, and far beyond it the landmark grid's cells overflow.
+    pub const MAX_EXTENT: f64 = 1e7;
+
     /// Checks the values; keys are relative to the `[world]` table (`steps`).
     pub fn validate(&self) -> Result<(), ConfigError> {
-        if self.steps < 2 {
-            return Err(ConfigError::new("steps", "must be >= 2"));
+        if !(2..=Self::MAX_STEPS).contains(&self.steps) {
+            return Err(ConfigError::new("steps", format!("must be in [2, {}]", Self::MAX_STEPS)));
+        }
+        if self.landmarks > Self::MAX_LANDMARKS {
+            return Err(ConfigError::new("landmarks", format!("must be in [0, {}]", Self::MAX_LANDMARKS)));
         }
         positive("dt", self.dt)?;
         positive("speed", self.speed)?;
         positive("max_turn_rate_deg", self.max_turn_rate_deg)?;
-        positive("extent", self.extent)
+        positive("extent", self.extent)?;
+        if self.extent > Self::MAX_EXTENT {
+            return Err(ConfigError::new("extent", format!("must be at most {:e}", Self::MAX_EXTENT)));
+        }
+        Ok(())
     }
 }
 
