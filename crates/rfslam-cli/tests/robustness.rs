@@ -136,6 +136,27 @@ fn count(tally: &RefCell<Tally>, kind: fn(&mut Tally) -> &mut usize) {
     }
 }
 
+/// Counts a case that kept the contract by its exit code.
+fn count_exit(tally: &RefCell<Tally>, code: i32) {
+    match code {
+        0 => count(tally, |t| &mut t.ok),
+        1 => count(tally, |t| &mut t.exit1),
+        _ => count(tally, |t| &mut t.exit2),
+    }
+}
+
+/// Prints the property's summary line, then fails with its minimal violating case if any.
+fn finish(
+    tally: &RefCell<Tally>,
+    what: &str,
+    result: Result<(), proptest::test_runner::TestError<impl std::fmt::Debug>>,
+) {
+    println!("{}", tally.borrow().summary(what));
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+}
+
 /// The part of the contract common to every invocation: returns the exit code (0, 1 or 2)
 /// or the violation. `files`: the files the mutations touched (one must be named on
 /// failure); `located`: whether the message must also give a line, key or column.
@@ -510,45 +531,38 @@ fn dataset_mutations_keep_the_contract() {
         let (f, n) = FILTERS[fi];
         let e = run_bounded(&case_dir, &["run", "--dataset", "ds", "--filter", f, "--particles", n, "--out", "o"]);
         let code = check_exit(&tally, &e, &touched, located).map_err(|err| with_case(err, &muts, f))?;
-        match code {
-            0 => {
-                let path = case_dir.join("o/metrics.json");
-                if !path.exists() {
+        if code == 0 {
+            let path = case_dir.join("o/metrics.json");
+            if !path.exists() {
+                return Err(violation(
+                    &tally,
+                    |t| &mut t.other,
+                    format!("exit 0 without metrics.json ({muts:?}, {f})"),
+                ));
+            }
+            let m = metrics_raw(&path);
+            if m.get("scored_steps").is_none_or(|v| v == "0") && !may_be_unscored(&touched) {
+                return Err(violation(&tally, |t| &mut t.other, format!("exit 0, no scored step ({muts:?}, {f})")));
+            }
+            for (k, v) in &m {
+                let bad = match v.as_str() {
+                    "null" => !may_be_null(k, &m, &touched),
+                    s if s.starts_with('"') => false,
+                    s => !s.parse::<f64>().is_ok_and(f64::is_finite),
+                };
+                if bad {
                     return Err(violation(
                         &tally,
-                        |t| &mut t.other,
-                        format!("exit 0 without metrics.json ({muts:?}, {f})"),
+                        |t| &mut t.non_finite,
+                        format!("exit 0 with {k} = {v} ({muts:?}, {f})"),
                     ));
                 }
-                let m = metrics_raw(&path);
-                if m.get("scored_steps").is_none_or(|v| v == "0") && !may_be_unscored(&touched) {
-                    return Err(violation(&tally, |t| &mut t.other, format!("exit 0, no scored step ({muts:?}, {f})")));
-                }
-                for (k, v) in &m {
-                    let bad = match v.as_str() {
-                        "null" => !may_be_null(k, &m, &touched),
-                        s if s.starts_with('"') => false,
-                        s => !s.parse::<f64>().is_ok_and(f64::is_finite),
-                    };
-                    if bad {
-                        return Err(violation(
-                            &tally,
-                            |t| &mut t.non_finite,
-                            format!("exit 0 with {k} = {v} ({muts:?}, {f})"),
-                        ));
-                    }
-                }
-                count(&tally, |t| &mut t.ok);
             }
-            1 => count(&tally, |t| &mut t.exit1),
-            _ => count(&tally, |t| &mut t.exit2),
         }
+        count_exit(&tally, code);
         Ok(())
     });
-    println!("{}", tally.borrow().summary("dataset mutations"));
-    if let Err(e) = result {
-        panic!("{e}");
-    }
+    finish(&tally, "dataset mutations", result);
 }
 
 /// A failure with the case that caused it.
@@ -764,33 +778,26 @@ fn experiment_and_scenario_mutations_keep_the_contract() {
         let touched: Vec<String> = muts.iter().map(|m| m.target().file().to_string()).collect();
         let e = run_bounded(&case_dir, &["sweep", "exp.toml", "--jobs", "1", "--quiet", "--out", "out"]);
         let code = check_exit(&tally, &e, &touched, true).map_err(|err| with_case(err, &muts, "sweep"))?;
-        match code {
-            0 => {
-                let path = case_dir.join("out/runs.csv");
-                if !path.exists() {
-                    return Err(violation(&tally, |t| &mut t.other, format!("exit 0 without runs.csv ({muts:?})")));
-                }
-                let runs = Csv::read(&path);
-                for row in runs.maps() {
-                    for (k, v) in row.iter().filter(|(k, _)| k.as_str() != "filter") {
-                        if !(v.is_empty() || v.parse::<f64>().is_ok_and(f64::is_finite)) {
-                            return Err(violation(
-                                &tally,
-                                |t| &mut t.non_finite,
-                                format!("exit 0 with {k} = {v:?} in runs.csv ({muts:?})"),
-                            ));
-                        }
+        if code == 0 {
+            let path = case_dir.join("out/runs.csv");
+            if !path.exists() {
+                return Err(violation(&tally, |t| &mut t.other, format!("exit 0 without runs.csv ({muts:?})")));
+            }
+            let runs = Csv::read(&path);
+            for row in runs.maps() {
+                for (k, v) in row.iter().filter(|(k, _)| k.as_str() != "filter") {
+                    if !(v.is_empty() || v.parse::<f64>().is_ok_and(f64::is_finite)) {
+                        return Err(violation(
+                            &tally,
+                            |t| &mut t.non_finite,
+                            format!("exit 0 with {k} = {v:?} in runs.csv ({muts:?})"),
+                        ));
                     }
                 }
-                count(&tally, |t| &mut t.ok);
             }
-            1 => count(&tally, |t| &mut t.exit1),
-            _ => count(&tally, |t| &mut t.exit2),
         }
+        count_exit(&tally, code);
         Ok(())
     });
-    println!("{}", tally.borrow().summary("experiment mutations"));
-    if let Err(e) = result {
-        panic!("{e}");
-    }
+    finish(&tally, "experiment mutations", result);
 }
