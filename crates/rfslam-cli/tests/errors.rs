@@ -150,7 +150,7 @@ fn scenario_errors_name_the_scenario_file_line_and_key() {
 
 #[test]
 fn bad_grid_keys_and_values_name_the_grid_key() {
-    let (tmp, _, exp) = setup("bad-grid");
+    let (tmp, scen, exp) = setup("bad-grid");
     let text = format!("{exp}\n[grid]\n\"bogus.x\" = [1]\n");
     sweep_config_error(&tmp, &text, "\"bogus.x\"", &["bogus.x", "scenario.<key>"]);
     let text = format!("{exp}\n[grid]\n\"filter.nobody.x\" = [1]\n");
@@ -167,6 +167,9 @@ fn bad_grid_keys_and_values_name_the_grid_key() {
     let text = format!("{exp}\n[grid]\n\"scenario.clutter.rate\" = [1.0, \"abc\"]\n");
     sweep_config_error(&tmp, &text, "\"scenario.clutter.rate\"", &["scenario.clutter.rate", "\"abc\""]);
     let text = format!("{exp}\n[grid]\n\"scenario.clutter.rate\" = [1.0]\n\"scenario.no_such_table.x\" = [1]\n");
+    sweep_config_error(&tmp, &text, "\"scenario.no_such_table.x\"", &["scenario.no_such_table.x", "no_such_table"]);
+    // Also when the scenario file has a bad value of its own (found only after the grid's).
+    tmp.write("scen.toml", &replace_once(&scen, "rate = 2.0", "rate = -2.0"));
     sweep_config_error(&tmp, &text, "\"scenario.no_such_table.x\"", &["scenario.no_such_table.x", "no_such_table"]);
 }
 

@@ -518,9 +518,10 @@ impl Plan {
             }
         }
 
-        let valid_scenario =
-            |t: toml::Table| toml::Value::Table(t).try_into::<ScenarioConfig>().is_ok_and(|sc| sc.validate().is_ok());
-        let base_valid = valid_scenario(scenario_table.clone());
+        // The scenario file deserialized (load_scenario_table); whether its values are valid too.
+        let base_valid = toml::Value::Table(scenario_table.clone())
+            .try_into::<ScenarioConfig>()
+            .is_ok_and(|sc| sc.validate().is_ok());
         let mut points = Vec::new();
         let mut worlds: Vec<(String, Arc<World>)> = Vec::new();
         let names: Vec<&str> = config.filters.iter().flat_map(|f| [f.label(), f.name.as_str()]).collect();
@@ -561,8 +562,8 @@ impl Plan {
                     || set.strip_suffix(key).is_some_and(|r| r.ends_with('.'))
             };
             // The grid key that set the value of the error's `key`, else the one whose value
-            // alone breaks the scenario (which is valid without the grid): a type error names
-            // no key, an unknown table only its first part.
+            // alone breaks the scenario (which deserializes without the grid, and may be valid):
+            // a type error names no key, an unknown table only its first part.
             let set_by = |key: &str| {
                 let scenario_keys =
                     || grid_keys.iter().zip(&values).filter_map(|(g, v)| Some((g, g.strip_prefix("scenario.")?, v)));
@@ -571,7 +572,10 @@ impl Plan {
                     .or_else(|| {
                         scenario_keys().find(|(_, set, v)| {
                             let mut t = scenario_table.clone();
-                            base_valid && (set_dotted(&mut t, set, (*v).clone()).is_err() || !valid_scenario(t))
+                            set_dotted(&mut t, set, (*v).clone()).is_err()
+                                || toml::Value::Table(t)
+                                    .try_into::<ScenarioConfig>()
+                                    .map_or(true, |sc| base_valid && sc.validate().is_err())
                         })
                     })
                     .map(|(g, ..)| g)
