@@ -133,6 +133,9 @@ fn scenario_errors_name_the_scenario_file_line_and_key() {
         (replace_once(&scen, "rate = 2.0", "rat = 5"), "rat = 5", "clutter.rat"),
         (replace_once(&scen, "rate = 2.0", "rate = -2.0"), "rate = -2.0", "clutter.rate"),
         (replace_once(&scen, "sigma_v = 0.8", "sigma_v = \"fast\""), "sigma_v = \"fast\"", "sigma_v"),
+        // Absurd sizes aborted the process on allocation ("memory allocation of ... failed").
+        (replace_once(&scen, "steps = 50", "steps = 1000000000000"), "steps = 1000000000000", "world.steps"),
+        (replace_once(&scen, "landmarks = 10", "landmarks = 4294967296"), "landmarks = 4294967296", "world.landmarks"),
     ] {
         tmp.write("scen.toml", &bad);
         let at = format!("scen.toml:{}:", line_of(&bad, needle));
@@ -147,7 +150,7 @@ fn scenario_errors_name_the_scenario_file_line_and_key() {
 
 #[test]
 fn bad_grid_keys_and_values_name_the_grid_key() {
-    let (tmp, _, exp) = setup("bad-grid");
+    let (tmp, scen, exp) = setup("bad-grid");
     let text = format!("{exp}\n[grid]\n\"bogus.x\" = [1]\n");
     sweep_config_error(&tmp, &text, "\"bogus.x\"", &["bogus.x", "scenario.<key>"]);
     let text = format!("{exp}\n[grid]\n\"filter.nobody.x\" = [1]\n");
@@ -158,6 +161,16 @@ fn bad_grid_keys_and_values_name_the_grid_key() {
     sweep_config_error(&tmp, &text, "\"scenario.clutter.rat\"", &["scenario.clutter.rat", "`rat`"]);
     let text = format!("{exp}\n[grid]\n\"filter.dr-a.bogus\" = [1]\n");
     sweep_config_error(&tmp, &text, "\"filter.dr-a.bogus\"", &["filter.dr-a.bogus", "bogus"]);
+    // A value of the wrong type, and a table the scenario does not have, were reported as
+    // errors of the scenario file without a line (the deserializer names no key or only its
+    // first part); the grid key that set them is named, also beside another scenario key.
+    let text = format!("{exp}\n[grid]\n\"scenario.clutter.rate\" = [1.0, \"abc\"]\n");
+    sweep_config_error(&tmp, &text, "\"scenario.clutter.rate\"", &["scenario.clutter.rate", "\"abc\""]);
+    let text = format!("{exp}\n[grid]\n\"scenario.clutter.rate\" = [1.0]\n\"scenario.no_such_table.x\" = [1]\n");
+    sweep_config_error(&tmp, &text, "\"scenario.no_such_table.x\"", &["scenario.no_such_table.x", "no_such_table"]);
+    // Also when the scenario file has a bad value of its own (found only after the grid's).
+    tmp.write("scen.toml", &replace_once(&scen, "rate = 2.0", "rate = -2.0"));
+    sweep_config_error(&tmp, &text, "\"scenario.no_such_table.x\"", &["scenario.no_such_table.x", "no_such_table"]);
 }
 
 #[test]
@@ -210,6 +223,21 @@ fn missing_or_corrupt_dataset_is_bad_input() {
         &["run", "--dataset", "ds", "--filter", "dead-reckoning", "--out", "o"],
         2,
         &["measurements.csv:4", "range"],
+    );
+
+    // Bytes that are not UTF-8 in dataset.toml named the file but not the line.
+    ok(tmp.path(), &["simulate", "--scenario", "scen.toml", "--seed", "2", "--out", "ds2"]);
+    let meta = tmp.read("ds2/dataset.toml");
+    let mut bytes = meta.as_bytes().to_vec();
+    let at = meta.find("[sensor]").unwrap();
+    bytes.splice(at..at, [0xff, 0xfe]);
+    std::fs::write(tmp.join("ds2/dataset.toml"), bytes).unwrap();
+    let line = format!("dataset.toml:{}:", line_of(&meta, "[sensor]"));
+    fails(
+        tmp.path(),
+        &["run", "--dataset", "ds2", "--filter", "dead-reckoning", "--out", "o"],
+        2,
+        &[&line, "not valid UTF-8"],
     );
 }
 

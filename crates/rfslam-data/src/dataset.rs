@@ -105,7 +105,7 @@ impl DatasetMeta {
     /// Reads and validates `dir/dataset.toml` alone.
     pub fn read(dir: &Path) -> Result<DatasetMeta, DataError> {
         let path = dir.join(files::META);
-        let text = std::fs::read_to_string(&path).map_err(|e| DataError::io(&path, e))?;
+        let text = DataError::read_text(&path)?;
         DatasetMeta::from_toml_str(&text, &path)
     }
 

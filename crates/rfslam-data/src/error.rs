@@ -148,6 +148,16 @@ impl DataError {
         }
     }
 
+    /// Reads the text file `path`; bytes that are not UTF-8 are an error naming their line.
+    pub(crate) fn read_text(path: &Path) -> Result<String, DataError> {
+        let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
+        String::from_utf8(bytes).map_err(|e| {
+            let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+            let line = 1 + valid.iter().filter(|&&b| b == b'\n').count() as u64;
+            DataError::row(path, line, "is not valid UTF-8")
+        })
+    }
+
     /// A bad value in `column` at `path:line`.
     pub fn value(path: &Path, line: u64, column: &str, message: impl Into<String>) -> Self {
         DataError::Invalid { path: path.to_path_buf(), line, column: Some(column.to_string()), message: message.into() }

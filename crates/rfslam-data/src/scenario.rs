@@ -79,15 +79,31 @@ impl ProceduralParams {
     /// Smallest distance between two landmarks (m).
     pub const MIN_SEPARATION: f64 = 5.0;
 
+    /// Largest number of poses: more is refused before anything is allocated (a mistyped
+    /// count would otherwise abort the process on allocation).
+    pub const MAX_STEPS: usize = 1_000_000;
+    /// Largest number of landmarks, refused likewise.
+    pub const MAX_LANDMARKS: usize = 100_000;
+    /// Largest side of the square (m): beyond it a double no longer resolves the
+    /// centimetres of the noise, and far beyond it the landmark grid's cells overflow.
+    pub const MAX_EXTENT: f64 = 1e7;
+
     /// Checks the values; keys are relative to the `[world]` table (`steps`).
     pub fn validate(&self) -> Result<(), ConfigError> {
-        if self.steps < 2 {
-            return Err(ConfigError::new("steps", "must be >= 2"));
+        if !(2..=Self::MAX_STEPS).contains(&self.steps) {
+            return Err(ConfigError::new("steps", format!("must be in [2, {}]", Self::MAX_STEPS)));
+        }
+        if self.landmarks > Self::MAX_LANDMARKS {
+            return Err(ConfigError::new("landmarks", format!("must be in [0, {}]", Self::MAX_LANDMARKS)));
         }
         positive("dt", self.dt)?;
         positive("speed", self.speed)?;
         positive("max_turn_rate_deg", self.max_turn_rate_deg)?;
-        positive("extent", self.extent)
+        positive("extent", self.extent)?;
+        if self.extent > Self::MAX_EXTENT {
+            return Err(ConfigError::new("extent", format!("must be at most {:e}", Self::MAX_EXTENT)));
+        }
+        Ok(())
     }
 }
 
@@ -294,7 +310,7 @@ impl ScenarioConfig {
 
     /// Reads, parses and validates a scenario file.
     pub fn from_file(path: &Path) -> Result<ScenarioConfig, DataError> {
-        let text = std::fs::read_to_string(path).map_err(|e| DataError::io(path, e))?;
+        let text = DataError::read_text(path)?;
         ScenarioConfig::from_toml_str(&text, path)
     }
 
@@ -424,7 +440,15 @@ mod tests {
         let e = err(&SMALL_SCENARIO.replace("rate = 5.0", "rate = -5.0"));
         assert!(e.starts_with(&format!("{} clutter.rate must be >= 0", at("rate"))), "{e}");
         let e = err(&SMALL_SCENARIO.replace("steps = 120", "steps = 1"));
-        assert!(e.starts_with(&format!("{} world.steps must be >= 2", at("steps"))), "{e}");
+        assert!(e.starts_with(&format!("{} world.steps must be in [2, 1000000]", at("steps"))), "{e}");
+        // Absurd sizes are refused before anything is allocated (they aborted the process).
+        let e = err(&SMALL_SCENARIO.replace("steps = 120", "steps = 1000000000000"));
+        assert!(e.starts_with(&format!("{} world.steps must be in [2, 1000000]", at("steps"))), "{e}");
+        let e = err(&SMALL_SCENARIO.replace("landmarks = 25", "landmarks = 4294967296"));
+        assert!(e.starts_with(&format!("{} world.landmarks must be in [0, 100000]", at("landmarks"))), "{e}");
+        // An extent of 1e308 overflowed the landmark grid's cell index (a panic in debug).
+        let e = err(&SMALL_SCENARIO.replace("extent = 300.0", "extent = 1e308"));
+        assert!(e.contains("world.extent must be at most 1e7"), "{e}");
         let e = err(&SMALL_SCENARIO.replace("landmarks = 25", "landmarks = 25\nlandmark_count = 3"));
         let next = format!("scen.toml:{}:", line("landmarks") + 1);
         assert!(e.starts_with(&next) && e.contains("unknown field `landmark_count`"), "{e}");

@@ -520,6 +520,10 @@ impl Plan {
             }
         }
 
+        // The scenario file deserialized (load_scenario_table); whether its values are valid too.
+        let base_valid = toml::Value::Table(scenario_table.clone())
+            .try_into::<ScenarioConfig>()
+            .is_ok_and(|sc| sc.validate().is_ok());
         let mut points = Vec::new();
         let mut worlds: Vec<(String, Arc<World>)> = Vec::new();
         let names: Vec<&str> = config.filters.iter().flat_map(|f| [f.label(), f.name.as_str()]).collect();
@@ -559,13 +563,32 @@ impl Plan {
                     || key.strip_prefix(set).is_some_and(|r| r.starts_with('.'))
                     || set.strip_suffix(key).is_some_and(|r| r.ends_with('.'))
             };
-            let scenario = scenario_from_table(&sc_table, &|key: &str, msg: String| match grid_keys
-                .iter()
-                .find(|g| g.strip_prefix("scenario.").is_some_and(|set| covers(set, key)))
-            {
+            // The grid key that set the value of the error's `key`, else the one whose value
+            // alone breaks the scenario (which deserializes without the grid, and may be valid):
+            // a type error names no key, an unknown table only its first part.
+            let set_by = |key: &str| {
+                let scenario_keys =
+                    || grid_keys.iter().zip(&values).filter_map(|(g, v)| Some((g, g.strip_prefix("scenario.")?, v)));
+                scenario_keys()
+                    .find(|(_, set, _)| !key.is_empty() && covers(set, key))
+                    .or_else(|| {
+                        scenario_keys().find(|(_, set, v)| {
+                            let mut t = scenario_table.clone();
+                            set_dotted(&mut t, set, (*v).clone()).is_err()
+                                || toml::Value::Table(t)
+                                    .try_into::<ScenarioConfig>()
+                                    .map_or(true, |sc| base_valid && sc.validate().is_err())
+                        })
+                    })
+                    .map(|(g, ..)| g)
+            };
+            let scenario = scenario_from_table(&sc_table, &|key: &str, msg: String| match set_by(key) {
                 Some(g) => err(
                     &format!("grid.\"{g}\""),
-                    format!("at grid point ({}): scenario key `{key}`: {msg}", at(&values)),
+                    match key {
+                        "" => format!("at grid point ({}): {msg}", at(&values)),
+                        _ => format!("at grid point ({}): scenario key `{key}`: {msg}", at(&values)),
+                    },
                 ),
                 None => config_error(
                     &scenario_path,
