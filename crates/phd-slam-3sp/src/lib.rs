@@ -76,6 +76,11 @@ pub enum SlrSpace {
     Joint,
 }
 
+/// Smallest `sigma_alpha` accepted (the unscented transform's usual lower end).
+pub const SIGMA_ALPHA_MIN: f64 = 1e-4;
+/// Largest `sigma_alpha` accepted.
+pub const SIGMA_ALPHA_MAX: f64 = 1e4;
+
 /// The sigma-point settings of `phd-3.0-sp`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -111,12 +116,21 @@ impl SigmaParams {
         }
     }
 
-    /// Checks ranges (errors name the key).
+    /// Checks ranges (errors name the key): `sigma_alpha` in [[`SIGMA_ALPHA_MIN`],
+    /// [`SIGMA_ALPHA_MAX`]], `sigma_beta` finite, `n + sigma_kappa > 0`.
     pub fn validate(&self) -> Result<(), ParamError> {
         Interval::POSITIVE.check("sigma_alpha", self.sigma_alpha)?;
+        // A smaller alpha puts the sigma points so close to the mean that alpha^2 (n + kappa)
+        // underflows and the weights, 1 / (2 alpha^2 (n + kappa)), overflow.
+        if !(SIGMA_ALPHA_MIN..=SIGMA_ALPHA_MAX).contains(&self.sigma_alpha) {
+            return Err(ParamError::new(
+                "sigma_alpha",
+                format!("must be in [{SIGMA_ALPHA_MIN:e}, {SIGMA_ALPHA_MAX:e}] (got {})", self.sigma_alpha),
+            ));
+        }
         Interval::FINITE.check("sigma_beta", self.sigma_beta)?;
         let n = self.dimension();
-        if !(self.sigma_kappa.is_finite() && self.rule().spread2(n) > 0.0) {
+        if !(self.sigma_kappa.is_finite() && n as f64 + self.sigma_kappa > 0.0) {
             return Err(ParamError::new(
                 "sigma_kappa",
                 format!("must be finite and > -{n} (the dimension of slr_space) (got {})", self.sigma_kappa),
@@ -405,6 +419,9 @@ mod tests {
         assert!(toml::from_str::<SpParams>("slr_space = \"both\"").is_err());
         let bad = |s: &str| SpProposal::validate(&toml::from_str::<SpParams>(s).unwrap()).unwrap_err().key;
         assert_eq!(bad("sigma_alpha = 0.0"), "sigma_alpha");
+        // alpha^2 (n + kappa) underflowed to 0 and the error blamed sigma_kappa.
+        assert_eq!(bad("sigma_alpha = 1e-300"), "sigma_alpha");
+        assert_eq!(bad("sigma_alpha = 1e300"), "sigma_alpha");
         assert_eq!(bad("sigma_kappa = -3.0"), "sigma_kappa");
         assert_eq!(bad("slr_space = \"joint\"\nsigma_kappa = -5.0"), "sigma_kappa");
         assert_eq!(bad("ipl_iterations = 0"), "ipl_iterations");
