@@ -136,6 +136,9 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let out = args.out.as_path();
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let o = run_with_outputs(args, &ds, f.as_mut(), &ov.metrics)?;
+    if let Some(w) = o.unscored_truth(&ds, &ov.metrics) {
+        eprintln!("warning: {w}");
+    }
     // A score that is not a finite number is a failed run (exit 1), not a result.
     if let Some(what) = o.not_finite(&ov.metrics) {
         trace::remove_stale(&out.join("metrics.json"))?;

@@ -264,3 +264,49 @@ fn absurd_run_and_thread_counts_are_refused_before_any_job() {
     assert!(o.stderr.contains("--jobs 1000 is more than this machine's"), "{}", o.stderr);
     assert!(o.stdout.contains("6 jobs run"), "{}", o.stdout);
 }
+
+#[test]
+fn empty_data_is_refused_and_truth_that_scores_nothing_is_said() {
+    // A data set with 0 scans ran and reported "0 steps" and a GOSPA; one without odometry
+    // ran at the initial pose; truth shifted off the scan times scored nothing in silence.
+    let tmp = TempDir::new("empty-data");
+    tmp.write("scen.toml", &scenario(40, 10, 0.95, 1.0));
+    ok(tmp.path(), &["simulate", "--scenario", "scen.toml", "--out", "ds"]);
+    let run = |out: &str| rfslam(tmp.path(), &["run", "--dataset", "ds", "--filter", "phd-1.0", "--out", out]);
+    let keep = |f: &str| tmp.read(&format!("ds/{f}"));
+    let (scans, odo, meas, truth) =
+        (keep("scans.csv"), keep("odometry.csv"), keep("measurements.csv"), keep("groundtruth.csv"));
+    let header = |text: &str| text.lines().next().unwrap().to_string() + "\n";
+    tmp.write("ds/scans.csv", &header(&scans));
+    tmp.write("ds/measurements.csv", &header(&meas));
+    let o = run("r0");
+    assert_eq!(o.code, 2, "{}", o.stderr);
+    assert!(o.stderr.contains("scans.csv") && o.stderr.contains("no scan"), "{}", o.stderr);
+    tmp.write("ds/scans.csv", &scans);
+    tmp.write("ds/measurements.csv", &meas);
+    tmp.write("ds/odometry.csv", &header(&odo));
+    let o = run("r1");
+    assert_eq!(o.code, 2, "{}", o.stderr);
+    assert!(o.stderr.contains("odometry.csv") && o.stderr.contains("no odometry row"), "{}", o.stderr);
+    tmp.write("ds/odometry.csv", &odo);
+    // Ground truth half a second off every scan: the run completes, and says why nothing
+    // was scored.
+    let shifted: Vec<String> = truth
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 0 {
+                return l.to_string();
+            }
+            let (t, rest) = l.split_once(',').unwrap();
+            format!("{},{rest}", t.parse::<f64>().unwrap() + 0.5)
+        })
+        .collect();
+    tmp.write("ds/groundtruth.csv", &(shifted.join("\n") + "\n"));
+    let o = run("r2");
+    assert_eq!(o.code, 0, "{}", o.stderr);
+    assert!(o.stderr.contains("warning: the ground truth") && o.stderr.contains("no step was scored"), "{}", o.stderr);
+    tmp.write("ds/groundtruth.csv", &truth);
+    let o = run("r3");
+    assert!(!o.stderr.contains("warning"), "{}", o.stderr);
+}

@@ -398,6 +398,10 @@ fn read_scans(path: &Path, initial_t: f64) -> Result<Vec<Scan>, DataError> {
         }
         scans.push(Scan { t, z: Vec::new(), truth: None });
     }
+    if scans.is_empty() {
+        // A run of zero steps would report a score of nothing as a result.
+        return Err(DataError::row(path, 2, "no scan: a data set needs at least one scan (row `0,<time>`)"));
+    }
     Ok(scans)
 }
 
@@ -474,6 +478,10 @@ fn read_odometry(path: &Path, motion: &Motion) -> Result<Vec<OdometryRow>, DataE
             u[i] = r.f64(i + 1)?;
         }
         out.push(OdometryRow { t, u });
+    }
+    if out.is_empty() {
+        // Without a control the filters cannot predict: every step would sit at the initial pose.
+        return Err(DataError::row(path, 2, "no odometry row: the motion model needs at least one control"));
     }
     Ok(out)
 }

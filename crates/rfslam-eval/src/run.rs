@@ -113,6 +113,23 @@ pub fn run_filter(
 }
 
 impl JobOutcome {
+    /// A warning when `ds` has ground truth but no step of the run was scored against it:
+    /// its times never fall within the tolerance of a scan's (shifted clocks, milliseconds
+    /// against seconds), so every pose score is empty.
+    pub fn unscored_truth(&self, ds: &Dataset, m: &MetricsConfig) -> Option<String> {
+        let truth = ds.groundtruth.as_ref().filter(|g| !g.is_empty())?;
+        if self.values.get("scored_steps").unwrap_or(0.0) > 0.0 {
+            return None;
+        }
+        let (t0, t1) = (truth[0].t, truth[truth.len() - 1].t);
+        let (s0, s1) = ds.scans.first().zip(ds.scans.last()).map_or((f64::NAN, f64::NAN), |(a, b)| (a.t, b.t));
+        Some(format!(
+            "the ground truth ({} rows, t = {t0} to {t1} s) lies within {} s of no scan (t = {s0} to {s1} s): no step was scored; check that both files use one clock in seconds ([metrics] truth_tolerance_s)",
+            truth.len(),
+            m.truth_tolerance_s
+        ))
+    }
+
     /// The first score of the metrics `m` turns on that is not a finite number where it
     /// must be one, described (`pos_rmse_m is NaN over 200 scored steps`): an infinite value
     /// anywhere; NaN in the position RMSE of a run with scored steps (every scored step has a

@@ -75,6 +75,13 @@ pub fn run_job(plan: &Plan, job: &Job) -> Result<RunRow, HarnessError> {
     let mut filter = (entry.build)(&f.params, &models, job.particles)
         .map_err(|source| HarnessError::Parameter { filter: f.label.clone(), source })?;
     let o = run_filter(&dataset, filter.as_mut(), job.seed, &plan.config.metrics, &mut |_| {});
+    // Truth that scores no step is a misconfiguration worth one warning per sweep.
+    static WARNED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+    if let Some(w) = o.unscored_truth(&dataset, &plan.config.metrics)
+        && !WARNED.swap(true, std::sync::atomic::Ordering::Relaxed)
+    {
+        eprintln!("warning: run {} of {} N={}: {w} (said once)", job.run, f.label, job.particles);
+    }
     // A result that is not a finite number is a failed job, never a row.
     if let Some(what) = o.not_finite(&plan.config.metrics) {
         let at = if plan.grid_keys.is_empty() { String::new() } else { format!(" at grid point {}", job.point + 1) };

@@ -108,6 +108,14 @@ impl VictoriaPark {
         let mut vp = VictoriaPark::parse_measurements(&mt, &mp)?;
         vp.inputs = parse_inputs(&it, &ip)?;
         vp.gps = parse_gps(&gt, &gp)?;
+        // An empty copy of either ran: without odometry the filters sat at the start (116 m
+        // "RMSE"), without GPS nothing was scored.
+        if vp.inputs.is_empty() {
+            return Err(DataError::row(&ip, 1, "no rows: the odometry of the recording is missing"));
+        }
+        if vp.gps.is_empty() {
+            return Err(DataError::row(&gp, 1, "no rows: the GPS fixes the runs are scored against are missing"));
+        }
         Ok(vp)
     }
 
@@ -573,6 +581,16 @@ mod tests {
         let e = VictoriaPark::read(tmp.path()).unwrap_err().to_string();
         assert!(e.contains(file), "error does not name {file}: {e}");
         e
+    }
+
+    #[test]
+    fn empty_odometry_or_gps_is_refused() {
+        // Either ran: without inputs.dat the filters sat at the start (116 m "RMSE"), without
+        // gps.dat nothing was scored.
+        let e = broken(files::INPUTS, |_| String::new());
+        assert!(e.contains("inputs.dat:1: no rows"), "{e}");
+        let e = broken(files::GPS, |_| "\n".into());
+        assert!(e.contains("gps.dat:1: no rows"), "{e}");
     }
 
     #[test]
