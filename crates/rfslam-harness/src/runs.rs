@@ -264,9 +264,8 @@ pub fn read_job_rows(
         if !jobs.contains(&key) {
             return Err(bad(format!("{job} is not a job of this sweep")));
         }
-        let seed = master_seed.wrapping_add(row.run as u64);
-        if row.seed != seed {
-            return Err(bad(format!("{job} has seed {}, but run {} of this sweep has seed {seed}", row.seed, row.run)));
+        if let Some(why) = seed_mismatch(&row, master_seed, &layout.grid_keys) {
+            return Err(bad(why));
         }
         match first.get(&key) {
             Some(&k) => {
@@ -286,6 +285,20 @@ pub fn read_job_rows(
         }
     }
     Ok((kept, duplicates))
+}
+
+/// Why `row` does not carry the run seed of its run in a sweep of master seed `master_seed`
+/// (run `r` has seed `master_seed + r`), or `None` when it does.
+pub fn seed_mismatch(row: &RunRow, master_seed: u64, grid_keys: &[String]) -> Option<String> {
+    let seed = master_seed.wrapping_add(row.run as u64);
+    (row.seed != seed).then(|| {
+        format!(
+            "{} has seed {}, but run {} of this sweep has seed {seed}",
+            describe_row(grid_keys, row),
+            row.seed,
+            row.run
+        )
+    })
 }
 
 /// `phd-1.0 N=10 run 3 (at scenario.clutter.rate = 5.0)`.

@@ -249,18 +249,8 @@ fn rows_by_job(
             )));
         }
         for row in read_rows(&path, layout)? {
-            let seed = master_seed.wrapping_add(row.run as u64);
-            if row.seed != seed {
-                return Err(HarnessError::BadRows {
-                    path: path.clone(),
-                    line: None,
-                    message: format!(
-                        "{} has seed {}, but run {} of this sweep has seed {seed}",
-                        crate::runs::describe_row(&layout.grid_keys, &row),
-                        row.seed,
-                        row.run
-                    ),
-                });
+            if let Some(message) = crate::runs::seed_mismatch(&row, master_seed, &layout.grid_keys) {
+                return Err(HarnessError::BadRows { path: path.clone(), line: None, message });
             }
             let key = row.key();
             if !expected_set.contains(&key) {
