@@ -6,7 +6,7 @@
 //! Bayes existence filter of eqs. (29)-(32) (prior 0.5) for map management. The machinery
 //! is [`crate::da::DaFastSlam`]; neither filter reads truth labels.
 
-use rfslam_core::params::{Interval, at_least_one};
+use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::{
     ControlSegment, Estimate, FilterBuild, ParamError, Pose, RbpfParams, Rng, Scan, SlamFilter, SlamModels, StepReport,
     Validated,
@@ -14,6 +14,11 @@ use rfslam_core::{
 use serde::{Deserialize, Serialize};
 
 use crate::da::{DaFastSlam, DaSettings};
+
+/// Default of [`MhParams::max_ambiguous_measurements`].
+pub const MAX_AMBIGUOUS_MEASUREMENTS: usize = 64;
+/// Upper end of the range of [`MhParams::max_population`].
+pub const MAX_POPULATION: usize = 1_000_000;
 
 /// Parameters of `fastslam-1.0` (and, with the branching, of `mh-fastslam`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -57,6 +62,12 @@ pub struct MhParams {
     /// (\[LeungInostrozaAdams\]: 125); also when the ESS falls to the threshold of
     /// [`FastSlam1Params::rbpf`].
     pub max_population: usize,
+    /// Largest number of ambiguous measurements (those that gate at least one landmark) of
+    /// a particle's scan for which the `hypotheses` best joint associations are enumerated
+    /// (Murty); above it the particle has one child, its best association, as in
+    /// FastSLAM 1.0. This bounds the cost per particle and scan to
+    /// `O(hypotheses * bound * n^2)` for an `n`-column cost matrix.
+    pub max_ambiguous_measurements: usize,
     /// Gate, new-landmark likelihood, resampling, jitter and existence, as `fastslam-1.0`.
     #[serde(flatten)]
     pub base: FastSlam1Params,
@@ -64,7 +75,12 @@ pub struct MhParams {
 
 impl Default for MhParams {
     fn default() -> Self {
-        MhParams { hypotheses: 4, max_population: 125, base: FastSlam1Params::default() }
+        MhParams {
+            hypotheses: 4,
+            max_population: 125,
+            max_ambiguous_measurements: MAX_AMBIGUOUS_MEASUREMENTS,
+            base: FastSlam1Params::default(),
+        }
     }
 }
 
@@ -80,12 +96,12 @@ impl FastSlam1Params {
         Interval::BELOW_ONE.check("delete_existence", self.delete_existence)
     }
 
-    /// The engine's settings, with `hypotheses` children per particle and the population
-    /// cap `max_population`.
-    pub fn settings(&self, hypotheses: usize, max_population: Option<usize>) -> DaSettings {
+    /// The engine's settings of FastSLAM 1.0: one child per particle, no population cap.
+    pub fn settings(&self) -> DaSettings {
         DaSettings {
-            hypotheses,
-            max_population,
+            hypotheses: 1,
+            max_population: None,
+            max_ambiguous_measurements: None,
             gate: self.gate,
             new_landmark_log_likelihood: self.new_landmark_log_likelihood,
             rbpf: self.rbpf,
@@ -152,7 +168,7 @@ impl FilterBuild for FastSlam1 {
     }
 
     fn build(params: Validated<Self>, models: &SlamModels) -> Self {
-        let settings = params.params().settings(1, None);
+        let settings = params.params().settings();
         FastSlam1(DaFastSlam::new(Self::NAME, settings, models, params.particles()))
     }
 }
@@ -162,19 +178,21 @@ impl FilterBuild for MhFastSlam {
 
     fn check(params: &MhParams, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
         params.base.validate(particles)?;
-        at_least_one("hypotheses", params.hypotheses)?;
-        if params.max_population < particles {
-            return Err(ParamError::new(
-                "max_population",
-                format!("must be at least the number of particles ({particles})"),
-            ));
-        }
-        Ok(())
+        CountRange::ITERATIONS.check("hypotheses", params.hypotheses)?;
+        CountRange::new(particles, MAX_POPULATION)
+            .check("max_population", params.max_population)
+            .map_err(|e| ParamError::new(e.key, format!("{} (at least the number of particles)", e.message)))?;
+        CountRange::HYPOTHESES.from(0).check("max_ambiguous_measurements", params.max_ambiguous_measurements)
     }
 
     fn build(params: Validated<Self>, models: &SlamModels) -> Self {
         let p = params.params();
-        let settings = p.base.settings(p.hypotheses, Some(p.max_population));
+        let settings = DaSettings {
+            hypotheses: p.hypotheses,
+            max_population: Some(p.max_population),
+            max_ambiguous_measurements: Some(p.max_ambiguous_measurements),
+            ..p.base.settings()
+        };
         MhFastSlam(DaFastSlam::new(Self::NAME, settings, models, params.particles()))
     }
 }

@@ -125,6 +125,9 @@ pub struct DaSettings {
     pub hypotheses: usize,
     /// Resample to the nominal count when the population exceeds this (MH: 125).
     pub max_population: Option<usize>,
+    /// Above this many ambiguous measurements a particle gets only its best association
+    /// (see `MhParams::max_ambiguous_measurements`); `None`: no bound.
+    pub max_ambiguous_measurements: Option<usize>,
     /// Gate on the squared Mahalanobis distance (chi^2_2, 0.99: 9.21).
     pub gate: f64,
     /// `ln p_0`; `None`: the density of `N(0, 2R)` at the gate boundary.
@@ -303,7 +306,14 @@ impl DaFastSlam {
                 Ok(m) => {
                     // (the matrix owns its entries: one allocation per particle and step)
                     self.murty
-                        .k_best(&m, &MurtyOptions::best(self.settings.hypotheses), &mut self.hyps)
+                        .k_best(
+                            &m,
+                            &MurtyOptions {
+                                max_ambiguous_rows: self.settings.max_ambiguous_measurements,
+                                ..MurtyOptions::best(self.settings.hypotheses)
+                            },
+                            &mut self.hyps,
+                        )
                         .is_ok_and(|_| !self.hyps.is_empty())
                 }
                 Err(_) => false,
@@ -460,6 +470,7 @@ mod tests {
         DaSettings {
             hypotheses,
             max_population: Some(cap),
+            max_ambiguous_measurements: None,
             gate: 9.21,
             new_landmark_log_likelihood: None,
             rbpf: RbpfParams { q_jitter: [0.0; 3], ..RbpfParams::with_fraction(0.25) },
@@ -555,6 +566,48 @@ mod tests {
         let w: f64 = f.set.particles().iter().map(|p| p.log_w.exp()).sum();
         assert_relative_eq!(w, 1.0, epsilon = 1e-12);
         assert!(f.set.particles().iter().all(|p| (p.log_w - (-(25f64).ln())).abs() < 1e-12));
+    }
+
+    /// Issue 15 item 7: 440 landmarks on a 0.5 m grid, each seen in one scan, make about
+    /// 440 ambiguous measurements, whose 4 best joint associations took seconds per particle.
+    /// Above `max_ambiguous_measurements` every particle gets its best association only (one
+    /// child, one assignment solve); at or below it the branching is unchanged.
+    #[test]
+    fn mh_enumeration_is_bounded_by_the_ambiguous_measurements() {
+        let m = models();
+        let grid: Vec<DaLandmark> = (0..440)
+            .map(|k| {
+                let mut l = landmark(10.0 + 0.5 * (k / 20) as f64, -5.0 + 0.5 * (k % 20) as f64, 3.0);
+                l.cov = Matrix2::identity() * 0.05;
+                l
+            })
+            .collect();
+        let scan =
+            Scan { t: 1.0, z: grid.iter().map(|l| m.sensor.predict(&Pose::zeros(), &l.mean)).collect(), truth: None };
+        let bounded = DaSettings { max_ambiguous_measurements: Some(64), ..mh(4, 125) };
+        let mut f = DaFastSlam::new("mh-fastslam", bounded, &m, 3);
+        for p in f.set.particles_mut() {
+            p.landmarks = grid.clone();
+        }
+        let mut rng = Rng::seed_from_u64(4);
+        let started = std::time::Instant::now();
+        f.step(&[], &scan, &mut rng);
+        assert_eq!(f.len(), 3, "one child per particle above the bound");
+        assert!(f.murty.stats().truncated);
+        assert!(f.murty.stats().ambiguous_rows > 64);
+        assert_eq!(f.murty.stats().lap_solves, 1);
+        // The grid landmarks are all associated (none new): the best assignment was used.
+        assert!(f.set.particles().iter().all(|p| p.associations.iter().filter(|a| a.is_some()).count() > 400));
+        eprintln!("440 ambiguous measurements, 3 particles: {:?}", started.elapsed());
+
+        // A small scan below the bound still branches into the 4 best associations.
+        let mut f = DaFastSlam::new("mh-fastslam", bounded, &m, 1);
+        f.set.particles_mut()[0].landmarks = vec![landmark(20.0, 0.6, 3.0), landmark(20.0, -0.6, 3.0)];
+        let small =
+            Scan { t: 1.0, z: vec![RangeBearing::new(20.0, 0.03), RangeBearing::new(20.0, -0.03)], truth: None };
+        f.step(&[], &small, &mut rng);
+        assert_eq!(f.len(), 4);
+        assert!(!f.murty.stats().truncated);
     }
 
     /// FastSLAM 1.0 keeps one child per particle; a landmark seen twice is reported, a

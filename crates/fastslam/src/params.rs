@@ -1,7 +1,7 @@
 //! Parameters of `fastslam-2.0-oracle` (defaults: \[Kaltiokallio2024\] Section VI, as for
 //! PHD-SLAM 3.0).
 
-use rfslam_core::params::{Interval, at_least_one};
+use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::{ParamError, RbpfParams};
 use serde::{Deserialize, Serialize};
 
@@ -54,7 +54,7 @@ impl Params {
     /// Checks ranges (and that there is at least one particle).
     pub fn validate(&self, particles: usize) -> Result<(), ParamError> {
         self.rbpf.validate(particles)?;
-        at_least_one("ipl_iterations", self.ipl_iterations)?;
+        CountRange::ITERATIONS.check("ipl_iterations", self.ipl_iterations)?;
         Interval::NON_NEGATIVE.check("ipl_kl_threshold", self.ipl_kl_threshold)
     }
 }

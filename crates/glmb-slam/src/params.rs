@@ -1,7 +1,7 @@
 //! Parameters of `glmb-1.0`, `glmb-2.0` and `lmb-slam` (defaults: \[Moratuwage2019\] Section 4.1,
 //! and our choices where the paper gives no value: gate, hypothesis cap, sweeps).
 
-use rfslam_core::params::{Interval, at_least_one};
+use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::{ParamError, RbpfParams};
 use serde::{Deserialize, Serialize};
 
@@ -104,9 +104,11 @@ impl Params {
         Interval::UNIT.check("explained_threshold", self.explained_threshold)?;
         Interval::POSITIVE.check("gate", self.gate)?;
         Interval::BELOW_ONE.check("hypothesis_prune", self.hypothesis_prune)?;
-        at_least_one("max_hypotheses", self.max_hypotheses)?;
-        at_least_one("gibbs_sweeps", self.gibbs_sweeps)?;
-        at_least_one("proposal_hypotheses", self.proposal_hypotheses)?;
+        CountRange::HYPOTHESES.check("max_hypotheses", self.max_hypotheses)?;
+        CountRange::SWEEPS.check("gibbs_sweeps", self.gibbs_sweeps)?;
+        CountRange::HYPOTHESES.check("proposal_hypotheses", self.proposal_hypotheses)?;
+        // 0: the proposal is built from the all-missed start state alone.
+        CountRange::SWEEPS.from(0).check("proposal_sweeps", self.proposal_sweeps)?;
         Interval::BELOW_ONE.check("existence_prune", self.existence_prune)?;
         Interval::UNIT.check("existence_estimate", self.existence_estimate)?;
         Interval::POSITIVE.check("min_clutter_intensity", self.min_clutter_intensity)

@@ -28,7 +28,7 @@ use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample};
 use rfslam_core::ipl::pose_diff;
 use rfslam_core::joint_ipl::{JointIpl, JointIplSettings, KlOn};
-use rfslam_core::params::{Interval, at_least_one};
+use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::{ParamError, Point2, Pose, RangeBearing, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
 
@@ -104,7 +104,7 @@ impl Proposal for JointProposal {
     type Params = JointParams;
 
     fn validate(p: &JointParams) -> Result<(), ParamError> {
-        at_least_one("ipl_iterations", p.ipl_iterations)?;
+        CountRange::ITERATIONS.check("ipl_iterations", p.ipl_iterations)?;
         Interval::NON_NEGATIVE.check("ipl_kl_threshold", p.ipl_kl_threshold)
     }
 
@@ -142,7 +142,7 @@ impl Proposal for JointProposal {
         if m > 0
             && nz > 0
             && let Ok(cm) = CostMatrix::with_missed_diagonal(&self.cost.detection, &self.cost.missed, m, nz)
-            && self.murty.k_best(&cm, &MurtyOptions { max_count: 1, max_log_ratio: None }, &mut self.ranked).is_ok()
+            && self.murty.k_best(&cm, &MurtyOptions::best(1), &mut self.ranked).is_ok()
             && let Some(best) = self.ranked.first()
         {
             for (row, c) in best.col_for_row.iter().enumerate() {

@@ -25,7 +25,7 @@ use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
 use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
 use rfslam_core::ipl::{IplSettings, Linearised, ipl_update_slr, pose_diff};
-use rfslam_core::params::{Interval, at_least_one};
+use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::rbpf::log_sum_exp;
 use rfslam_core::{ParamError, Point2, Pose, RangeBearing, RangeBearingSensor, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
@@ -193,9 +193,9 @@ impl<S: PoseSlr> MhProposal<S> {
 impl<S: PoseSlr> MhProposal<S> {
     /// Checks the parameters (errors name the key).
     pub fn validate_params(p: &MhParams) -> Result<(), ParamError> {
-        at_least_one("max_assignments", p.max_assignments)?;
+        CountRange::HYPOTHESES.check("max_assignments", p.max_assignments)?;
         Interval::PROBABILITY.check("assignment_ratio", p.assignment_ratio)?;
-        at_least_one("ipl_iterations", p.ipl_iterations)?;
+        CountRange::ITERATIONS.check("ipl_iterations", p.ipl_iterations)?;
         Interval::NON_NEGATIVE.check("ipl_kl_threshold", p.ipl_kl_threshold)
     }
 
@@ -250,6 +250,7 @@ impl<S: PoseSlr> MhProposal<S> {
             let opts = MurtyOptions {
                 max_count: self.params.max_assignments,
                 max_log_ratio: Some(-self.params.assignment_ratio.ln()),
+                max_ambiguous_rows: None,
             };
             if self.murty.k_best(&cm, &opts, &mut self.ranked).is_err() {
                 self.ranked.clear();

@@ -48,7 +48,7 @@
 
 use nalgebra::Matrix2;
 use rfslam_core::gaussian::mahalanobis_and_log_det;
-use rfslam_core::params::{Interval, at_least_one};
+use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::{ParamError, Point2, Pose, RangeBearing, RangeBearingSensor};
 use serde::{Deserialize, Serialize};
 
@@ -117,7 +117,7 @@ impl MultiFeatureSettings {
     /// Checks ranges; keys as in the flat parameter table (`mf_*`).
     pub fn validate(&self) -> Result<(), ParamError> {
         Interval::NON_NEGATIVE.check("mf_weight_threshold", self.weight_threshold)?;
-        at_least_one("mf_max_features", self.max_features)?;
+        CountRange::HYPOTHESES.check("mf_max_features", self.max_features)?;
         Interval::BELOW_ONE.check("mf_likelihood_ratio", self.likelihood_ratio)?;
         Interval::NON_NEGATIVE.check("mf_separation", self.separation)
     }

@@ -28,18 +28,25 @@ pub struct MurtyOptions {
     /// `-T_gamma` of \[Kaltiokallio2024\] (`T_gamma = ln 1e-3`, so the value is `+ln 1e3`, see
     /// [`PHD_SLAM3_MAX_LOG_RATIO`]); it must be `>= 0`. `None` disables the test.
     pub max_log_ratio: Option<f64>,
+    /// Largest number of *ambiguous* rows (those left after the pairs every assignment
+    /// shares are fixed, see `Reduction`) for which assignments beyond the best are
+    /// enumerated. Enumerating `K` assignments over `R` ambiguous rows of an `n`-column
+    /// problem solves up to `1 + (K - 1) R` sub-problems of `O(n^2)` each; above the bound
+    /// only the best assignment (one `O(n^3)` solve) is returned and
+    /// [`MurtyStats::truncated`] is set. `None`: no bound.
+    pub max_ambiguous_rows: Option<usize>,
 }
 
 impl MurtyOptions {
     /// The `max_count` best assignments with no likelihood-ratio stop.
     pub const fn best(max_count: usize) -> Self {
-        Self { max_count, max_log_ratio: None }
+        Self { max_count, max_log_ratio: None, max_ambiguous_rows: None }
     }
 
     /// The settings of PHD-SLAM 3.0 (\[Kaltiokallio2024\] Section VI): `Gamma-bar = 50`,
     /// `T_gamma = ln 1e-3`.
     pub const fn phd_slam3() -> Self {
-        Self { max_count: 50, max_log_ratio: Some(PHD_SLAM3_MAX_LOG_RATIO) }
+        Self { max_count: 50, max_log_ratio: Some(PHD_SLAM3_MAX_LOG_RATIO), max_ambiguous_rows: None }
     }
 }
 
@@ -56,6 +63,12 @@ pub struct MurtyStats {
     pub pruned_children: usize,
     /// Nodes pushed onto the priority queue, including the root.
     pub pushed: usize,
+    /// Ambiguous rows of the problem: rows left after the reduction (in the orientation
+    /// with fewer rows than columns).
+    pub ambiguous_rows: usize,
+    /// The problem had more ambiguous rows than [`MurtyOptions::max_ambiguous_rows`]: only
+    /// the best assignment was returned.
+    pub truncated: bool,
 }
 
 /// A node of Murty's partition tree.
@@ -382,6 +395,7 @@ impl Murty {
         self.row_pos.resize(p.n, NONE);
         self.col_pos.resize(p.n, NONE);
         self.stats.lap_solves += 1;
+        self.stats.ambiguous_rows = p.nr;
         if p.n > 0 {
             self.sap.solve(&self.padded, p.n, p.n)?;
         } else {
@@ -410,6 +424,10 @@ impl Murty {
                 break;
             }
             self.emit(p, top.node, next_slot(out, n_out));
+            if opts.max_ambiguous_rows.is_some_and(|bound| p.nr > bound) {
+                self.stats.truncated = *n_out < opts.max_count;
+                break;
+            }
             if *n_out < opts.max_count {
                 self.expand(p, top.node, best, opts.max_log_ratio);
             }
@@ -680,6 +698,39 @@ mod tests {
         CostMatrix::with_missed_diagonal(&det, &missed, m, j).unwrap()
     }
 
+    /// The ambiguous-row bound: at or above the problem's ambiguous rows the enumeration is
+    /// the unbounded one; below, only its best assignment is returned, flagged truncated,
+    /// after a single solve.
+    #[test]
+    fn ambiguous_row_bound_keeps_only_the_best_above_it() {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
+        let mut checked = 0;
+        for _ in 0..100 {
+            let m = gated_missed_diagonal(&mut rng, 9, 7);
+            let mut murty = Murty::default();
+            let mut all = Vec::new();
+            murty.k_best(&m, &MurtyOptions::best(6), &mut all).unwrap();
+            let rows = murty.stats().ambiguous_rows;
+            assert!(!murty.stats().truncated);
+            let mut within = Vec::new();
+            let opts = MurtyOptions { max_ambiguous_rows: Some(rows), ..MurtyOptions::best(6) };
+            murty.k_best(&m, &opts, &mut within).unwrap();
+            assert_eq!(within, all);
+            assert!(!murty.stats().truncated);
+            if rows == 0 || all.len() < 2 {
+                continue;
+            }
+            checked += 1;
+            let mut cut = Vec::new();
+            let opts = MurtyOptions { max_ambiguous_rows: Some(rows - 1), ..MurtyOptions::best(6) };
+            murty.k_best(&m, &opts, &mut cut).unwrap();
+            assert_eq!(cut, all[..1]);
+            assert!(murty.stats().truncated);
+            assert_eq!(murty.stats().lap_solves, 1);
+        }
+        assert!(checked > 50, "only {checked} problems had an ambiguous row");
+    }
+
     /// Taking out fixed pairs and dead columns changes nothing: on gated problems with
     /// landmarks that gate nothing and measurements no landmark gates, the reduced and
     /// the unreduced enumeration give the same assignments with bit-equal costs, in the
@@ -688,7 +739,7 @@ mod tests {
     fn reduction_gives_the_unreduced_enumeration() {
         use rand::RngExt;
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(7);
-        let opts = MurtyOptions { max_count: 50, max_log_ratio: Some(PHD_SLAM3_MAX_LOG_RATIO) };
+        let opts = MurtyOptions::phd_slam3();
         let mut fixed_seen = 0;
         for k in 0..200 {
             let (m, j) = (rng.random_range(1..14usize), rng.random_range(1..14usize));
@@ -790,7 +841,7 @@ mod tests {
         // One landmark, one measurement: detect (cost 0) or miss (1000.5x less likely).
         let gap = 1000.5f64.ln();
         let m = CostMatrix::with_missed_diagonal(&[0.0], &[gap], 1, 1).unwrap();
-        let stop = MurtyOptions { max_count: 50, max_log_ratio: Some(PHD_SLAM3_MAX_LOG_RATIO) };
+        let stop = MurtyOptions::phd_slam3();
         let out = k_best(&m, stop).unwrap();
         assert_eq!(out.len(), 1);
         assert_eq!(out[0].col_for_row, vec![Some(0)]);
@@ -881,7 +932,7 @@ mod tests {
     fn invalid_ratio_rejected() {
         let m = CostMatrix::new(1, 1, vec![1.0]).unwrap();
         for r in [f64::NAN, -0.5] {
-            let opts = MurtyOptions { max_count: 3, max_log_ratio: Some(r) };
+            let opts = MurtyOptions { max_log_ratio: Some(r), ..MurtyOptions::best(3) };
             assert!(matches!(k_best(&m, opts), Err(AssignError::InvalidLogRatio(_))));
         }
     }
@@ -951,7 +1002,7 @@ mod tests {
         let best = all[0];
         prop_assume!(all.iter().all(|c| (c - best - ratio).abs() > 1e-7));
         let want = all.iter().filter(|&&c| c - best <= ratio).count().min(cap);
-        let opts = MurtyOptions { max_count: cap, max_log_ratio: Some(ratio) };
+        let opts = MurtyOptions { max_log_ratio: Some(ratio), ..MurtyOptions::best(cap) };
         let out = k_best(m, opts).map_err(|e| TestCaseError::fail(e.to_string()))?;
         prop_assert_eq!(out.len(), want);
         for (a, w) in out.iter().zip(&all) {

@@ -101,9 +101,46 @@ impl std::fmt::Display for Interval {
     }
 }
 
-/// `Ok` if `n >= 1` (iterations, hypotheses, sweeps, features), else an error naming `key`.
-pub fn at_least_one(key: &str, n: usize) -> Result<(), ParamError> {
-    if n >= 1 { Ok(()) } else { Err(ParamError::new(key, "must be at least 1")) }
+/// The inclusive range of a count parameter (iterations, sweeps, hypotheses, features).
+/// Every count has an upper end, so that no setting can make one step run for hours or
+/// allocate without bound; the ends are stated once, here, and in `docs/configuration.md`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CountRange {
+    lo: usize,
+    hi: usize,
+}
+
+impl CountRange {
+    /// `[1, 1000]`: iterations of an iterated update (IPL), children per particle.
+    pub const ITERATIONS: CountRange = CountRange { lo: 1, hi: 1_000 };
+    /// `[1, 10000]`: hypotheses, ranked assignments, mixture features kept per particle.
+    pub const HYPOTHESES: CountRange = CountRange { lo: 1, hi: 10_000 };
+    /// `[1, 100000]`: Gibbs sweeps per particle and step.
+    pub const SWEEPS: CountRange = CountRange { lo: 1, hi: 100_000 };
+
+    /// `[lo, hi]`.
+    pub const fn new(lo: usize, hi: usize) -> CountRange {
+        CountRange { lo, hi }
+    }
+
+    /// The same upper end with lower end `lo`.
+    pub const fn from(self, lo: usize) -> CountRange {
+        CountRange { lo, hi: self.hi }
+    }
+
+    /// Whether `n` lies in the range.
+    pub fn contains(&self, n: usize) -> bool {
+        (self.lo..=self.hi).contains(&n)
+    }
+
+    /// `Ok` if `n` lies in the range, else an error naming `key`, the range and `n`.
+    pub fn check(&self, key: &str, n: usize) -> Result<(), ParamError> {
+        if self.contains(n) {
+            Ok(())
+        } else {
+            Err(ParamError::new(key, format!("must be an integer in [{}, {}] (got {n})", self.lo, self.hi)))
+        }
+    }
 }
 
 /// `Ok` if there is at least one particle (the error names the key `particles`).
@@ -296,8 +333,12 @@ mod tests {
 
     #[test]
     fn counts_and_jitter() {
-        assert_eq!(at_least_one("sweeps", 1), Ok(()));
-        assert_eq!(at_least_one("sweeps", 0).unwrap_err().key, "sweeps");
+        assert_eq!(CountRange::SWEEPS.check("sweeps", 1), Ok(()));
+        assert_eq!(CountRange::SWEEPS.check("sweeps", 100_000), Ok(()));
+        assert_eq!(CountRange::SWEEPS.check("sweeps", 0).unwrap_err().key, "sweeps");
+        let e = CountRange::SWEEPS.check("sweeps", 100_001).unwrap_err();
+        assert_eq!(e.message, "must be an integer in [1, 100000] (got 100001)");
+        assert!(CountRange::SWEEPS.from(0).contains(0));
         assert_eq!(particles(1), Ok(()));
         assert_eq!(particles(0).unwrap_err().key, "particles");
         assert_eq!(jitter("q_jitter", &[0.0, 1e-9, 1e-18]), Ok(()));

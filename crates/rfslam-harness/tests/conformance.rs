@@ -188,8 +188,10 @@ fn empty_scans_mean_prediction_only() {
     }
 }
 
-/// (d) An unknown key, and a value of the wrong type for a number or switch parameter,
-/// are rejected by `validate` and `build` with an error naming the key.
+/// (d) An unknown key, a value of the wrong type for a number or switch parameter, and an
+/// absurd count (every integer parameter is bounded: 10^12 iterations, sweeps or
+/// hypotheses would run for hours or exhaust memory) are rejected by `validate` and
+/// `build` with an error naming the key.
 #[test]
 fn bad_parameters_are_rejected_naming_the_key() {
     let sc = scenario(50, 10, 0.8, 0.5, 0.95, 5.0);
@@ -204,6 +206,11 @@ fn bad_parameters_are_rejected_naming_the_key() {
             if matches!(v, toml::Value::Integer(_) | toml::Value::Float(_) | toml::Value::Boolean(_)) {
                 let mut t = toml::Table::new();
                 t.insert(k.clone(), toml::Value::String("not-a-number".into()));
+                bad.push((k.clone(), t));
+            }
+            if matches!(v, toml::Value::Integer(_)) {
+                let mut t = toml::Table::new();
+                t.insert(k.clone(), toml::Value::Integer(1_000_000_000_000));
                 bad.push((k, t));
             }
         }
