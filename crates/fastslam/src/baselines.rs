@@ -18,7 +18,11 @@ use crate::da::{DaFastSlam, DaSettings};
 /// Default of [`MhParams::max_ambiguous_measurements`].
 pub const MAX_AMBIGUOUS_MEASUREMENTS: usize = 64;
 /// Upper end of the range of [`MhParams::max_population`].
-pub const MAX_POPULATION: usize = 1_000_000;
+pub const MAX_POPULATION: usize = 100_000;
+/// The most children one step may create, `max_population * hypotheses` (each holds a copy
+/// of its parent's map: at 1000 hypotheses and a population of 10^6 a 40-step run grew past
+/// 24 GB).
+pub const MAX_CHILDREN: usize = 1_000_000;
 
 /// Parameters of `fastslam-1.0` (and, with the branching, of `mh-fastslam`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -182,7 +186,18 @@ impl FilterBuild for MhFastSlam {
         CountRange::new(particles, MAX_POPULATION)
             .check("max_population", params.max_population)
             .map_err(|e| ParamError::new(e.key, format!("{} (at least the number of particles)", e.message)))?;
-        CountRange::HYPOTHESES.from(0).check("max_ambiguous_measurements", params.max_ambiguous_measurements)
+        CountRange::HYPOTHESES.from(0).check("max_ambiguous_measurements", params.max_ambiguous_measurements)?;
+        // The children of one step: up to `max_population` parents times `hypotheses`.
+        let children = params.max_population.saturating_mul(params.hypotheses);
+        if children > MAX_CHILDREN {
+            return Err(ParamError::new(
+                "hypotheses",
+                format!(
+                    "max_population x hypotheses = {children} children per step, more than {MAX_CHILDREN} (each a copy of its parent's map)"
+                ),
+            ));
+        }
+        Ok(())
     }
 
     fn build(params: Validated<Self>, models: &SlamModels) -> Self {

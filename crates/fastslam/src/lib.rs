@@ -75,7 +75,7 @@ pub mod filter;
 pub mod params;
 pub mod proposal;
 
-pub use baselines::{FastSlam1, FastSlam1Params, MhFastSlam, MhParams};
+pub use baselines::{FastSlam1, FastSlam1Params, MAX_CHILDREN, MhFastSlam, MhParams};
 pub use filter::{OracleFastSlam2, Particle};
 pub use params::{Params, WeightMode};
 pub use proposal::Landmark;

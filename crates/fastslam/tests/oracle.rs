@@ -225,3 +225,28 @@ fn copies_share_the_proposal_but_draw_their_own_poses() {
     }
     assert!(checked > 0, "no resampling followed by a plain step");
 }
+
+/// mh-fastslam's counts (issue 15 items 5 and 7): each in its range, and the children of one
+/// step (`max_population x hypotheses`) at most `MAX_CHILDREN`; at 1000 x 10^6 a 40-step run
+/// grew past 24 GB before the bound.
+#[test]
+fn mh_counts_are_bounded() {
+    use fastslam::{MAX_CHILDREN, MhFastSlam, MhParams};
+    let m = models();
+    let key = |p: MhParams| MhFastSlam::check(&p, &m, 25).err().map(|e| e.key);
+    assert_eq!(key(MhParams::default()), None);
+    assert_eq!(key(MhParams { hypotheses: 0, ..MhParams::default() }).as_deref(), Some("hypotheses"));
+    assert_eq!(key(MhParams { hypotheses: 1001, ..MhParams::default() }).as_deref(), Some("hypotheses"));
+    assert_eq!(key(MhParams { max_population: 24, ..MhParams::default() }).as_deref(), Some("max_population"));
+    assert_eq!(key(MhParams { max_population: 100_001, ..MhParams::default() }).as_deref(), Some("max_population"));
+    assert_eq!(key(MhParams { max_ambiguous_measurements: 0, ..MhParams::default() }), None);
+    assert_eq!(
+        key(MhParams { max_ambiguous_measurements: 1001, ..MhParams::default() }).as_deref(),
+        Some("max_ambiguous_measurements")
+    );
+    let at = |h: usize| MhParams { hypotheses: h, max_population: 100_000, ..MhParams::default() };
+    assert_eq!(key(at(MAX_CHILDREN / 100_000)), None);
+    let e = MhFastSlam::check(&at(MAX_CHILDREN / 100_000 + 1), &m, 25).unwrap_err();
+    assert_eq!(e.key, "hypotheses");
+    assert!(e.message.contains("children per step"), "{e}");
+}
