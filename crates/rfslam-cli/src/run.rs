@@ -18,6 +18,7 @@ use rfslam_data::Dataset;
 use rfslam_eval::trace::{self, ParticlesWriter, StepsWriter};
 use rfslam_eval::{JobOutcome, MetricsConfig};
 use rfslam_harness::experiment::set_dotted;
+use rfslam_harness::memory::{JobMemory, machine_memory};
 use rfslam_harness::{HarnessError, registry};
 use rfslam_sim::ScenarioData;
 
@@ -104,14 +105,27 @@ fn load_dataset(args: &RunArgs, scen_sets: &[(String, toml::Value)]) -> Result<D
             if !scen_sets.is_empty() {
                 return Err(usage("--set scenario.* needs --scenario, not --dataset".into()));
             }
-            Ok(Dataset::read(dir).map_err(HarnessError::Data)?)
+            let ds = Dataset::read(dir).map_err(HarnessError::Data)?;
+            fits(args, &JobMemory::estimate(None, &ds.models(), args.particles))?;
+            Ok(ds)
         }
         (None, Some(path)) => {
             let sc = scenario_with_overrides(path, scen_sets)?;
             let world = sc.load_world().map_err(HarnessError::Data)?;
+            let models = sc.models_for(world.as_ref()).map_err(HarnessError::Data)?;
+            fits(args, &JobMemory::estimate(world.as_ref(), &models, args.particles))?;
             Ok(sc.build_dataset(world.as_ref(), args.seed).map_err(HarnessError::Data)?)
         }
         (None, None) => Err(usage("give --dataset DIR or --scenario FILE".into())),
+    }
+}
+
+/// Refuses a run that cannot fit in the machine's memory (before its data are generated).
+fn fits(args: &RunArgs, need: &JobMemory) -> Result<(), Failure> {
+    match machine_memory().map_err(usage)?.map(|have| need.check(have)) {
+        Some(Err(why)) if need.particles_dominate() => Err(usage(format!("--particles {}: {why}", args.particles))),
+        Some(Err(why)) => Err(usage(format!("scenario.clutter.rate: {why}"))),
+        _ => Ok(()),
     }
 }
 

@@ -12,6 +12,7 @@ use rfslam_sim::World;
 use serde::{Deserialize, Serialize};
 
 use crate::error::HarnessError;
+use crate::memory::JobMemory;
 use crate::registry;
 use rfslam_data::locate::locate;
 
@@ -202,6 +203,8 @@ pub struct Plan {
     pub points: Vec<GridPoint>,
     /// The published table, when named.
     pub published: Option<crate::report::PublishedTable>,
+    /// The largest lower bound of one job's memory (bytes, [`JobMemory`]).
+    pub peak_job_bytes: f64,
 }
 
 /// Restricts which jobs of a plan run (`--filters`, `--particles`, `--runs`).
@@ -526,6 +529,13 @@ impl Plan {
             .is_ok_and(|sc| sc.validate().is_ok());
         let mut points = Vec::new();
         let mut worlds: Vec<(String, Arc<World>)> = Vec::new();
+        let machine = crate::memory::machine_memory().map_err(|message| HarnessError::Config {
+            file: path.to_path_buf(),
+            line: None,
+            key: String::new(),
+            message,
+        })?;
+        let mut peak_job_bytes = 0.0f64;
         let names: Vec<&str> = config.filters.iter().flat_map(|f| [f.label(), f.name.as_str()]).collect();
         for p in 0..config.n_points() {
             let values = config.point_values(p);
@@ -640,10 +650,38 @@ impl Plan {
                     })?;
                 }
             }
+            // What one job needs at least, against what the machine has.
+            for (i, f) in filters.iter().enumerate() {
+                for &n in &f.particles {
+                    let need = JobMemory::estimate(world.as_deref(), &models, n);
+                    peak_job_bytes = peak_job_bytes.max(need.total());
+                    if let Some(have) = machine
+                        && let Err(why) = need.check(have)
+                    {
+                        let key = if need.particles_dominate() {
+                            format!("filters[{i}].particles")
+                        } else {
+                            match grid_keys.iter().find(|g| g.as_str() == "scenario.clutter.rate") {
+                                Some(g) => format!("grid.\"{g}\""),
+                                None => "scenario.clutter.rate".into(),
+                            }
+                        };
+                        return Err(err(&key, format!("filter `{}` with {n} particles: {why}{point}", f.label)));
+                    }
+                }
+            }
             points.push(GridPoint { values, scenario, filters, world });
         }
-        let plan =
-            Plan { path: path.to_path_buf(), config, scenario_path, scenario_table, grid_keys, points, published };
+        let plan = Plan {
+            path: path.to_path_buf(),
+            config,
+            scenario_path,
+            scenario_table,
+            grid_keys,
+            points,
+            published,
+            peak_job_bytes,
+        };
         plan.check_job_count()?;
         Ok(plan)
     }

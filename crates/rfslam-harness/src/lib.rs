@@ -4,6 +4,7 @@
 //! - [`experiment`]: experiment TOML -> validated [`experiment::Plan`] of jobs;
 //! - [`sweep`](mod@sweep): parallel, deterministic, resumable execution; `runs.csv`;
 //! - [`shard`]: `sweep --shard I/N` (disjoint parts of a sweep) and `merge`;
+//! - [`memory`]: the least memory a job needs, against what the machine has;
 //! - [`compare`]: paired per-run differences between filters and sweeps (`rfslam compare`);
 //! - [`summary`], [`report`]: `summary.csv` with the columns of
 //!   \[Kaltiokallio2024\] Table II and `report.md` beside the published figures.
@@ -12,6 +13,7 @@ pub mod compare;
 pub mod error;
 pub mod experiment;
 pub mod lock;
+pub mod memory;
 pub mod registry;
 pub mod report;
 pub mod resolved;

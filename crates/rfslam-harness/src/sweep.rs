@@ -246,6 +246,8 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
     let skipped = all_jobs.len() - todo.len();
 
     let threads = pool_size(opts.jobs, todo.len(), opts.quiet);
+    let threads =
+        memory_bound(threads, plan.peak_job_bytes, crate::memory::machine_memory().ok().flatten(), opts.quiet);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -303,6 +305,22 @@ fn pool_size(requested: usize, todo: usize, quiet: bool) -> usize {
         );
     }
     asked.min(todo).max(1)
+}
+
+/// No more jobs at once than fit in the machine's memory together, each counted at the
+/// largest job's lower bound ([`crate::memory`]); said on stderr unless `quiet` when it lowers
+/// the thread count.
+fn memory_bound(threads: usize, peak_job_bytes: f64, machine: Option<f64>, quiet: bool) -> usize {
+    let Some(have) = machine else { return threads };
+    let fit = crate::memory::jobs_that_fit(peak_job_bytes, have);
+    if fit < threads && !quiet {
+        eprintln!(
+            "note: running {fit} job(s) at once instead of {threads}: the largest job needs at least {} and the machine has {}",
+            crate::memory::bytes(peak_job_bytes),
+            crate::memory::bytes(have)
+        );
+    }
+    threads.min(fit)
 }
 
 /// On resuming in `out`: the directory must hold the same part of the sweep as asked for —
