@@ -143,9 +143,21 @@ impl CountRange {
     }
 }
 
-/// `Ok` if there is at least one particle (the error names the key `particles`).
+/// The most particles a filter may have, whatever the machine: 10^8 particles of 56 bytes,
+/// held twice, are 11 GB before any map (the memory check of a sweep refuses less where the
+/// machine's memory is known).
+pub const MAX_PARTICLES: usize = 100_000_000;
+
+/// `Ok` if there is at least one particle and at most [`MAX_PARTICLES`] (the error names the
+/// key `particles`).
 pub fn particles(n: usize) -> Result<(), ParamError> {
-    if n >= 1 { Ok(()) } else { Err(ParamError::new("particles", "at least one particle")) }
+    match n {
+        0 => Err(ParamError::new("particles", "at least one particle")),
+        n if n > MAX_PARTICLES => {
+            Err(ParamError::new("particles", format!("at most {MAX_PARTICLES} particles (got {n})")))
+        }
+        _ => Ok(()),
+    }
 }
 
 /// `Ok` if every entry of a diagonal jitter is finite and `>= 0`.

@@ -214,6 +214,10 @@ fn bad_parameters_are_rejected_naming_the_key() {
                 bad.push((k, t));
             }
         }
+        // Too many particles, whatever the machine's memory.
+        let too_many = rfslam_core::params::MAX_PARTICLES + 1;
+        let e = (entry.validate)(&toml::Table::new(), &models, too_many).expect_err(entry.name);
+        assert_eq!(e.key, "particles", "{}: {too_many} particles rejected as {e}", entry.name);
         for (key, table) in bad {
             match (entry.validate)(&table, &models, n) {
                 Ok(()) => panic!("{}: {table:?} is accepted", entry.name),
