@@ -102,13 +102,13 @@ impl Params {
         Interval::BELOW_ONE.check("birth_new", self.birth_new)?;
         Interval::BELOW_ONE.check("birth_existing", self.birth_existing)?;
         Interval::UNIT.check("explained_threshold", self.explained_threshold)?;
-        Interval::POSITIVE.check("gate", self.gate)?;
+        Interval::BOUNDED_POSITIVE.check("gate", self.gate)?;
         Interval::BELOW_ONE.check("hypothesis_prune", self.hypothesis_prune)?;
         at_least_one("max_hypotheses", self.max_hypotheses)?;
         at_least_one("gibbs_sweeps", self.gibbs_sweeps)?;
         at_least_one("proposal_hypotheses", self.proposal_hypotheses)?;
         Interval::BELOW_ONE.check("existence_prune", self.existence_prune)?;
         Interval::UNIT.check("existence_estimate", self.existence_estimate)?;
-        Interval::POSITIVE.check("min_clutter_intensity", self.min_clutter_intensity)
+        Interval::BOUNDED_POSITIVE.check("min_clutter_intensity", self.min_clutter_intensity)
     }
 }

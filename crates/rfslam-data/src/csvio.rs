@@ -4,6 +4,8 @@ use std::fs::File;
 use std::io::{BufWriter, Cursor, Write};
 use std::path::{Path, PathBuf};
 
+use rfslam_core::params::{Interval, short};
+
 use crate::error::DataError;
 
 /// A CSV file read row by row, with the requested columns located by header name.
@@ -120,6 +122,31 @@ impl CsvRows {
             return Err(self.err(i, format!("`{s}` is not finite")));
         }
         Ok(Some(v))
+    }
+
+    /// A number in column `i` of magnitude at most `bound` (`unit` names it in the error).
+    pub fn bounded_f64(&self, i: usize, bound: f64, unit: &str) -> Result<f64, DataError> {
+        let v = self.f64(i)?;
+        self.check_bound(i, v, bound, unit)?;
+        Ok(v)
+    }
+
+    /// [`CsvRows::bounded_f64`] of a cell that may be empty.
+    pub fn opt_bounded_f64(&self, i: usize, bound: f64, unit: &str) -> Result<Option<f64>, DataError> {
+        let v = self.opt_f64(i)?;
+        if let Some(v) = v {
+            self.check_bound(i, v, bound, unit)?;
+        }
+        Ok(v)
+    }
+
+    fn check_bound(&self, i: usize, v: f64, bound: f64, unit: &str) -> Result<(), DataError> {
+        let range = Interval::magnitude(bound);
+        if range.contains(v) {
+            Ok(())
+        } else {
+            Err(self.err(i, format!("{} is not {range} {unit} (the plausible magnitude of this column)", short(v))))
+        }
     }
 
     /// An integer in column `i`, or `None` when it is empty.

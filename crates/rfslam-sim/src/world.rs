@@ -608,7 +608,7 @@ mod tests {
         let e = World::procedural(&ProceduralParams { steps: 1, ..Default::default() }, 1).unwrap_err();
         assert_eq!(e.key(), Some("world.steps"));
         let e = World::procedural(&ProceduralParams { dt: 0.0, ..Default::default() }, 1).unwrap_err();
-        assert_eq!(e.to_string(), "world.dt must be > 0");
+        assert_eq!(e.to_string(), "world.dt must be in (0, 10] (got 0)");
         let e = World::procedural(&ProceduralParams { steps: 10, landmarks: 100_000, ..Default::default() }, 1)
             .unwrap_err();
         assert_eq!(e.key(), Some("world.landmarks"));
