@@ -77,6 +77,8 @@ fn refused_param(test: &str, param: &str, key: &str, range: &str) {
     assert!(!tmp.join("o").exists());
 }
 
+/// A jitter of 1e308 drove the pose to 1e154 m and the RMSE to inf (a job with such a result
+/// now fails as well: `rfslam_eval::JobOutcome::not_finite`).
 #[test]
 fn q_jitter_of_1e308_is_refused_with_file_line_and_key() {
     refused_param("bounds-jitter", "q_jitter = [1e308, 1e-9, 1e-18]", "q_jitter", "[0, 1000000]");

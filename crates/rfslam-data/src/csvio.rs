@@ -141,12 +141,7 @@ impl CsvRows {
     }
 
     fn check_bound(&self, i: usize, v: f64, bound: f64, unit: &str) -> Result<(), DataError> {
-        let range = Interval::magnitude(bound);
-        if range.contains(v) {
-            Ok(())
-        } else {
-            Err(self.err(i, format!("{} is not {range} {unit} (the plausible magnitude of this column)", short(v))))
-        }
+        beyond_bound(v, bound, unit).map_or(Ok(()), |m| Err(self.err(i, m)))
     }
 
     /// An integer in column `i`, or `None` when it is empty.
@@ -170,6 +165,13 @@ impl CsvRows {
             _ => Ok(()),
         }
     }
+}
+
+/// `None` if `|v| <= bound`, else the message of the cell's error (`unit` is the bound's):
+/// the magnitude check of every column of a data file (`dataset::limits`).
+pub fn beyond_bound(v: f64, bound: f64, unit: &str) -> Option<String> {
+    let range = Interval::magnitude(bound);
+    (!range.contains(v)).then(|| format!("{} is not {range} {unit} (the plausible magnitude of this column)", short(v)))
 }
 
 /// A csv error at its line (counted from the bytes of the file).
