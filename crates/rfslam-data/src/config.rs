@@ -382,7 +382,8 @@ impl ModelConfig {
         }
     }
 
-    /// Checks every value; the error names the dotted key (`sensor.sigma_range must be > 0`).
+    /// Checks every value against its range; the error names the dotted key
+    /// (`sensor.sigma_range must be in (0, 1000000] (got 0)`).
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.motion.validate().map_err(|e| e.prefixed("motion"))?;
         self.sensor.validate().map_err(|e| e.prefixed("sensor"))?;

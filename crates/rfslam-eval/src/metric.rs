@@ -764,12 +764,21 @@ impl Pool {
 
 /// Sample standard deviation (n - 1); 0 for one value, NaN for none.
 fn sample_std(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
+    let plain = |v: &[f64]| {
+        if v.is_empty() {
+            return f64::NAN;
+        }
+        let n = v.len() as f64;
+        let m = v.iter().sum::<f64>() / n;
+        if v.len() > 1 { (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0)).sqrt() } else { 0.0 }
+    };
+    let std = plain(v);
+    // Finite values whose squares overflow: the same figure relative to the largest one.
+    let scale = v.iter().fold(0.0, |m: f64, x| x.abs().max(m));
+    if std.is_finite() || !(scale.is_finite() && scale > 0.0) {
+        return std;
     }
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n;
-    if v.len() > 1 { (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0)).sqrt() } else { 0.0 }
+    scale * plain(&v.iter().map(|x| x / scale).collect::<Vec<_>>())
 }
 
 /// Makes the observers of the metrics an experiment scores.
@@ -928,6 +937,7 @@ mod tests {
         let q = Pool::Rmse { steps: "scored_steps" }.pool(&[1e10, 3e10], &[100.0, 300.0]);
         assert!(p.value.is_finite() && (p.value / (q.value * 1e190) - 1.0).abs() < 1e-12, "{p:?} {q:?}");
         assert!((p.hi95 / (q.hi95 * 1e190) - 1.0).abs() < 1e-12 && p.lo95 <= p.value, "{p:?} {q:?}");
+        assert!((p.std / (q.std * 1e190) - 1.0).abs() < 1e-12, "{p:?} {q:?}");
         // A rate's interval stays within [0, 1].
         let p = Pool::Rate { events: "da_positives" }.pool(&[1.0, 0.98, 0.99], &[10.0, 1000.0, 20.0]);
         assert!(p.hi95 <= 1.0 && p.lo95 >= 0.0 && p.lo95 <= p.value);
