@@ -6,7 +6,7 @@
 //! Bayes existence filter of eqs. (29)-(32) (prior 0.5) for map management. The machinery
 //! is [`crate::da::DaFastSlam`]; neither filter reads truth labels.
 
-use rfslam_core::params::{CountRange, Interval};
+use rfslam_core::params::{CountRange, Interval, MAX_PARAM};
 use rfslam_core::{
     ControlSegment, Estimate, FilterBuild, ParamError, Pose, RbpfParams, Rng, Scan, SlamFilter, SlamModels, StepReport,
     Validated,
@@ -93,8 +93,8 @@ rfslam_core::flat_params!(MhParams);
 impl FastSlam1Params {
     /// Checks ranges (and that there is at least one particle).
     pub fn validate(&self, particles: usize) -> Result<(), ParamError> {
-        Interval::POSITIVE.check("gate", self.gate)?;
-        Interval::FINITE.check_opt("new_landmark_log_likelihood", self.new_landmark_log_likelihood)?;
+        Interval::BOUNDED_POSITIVE.check("gate", self.gate)?;
+        Interval::magnitude(MAX_PARAM).check_opt("new_landmark_log_likelihood", self.new_landmark_log_likelihood)?;
         self.rbpf.validate(particles)?;
         Interval::OPEN_UNIT.check("prior_existence", self.prior_existence)?;
         Interval::BELOW_ONE.check("delete_existence", self.delete_existence)

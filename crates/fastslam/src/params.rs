@@ -55,6 +55,6 @@ impl Params {
     pub fn validate(&self, particles: usize) -> Result<(), ParamError> {
         self.rbpf.validate(particles)?;
         CountRange::ITERATIONS.check("ipl_iterations", self.ipl_iterations)?;
-        Interval::NON_NEGATIVE.check("ipl_kl_threshold", self.ipl_kl_threshold)
+        Interval::BOUNDED_NON_NEGATIVE.check("ipl_kl_threshold", self.ipl_kl_threshold)
     }
 }

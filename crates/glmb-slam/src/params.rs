@@ -102,7 +102,7 @@ impl Params {
         Interval::BELOW_ONE.check("birth_new", self.birth_new)?;
         Interval::BELOW_ONE.check("birth_existing", self.birth_existing)?;
         Interval::UNIT.check("explained_threshold", self.explained_threshold)?;
-        Interval::POSITIVE.check("gate", self.gate)?;
+        Interval::BOUNDED_POSITIVE.check("gate", self.gate)?;
         Interval::BELOW_ONE.check("hypothesis_prune", self.hypothesis_prune)?;
         CountRange::HYPOTHESES.check("max_hypotheses", self.max_hypotheses)?;
         CountRange::SWEEPS.check("gibbs_sweeps", self.gibbs_sweeps)?;
@@ -111,6 +111,6 @@ impl Params {
         CountRange::SWEEPS.from(0).check("proposal_sweeps", self.proposal_sweeps)?;
         Interval::BELOW_ONE.check("existence_prune", self.existence_prune)?;
         Interval::UNIT.check("existence_estimate", self.existence_estimate)?;
-        Interval::POSITIVE.check("min_clutter_intensity", self.min_clutter_intensity)
+        Interval::BOUNDED_POSITIVE.check("min_clutter_intensity", self.min_clutter_intensity)
     }
 }

@@ -105,7 +105,7 @@ impl Proposal for JointProposal {
 
     fn validate(p: &JointParams) -> Result<(), ParamError> {
         CountRange::ITERATIONS.check("ipl_iterations", p.ipl_iterations)?;
-        Interval::NON_NEGATIVE.check("ipl_kl_threshold", p.ipl_kl_threshold)
+        Interval::BOUNDED_NON_NEGATIVE.check("ipl_kl_threshold", p.ipl_kl_threshold)
     }
 
     fn new(params: &JointParams, _models: &SlamModels) -> Self {

@@ -196,7 +196,7 @@ impl<S: PoseSlr> MhProposal<S> {
         CountRange::HYPOTHESES.check("max_assignments", p.max_assignments)?;
         Interval::PROBABILITY.check("assignment_ratio", p.assignment_ratio)?;
         CountRange::ITERATIONS.check("ipl_iterations", p.ipl_iterations)?;
-        Interval::NON_NEGATIVE.check("ipl_kl_threshold", p.ipl_kl_threshold)
+        Interval::BOUNDED_NON_NEGATIVE.check("ipl_kl_threshold", p.ipl_kl_threshold)
     }
 
     /// The importance density with parameters `params` and the SLR `slr`.

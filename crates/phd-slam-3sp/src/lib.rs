@@ -59,7 +59,7 @@ use phd_slam_3::{MhParams, MhProposal, PoseSlr};
 use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
 use rfslam_core::gaussian::{log_normal, symmetrise};
 use rfslam_core::ipl::Linearised;
-use rfslam_core::params::Interval;
+use rfslam_core::params::{Interval, MAX_PARAM};
 use rfslam_core::{ParamError, Point2, Pose, RangeBearing, RangeBearingSensor, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
 
@@ -117,7 +117,7 @@ impl SigmaParams {
     }
 
     /// Checks ranges (errors name the key): `sigma_alpha` in [[`SIGMA_ALPHA_MIN`],
-    /// [`SIGMA_ALPHA_MAX`]], `sigma_beta` finite, `n + sigma_kappa > 0`.
+    /// [`SIGMA_ALPHA_MAX`]], `|sigma_beta| <= MAX_PARAM`, `-n < sigma_kappa <= MAX_PARAM`.
     pub fn validate(&self) -> Result<(), ParamError> {
         Interval::POSITIVE.check("sigma_alpha", self.sigma_alpha)?;
         // A smaller alpha puts the sigma points so close to the mean that alpha^2 (n + kappa)
@@ -128,12 +128,12 @@ impl SigmaParams {
                 format!("must be in [{SIGMA_ALPHA_MIN:e}, {SIGMA_ALPHA_MAX:e}] (got {})", self.sigma_alpha),
             ));
         }
-        Interval::FINITE.check("sigma_beta", self.sigma_beta)?;
+        Interval::magnitude(MAX_PARAM).check("sigma_beta", self.sigma_beta)?;
         let n = self.dimension();
-        if !(self.sigma_kappa.is_finite() && n as f64 + self.sigma_kappa > 0.0) {
+        if !(self.sigma_kappa <= MAX_PARAM && n as f64 + self.sigma_kappa > 0.0) {
             return Err(ParamError::new(
                 "sigma_kappa",
-                format!("must be finite and > -{n} (the dimension of slr_space) (got {})", self.sigma_kappa),
+                format!("must be > -{n} (the dimension of slr_space) and <= {MAX_PARAM:e} (got {})", self.sigma_kappa),
             ));
         }
         Ok(())
@@ -424,6 +424,9 @@ mod tests {
         assert_eq!(bad("sigma_alpha = 1e300"), "sigma_alpha");
         assert_eq!(bad("sigma_kappa = -3.0"), "sigma_kappa");
         assert_eq!(bad("slr_space = \"joint\"\nsigma_kappa = -5.0"), "sigma_kappa");
+        // Absurd finite values are refused, not scaled into infinite sigma points.
+        assert_eq!(bad("sigma_kappa = 1e308"), "sigma_kappa");
+        assert_eq!(bad("sigma_beta = -1e308"), "sigma_beta");
         assert_eq!(bad("ipl_iterations = 0"), "ipl_iterations");
         assert!(
             SpProposal::validate(&toml::from_str::<SpParams>("slr_space = \"pose\"\nsigma_kappa = -2.5").unwrap())

@@ -2,7 +2,7 @@
 //! (shared keys plus its proposal's keys, e.g. `merge = 10`, `max_assignments = 50`).
 
 use rfslam_core::params::Interval;
-use rfslam_core::{DetectionModel, ParamError, RbpfParams, SlamModels};
+use rfslam_core::{ClutterModel, DetectionModel, ParamError, RbpfParams, SlamModels};
 use serde::{Deserialize, Serialize};
 
 use crate::weighting::{MfTerms, MultiFeatureSettings, Weighting};
@@ -118,14 +118,14 @@ impl RbPhdParams {
         for (key, v) in
             [("birth_weight", self.birth_weight), ("gate", self.gate), ("prune", self.prune), ("merge", self.merge)]
         {
-            Interval::POSITIVE.check(key, v)?;
+            Interval::BOUNDED_POSITIVE.check(key, v)?;
         }
-        Interval::NON_NEGATIVE.check("fov_buffer_range", self.fov_buffer_range)?;
+        Interval::BOUNDED_NON_NEGATIVE.check("fov_buffer_range", self.fov_buffer_range)?;
         Interval::closed(0.0, 180.0).check("fov_buffer_deg", self.fov_buffer_deg)?;
-        Interval::POSITIVE.check_opt("estimate_threshold", self.estimate_threshold)?;
+        Interval::BOUNDED_POSITIVE.check_opt("estimate_threshold", self.estimate_threshold)?;
         self.rbpf.validate(particles)?;
         Interval::PROBABILITY.check_opt("detection_pd", self.detection_pd)?;
-        Interval::NON_NEGATIVE.check_opt("clutter_rate", self.clutter_rate)?;
+        Interval::NON_NEGATIVE.up_to(ClutterModel::MAX_RATE).check_opt("clutter_rate", self.clutter_rate)?;
         self.multi_feature().validate()
     }
 

@@ -116,10 +116,10 @@ impl Default for MultiFeatureSettings {
 impl MultiFeatureSettings {
     /// Checks ranges; keys as in the flat parameter table (`mf_*`).
     pub fn validate(&self) -> Result<(), ParamError> {
-        Interval::NON_NEGATIVE.check("mf_weight_threshold", self.weight_threshold)?;
+        Interval::BOUNDED_NON_NEGATIVE.check("mf_weight_threshold", self.weight_threshold)?;
         CountRange::HYPOTHESES.check("mf_max_features", self.max_features)?;
         Interval::BELOW_ONE.check("mf_likelihood_ratio", self.likelihood_ratio)?;
-        Interval::NON_NEGATIVE.check("mf_separation", self.separation)
+        Interval::BOUNDED_NON_NEGATIVE.check("mf_separation", self.separation)
     }
 }
 

@@ -156,7 +156,12 @@ fn bad_grid_keys_and_values_name_the_grid_key() {
     let text = format!("{exp}\n[grid]\n\"filter.nobody.x\" = [1]\n");
     sweep_config_error(&tmp, &text, "\"filter.nobody.x\"", &["filter.nobody.x", "nobody"]);
     let text = format!("{exp}\n[grid]\n\"scenario.clutter.rate\" = [1.0, -1.0]\n");
-    sweep_config_error(&tmp, &text, "\"scenario.clutter.rate\"", &["scenario.clutter.rate", "-1.0", "must be >= 0"]);
+    sweep_config_error(
+        &tmp,
+        &text,
+        "\"scenario.clutter.rate\"",
+        &["scenario.clutter.rate", "-1.0", "must be in [0, 1000]"],
+    );
     let text = format!("{exp}\n[grid]\n\"scenario.clutter.rat\" = [1.0]\n");
     sweep_config_error(&tmp, &text, "\"scenario.clutter.rat\"", &["scenario.clutter.rat", "`rat`"]);
     let text = format!("{exp}\n[grid]\n\"filter.dr-a.bogus\" = [1]\n");

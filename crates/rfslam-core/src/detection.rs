@@ -196,6 +196,11 @@ pub struct ClutterModel {
 }
 
 impl ClutterModel {
+    /// The largest rate (false measurements per scan) a scenario or a filter may state: far
+    /// above any sensor's clutter (the published grids stop at 20), and a bound on the
+    /// measurements a simulated scan can hold.
+    pub const MAX_RATE: f64 = 1e3;
+
     /// The clutter intensity `c(z)` the filters use (uniform over the FOV).
     pub fn intensity(&self, fov: &Fov) -> f64 {
         match self.intensity {

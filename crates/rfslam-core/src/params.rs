@@ -69,6 +69,22 @@ impl Interval {
         Interval { lo, lo_open: false, hi, hi_open: false }
     }
 
+    /// `[-m, m]`: a signed value bounded in magnitude.
+    pub const fn magnitude(m: f64) -> Interval {
+        Interval::closed(-m, m)
+    }
+
+    /// The same lower end, and `hi` (closed) as the upper end: `POSITIVE.up_to(1e6)` is
+    /// `(0, 1e6]`.
+    pub const fn up_to(self, hi: f64) -> Interval {
+        Interval { hi, hi_open: false, ..self }
+    }
+
+    /// `(0, MAX_PARAM]`: a weight, intensity, gate, threshold or spread.
+    pub const BOUNDED_POSITIVE: Interval = Interval::POSITIVE.up_to(MAX_PARAM);
+    /// `[0, MAX_PARAM]`: a rate, tolerance or jitter.
+    pub const BOUNDED_NON_NEGATIVE: Interval = Interval::NON_NEGATIVE.up_to(MAX_PARAM);
+
     /// Whether `v` lies in the interval (never for NaN).
     pub fn contains(&self, v: f64) -> bool {
         let above = if self.lo_open { v > self.lo } else { v >= self.lo };
@@ -78,7 +94,7 @@ impl Interval {
 
     /// `Ok` if `v` lies in the interval, else an error naming `key`, the interval and `v`.
     pub fn check(&self, key: &str, v: f64) -> Result<(), ParamError> {
-        if self.contains(v) { Ok(()) } else { Err(ParamError::new(key, format!("must be {self} (got {v})"))) }
+        if self.contains(v) { Ok(()) } else { Err(ParamError::new(key, format!("must be {self} (got {})", short(v)))) }
     }
 
     /// [`Interval::check`] of an optional value (`None` passes).
@@ -92,13 +108,33 @@ impl std::fmt::Display for Interval {
         let op = |open: bool, strict: &'static str, wide: &'static str| if open { strict } else { wide };
         match (self.lo.is_finite(), self.hi.is_finite()) {
             (false, false) => write!(f, "finite"),
-            (true, false) => write!(f, "finite and {} {}", op(self.lo_open, ">", ">="), self.lo),
-            (false, true) => write!(f, "finite and {} {}", op(self.hi_open, "<", "<="), self.hi),
-            (true, true) => {
-                write!(f, "in {}{}, {}{}", op(self.lo_open, "(", "["), self.lo, self.hi, op(self.hi_open, ")", "]"))
-            }
+            (true, false) => write!(f, "finite and {} {}", op(self.lo_open, ">", ">="), short(self.lo)),
+            (false, true) => write!(f, "finite and {} {}", op(self.hi_open, "<", "<="), short(self.hi)),
+            (true, true) => write!(
+                f,
+                "in {}{}, {}{}",
+                op(self.lo_open, "(", "["),
+                short(self.lo),
+                short(self.hi),
+                op(self.hi_open, ")", "]")
+            ),
         }
     }
+}
+
+/// The largest magnitude of a filter's real parameter that has no natural bound (a weight,
+/// intensity, rate, gate, threshold, jitter or spread): a million, far beyond any meaningful
+/// setting (the defaults are at most 50), and small enough that the sums and squares a
+/// filter forms from it over a run stay finite (`birth_weight` or `q_jitter` of 1e308
+/// overflowed to `inf`).
+pub const MAX_PARAM: f64 = 1e6;
+
+/// `v` as a person reads it in a message: plain (`0.25`, `1000000`) unless it is very large
+/// or very small, then in exponent form (`1e9`, `1e308`, `-1e-300`) rather than hundreds of
+/// digits.
+pub fn short(v: f64) -> String {
+    let a = v.abs();
+    if a.is_finite() && a != 0.0 && !(1e-6..1e9).contains(&a) { format!("{v:e}") } else { format!("{v}") }
 }
 
 /// The inclusive range of a count parameter (iterations, sweeps, hypotheses, features).
@@ -160,12 +196,13 @@ pub fn particles(n: usize) -> Result<(), ParamError> {
     }
 }
 
-/// `Ok` if every entry of a diagonal jitter is finite and `>= 0`.
+/// `Ok` if every entry of a diagonal jitter is in `[0, MAX_PARAM]`.
 pub fn jitter(key: &str, diagonal: &[f64; 3]) -> Result<(), ParamError> {
-    if diagonal.iter().all(|&j| Interval::NON_NEGATIVE.contains(j)) {
+    let range = Interval::BOUNDED_NON_NEGATIVE;
+    if diagonal.iter().all(|&j| range.contains(j)) {
         Ok(())
     } else {
-        Err(ParamError::new(key, format!("entries must be {} (got {diagonal:?})", Interval::NON_NEGATIVE)))
+        Err(ParamError::new(key, format!("entries must be {range} (got {diagonal:?})")))
     }
 }
 
@@ -332,7 +369,7 @@ mod tests {
             for &v in outside {
                 let e = range.check("k", v).expect_err(&format!("{v} not in {range}"));
                 assert_eq!(e.key, "k");
-                assert!(e.message.contains(&range.to_string()) && e.message.contains(&format!("{v}")), "{e}");
+                assert!(e.message.contains(&range.to_string()) && e.message.contains(&short(v)), "{e}");
             }
         }
         let deg = Interval::closed(0.0, 180.0);
@@ -340,6 +377,20 @@ mod tests {
         assert_eq!(Interval::PROBABILITY.to_string(), "in (0, 1]");
         assert_eq!(Interval::POSITIVE.to_string(), "finite and > 0");
         assert_eq!(Interval::BELOW_ONE.check_opt("k", None), Ok(()));
+        // Very large or small numbers are written in exponent form, not in hundreds of digits.
+        assert_eq!(
+            Interval::magnitude(1e9).check("k", 1e308).unwrap_err().message,
+            "must be in [-1e9, 1e9] (got 1e308)"
+        );
+        let shown = [short(1e308), short(-1e-300), short(0.25), short(1e6), short(0.0), short(f64::NAN)];
+        assert_eq!(shown, ["1e308", "-1e-300", "0.25", "1000000", "0", "NaN"]);
+        // Bounded ranges: the upper end is closed, the lower end kept.
+        assert_eq!(Interval::BOUNDED_POSITIVE.to_string(), "in (0, 1000000]");
+        assert_eq!(Interval::BOUNDED_NON_NEGATIVE.to_string(), "in [0, 1000000]");
+        assert!(Interval::BOUNDED_POSITIVE.contains(MAX_PARAM) && !Interval::BOUNDED_POSITIVE.contains(0.0));
+        assert!(!Interval::BOUNDED_NON_NEGATIVE.contains(1e308) && Interval::BOUNDED_NON_NEGATIVE.contains(0.0));
+        let m = Interval::magnitude(1e9);
+        assert!(m.contains(-1e9) && m.contains(1e9) && !m.contains(1.5e9) && !m.contains(-1e308));
         assert_eq!(Interval::BELOW_ONE.check_opt("k", Some(1.0)).unwrap_err().key, "k");
     }
 
@@ -354,7 +405,8 @@ mod tests {
         assert_eq!(particles(1), Ok(()));
         assert_eq!(particles(0).unwrap_err().key, "particles");
         assert_eq!(jitter("q_jitter", &[0.0, 1e-9, 1e-18]), Ok(()));
-        for bad in [[-1e-300, 0.0, 0.0], [0.0, f64::NAN, 0.0], [0.0, 0.0, f64::INFINITY]] {
+        assert_eq!(jitter("q_jitter", &[MAX_PARAM, 0.0, 0.0]), Ok(()));
+        for bad in [[-1e-300, 0.0, 0.0], [0.0, f64::NAN, 0.0], [0.0, 0.0, f64::INFINITY], [1e308, 0.0, 0.0]] {
             assert_eq!(jitter("q_jitter", &bad).unwrap_err().key, "q_jitter", "{bad:?}");
         }
     }

@@ -3,11 +3,32 @@
 //! (degrees for angles), converted to the SI [`SlamModels`] the filters use.
 
 use nalgebra::{Matrix2, Matrix3};
+use rfslam_core::params::Interval;
 use rfslam_core::{AckermannModel, ClutterIntensity, ClutterModel, DetectionModel, Fov, Motion, Pose};
 use rfslam_core::{RangeBearingSensor, SlamModels};
 use serde::{Deserialize, Serialize};
 
 use crate::error::ConfigError;
+
+/// The plausible ranges of the model keys: far beyond any real robot or sensor, and small
+/// enough that a run's sums of them stay finite (a finite but absurd value such as 1e308
+/// made results `inf`). docs/configuration.md lists them.
+pub mod limits {
+    /// Largest standard deviation of a noise (`sigma_*`: m, m/s, deg or deg/s).
+    pub const MAX_SIGMA: f64 = 1e6;
+    /// Largest distance (m): the sensor's `max_range`, the procedural world's `extent`, the
+    /// initial position of a Victoria Park run.
+    pub const MAX_DISTANCE: f64 = 1e7;
+    /// Largest length on the vehicle (m): the Ackermann `l`, `h`, `a`, `b` and the sensor
+    /// `offset`, in magnitude.
+    pub const MAX_VEHICLE_LENGTH: f64 = 1e3;
+    /// Largest speed (m/s) of the procedural world.
+    pub const MAX_SPEED: f64 = 1e3;
+    /// Largest turn rate (deg/s) of the procedural world: one turn a second.
+    pub const MAX_TURN_RATE_DEG: f64 = 360.0;
+    /// Largest time step (s) of a simulated world.
+    pub const MAX_DT: f64 = 10.0;
+}
 
 /// The `[motion]` table: the motion model of the odometry and its control noise
 /// (standard deviations of zero-mean Gaussian noise on each control input).
@@ -223,23 +244,25 @@ impl MotionConfig {
 
     /// Checks the values; keys are relative to the table (`sigma_v`).
     fn validate(&self) -> Result<(), ConfigError> {
+        let sigma = |key, v| in_range(key, Interval::NON_NEGATIVE.up_to(limits::MAX_SIGMA), v);
+        let length = |key, v| in_range(key, Interval::magnitude(limits::MAX_VEHICLE_LENGTH), v);
         match *self {
             MotionConfig::Velocity { sigma_v, sigma_omega_deg } => {
-                non_negative("sigma_v", sigma_v)?;
-                non_negative("sigma_omega_deg", sigma_omega_deg)
+                sigma("sigma_v", sigma_v)?;
+                sigma("sigma_omega_deg", sigma_omega_deg)
             }
             MotionConfig::Ackermann { l, h, a, b, sigma_v, sigma_steer_deg } => {
-                positive("l", l)?;
-                finite("h", h)?;
-                finite("a", a)?;
-                finite("b", b)?;
-                non_negative("sigma_v", sigma_v)?;
-                non_negative("sigma_steer_deg", sigma_steer_deg)
+                in_range("l", Interval::POSITIVE.up_to(limits::MAX_VEHICLE_LENGTH), l)?;
+                length("h", h)?;
+                length("a", a)?;
+                length("b", b)?;
+                sigma("sigma_v", sigma_v)?;
+                sigma("sigma_steer_deg", sigma_steer_deg)
             }
             MotionConfig::Odometry2d { sigma_dx, sigma_dy, sigma_dtheta_deg } => {
-                non_negative("sigma_dx", sigma_dx)?;
-                non_negative("sigma_dy", sigma_dy)?;
-                non_negative("sigma_dtheta_deg", sigma_dtheta_deg)
+                sigma("sigma_dx", sigma_dx)?;
+                sigma("sigma_dy", sigma_dy)?;
+                sigma("sigma_dtheta_deg", sigma_dtheta_deg)
             }
         }
     }
@@ -275,15 +298,15 @@ impl SensorConfig {
     }
 
     fn validate(&self) -> Result<(), ConfigError> {
-        positive("max_range", self.max_range)?;
-        positive("half_angle_deg", self.half_angle_deg)?;
-        if self.half_angle_deg > 180.0 {
-            return Err(ConfigError::new("half_angle_deg", "must be <= 180 (half of the FOV width)"));
-        }
-        positive("sigma_range", self.sigma_range)?;
-        positive("sigma_bearing_deg", self.sigma_bearing_deg)?;
-        finite("offset[0]", self.offset[0])?;
-        finite("offset[1]", self.offset[1])
+        in_range("max_range", Interval::POSITIVE.up_to(limits::MAX_DISTANCE), self.max_range)?;
+        // Half of the FOV width.
+        in_range("half_angle_deg", Interval::POSITIVE.up_to(180.0), self.half_angle_deg)?;
+        let sigma = Interval::POSITIVE.up_to(limits::MAX_SIGMA);
+        in_range("sigma_range", sigma, self.sigma_range)?;
+        in_range("sigma_bearing_deg", sigma, self.sigma_bearing_deg)?;
+        let length = Interval::magnitude(limits::MAX_VEHICLE_LENGTH);
+        in_range("offset[0]", length, self.offset[0])?;
+        in_range("offset[1]", length, self.offset[1])
     }
 }
 
@@ -359,7 +382,8 @@ impl ModelConfig {
         }
     }
 
-    /// Checks every value; the error names the dotted key (`sensor.sigma_range must be > 0`).
+    /// Checks every value against its range; the error names the dotted key
+    /// (`sensor.sigma_range must be in (0, 1000000] (got 0)`).
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.motion.validate().map_err(|e| e.prefixed("motion"))?;
         self.sensor.validate().map_err(|e| e.prefixed("sensor"))?;
@@ -370,7 +394,7 @@ impl ModelConfig {
         if !(0.0..=1.0).contains(&p) {
             return Err(ConfigError::new(key, "must be in [0, 1]"));
         }
-        non_negative("clutter.rate", self.clutter.rate)
+        in_range("clutter.rate", Interval::NON_NEGATIVE.up_to(ClutterModel::MAX_RATE), self.clutter.rate)
     }
 
     /// The models in SI units, for a robot starting at `initial_pose`.
@@ -388,16 +412,10 @@ impl ModelConfig {
     }
 }
 
-fn finite(key: &str, v: f64) -> Result<(), ConfigError> {
-    if v.is_finite() { Ok(()) } else { Err(ConfigError::new(key, "must be finite")) }
-}
-
-pub(crate) fn positive(key: &str, v: f64) -> Result<(), ConfigError> {
-    if v > 0.0 && v.is_finite() { Ok(()) } else { Err(ConfigError::new(key, "must be > 0")) }
-}
-
-pub(crate) fn non_negative(key: &str, v: f64) -> Result<(), ConfigError> {
-    if v >= 0.0 && v.is_finite() { Ok(()) } else { Err(ConfigError::new(key, "must be >= 0")) }
+/// `Ok` if `v` lies in `range`, else an error naming `key`, the range and `v` (the wording
+/// of the filters' parameters, [`Interval::check`]).
+pub(crate) fn in_range(key: &str, range: Interval, v: f64) -> Result<(), ConfigError> {
+    range.check(key, v).map_err(|e| ConfigError::new(e.key, e.message))
 }
 
 #[cfg(test)]
@@ -452,7 +470,7 @@ mod tests {
     fn validation_names_the_key() {
         let mut c = ModelConfig::phd_slam_synthetic();
         c.sensor.sigma_range = 0.0;
-        assert_eq!(c.validate().unwrap_err().to_string(), "sensor.sigma_range must be > 0");
+        assert_eq!(c.validate().unwrap_err().to_string(), "sensor.sigma_range must be in (0, 1000000] (got 0)");
         let mut c = ModelConfig::phd_slam_synthetic();
         c.detection = DetectionModel::RangeLinear { pd0: 1.5 };
         assert_eq!(c.validate().unwrap_err().key(), Some("detection.pd0"));

@@ -4,6 +4,8 @@ use std::fs::File;
 use std::io::{BufWriter, Cursor, Write};
 use std::path::{Path, PathBuf};
 
+use rfslam_core::params::{Interval, short};
+
 use crate::error::DataError;
 
 /// A CSV file read row by row, with the requested columns located by header name.
@@ -122,6 +124,26 @@ impl CsvRows {
         Ok(Some(v))
     }
 
+    /// A number in column `i` of magnitude at most `bound` (`unit` names it in the error).
+    pub fn bounded_f64(&self, i: usize, bound: f64, unit: &str) -> Result<f64, DataError> {
+        let v = self.f64(i)?;
+        self.check_bound(i, v, bound, unit)?;
+        Ok(v)
+    }
+
+    /// [`CsvRows::bounded_f64`] of a cell that may be empty.
+    pub fn opt_bounded_f64(&self, i: usize, bound: f64, unit: &str) -> Result<Option<f64>, DataError> {
+        let v = self.opt_f64(i)?;
+        if let Some(v) = v {
+            self.check_bound(i, v, bound, unit)?;
+        }
+        Ok(v)
+    }
+
+    fn check_bound(&self, i: usize, v: f64, bound: f64, unit: &str) -> Result<(), DataError> {
+        beyond_bound(v, bound, unit).map_or(Ok(()), |m| Err(self.err(i, m)))
+    }
+
     /// An integer in column `i`, or `None` when it is empty.
     pub fn opt_i64(&self, i: usize) -> Result<Option<i64>, DataError> {
         let s = self.text(i)?;
@@ -143,6 +165,13 @@ impl CsvRows {
             _ => Ok(()),
         }
     }
+}
+
+/// `None` if `|v| <= bound`, else the message of the cell's error (`unit` is the bound's):
+/// the magnitude check of every column of a data file (`dataset::limits`).
+pub fn beyond_bound(v: f64, bound: f64, unit: &str) -> Option<String> {
+    let range = Interval::magnitude(bound);
+    (!range.contains(v)).then(|| format!("{} is not {range} {unit} (the plausible magnitude of this column)", short(v)))
 }
 
 /// A csv error at its line (counted from the bytes of the file).

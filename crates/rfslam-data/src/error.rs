@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 use crate::mat::MatError;
 
 /// A configuration value that is out of range: the dotted key (`sensor.sigma_range`) and
-/// what is wrong with it (`must be > 0`). Displays as `sensor.sigma_range must be > 0`.
+/// what is wrong with it (`must be in (0, 1000000] (got 0)`). Displays as
+/// `sensor.sigma_range must be in (0, 1000000] (got 0)`.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{key} {message}")]
 pub struct ConfigError {

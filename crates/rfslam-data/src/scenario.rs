@@ -32,7 +32,9 @@ use std::path::{Path, PathBuf};
 use rfslam_core::{DetectionModel, Pose};
 use serde::{Deserialize, Serialize};
 
-use crate::config::{ClutterConfig, ModelConfig, MotionConfig, SensorConfig, need, only_keys, positive};
+use rfslam_core::params::Interval;
+
+use crate::config::{ClutterConfig, ModelConfig, MotionConfig, SensorConfig, in_range, limits, need, only_keys};
 use crate::error::{ConfigError, DataError};
 use crate::find::find_data;
 
@@ -86,7 +88,7 @@ impl ProceduralParams {
     pub const MAX_LANDMARKS: usize = 100_000;
     /// Largest side of the square (m): beyond it a double no longer resolves the
     /// centimetres of the noise, and far beyond it the landmark grid's cells overflow.
-    pub const MAX_EXTENT: f64 = 1e7;
+    pub const MAX_EXTENT: f64 = limits::MAX_DISTANCE;
 
     /// Checks the values; keys are relative to the `[world]` table (`steps`).
     pub fn validate(&self) -> Result<(), ConfigError> {
@@ -96,14 +98,10 @@ impl ProceduralParams {
         if self.landmarks > Self::MAX_LANDMARKS {
             return Err(ConfigError::new("landmarks", format!("must be in [0, {}]", Self::MAX_LANDMARKS)));
         }
-        positive("dt", self.dt)?;
-        positive("speed", self.speed)?;
-        positive("max_turn_rate_deg", self.max_turn_rate_deg)?;
-        positive("extent", self.extent)?;
-        if self.extent > Self::MAX_EXTENT {
-            return Err(ConfigError::new("extent", format!("must be at most {:e}", Self::MAX_EXTENT)));
-        }
-        Ok(())
+        in_range("dt", Interval::POSITIVE.up_to(limits::MAX_DT), self.dt)?;
+        in_range("speed", Interval::POSITIVE.up_to(limits::MAX_SPEED), self.speed)?;
+        in_range("max_turn_rate_deg", Interval::POSITIVE.up_to(limits::MAX_TURN_RATE_DEG), self.max_turn_rate_deg)?;
+        in_range("extent", Interval::POSITIVE.up_to(Self::MAX_EXTENT), self.extent)
     }
 }
 
@@ -337,11 +335,7 @@ impl ScenarioConfig {
         self.models().validate()?;
         match &self.world {
             WorldSpec::Procedural(p) => p.validate().map_err(|e| e.prefixed("world"))?,
-            WorldSpec::GlmbSim { dt } => {
-                if !(dt.is_finite() && *dt > 0.0 && *dt <= 10.0) {
-                    return Err(ConfigError::new("world.dt", format!("must be in (0, 10] s (got {dt})")));
-                }
-            }
+            WorldSpec::GlmbSim { dt } => in_range("world.dt", Interval::POSITIVE.up_to(limits::MAX_DT), *dt)?,
             WorldSpec::Environment { path } | WorldSpec::Mat { path } | WorldSpec::Dataset { path } => {
                 if path.trim().is_empty() {
                     return Err(ConfigError::new("world.path", "must not be empty"));
@@ -351,11 +345,10 @@ impl ScenarioConfig {
                 if path.trim().is_empty() {
                     return Err(ConfigError::new("world.path", "must not be empty"));
                 }
-                for (k, v) in [("x", initial_x), ("y", initial_y), ("heading_deg", initial_heading_deg)] {
-                    if !v.is_finite() {
-                        return Err(ConfigError::new(format!("world.initial_{k}"), "must be finite"));
-                    }
-                }
+                let position = Interval::magnitude(limits::MAX_DISTANCE);
+                in_range("world.initial_x", position, *initial_x)?;
+                in_range("world.initial_y", position, *initial_y)?;
+                in_range("world.initial_heading_deg", Interval::magnitude(360.0), *initial_heading_deg)?;
                 if self.sensor.offset != [0.0, 0.0] {
                     return Err(ConfigError::new(
                         "sensor.offset",
@@ -438,7 +431,7 @@ mod tests {
     fn errors_name_file_line_and_key() {
         let at = |n: &str| format!("scen.toml:{}:", line(n));
         let e = err(&SMALL_SCENARIO.replace("rate = 5.0", "rate = -5.0"));
-        assert!(e.starts_with(&format!("{} clutter.rate must be >= 0", at("rate"))), "{e}");
+        assert!(e.starts_with(&format!("{} clutter.rate must be in [0, 1000] (got -5)", at("rate"))), "{e}");
         let e = err(&SMALL_SCENARIO.replace("steps = 120", "steps = 1"));
         assert!(e.starts_with(&format!("{} world.steps must be in [2, 1000000]", at("steps"))), "{e}");
         // Absurd sizes are refused before anything is allocated (they aborted the process).
@@ -448,7 +441,23 @@ mod tests {
         assert!(e.starts_with(&format!("{} world.landmarks must be in [0, 100000]", at("landmarks"))), "{e}");
         // An extent of 1e308 overflowed the landmark grid's cell index (a panic in debug).
         let e = err(&SMALL_SCENARIO.replace("extent = 300.0", "extent = 1e308"));
-        assert!(e.contains("world.extent must be at most 1e7"), "{e}");
+        assert!(e.contains("world.extent must be in (0, 10000000]"), "{e}");
+        // Finite but absurd speeds and rates made the results inf (issue 15).
+        let e = err(&SMALL_SCENARIO.replace("steps = 120", "steps = 120\nspeed = 1e200"));
+        assert!(
+            e.starts_with(&format!("scen.toml:{}: world.speed must be in (0, 1000] (got 1e200)", line("steps") + 1)),
+            "{e}"
+        );
+        let e = err(&SMALL_SCENARIO.replace("steps = 120", "steps = 120\ndt = 1e300"));
+        assert!(e.contains("world.dt must be in (0, 10] (got 1e300)"), "{e}");
+        let e = err(&SMALL_SCENARIO.replace("steps = 120", "steps = 120\nmax_turn_rate_deg = 1e9"));
+        assert!(e.contains("world.max_turn_rate_deg must be in (0, 360]"), "{e}");
+        let e = err(&SMALL_SCENARIO.replace("rate = 5.0", "rate = 1e308"));
+        assert!(e.contains("clutter.rate must be in [0, 1000] (got 1e308)"), "{e}");
+        let e = err(&SMALL_SCENARIO.replace("sigma_v = 0.8", "sigma_v = 1e200"));
+        assert!(e.contains("motion.sigma_v must be in [0, 1000000] (got 1e200)"), "{e}");
+        let e = err(&SMALL_SCENARIO.replace("max_range = 150.0", "max_range = 1e300"));
+        assert!(e.contains("sensor.max_range must be in (0, 10000000] (got 1e300)"), "{e}");
         let e = err(&SMALL_SCENARIO.replace("landmarks = 25", "landmarks = 25\nlandmark_count = 3"));
         let next = format!("scen.toml:{}:", line("landmarks") + 1);
         assert!(e.starts_with(&next) && e.contains("unknown field `landmark_count`"), "{e}");
@@ -516,7 +525,9 @@ mod tests {
         let e = err(&text.replace("offset = [0.0, 0.0]", "offset = [3.78, 0.5]"));
         assert!(e.contains("sensor.offset must be [0, 0] for victoria-park"), "{e}");
         let e = err(&text.replace("initial_x = 0.0", "initial_x = nan"));
-        assert!(e.contains("world.initial_x must be finite"), "{e}");
+        assert!(e.contains("world.initial_x must be in [-10000000, 10000000] (got NaN)"), "{e}");
+        let e = err(&text.replace("initial_heading_deg = 0.0", "initial_heading_deg = 1e308"));
+        assert!(e.contains("world.initial_heading_deg must be in [-360, 360]"), "{e}");
         let e = err(&text.replace("initial_x = 0.0", "steps = 3"));
         assert!(e.contains("`world.steps` is not a key of world kind \"victoria-park\""), "{e}");
         let e = err(&SMALL_SCENARIO.replace("steps = 120", "initial_x = 1.0"));

@@ -2,7 +2,14 @@
 //! the settings of the always-on metrics and the choice of the optional ones (see
 //! [`crate::metric`]).
 
+use rfslam_core::params::Interval;
 use serde::{Deserialize, Serialize};
+
+/// Largest cut-off `c` of GOSPA and OSPA (m), the largest distance of a scenario.
+pub const MAX_CUTOFF: f64 = 1e7;
+/// Largest order `p` of GOSPA and OSPA: `MAX_CUTOFF^p` stays far from overflow (1e140), so the
+/// sum of `c^p` over every landmark of a map is finite (the papers use 1 and 2).
+pub const MAX_ORDER: f64 = 20.0;
 
 /// Metric settings of an experiment (`[metrics]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -99,26 +106,23 @@ pub struct MetricsConfigError {
 }
 
 impl MetricsConfig {
-    /// Checks every setting's range: cut-offs finite and > 0, orders in [1, 1e6), the truth
-    /// tolerance finite and >= 0, the split step >= 1 (step 0 would leave nothing before it).
+    /// Checks every setting's range: cut-offs in (0, [`MAX_CUTOFF`]], orders in [1,
+    /// [`MAX_ORDER`]] (so that `c^p`, summed over every landmark, stays finite), the truth
+    /// tolerance >= 0, the split step >= 1 (step 0 would leave nothing before it).
     pub fn validate(&self) -> Result<(), MetricsConfigError> {
         let err = |key, message: &str| Err(MetricsConfigError { key, message: message.to_string() });
-        if !(self.gospa_c > 0.0 && self.gospa_c.is_finite()) {
-            return err("gospa_c", "must be > 0");
-        }
-        if !(1.0..1e6).contains(&self.gospa_p) {
-            return err("gospa_p", "must be in [1, inf)");
-        }
+        let range = |key: &'static str, range: Interval, v: f64| {
+            range.check(key, v).map_err(|e| MetricsConfigError { key, message: e.message })
+        };
+        let (cutoff, order) = (Interval::POSITIVE.up_to(MAX_CUTOFF), Interval::closed(1.0, MAX_ORDER));
+        range("gospa_c", cutoff, self.gospa_c)?;
+        range("gospa_p", order, self.gospa_p)?;
         if self.truth_tolerance_s.is_nan() || self.truth_tolerance_s < 0.0 {
             return err("truth_tolerance_s", "must be >= 0");
         }
         if let Some(o) = &self.ospa {
-            if !(o.c > 0.0 && o.c.is_finite()) {
-                return err("ospa.c", "must be > 0");
-            }
-            if !(1.0..1e6).contains(&o.p) {
-                return err("ospa.p", "must be in [1, inf)");
-            }
+            range("ospa.c", cutoff, o.c)?;
+            range("ospa.p", order, o.p)?;
         }
         if self.split_step == Some(0) {
             return err("split_step", "must be >= 1");

@@ -15,7 +15,7 @@
 use rfslam_core::Point2;
 use rfslam_data::Dataset;
 use rfslam_metrics::stats::{mean_ci95, weighted_mean_ci95};
-use rfslam_metrics::{DaCounts, PoseErrors, Se2AlignedRmse};
+use rfslam_metrics::{DaCounts, PoseErrors, Se2AlignedRmse, SumSquares};
 
 use crate::config::{MetricsConfig, OspaNormalise};
 use crate::run::{RunEnd, RunStart, StepRecord};
@@ -619,29 +619,29 @@ fn position_error(rec: &StepRecord) -> Option<Point2> {
 }
 
 /// RMSE of `sum_sq` over `n` values; NaN for none.
-fn rmse(sum_sq: f64, n: usize) -> f64 {
-    if n == 0 { f64::NAN } else { (sum_sq / n as f64).sqrt() }
+fn rmse(sum_sq: &SumSquares, n: usize) -> f64 {
+    if n == 0 { f64::NAN } else { sum_sq.rms(n) }
 }
 
 /// The x and y RMSE apart (Moratuwage et al. 2019 plot them in their Figs. 2 and 3).
 #[derive(Default)]
 struct XyMetric {
-    sum_sq_x: f64,
-    sum_sq_y: f64,
+    sum_sq_x: SumSquares,
+    sum_sq_y: SumSquares,
     steps: usize,
 }
 
 impl Observer for XyMetric {
     fn observe(&mut self, rec: &StepRecord) {
         if let Some(e) = position_error(rec) {
-            self.sum_sq_x += e.x * e.x;
-            self.sum_sq_y += e.y * e.y;
+            self.sum_sq_x.add(e.x, e.x * e.x);
+            self.sum_sq_y.add(e.y, e.y * e.y);
             self.steps += 1;
         }
     }
     fn finish(&mut self, _: &RunEnd, out: &mut Values) {
-        out.set("x_rmse_m", rmse(self.sum_sq_x, self.steps));
-        out.set("y_rmse_m", rmse(self.sum_sq_y, self.steps));
+        out.set("x_rmse_m", rmse(&self.sum_sq_x, self.steps));
+        out.set("y_rmse_m", rmse(&self.sum_sq_y, self.steps));
     }
 }
 
@@ -650,32 +650,33 @@ impl Observer for XyMetric {
 struct SplitMetric {
     split: usize,
     /// Sum of squared errors and scored steps before and from the split.
-    before: (f64, usize),
-    after: (f64, usize),
+    before: (SumSquares, usize),
+    after: (SumSquares, usize),
     at: f64,
 }
 
 impl SplitMetric {
     fn new(split: usize) -> Self {
-        SplitMetric { split, before: (0.0, 0), after: (0.0, 0), at: f64::NAN }
+        SplitMetric { split, before: Default::default(), after: Default::default(), at: f64::NAN }
     }
 }
 
 impl Observer for SplitMetric {
     fn observe(&mut self, rec: &StepRecord) {
         if let Some(e) = position_error(rec) {
-            let e2 = e.norm_squared();
             let part = if rec.k < self.split { &mut self.before } else { &mut self.after };
-            part.0 += e2;
+            part.0.add_norm(e);
             part.1 += 1;
             if rec.k == self.split {
-                self.at = e2.sqrt();
+                // `hypot` only where the square overflows: elsewhere the bits of sqrt(e.e).
+                let e2 = e.norm_squared();
+                self.at = if e2.is_finite() { e2.sqrt() } else { e.x.hypot(e.y) };
             }
         }
     }
     fn finish(&mut self, _: &RunEnd, out: &mut Values) {
-        out.set("pos_rmse_before_m", rmse(self.before.0, self.before.1));
-        out.set("pos_rmse_after_m", rmse(self.after.0, self.after.1));
+        out.set("pos_rmse_before_m", rmse(&self.before.0, self.before.1));
+        out.set("pos_rmse_after_m", rmse(&self.after.0, self.after.1));
         out.set("pos_err_split_m", self.at);
         out.set("scored_before", self.before.1 as f64);
         out.set("scored_after", self.after.1 as f64);
@@ -720,14 +721,27 @@ impl Pool {
         let square = matches!(self, Pool::Rmse { .. });
         let (mut vals, mut weights) = (Vec::new(), Vec::new());
         let (mut num, mut den) = (0.0, 0.0);
-        for (&v, &n) in x.iter().zip(w) {
-            if v.is_finite() && n > 0.0 {
-                let y = if square { v * v } else { v };
-                num += y * n;
-                den += n;
-                vals.push(y);
-                weights.push(n);
+        // RMSEs are squared relative to `scale`: 1 (the plain squares, bit for bit) unless a
+        // square or the weighted sum overflows, then the largest RMSE, so that finite
+        // per-run RMSEs pool to a finite figure.
+        let mut scale = 1.0;
+        for pass in 0..2 {
+            (num, den) = (0.0, 0.0);
+            vals.clear();
+            weights.clear();
+            for (&v, &n) in x.iter().zip(w) {
+                if v.is_finite() && n > 0.0 {
+                    let y = if square { (v / scale) * (v / scale) } else { v };
+                    num += y * n;
+                    den += n;
+                    vals.push(y);
+                    weights.push(n);
+                }
             }
+            if pass == 1 || !square || num.is_finite() {
+                break;
+            }
+            scale = x.iter().zip(w).filter(|&(v, &n)| v.is_finite() && n > 0.0).fold(0.0, |m, (v, _)| v.abs().max(m));
         }
         if den <= 0.0 {
             return Pooled { value: f64::NAN, std, lo95: f64::NAN, hi95: f64::NAN, runs: 0 };
@@ -736,11 +750,12 @@ impl Pool {
         let h = weighted_mean_ci95(&vals, &weights).map_or(f64::NAN, |ci| ci.half_width);
         let runs = vals.len();
         if !h.is_finite() {
-            let value = if square { mean.sqrt() } else { mean };
+            let value = if square { scale * mean.sqrt() } else { mean };
             return Pooled { value, std, lo95: f64::NAN, hi95: f64::NAN, runs };
         }
         if square {
-            Pooled { value: mean.sqrt(), std, lo95: (mean - h).max(0.0).sqrt(), hi95: (mean + h).sqrt(), runs }
+            let root = |m: f64| scale * m.sqrt();
+            Pooled { value: root(mean), std, lo95: root((mean - h).max(0.0)), hi95: root(mean + h), runs }
         } else {
             Pooled { value: mean, std, lo95: (mean - h).max(0.0), hi95: (mean + h).min(1.0), runs }
         }
@@ -749,12 +764,21 @@ impl Pool {
 
 /// Sample standard deviation (n - 1); 0 for one value, NaN for none.
 fn sample_std(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
+    let plain = |v: &[f64]| {
+        if v.is_empty() {
+            return f64::NAN;
+        }
+        let n = v.len() as f64;
+        let m = v.iter().sum::<f64>() / n;
+        if v.len() > 1 { (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0)).sqrt() } else { 0.0 }
+    };
+    let std = plain(v);
+    // Finite values whose squares overflow: the same figure relative to the largest one.
+    let scale = v.iter().fold(0.0, |m: f64, x| x.abs().max(m));
+    if std.is_finite() || !(scale.is_finite() && scale > 0.0) {
+        return std;
     }
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n;
-    if v.len() > 1 { (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0)).sqrt() } else { 0.0 }
+    scale * plain(&v.iter().map(|x| x / scale).collect::<Vec<_>>())
 }
 
 /// Makes the observers of the metrics an experiment scores.
@@ -888,6 +912,11 @@ mod tests {
             "ospa.p"
         );
         assert_eq!(bad(MetricsConfig { split_step: Some(0), ..Default::default() }), "split_step");
+        // c^p overflowed to inf with finite but absurd settings.
+        assert_eq!(bad(MetricsConfig { gospa_c: 1e200, ..Default::default() }), "gospa_c");
+        assert_eq!(bad(MetricsConfig { gospa_p: 400.0, ..Default::default() }), "gospa_p");
+        let e = MetricsConfig { gospa_p: 400.0, ..Default::default() }.validate().unwrap_err();
+        assert_eq!(e.message, "must be in [1, 20] (got 400)");
         assert!(MetricsConfig { ospa: Some(OspaSettings::default()), ..Default::default() }.validate().is_ok());
     }
 
@@ -902,6 +931,13 @@ mod tests {
         let p = Pool::Rmse { steps: "scored_steps" }.pool(&[1.0, 3.0, 5.0], &[100.0, 300.0, 0.0]);
         assert!((p.value - 7f64.sqrt()).abs() < 1e-12 && p.runs == 2);
         assert!(p.lo95 <= p.value && p.value <= p.hi95);
+        // RMSEs whose squares overflow pool to a finite figure (1e200 pooled to inf); the
+        // same runs scaled down by 1e190 give the same figure scaled.
+        let p = Pool::Rmse { steps: "scored_steps" }.pool(&[1e200, 3e200], &[100.0, 300.0]);
+        let q = Pool::Rmse { steps: "scored_steps" }.pool(&[1e10, 3e10], &[100.0, 300.0]);
+        assert!(p.value.is_finite() && (p.value / (q.value * 1e190) - 1.0).abs() < 1e-12, "{p:?} {q:?}");
+        assert!((p.hi95 / (q.hi95 * 1e190) - 1.0).abs() < 1e-12 && p.lo95 <= p.value, "{p:?} {q:?}");
+        assert!((p.std / (q.std * 1e190) - 1.0).abs() < 1e-12, "{p:?} {q:?}");
         // A rate's interval stays within [0, 1].
         let p = Pool::Rate { events: "da_positives" }.pool(&[1.0, 0.98, 0.99], &[10.0, 1000.0, 20.0]);
         assert!(p.hi95 <= 1.0 && p.lo95 >= 0.0 && p.lo95 <= p.value);

@@ -158,3 +158,32 @@ impl JobOutcome {
         None
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An infinite score anywhere, or a NaN position RMSE over scored steps, fails the job;
+    /// NaN where a score is not available does not. (With the input ranges of the scenario,
+    /// data and filter keys no run reaches these through the CLI any more: a `q_jitter` of
+    /// 1e308 used to.)
+    #[test]
+    fn scores_that_are_not_finite_numbers_are_named() {
+        let m = MetricsConfig::default();
+        let outcome = |set: &[(&str, f64)]| {
+            let mut o = JobOutcome { values: Values::default(), final_estimate: Estimate::default() };
+            for &(k, v) in [("scored_steps", 200.0), ("pos_rmse_m", 1.5), ("gospa_m", 3.0)].iter().chain(set) {
+                o.values.set(k, v);
+            }
+            o.not_finite(&m)
+        };
+        assert_eq!(outcome(&[]), None);
+        assert_eq!(outcome(&[("pos_rmse_m", f64::INFINITY)]).as_deref(), Some("pos_rmse_m is inf"));
+        assert_eq!(outcome(&[("gospa_m", f64::NEG_INFINITY)]).as_deref(), Some("gospa_m is -inf"));
+        let nan = outcome(&[("pos_rmse_m", f64::NAN)]);
+        assert_eq!(nan.as_deref(), Some("pos_rmse_m is NaN over 200 scored steps"));
+        // Without scored steps the RMSE is not available: NaN is its value, not a failure.
+        assert_eq!(outcome(&[("pos_rmse_m", f64::NAN), ("scored_steps", 0.0)]), None);
+        assert_eq!(outcome(&[("head_rmse_deg", f64::NAN)]), None);
+    }
+}

@@ -22,5 +22,5 @@ pub mod stats;
 pub use da::{DaCounts, score_associations};
 pub use error::MetricError;
 pub use ospa::{Gospa, Ospa, gospa, ospa};
-pub use pose::{PoseErrors, Se2AlignedRmse, Se2Alignment};
+pub use pose::{PoseErrors, Se2AlignedRmse, Se2Alignment, SumSquares};
 pub use stats::{EssStats, RunningMean};

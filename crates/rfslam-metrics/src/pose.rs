@@ -3,16 +3,116 @@
 
 use rfslam_core::{Point2, Pose, angle};
 
+/// A sum of squares that does not overflow: `scale^2 * ssq`.
+///
+/// While the plain sum stays finite `scale` is exactly 1 and `ssq` is the plain sum, so every
+/// figure of a normal run has the bits of `sum += e * e`. When a finite error's square, or
+/// the sum, would overflow, it switches to the scaled form of LAPACK's `dlassq` (Anderson
+/// 2017, "Algorithm 978: Safe scaling in the Level 1 BLAS"): `scale` is then at least every
+/// magnitude added and `ssq` the sum of the squared ratios, so a root mean square of errors
+/// of 1e200 m is 1e200 m, not `inf`. An infinite or NaN error still makes the sum infinite or
+/// NaN.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SumSquares {
+    scale: f64,
+    ssq: f64,
+}
+
+impl Default for SumSquares {
+    fn default() -> Self {
+        SumSquares { scale: 1.0, ssq: 0.0 }
+    }
+}
+
+impl SumSquares {
+    /// Adds `a^2` given `a` (any sign) and its square `sq` as the caller computes it (its bits
+    /// are the plain sum's).
+    pub fn add(&mut self, a: f64, sq: f64) {
+        let plain = self.ssq + sq;
+        if self.scale == 1.0 && (plain.is_finite() || !a.is_finite()) {
+            self.ssq = plain;
+            return;
+        }
+        let a = a.abs();
+        self.rescale();
+        if a > self.scale {
+            let r = self.scale / a;
+            self.ssq = self.ssq * r * r + 1.0;
+            self.scale = a;
+        } else if a > 0.0 {
+            let r = a / self.scale;
+            self.ssq += r * r;
+        } else if a.is_nan() {
+            self.ssq = f64::NAN;
+        }
+    }
+
+    /// Adds the squared norm of `e` (the plain sum adds `e.norm_squared()`).
+    pub fn add_norm(&mut self, e: Point2) {
+        self.add(e.x.hypot(e.y), e.norm_squared());
+    }
+
+    /// Pools another sum into this one (the plain sums add while they stay finite).
+    pub fn merge(&mut self, other: &Self) {
+        if !self.finite() || !other.finite() {
+            *self = SumSquares { scale: 1.0, ssq: self.value() + other.value() };
+            return;
+        }
+        let plain = self.ssq + other.ssq;
+        if self.scale == 1.0 && other.scale == 1.0 && plain.is_finite() {
+            self.ssq = plain;
+            return;
+        }
+        let (mut a, mut b) = (*self, *other);
+        a.rescale();
+        b.rescale();
+        let big = a.scale.max(b.scale);
+        if big == 0.0 {
+            *self = a;
+            return;
+        }
+        let (ra, rb) = (a.scale / big, b.scale / big);
+        *self = SumSquares { scale: big, ssq: a.ssq * ra * ra + b.ssq * rb * rb };
+    }
+
+    /// The plain form `(1, sum)` written as `(sqrt(sum), 1)`, the same value, so that the
+    /// ratios of what is added next are at most 1 (a no-op once scaled; both forms read
+    /// `scale^2 * ssq`).
+    fn rescale(&mut self) {
+        if self.scale == 1.0 && self.ssq.is_finite() {
+            *self = SumSquares { scale: self.ssq.sqrt(), ssq: if self.ssq > 0.0 { 1.0 } else { 0.0 } };
+        }
+    }
+
+    /// Whether the sum is finite.
+    fn finite(&self) -> bool {
+        self.scale.is_finite() && self.ssq.is_finite()
+    }
+
+    /// The sum `scale^2 * ssq` (`inf` when it does not fit in a double).
+    pub fn value(&self) -> f64 {
+        if self.scale == 1.0 { self.ssq } else { self.scale * self.scale * self.ssq }
+    }
+
+    /// The root mean square `sqrt(sum / n)`, finite whenever every term was.
+    pub fn rms(&self, n: usize) -> f64 {
+        let mean = self.ssq / n as f64;
+        if self.scale == 1.0 { mean.sqrt() } else { self.scale * mean.sqrt() }
+    }
+}
+
 /// Accumulates squared pose errors over steps so that position and heading RMSE can be
 /// reported per run or pooled exactly over runs ([`PoseErrors::merge`]).
 ///
 /// Position error is Euclidean; heading error is the wrapped difference
 /// `angle::diff(est_heading, true_heading)` in `[-pi, pi)`, so 3.1 vs -3.1 rad is an
-/// error of about 0.083 rad, not 6.2. Non-finite inputs propagate into the sums (NaN).
+/// error of about 0.083 rad, not 6.2. The position errors are summed without overflow
+/// ([`SumSquares`]: finite errors give a finite RMSE, with the plain sum's bits while it
+/// fits); non-finite inputs propagate into the sums (`inf` or NaN).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct PoseErrors {
     steps: usize,
-    sum_sq_pos: f64,
+    sum_sq_pos: SumSquares,
     head_steps: usize,
     sum_sq_head: f64,
 }
@@ -28,7 +128,7 @@ impl PoseErrors {
     pub fn push(&mut self, est: &Pose, truth_xy: Point2, truth_heading: Option<f64>) {
         let e = Point2::new(est.x, est.y) - truth_xy;
         self.steps += 1;
-        self.sum_sq_pos += e.norm_squared();
+        self.sum_sq_pos.add_norm(e);
         if let Some(h) = truth_heading {
             let dh = angle::diff(est.z, h);
             self.head_steps += 1;
@@ -39,7 +139,7 @@ impl PoseErrors {
     /// Pools another accumulator into this one (sums add, so the pooled RMSE is exact).
     pub fn merge(&mut self, other: &Self) {
         self.steps += other.steps;
-        self.sum_sq_pos += other.sum_sq_pos;
+        self.sum_sq_pos.merge(&other.sum_sq_pos);
         self.head_steps += other.head_steps;
         self.sum_sq_head += other.sum_sq_head;
     }
@@ -54,9 +154,9 @@ impl PoseErrors {
         self.head_steps
     }
 
-    /// Sum of squared position errors (m^2).
+    /// Sum of squared position errors (m^2; `inf` when it exceeds a double, the RMSE does not).
     pub fn sum_sq_pos(&self) -> f64 {
-        self.sum_sq_pos
+        self.sum_sq_pos.value()
     }
 
     /// Sum of squared wrapped heading errors (rad^2).
@@ -66,7 +166,7 @@ impl PoseErrors {
 
     /// Position RMSE `sqrt(mean ||p_est - p_true||^2)` (m); `None` with no steps.
     pub fn pos_rmse(&self) -> Option<f64> {
-        (self.steps > 0).then(|| (self.sum_sq_pos / self.steps as f64).sqrt())
+        (self.steps > 0).then(|| self.sum_sq_pos.rms(self.steps))
     }
 
     /// Heading RMSE (rad) over the steps with a true heading; `None` if there were none.
@@ -257,6 +357,63 @@ mod tests {
         assert!((a.head_rmse().unwrap() - all.head_rmse().unwrap()).abs() < 1e-12);
         // Pooled RMSE is not the mean of the two runs' RMSEs in general.
         assert!(a.pos_rmse().unwrap() > 0.0);
+    }
+
+    /// Normal errors give the plain sum's bits; errors whose squares overflow give a finite
+    /// RMSE (a position error of 1e200 m made it `inf`); infinite or NaN errors stay so.
+    #[test]
+    fn sum_of_squares_does_not_overflow() {
+        let errors = [0.1, -3.7, 1e-3, 250.0, 0.0, 42.42];
+        let (mut plain, mut sum) = (0.0, SumSquares::default());
+        for e in errors {
+            plain += e * e;
+            sum.add(e, e * e);
+        }
+        assert_eq!(sum.value().to_bits(), plain.to_bits());
+        assert_eq!(sum.rms(6).to_bits(), (plain / 6.0).sqrt().to_bits());
+
+        let mut p = PoseErrors::new();
+        p.push(&Pose::new(1e200, 0.0, 0.0), Point2::new(0.0, 0.0), None);
+        p.push(&Pose::new(0.0, -1e200, 0.0), Point2::new(0.0, 0.0), None);
+        p.push(&Pose::new(3.0, 4.0, 0.0), Point2::new(0.0, 0.0), None);
+        let rmse = p.pos_rmse().unwrap();
+        assert!(rmse.is_finite() && (rmse / (1e200 * (2.0f64 / 3.0).sqrt()) - 1.0).abs() < 1e-12, "{rmse}");
+        assert_eq!(p.sum_sq_pos(), f64::INFINITY);
+
+        // Overflow first met in the middle of a run, and near the largest double.
+        let mut s = SumSquares::default();
+        for a in [2.0, 1e160, 1e160, -3.0, 1.7e308, 1.7e308] {
+            s.add(a, a * a);
+        }
+        let want = 1.7e308 * ((2.0 * 1.0 + 2.0 * (1e160f64 / 1.7e308).powi(2)) / 6.0f64).sqrt();
+        assert!((s.rms(6) / want - 1.0).abs() < 1e-12, "{}", s.rms(6));
+
+        // Merging: two plain halves give the plain whole; overflowing halves pool exactly.
+        let (mut a, mut b, mut whole) = (SumSquares::default(), SumSquares::default(), SumSquares::default());
+        for (i, e) in [1e200, 2.0, 3e199, 5.0].into_iter().enumerate() {
+            if i < 2 { &mut a } else { &mut b }.add(e, e * e);
+            whole.add(e, e * e);
+        }
+        a.merge(&b);
+        assert!((a.rms(4) / whole.rms(4) - 1.0).abs() < 1e-12 && a.rms(4).is_finite());
+        let (mut x, mut y) = (SumSquares::default(), SumSquares::default());
+        x.add(3.0, 9.0);
+        y.add(4.0, 16.0);
+        x.merge(&y);
+        assert_eq!(x.value(), 25.0);
+
+        // Infinite and NaN errors are not hidden.
+        for bad in [f64::INFINITY, f64::NAN] {
+            let mut s = SumSquares::default();
+            s.add(1.0, 1.0);
+            s.add(bad, bad * bad);
+            s.add(2.0, 4.0);
+            assert!(!s.rms(3).is_finite(), "{bad}");
+            let mut t = SumSquares::default();
+            t.add(1e200, f64::INFINITY);
+            t.add(bad, bad * bad);
+            assert!(!t.rms(2).is_finite(), "{bad} after scaling");
+        }
     }
 
     /// `p -> R(theta) p + t`.

@@ -63,6 +63,8 @@ use rfslam_core::angle::wrap;
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{Control, Point2, Pose, RangeBearing, Scan, TRUTH_UNKNOWN};
 
+use rfslam_data::csvio::beyond_bound;
+use rfslam_data::dataset::limits;
 use rfslam_data::{DataError, Dataset, DatasetMeta, ModelConfig, MotionConfig, OdometryRow, TruthPose};
 
 use crate::simulate::shuffle_scan;
@@ -121,7 +123,12 @@ impl VictoriaPark {
 
     /// Parses the text of `measurements.dat` (errors name `path`); no odometry, no GPS.
     pub fn parse_measurements(text: &str, path: &Path) -> Result<VictoriaPark, DataError> {
-        const COLUMNS: [&str; 4] = ["time", "range", "bearing", "diameter"];
+        const COLUMNS: [Column; 4] = [
+            ("time", limits::MAX_TIME, "s"),
+            ("range", limits::MAX_COORDINATE, "m"),
+            ("bearing", limits::MAX_ANGLE, "rad"),
+            ("diameter", limits::MAX_COORDINATE, "m"),
+        ];
         let mut vp = VictoriaPark {
             scan_times: Vec::new(),
             starts: vec![0],
@@ -131,7 +138,7 @@ impl VictoriaPark {
         };
         for_each_row(text, path, &COLUMNS, |line, v| {
             let [t, range, bearing, _diameter] = [v[0], v[1], v[2], v[3]];
-            let err = |c: usize, m: String| DataError::value(path, line, COLUMNS[c], m);
+            let err = |c: usize, m: String| DataError::value(path, line, COLUMNS[c].0, m);
             match vp.scan_times.last() {
                 Some(&prev) if t < prev => {
                     return Err(err(0, format!("time {t} goes backwards (previous row: {prev})")));
@@ -260,10 +267,11 @@ impl VictoriaPark {
 
 /// Parses `inputs.dat`: `time speed steering`, times non-decreasing, `|steering| < pi/2`.
 fn parse_inputs(text: &str, path: &Path) -> Result<Vec<OdometryRow>, DataError> {
-    const COLUMNS: [&str; 3] = ["time", "speed", "steering"];
+    const COLUMNS: [Column; 3] =
+        [("time", limits::MAX_TIME, "s"), ("speed", limits::MAX_SPEED, "m/s"), ("steering", limits::MAX_ANGLE, "rad")];
     let mut out: Vec<OdometryRow> = Vec::new();
     for_each_row(text, path, &COLUMNS, |line, v| {
-        let err = |c: usize, m: String| DataError::value(path, line, COLUMNS[c], m);
+        let err = |c: usize, m: String| DataError::value(path, line, COLUMNS[c].0, m);
         if let Some(prev) = out.last().map(|r| r.t)
             && v[0] < prev
         {
@@ -280,7 +288,8 @@ fn parse_inputs(text: &str, path: &Path) -> Result<Vec<OdometryRow>, DataError> 
 
 /// Parses `gps.dat`: `time x y`, times non-decreasing.
 fn parse_gps(text: &str, path: &Path) -> Result<Vec<(f64, Point2)>, DataError> {
-    const COLUMNS: [&str; 3] = ["time", "x", "y"];
+    const COLUMNS: [Column; 3] =
+        [("time", limits::MAX_TIME, "s"), ("x", limits::MAX_COORDINATE, "m"), ("y", limits::MAX_COORDINATE, "m")];
     let mut out: Vec<(f64, Point2)> = Vec::new();
     for_each_row(text, path, &COLUMNS, |line, v| {
         if let Some(&(prev, _)) = out.last()
@@ -289,7 +298,7 @@ fn parse_gps(text: &str, path: &Path) -> Result<Vec<(f64, Point2)>, DataError> {
             return Err(DataError::value(
                 path,
                 line,
-                COLUMNS[0],
+                COLUMNS[0].0,
                 format!("time {} goes backwards (previous row: {prev})", v[0]),
             ));
         }
@@ -299,16 +308,22 @@ fn parse_gps(text: &str, path: &Path) -> Result<Vec<(f64, Point2)>, DataError> {
     Ok(out)
 }
 
+/// A column of a `.dat` file: its name, the bound on the magnitude of its values and the
+/// bound's unit (the limits of the dataset format, `rfslam_data::dataset::limits`).
+type Column = (&'static str, f64, &'static str);
+
 /// Calls `row(line, values)` for every non-blank line of a whitespace-separated table with
-/// exactly `columns.len()` (at most 4) finite numbers per line.
+/// exactly `columns.len()` (at most 4) finite numbers per line, each within its column's
+/// bound.
 fn for_each_row(
     text: &str,
     path: &Path,
-    columns: &[&str],
+    columns: &[Column],
     mut row: impl FnMut(u64, &[f64]) -> Result<(), DataError>,
 ) -> Result<(), DataError> {
     let mut values = [0.0f64; 4];
     let n = columns.len().min(values.len());
+    let names: Vec<&str> = columns.iter().map(|c| c.0).collect();
     for (i, content) in text.lines().enumerate() {
         let line = i as u64 + 1;
         let mut count = 0;
@@ -317,14 +332,17 @@ fn for_each_row(
                 return Err(DataError::row(
                     path,
                     line,
-                    format!("more than {n} fields (expected `{}`)", columns.join(" ")),
+                    format!("more than {n} fields (expected `{}`)", names.join(" ")),
                 ));
             }
-            let v: f64 = token
-                .parse()
-                .map_err(|_| DataError::value(path, line, columns[count], format!("`{token}` is not a number")))?;
+            let (name, bound, unit) = columns[count];
+            let v: f64 =
+                token.parse().map_err(|_| DataError::value(path, line, name, format!("`{token}` is not a number")))?;
             if !v.is_finite() {
-                return Err(DataError::value(path, line, columns[count], format!("`{token}` is not finite")));
+                return Err(DataError::value(path, line, name, format!("`{token}` is not finite")));
+            }
+            if let Some(m) = beyond_bound(v, bound, unit) {
+                return Err(DataError::value(path, line, name, m));
             }
             values[count] = v;
             count += 1;
@@ -335,7 +353,7 @@ fn for_each_row(
                 return Err(DataError::row(
                     path,
                     line,
-                    format!("{c} fields where {n} are expected (`{}`)", columns.join(" ")),
+                    format!("{c} fields where {n} are expected (`{}`)", names.join(" ")),
                 ));
             }
             _ => row(line, &values[..n])?,
@@ -623,6 +641,11 @@ mod tests {
         assert!(e.contains("gps.dat:3: 2 fields where 3 are expected"), "{e}");
         let e = broken(files::GPS, |t| t.replace("1.290", "1.000"));
         assert!(e.contains("gps.dat:3: column `time`: time 1 goes backwards"), "{e}");
+        // Finite but absurd values are refused at their cell (they made results inf).
+        let e = broken(files::INPUTS, |t| t.replace("2.500", "1e308"));
+        assert!(e.contains("inputs.dat:2: column `speed`: 1e308 is not in [-10000, 10000] m/s"), "{e}");
+        let e = broken(files::GPS, |t| t.replace("-1.700", "-1e300"));
+        assert!(e.contains("gps.dat:3: column `y`: -1e300 is not in [-1e9, 1e9] m"), "{e}");
         // A missing file.
         let tmp = TempDir::new("vp-missing");
         std::fs::write(tmp.path().join(files::MEASUREMENTS), MEASUREMENTS).unwrap();

@@ -16,7 +16,7 @@ use rfslam_core::angle::wrap;
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{Control, Motion, MotionModel, Point2, Pose};
 use rfslam_data::csvio::{CsvOut, CsvRows};
-use rfslam_data::dataset::{read_landmarks, write_landmarks};
+use rfslam_data::dataset::{limits, read_landmarks, write_landmarks};
 use rfslam_data::find::where_to_get;
 use rfslam_data::mat::{MatArray, MatFile};
 use rfslam_data::{ConfigError, DataError, Landmark, ProceduralParams};
@@ -108,7 +108,7 @@ impl World {
         let mut controls: Vec<(f64, Control)> = Vec::new();
         let mut dt = f64::NAN;
         while r.next_row()? {
-            let t = r.f64(0)?;
+            let t = r.bounded_f64(0, limits::MAX_TIME, "s")?;
             if let Some(&(prev, _)) = controls.last() {
                 let step = t - prev;
                 if controls.len() == 1 {
@@ -123,7 +123,8 @@ impl World {
                     ));
                 }
             }
-            controls.push((t, Control::new(r.f64(1)?, r.f64(2)?, 0.0)));
+            let v = r.bounded_f64(1, limits::MAX_SPEED, "m/s")?;
+            controls.push((t, Control::new(v, r.bounded_f64(2, limits::MAX_TURN_RATE, "rad/s")?, 0.0)));
         }
         if controls.len() < 2 {
             return Err(DataError::row(&controls_path, r.line(), "needs at least two rows (dt is their spacing)"));
@@ -133,13 +134,18 @@ impl World {
         if !g.next_row()? {
             return Err(DataError::row(&gt_path, 1, "has no rows (its first row is the initial pose)"));
         }
-        let t0 = g.f64(0)?;
+        let t0 = g.bounded_f64(0, limits::MAX_TIME, "s")?;
         if (t0 - controls[0].0).abs() > 1e-9 * dt.max(1.0) {
             return Err(
                 g.err(0, format!("the initial pose time {t0} differs from the first control time {}", controls[0].0))
             );
         }
-        let x0 = Pose::new(g.f64(1)?, g.f64(2)?, wrap(g.f64(3)?));
+        let c = limits::MAX_COORDINATE;
+        let x0 = Pose::new(
+            g.bounded_f64(1, c, "m")?,
+            g.bounded_f64(2, c, "m")?,
+            wrap(g.bounded_f64(3, limits::MAX_ANGLE, "rad")?),
+        );
         Ok(World::from_controls(dir_name(dir), Motion::Velocity, dt, x0, controls, landmarks))
     }
 
@@ -185,30 +191,41 @@ impl World {
         for r in 0..lm.rows() {
             let v = |c| lm.get(r, c).unwrap_or(f64::NAN);
             let (id, x, y) = (v(0), v(1), v(2));
-            if id.fract() != 0.0 || !x.is_finite() || !y.is_finite() {
+            if id.fract() != 0.0 || ![x, y].iter().all(|v| v.abs() <= limits::MAX_COORDINATE) {
                 return Err(DataError::MatVariable {
                     path: path.to_path_buf(),
                     name: lm.name.clone(),
-                    message: format!("row {}: [{id}, {x}, {y}] is not an integer id with a finite position", r + 1),
+                    message: format!(
+                        "row {}: [{id}, {x}, {y}] is not an integer id with a position within {:e} m",
+                        r + 1,
+                        limits::MAX_COORDINATE
+                    ),
                 });
             }
             landmarks.push(Landmark { id: id as i64, position: Point2::new(x, y) });
         }
+        let max_dt = rfslam_data::config::limits::MAX_DT;
         let dt = match mat.get("T") {
             None => 1.0,
-            Some(t) if t.data.len() == 1 && t.data[0] > 0.0 && t.data[0].is_finite() => t.data[0],
-            Some(t) => return Err(shape_err(t, "a positive scalar (the time step)")),
+            Some(t) if t.data.len() == 1 && t.data[0] > 0.0 && t.data[0] <= max_dt => t.data[0],
+            Some(t) => return Err(shape_err(t, &format!("a positive scalar of at most {max_dt} (the time step, s)"))),
         };
         let controls: Vec<(f64, Control)> = (0..uc.cols())
             .map(|c| {
                 (c as f64 * dt, Control::new(uc.get(0, c).unwrap_or(f64::NAN), uc.get(1, c).unwrap_or(f64::NAN), 0.0))
             })
             .collect();
-        if let Some(c) = controls.iter().position(|(_, u)| !u.iter().all(|v| v.is_finite())) {
+        let plausible = |u: &Control| u[0].abs() <= limits::MAX_SPEED && u[1].abs() <= limits::MAX_TURN_RATE;
+        if let Some(c) = controls.iter().position(|(_, u)| !plausible(u)) {
             return Err(DataError::MatVariable {
                 path: path.to_path_buf(),
                 name: uc.name.clone(),
-                message: format!("column {} is not finite", c + 1),
+                message: format!(
+                    "column {}: [v; omega] must be finite and within {:e} m/s and {:e} rad/s",
+                    c + 1,
+                    limits::MAX_SPEED,
+                    limits::MAX_TURN_RATE
+                ),
             });
         }
         let x0 = Pose::new(
@@ -216,11 +233,12 @@ impl World {
             gt.get(1, 0).unwrap_or(f64::NAN),
             gt.get(2, 0).unwrap_or(f64::NAN),
         );
-        if !x0.iter().all(|v| v.is_finite()) {
+        let (c, a) = (limits::MAX_COORDINATE, limits::MAX_ANGLE);
+        if !(x0.x.abs() <= c && x0.y.abs() <= c && x0.z.abs() <= a) {
             return Err(DataError::MatVariable {
                 path: path.to_path_buf(),
                 name: gt.name.clone(),
-                message: "the first column (initial pose) is not finite".into(),
+                message: format!("the first column (initial pose) must be finite and within {c:e} m and {a:e} rad"),
             });
         }
         let x0 = Pose::new(x0.x, x0.y, wrap(x0.z));
@@ -462,6 +480,10 @@ mod tests {
         std::fs::write(&p, text.replacen("\n3,", "\n3.5,", 1)).unwrap();
         let e = World::from_csv_dir(tmp.path()).unwrap_err().to_string();
         assert!(e.contains("controls.csv:5: column `t`: time step 1.5 differs"), "{e}");
+        // A finite but absurd speed made the world's poses inf.
+        std::fs::write(&p, "t,v,omega\n0,1e308,0\n1,1,0\n").unwrap();
+        let e = World::from_csv_dir(tmp.path()).unwrap_err().to_string();
+        assert!(e.contains("controls.csv:2: column `v`: 1e308 is not in [-10000, 10000] m/s"), "{e}");
         std::fs::write(&p, "t,v\n0,1\n").unwrap();
         let e = World::from_csv_dir(tmp.path()).unwrap_err().to_string();
         assert!(e.contains("controls.csv:1: missing column `omega`"), "{e}");
@@ -608,7 +630,7 @@ mod tests {
         let e = World::procedural(&ProceduralParams { steps: 1, ..Default::default() }, 1).unwrap_err();
         assert_eq!(e.key(), Some("world.steps"));
         let e = World::procedural(&ProceduralParams { dt: 0.0, ..Default::default() }, 1).unwrap_err();
-        assert_eq!(e.to_string(), "world.dt must be > 0");
+        assert_eq!(e.to_string(), "world.dt must be in (0, 10] (got 0)");
         let e = World::procedural(&ProceduralParams { steps: 10, landmarks: 100_000, ..Default::default() }, 1)
             .unwrap_err();
         assert_eq!(e.key(), Some("world.landmarks"));
