@@ -29,7 +29,8 @@ pub mod locate;
 pub mod mat;
 pub mod scenario;
 
-#[cfg(any(test, feature = "testutil"))]
+/// Helpers for the tests of this crate and of the crates that read its formats (always
+/// compiled: a feature would make `cargo test` rebuild every crate above this one).
 pub mod testutil;
 
 pub use config::{ClutterConfig, ModelConfig, MotionConfig, SensorConfig};

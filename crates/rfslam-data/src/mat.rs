@@ -364,7 +364,7 @@ fn numeric(el: &Element<'_>, n: usize) -> Result<Vec<f64>, MatError> {
 }
 
 /// Builders of MAT v5 byte streams, for tests (here and in the crates that read worlds).
-#[cfg(any(test, feature = "testutil"))]
+/// Always compiled, as [`crate::testutil`] is.
 pub mod build {
     /// Appends a data element (tag, payload, padding to 8 bytes).
     pub fn element(out: &mut Vec<u8>, ty: u32, payload: &[u8]) {

@@ -1,5 +1,5 @@
-//! Test helpers (this crate's unit tests, and with the feature `testutil` the tests of the
-//! crates that read its formats): temporary directories and the shared external data.
+//! Test helpers (this crate's unit tests and the tests of the crates that read its formats):
+//! temporary directories and the shared external data.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
