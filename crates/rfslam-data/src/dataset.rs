@@ -852,6 +852,25 @@ mod tests {
         e
     }
 
+    /// A continuous (unwrapped) ground-truth heading reads as its wrapped value, so it scores
+    /// the same, and the data set written back holds the wrapped copy.
+    #[test]
+    fn unwrapped_truth_headings_are_wrapped_on_reading() {
+        let tmp = TempDir::new("unwrapped");
+        example().write(tmp.path()).unwrap();
+        let p = tmp.path().join(files::GROUNDTRUTH);
+        let text = std::fs::read_to_string(&p).unwrap();
+        let turned = 0.5 + 6.0 * std::f64::consts::PI;
+        std::fs::write(&p, text.replace("0,1,2,0.5", &format!("0,1,2,{turned}"))).unwrap();
+        let ds = Dataset::read(tmp.path()).unwrap();
+        let h = ds.groundtruth.as_ref().unwrap()[0].heading.unwrap();
+        assert!((h - 0.5).abs() < 1e-12, "{h}");
+        let again = TempDir::new("unwrapped-out");
+        ds.write(again.path()).unwrap();
+        assert_eq!(Dataset::read(again.path()).unwrap().groundtruth.unwrap()[0].heading, Some(h));
+        assert!(std::fs::read_to_string(again.path().join(files::GROUNDTRUTH)).unwrap().contains(&format!("0,1,2,{h}")));
+    }
+
     #[test]
     fn loader_errors_name_file_line_and_column() {
         let e = broken(files::SCANS, |_| String::new());
