@@ -113,6 +113,28 @@ fn unpaired_sweeps_are_refused_naming_both_directories_and_the_key() {
     fails(tmp.path(), &["compare", "a:nope", "a:dr"], 2, &["no filter label `nope`", "dr, phd"]);
 }
 
+/// The clutter intensity the filters assume is read only by their models (the data of a run
+/// seed are the same), so sweeps that differ there are paired, and the note says so; the
+/// dead-reckoning rows, which no clutter model touches, differ by exactly zero.
+#[test]
+fn sweeps_differing_only_in_what_the_filters_assume_are_paired() {
+    let tmp = TempDir::new("compare-intensity");
+    sweep(&tmp, "a", 3, 2.0, "");
+    sweep(&tmp, "m", 3, 2.0, "\n[grid]\n\"scenario.clutter.intensity\" = [\"measurement\"]\n");
+    let o = ok(tmp.path(), &["compare", "a", "m", "--out", "cmp"]);
+    assert!(
+        o.stdout.contains("differ only in what the filters' models read")
+            && o.stdout.contains("- B1 differs from A in `scenario.clutter.intensity` ((absent) vs \"measurement\")"),
+        "{}",
+        o.stdout
+    );
+    let c = Csv::read(&tmp.join("cmp/compare.csv"));
+    let i = (0..c.rows.len()).find(|&i| c.get(i, "metric") == "pos_rmse_m" && c.get(i, "b_label") == "dr").unwrap();
+    assert_eq!((c.get(i, "n"), c.num(i, "mean_diff")), ("3", 0.0));
+    let j = (0..c.rows.len()).find(|&i| c.get(i, "metric") == "gospa_m" && c.get(i, "b_label") == "phd").unwrap();
+    assert_ne!(c.num(j, "mean_diff"), 0.0, "the intensity changes phd-1.0's maps");
+}
+
 #[test]
 fn nan_cells_and_unknown_metrics_are_refused() {
     let tmp = TempDir::new("compare-nan");

@@ -868,7 +868,9 @@ mod tests {
         let again = TempDir::new("unwrapped-out");
         ds.write(again.path()).unwrap();
         assert_eq!(Dataset::read(again.path()).unwrap().groundtruth.unwrap()[0].heading, Some(h));
-        assert!(std::fs::read_to_string(again.path().join(files::GROUNDTRUTH)).unwrap().contains(&format!("0,1,2,{h}")));
+        assert!(
+            std::fs::read_to_string(again.path().join(files::GROUNDTRUTH)).unwrap().contains(&format!("0,1,2,{h}"))
+        );
     }
 
     #[test]

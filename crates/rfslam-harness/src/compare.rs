@@ -203,6 +203,9 @@ pub struct Comparison {
     pub rows: Vec<CompareRow>,
     /// What was not compared, and why.
     pub notes: Vec<String>,
+    /// Differences between the paired sweeps that only the filters see (the treatment):
+    /// [`FILTER_ONLY_SCENARIO_KEYS`].
+    pub treatments: Vec<String>,
     /// The command that regenerates it.
     pub command: String,
 }
@@ -301,6 +304,34 @@ impl Sweep {
         }
         Ok(toml::Value::Table(t))
     }
+}
+
+/// Scenario keys that only the filters' models read: the data a run seed generates do not
+/// depend on them (clutter is drawn uniform in range and bearing whatever the intensity the
+/// filters assume), so two sweeps that differ only there are paired, and the difference is
+/// the treatment compared.
+pub const FILTER_ONLY_SCENARIO_KEYS: &[&str] = &["clutter.intensity"];
+
+/// Removes [`FILTER_ONLY_SCENARIO_KEYS`] from both scenarios; returns those that differed, as
+/// "`scenario.key` (A's value vs B's)".
+fn take_filter_only(a: &mut toml::Value, b: &mut toml::Value) -> Vec<String> {
+    let mut differ = Vec::new();
+    for key in FILTER_ONLY_SCENARIO_KEYS {
+        let take = |v: &mut toml::Value| {
+            let (table, field) = key.rsplit_once('.').unwrap_or(("", key));
+            let mut t = v.as_table_mut();
+            for part in table.split('.').filter(|p| !p.is_empty()) {
+                t = t.and_then(|t| t.get_mut(part)).and_then(|v| v.as_table_mut());
+            }
+            t.and_then(|t| t.remove(field))
+        };
+        let (x, y) = (take(a), take(b));
+        if x != y {
+            let show = |v: &Option<toml::Value>| v.as_ref().map_or("(absent)".to_string(), |v| v.to_string());
+            differ.push(format!("`scenario.{key}` ({} vs {})", show(&x), show(&y)));
+        }
+    }
+    differ
 }
 
 /// Whether two grid values written in `runs.csv` are the same (`5` and `5.0` are).
@@ -416,6 +447,7 @@ pub fn compare(sides: &[Side], metrics: Option<&[String]>, command: &str) -> Res
     let a_groups = a.groups()?;
     let mut rows = Vec::new();
     let mut notes = Vec::new();
+    let mut treatments = Vec::new();
     for (bi, b) in sweeps.iter().enumerate().skip(1) {
         if let Some(d) = metrics_difference(&a.resolved, &b.resolved) {
             return Err(HarnessError::Unpaired { a: a.dir.clone(), b: b.dir.clone(), message: d });
@@ -445,10 +477,17 @@ pub fn compare(sides: &[Side], metrics: Option<&[String]>, command: &str) -> Res
             let mut found = false;
             for (i, _) in candidates {
                 let gb = &b_groups[i];
-                let (sa, sb) = (a.scenario_at(ga.grid)?, b.scenario_at(gb.grid)?);
+                let (mut sa, mut sb) = (a.scenario_at(ga.grid)?, b.scenario_at(gb.grid)?);
+                let treatment = take_filter_only(&mut sa, &mut sb);
                 if let Some(d) = first_difference("scenario", &sa, &sb) {
                     scenario_difference.get_or_insert(d);
                     continue;
+                }
+                for t in treatment {
+                    let note = format!("B{bi} differs from A in {t}");
+                    if !treatments.contains(&note) {
+                        treatments.push(note);
+                    }
                 }
                 found = true;
                 paired_b[i] = true;
@@ -563,7 +602,7 @@ pub fn compare(sides: &[Side], metrics: Option<&[String]>, command: &str) -> Res
             seed: w.resolved.seed,
         })
         .collect();
-    Ok(Comparison { sides: infos, rows, notes, command: command.to_string() })
+    Ok(Comparison { sides: infos, rows, notes, treatments, command: command.to_string() })
 }
 
 /// `x` with `digits` significant digits (scientific outside 1e-4..1e6); `–` when not finite.
@@ -652,6 +691,15 @@ impl Comparison {
              better); ties: pairs with B = A; p: two-sided exact sign test of the differences, ties left out.",
             higher.join(", ")
         );
+        if !self.treatments.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nThe paired sweeps differ only in what the filters' models read; the generated data are the same:\n"
+            );
+            for t in &self.treatments {
+                let _ = writeln!(s, "- {t}");
+            }
+        }
         let keys = self.grid_keys();
         let several = self.sides.len() > 2;
         for family in FAMILIES {
