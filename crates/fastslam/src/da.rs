@@ -410,6 +410,7 @@ impl DaFastSlam {
             threshold: self.settings.rbpf.threshold(self.nominal),
             force: self.settings.max_population.is_some_and(|cap| n > cap),
             n_out: self.nominal,
+            scheme: self.settings.rbpf.resampling.unwrap_or_default(),
         };
         let (mut components, mut associations) = (0, None);
         let out = self.set.normalise_and_resample(rule, rng, |particles, best| {

@@ -18,7 +18,7 @@ use serde::{Deserialize, Deserializer, Serialize};
 use crate::Pose;
 use crate::filter::SlamModels;
 use crate::motion::propagate_with_covariance;
-use crate::rbpf::ResampleRule;
+use crate::rbpf::{ResampleRule, ResampleScheme};
 use crate::types::ControlSegment;
 
 /// An invalid filter parameter: the key and what is wrong with it.
@@ -222,11 +222,14 @@ pub struct RbpfParams {
     /// control noises drive three pose coordinates, so `F_u Q_u F_u^T` has rank 2 and its
     /// density is undefined without it (\[PHD-SLAM-3.0-code\]: `[1e-9, 1e-9, 1e-18]`).
     pub q_jitter: [f64; 3],
+    /// How the parents are drawn: `"systematic"` (none: the default) or `"stratified"`, the
+    /// scheme of the public PHD-SLAM 3.0 code ([`crate::rbpf::stratified_resample`]).
+    pub resampling: Option<ResampleScheme>,
 }
 
 impl Default for RbpfParams {
     fn default() -> Self {
-        RbpfParams { resample_ess_fraction: 0.2, resample_ess: None, q_jitter: [1e-9, 1e-9, 1e-18] }
+        RbpfParams { resample_ess_fraction: 0.2, resample_ess: None, q_jitter: [1e-9, 1e-9, 1e-18], resampling: None }
     }
 }
 
@@ -251,7 +254,12 @@ impl RbpfParams {
 
     /// Resampling of `n` particles (to `n`) when the ESS falls to [`RbpfParams::threshold`].
     pub fn rule(&self, n: usize) -> ResampleRule {
-        ResampleRule { threshold: self.threshold(n), force: false, n_out: n }
+        ResampleRule {
+            threshold: self.threshold(n),
+            force: false,
+            n_out: n,
+            scheme: self.resampling.unwrap_or_default(),
+        }
     }
 
     /// `diag(q_jitter)`.
@@ -473,8 +481,11 @@ mod tests {
 
     #[test]
     fn keys_come_from_serde() {
-        assert_eq!(keys::<Own>(), ["cap", "gate", "on", "q_jitter", "resample_ess", "resample_ess_fraction"]);
-        assert_eq!(keys::<Outer<Extra>>().len(), 7);
+        assert_eq!(
+            keys::<Own>(),
+            ["cap", "gate", "on", "q_jitter", "resample_ess", "resample_ess_fraction", "resampling"]
+        );
+        assert_eq!(keys::<Outer<Extra>>().len(), 8);
         assert!(keys::<Outer<Extra>>().contains(&"spread".to_string()));
     }
 

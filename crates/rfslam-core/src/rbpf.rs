@@ -64,6 +64,62 @@ pub fn systematic_resample<R: rand::Rng + ?Sized>(
     }
 }
 
+/// How [`ParticleSet::normalise_and_resample`] draws the parents.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ResampleScheme {
+    /// [`systematic_resample`]: one uniform offset for all slots (rfslam's default).
+    #[default]
+    Systematic,
+    /// [`stratified_resample`]: the scheme of the public PHD-SLAM 3.0 code
+    /// (\[PHD-SLAM-3.0-code\], after \[Kitagawa1996\]): integer parts of `N w` first, then
+    /// one fresh uniform per slot against the running remainder.
+    Stratified,
+}
+
+/// The resampling of the public PHD-SLAM 3.0 code (\[PHD-SLAM-3.0-code\], a stratified
+/// scheme after \[Kitagawa1996\]): walking the particles in order with a running sum `c` of
+/// `n_out w_i`, particle `i` gets `floor(c)` copies (and `c` keeps its fractional part),
+/// then one more copy if `c` reaches the uniform drawn for the next free slot (and `c`
+/// falls by 1, possibly below 0). Each slot's uniform is fresh, unlike systematic
+/// resampling's single offset, so copy counts vary more between particles. Parents come out
+/// in non-decreasing order (copies of one parent adjacent). Should rounding leave slots
+/// free at the end, they go to the last particle. `parents` is cleared and reused.
+pub fn stratified_resample<R: rand::Rng + ?Sized>(
+    normalised_log_w: &[f64],
+    n_out: usize,
+    rng: &mut R,
+    parents: &mut Vec<usize>,
+) {
+    parents.clear();
+    let n = normalised_log_w.len();
+    if n == 0 || n_out == 0 {
+        return;
+    }
+    let scale = n_out as f64;
+    let mut c = 0.0;
+    let mut r = rng.random::<f64>();
+    for (i, &l) in normalised_log_w.iter().enumerate() {
+        c += scale * l.exp();
+        if c >= 1.0 {
+            let a = c.floor();
+            c -= a;
+            let room = n_out - parents.len();
+            let copies = (a as usize).min(room);
+            parents.extend(std::iter::repeat_n(i, copies));
+            if copies > 0 {
+                r = rng.random::<f64>();
+            }
+        }
+        if parents.len() < n_out && c >= r {
+            c -= 1.0;
+            parents.push(i);
+            r = rng.random::<f64>();
+        }
+    }
+    parents.resize(n_out, n - 1);
+}
+
 /// A particle carrying a log weight.
 pub trait LogWeighted {
     /// `ln w`.
@@ -114,6 +170,8 @@ pub struct ResampleRule {
     /// Number of particles after resampling (the current number, or MH-FastSLAM's nominal
     /// count).
     pub n_out: usize,
+    /// How the parents are drawn.
+    pub scheme: ResampleScheme,
 }
 
 impl<P: LogWeighted + Clone + Default> ParticleSet<P> {
@@ -186,7 +244,7 @@ impl<P: LogWeighted + Clone + Default> ParticleSet<P> {
     /// the highest-weight one (lowest index on ties) to `inspect` (the step's estimate and
     /// report are read there); then resamples to `rule.n_out` particles when
     /// `rule.force || ess <= rule.threshold` (and there is more than one particle before or
-    /// after): systematic resampling with one uniform draw from `rng`, copies with uniform
+    /// after), with `rule.scheme` (systematic: one uniform draw from `rng`), copies with uniform
     /// weights and adjacent by parent (their families). Without resampling every particle
     /// is its own family.
     pub fn normalise_and_resample<R: rand::Rng + ?Sized>(
@@ -208,7 +266,10 @@ impl<P: LogWeighted + Clone + Default> ParticleSet<P> {
         inspect(&self.particles, best);
         let resampled = (rule.force || ess <= rule.threshold) && (n > 1 || rule.n_out > 1);
         if resampled {
-            systematic_resample(&self.log_w, rule.n_out, rng, &mut self.parents);
+            match rule.scheme {
+                ResampleScheme::Systematic => systematic_resample(&self.log_w, rule.n_out, rng, &mut self.parents),
+                ResampleScheme::Stratified => stratified_resample(&self.log_w, rule.n_out, rng, &mut self.parents),
+            }
             let uniform = -(rule.n_out as f64).ln();
             for &parent in &self.parents {
                 let mut dst = self.pool.pop().unwrap_or_default();
@@ -276,6 +337,37 @@ mod tests {
     }
 
     #[test]
+    fn stratified_resampling_is_unbiased_ordered_and_exact_on_integers() {
+        let mut rng = crate::Rng::seed_from_u64(5);
+        let mut parents = Vec::new();
+        // Integer n w_i: exactly n w_i copies each, whatever the uniforms.
+        let l: Vec<f64> = [0.5f64, 0.25, 0.125, 0.125].iter().map(|x| x.ln()).collect();
+        for _ in 0..100 {
+            stratified_resample(&l, 8, &mut rng, &mut parents);
+            let mut counts = [0usize; 4];
+            parents.iter().for_each(|&p| counts[p] += 1);
+            assert_eq!(counts, [4, 2, 1, 1]);
+        }
+        // General weights: n_out copies in non-decreasing order, mean count n_out w_i.
+        let w = [0.07f64, 0.41, 0.02, 0.3, 0.2];
+        let l: Vec<f64> = w.iter().map(|x| x.ln()).collect();
+        let (draws, n_out) = (20_000, 7);
+        let mut mean = [0.0f64; 5];
+        for _ in 0..draws {
+            stratified_resample(&l, n_out, &mut rng, &mut parents);
+            assert_eq!(parents.len(), n_out);
+            assert!(parents.windows(2).all(|p| p[0] <= p[1]));
+            parents.iter().for_each(|&p| mean[p] += 1.0 / draws as f64);
+        }
+        for (m, wi) in mean.iter().zip(w) {
+            assert!((m - n_out as f64 * wi).abs() < 0.03, "mean copies {m} against {}", n_out as f64 * wi);
+        }
+        // More copies than particles (MH-FastSLAM's nominal count is smaller, here larger).
+        stratified_resample(&l[..1], 3, &mut rng, &mut parents);
+        assert_eq!(parents, [0, 0, 0]);
+    }
+
+    #[test]
     fn systematic_counts_match_weights() {
         let mut rng = crate::Rng::seed_from_u64(3);
         let w = [0.5f64, 0.25, 0.125, 0.125];
@@ -305,7 +397,7 @@ mod tests {
     }
 
     fn rule(threshold: f64, n_out: usize) -> ResampleRule {
-        ResampleRule { threshold, force: false, n_out }
+        ResampleRule { threshold, force: false, n_out, scheme: ResampleScheme::Systematic }
     }
 
     /// Copies of one parent form a family until the next step; without resampling every
@@ -333,7 +425,7 @@ mod tests {
         assert!(!out.resampled && (out.ess - 8.0).abs() < 1e-9);
         assert_eq!(set.families_mut().count(), 8);
         // A forced resampling to fewer particles; a new population replaces the old.
-        let forced = ResampleRule { threshold: 0.0, force: true, n_out: 2 };
+        let forced = ResampleRule { threshold: 0.0, force: true, n_out: 2, scheme: ResampleScheme::Systematic };
         assert!(set.normalise_and_resample(forced, &mut rng, |_, _| {}).resampled);
         assert_eq!(set.len(), 2);
         let mut next = vec![set.spare(), set.spare(), set.spare()];
