@@ -69,9 +69,9 @@ impl ScenarioData for ScenarioConfig {
     }
 
     fn build_dataset(&self, world: Option<&World>, run_seed: u64) -> Result<Dataset, DataError> {
-        if let WorldSpec::VictoriaPark { path, .. } = &self.world {
+        if let WorldSpec::VictoriaPark { path, gps_frame, .. } = &self.world {
             let x0 = self.world.victoria_park_initial_pose().unwrap_or_else(Pose::zeros);
-            return VictoriaPark::read(&find_data(path)?)?.import(&self.models(), x0, run_seed);
+            return VictoriaPark::read(&find_data(path)?)?.import_in(&self.models(), x0, *gps_frame, run_seed);
         }
         if let Some(dir) = self.dataset_dir() {
             let mut d = Dataset::read(&dir?)?;
@@ -105,6 +105,7 @@ fn check_same_motion(scenario: &MotionConfig, dataset: &MotionConfig, name: &str
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rfslam_data::scenario::GpsFrame;
     use rfslam_data::testutil::{SMALL_SCENARIO, TempDir, mat_only_environment, shared_data, synthetic_csv_and_mat};
     use rfslam_data::{ModelConfig, ProceduralParams};
 
@@ -215,6 +216,27 @@ mod tests {
         let b = sc.build_dataset(None, 5).unwrap();
         assert_ne!(a.scans, b.scans);
         assert_eq!(a.odometry, b.odometry);
+    }
+
+    /// The paper-frame scenario starts at the paper's pose in the frame of `gps.dat` and
+    /// scores against `gps.dat` as recorded; an unknown `gps_frame` is refused naming the key.
+    #[test]
+    fn victoria_park_paper_frame_scores_against_the_recorded_gps() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/victoria-park-paper-frame.toml");
+        let text = std::fs::read_to_string(path).unwrap();
+        let sc = ScenarioConfig::from_toml_str(&text, "vp.toml").unwrap();
+        assert!(matches!(sc.world, WorldSpec::VictoriaPark { gps_frame: GpsFrame::Recorded, .. }));
+        let x0 = sc.models_for(None).unwrap().initial_pose;
+        assert!((x0 - Pose::new(-2.023, -1.923, 2.5f64.to_radians())).norm() < 1e-12);
+        let bad = text.replace("gps_frame = \"recorded\"", "gps_frame = \"acfr\"");
+        let e = ScenarioConfig::from_toml_str(&bad, "vp.toml").unwrap_err().to_string();
+        assert!(e.contains("gps_frame") || e.contains("acfr"), "{e}");
+        let Some(dir) = shared_data("victoria-park") else { return };
+        let text = text.replace("path = \"victoria-park\"", &format!("path = {:?}", dir.display().to_string()));
+        let d = ScenarioConfig::from_toml_str(&text, "vp.toml").unwrap().build_dataset(None, 1).unwrap();
+        let first = d.groundtruth.unwrap()[0].position;
+        assert!((first - rfslam_core::Point2::new(-2.023, -1.923)).norm() < 0.01, "{first}");
     }
 
     #[test]

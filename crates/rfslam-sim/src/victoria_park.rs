@@ -65,6 +65,7 @@ use rfslam_core::{Control, Point2, Pose, RangeBearing, Scan, TRUTH_UNKNOWN};
 
 use rfslam_data::csvio::beyond_bound;
 use rfslam_data::dataset::limits;
+use rfslam_data::scenario::GpsFrame;
 use rfslam_data::{DataError, Dataset, DatasetMeta, ModelConfig, MotionConfig, OdometryRow, TruthPose};
 
 use crate::simulate::shuffle_scan;
@@ -195,6 +196,18 @@ impl VictoriaPark {
     /// Errors: invalid `models`, a motion model other than `ackermann`, or a non-zero
     /// `sensor.offset` (the Ackermann model already tracks the laser).
     pub fn import(&self, models: &ModelConfig, initial_pose: Pose, run_seed: u64) -> Result<Dataset, DataError> {
+        self.import_in(models, initial_pose, GpsFrame::InitialPose, run_seed)
+    }
+
+    /// [`VictoriaPark::import`] with the GPS truth in `gps_frame`: moved into the frame of
+    /// `initial_pose`, or as recorded (the initial pose then given in the frame of `gps.dat`).
+    pub fn import_in(
+        &self,
+        models: &ModelConfig,
+        initial_pose: Pose,
+        gps_frame: GpsFrame,
+        run_seed: u64,
+    ) -> Result<Dataset, DataError> {
         models.validate().map_err(DataError::config)?;
         if !matches!(models.motion, MotionConfig::Ackermann { .. }) {
             return Err(DataError::Mismatch(format!(
@@ -230,8 +243,10 @@ impl VictoriaPark {
             scans.push(Scan { t, z, truth: Some(labels) });
         }
         let odometry = self.inputs.clone();
-        let to_frame = Rotation2::new(initial_pose[2]);
-        let origin = initial_pose.xy();
+        let (to_frame, origin) = match gps_frame {
+            GpsFrame::InitialPose => (Rotation2::new(initial_pose[2]), initial_pose.xy()),
+            GpsFrame::Recorded => (Rotation2::identity(), Point2::zeros()),
+        };
         let groundtruth = (!self.gps.is_empty()).then(|| {
             self.gps
                 .iter()
@@ -242,12 +257,16 @@ impl VictoriaPark {
             "ACFR Victoria Park (J. Guivant, E. Nebot), tree detections as distributed with K. Leung's RFS-SLAM \
              library, imported by rfslam-data: {} scans, {kept} detections inside the FOV ({dropped} outside \
              dropped), {false_alarms} artificial clutter measurements (rate {} per scan, run seed {run_seed}); \
-             GPS truth in the frame of the initial pose ({}, {}, {} deg)",
+             initial pose ({}, {}, {} deg), GPS truth {}",
             self.scan_count(),
             models.clutter.rate,
             initial_pose[0],
             initial_pose[1],
-            initial_pose[2].to_degrees()
+            initial_pose[2].to_degrees(),
+            match gps_frame {
+                GpsFrame::InitialPose => "in the frame of the initial pose",
+                GpsFrame::Recorded => "as recorded in gps.dat",
+            }
         );
         Ok(Dataset {
             meta: DatasetMeta {
@@ -460,6 +479,23 @@ mod tests {
         assert!(d.truth_at(d.scans[0].t, 0.025).is_none());
         assert_eq!(d.truth_at(d.scans[1].t, 0.025).map(|g| g.t), Some(1.08));
         assert_eq!(d.truth_at(d.scans[2].t, 0.025).map(|g| g.t), Some(1.29));
+    }
+
+    /// `gps_frame = "recorded"`: the fixes are the truth as they are, whatever the start.
+    #[test]
+    fn recorded_gps_frame_leaves_the_fixes_unchanged() {
+        let vp = excerpt();
+        let x0 = Pose::new(-2.023, -1.923, 2.5f64.to_radians());
+        let d = vp.import_in(&models(), x0, GpsFrame::Recorded, 1).unwrap();
+        let gt = d.groundtruth.unwrap();
+        assert_eq!(gt.len(), vp.gps.len());
+        for (g, &(t, p)) in gt.iter().zip(&vp.gps) {
+            assert_eq!((g.t, g.position), (t, p));
+        }
+        assert_eq!(d.meta.initial_pose, x0);
+        // The default frame is the initial pose's: the same fixes move.
+        let moved = vp.import(&models(), x0, 1).unwrap().groundtruth.unwrap();
+        assert_ne!(moved[0].position, gt[0].position);
     }
 
     #[test]
