@@ -205,6 +205,9 @@ pub struct Plan {
     pub published: Option<crate::report::PublishedTable>,
     /// The largest lower bound of one job's memory (bytes, [`JobMemory`]).
     pub peak_job_bytes: f64,
+    /// The machine's memory the jobs were checked against (bytes,
+    /// [`crate::memory::machine_memory`]), `None` when unknown.
+    pub machine_bytes: Option<f64>,
 }
 
 /// Restricts which jobs of a plan run (`--filters`, `--particles`, `--runs`).
@@ -681,6 +684,7 @@ impl Plan {
             points,
             published,
             peak_job_bytes,
+            machine_bytes: machine,
         };
         plan.check_job_count()?;
         Ok(plan)

@@ -246,8 +246,7 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
     let skipped = all_jobs.len() - todo.len();
 
     let threads = pool_size(opts.jobs, todo.len(), opts.quiet);
-    let threads =
-        memory_bound(threads, plan.peak_job_bytes, crate::memory::machine_memory().ok().flatten(), opts.quiet);
+    let threads = memory_bound(threads, plan.peak_job_bytes, plan.machine_bytes, opts.quiet);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
