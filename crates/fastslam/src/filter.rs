@@ -240,6 +240,12 @@ impl SlamFilter for OracleFastSlam2 {
         out.extend(self.set.particles().iter().map(|p| (p.pose, p.log_w)));
         true
     }
+
+    fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
+        out.clear();
+        out.extend_from_slice(self.set.last_parents());
+        true
+    }
 }
 
 impl FilterBuild for OracleFastSlam2 {

@@ -248,6 +248,12 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
         true
     }
 
+    fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
+        out.clear();
+        out.extend_from_slice(self.set.last_parents());
+        true
+    }
+
     fn estimate(&self) -> Estimate {
         let p = self.set.best_particle();
         let ln_t = self.estimate_threshold.ln();

@@ -90,12 +90,14 @@ fn save_steps_and_save_particles_write_one_row_per_scan_and_particle() {
     assert!((rmse - m["pos_rmse_m"].as_f64().unwrap()).abs() < 1e-9, "{rmse} vs {m:?}");
 
     let parts = Csv::read(&tmp.join("run/particles.csv"));
-    assert_eq!(parts.header, ["step", "t", "particle", "x", "y", "heading", "log_weight"]);
+    assert_eq!(parts.header, ["step", "t", "particle", "x", "y", "heading", "log_weight", "parent"]);
     assert_eq!(parts.rows.len(), 3 * scans);
     for i in 0..parts.rows.len() {
         assert_eq!(parts.num(i, "step"), (i / 3) as f64);
         assert_eq!(parts.num(i, "particle"), (i % 3) as f64);
         assert!(parts.num(i, "log_weight") <= 1e-12);
+        // Without resampling every particle is its own parent.
+        assert_eq!(parts.num(i, "parent"), (i % 3) as f64);
     }
     // The context files of a plot.
     assert_eq!(Csv::read(&tmp.join("run/dead_reckoning.csv")).rows.len(), scans);
@@ -119,7 +121,40 @@ fn save_steps_and_save_particles_write_one_row_per_scan_and_particle() {
     // The FastSLAM filters expose their particles too.
     let fs = ["run", "--scenario", "scen.toml", "--filter", "fastslam-1.0", "--particles", "2"];
     ok(tmp.path(), &[&fs[..], &["--save-particles", "--out", "fs"]].concat());
-    assert_eq!(Csv::read(&tmp.join("fs/particles.csv")).rows.len(), 2 * scans);
+    let fs_parts = Csv::read(&tmp.join("fs/particles.csv"));
+    assert_eq!(fs_parts.rows.len(), 2 * scans);
+    // FastSLAM 1.0 does not expose its parents: the column is empty.
+    assert!((0..fs_parts.rows.len()).all(|i| fs_parts.get(i, "parent").is_empty()));
+}
+
+#[test]
+fn save_particles_links_resampled_copies_to_their_parents() {
+    // Resampling whenever the weights are unequal (ESS <= N): each scan's parents are the
+    // systematic draw, in range and non-decreasing; some scans move them.
+    let tmp = TempDir::new("plot-parents");
+    tmp.write("scen.toml", &scenario(60, 20, 0.95, 2.0));
+    for filter in ["phd-3.0", "fastslam-2.0-oracle"] {
+        let args = ["run", "--scenario", "scen.toml", "--filter", filter, "--particles", "4", "--seed", "4"];
+        let more = ["--set", "resample_ess_fraction=1", "--save-steps", "--save-particles", "--out", filter];
+        ok(tmp.path(), &[&args[..], &more[..]].concat());
+        let steps = Csv::read(&tmp.join(&format!("{filter}/steps.csv")));
+        let parts = Csv::read(&tmp.join(&format!("{filter}/particles.csv")));
+        assert_eq!(parts.rows.len(), 4 * steps.rows.len());
+        let mut moved = 0;
+        for k in 0..steps.rows.len() {
+            let parents: Vec<f64> = (0..4).map(|i| parts.num(4 * k + i, "parent")).collect();
+            assert!(
+                parents.iter().all(|&p| (0.0..4.0).contains(&p) && p.fract() == 0.0),
+                "{filter} scan {k}: {parents:?}"
+            );
+            assert!(parents.windows(2).all(|w| w[0] <= w[1]), "{filter} scan {k}: {parents:?}");
+            let identity = parents == [0.0, 1.0, 2.0, 3.0];
+            // A scan that did not resample (equal weights: ESS a rounding above N) keeps them.
+            assert!(steps.get(k, "resampled") == "1" || identity, "{filter} scan {k}: {parents:?}");
+            moved += usize::from(!identity);
+        }
+        assert!(moved > 0, "{filter}: resampling never changed a parent");
+    }
 }
 
 #[test]

@@ -53,10 +53,20 @@ pub trait SlamFilter: Send {
     /// (`rfslam run --save-particles`, the PHD-SLAM 3.0 paper's Fig. 3).
     ///
     /// After a step that resampled, the poses are those of the resampled copies, so index `i`
-    /// follows one trajectory only in a run without resampling. The default (filters without
+    /// follows one trajectory only in a run without resampling; [`SlamFilter::particle_parents`]
+    /// links the copies to their parents. The default (filters without
     /// particles, or that do not expose them) leaves `out` empty and returns `false`. It is
     /// never called by the harness unless asked for, so it costs nothing otherwise.
     fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+        out.clear();
+        false
+    }
+
+    /// Writes, for every particle of [`SlamFilter::particle_poses`], the index of its parent
+    /// among the particles of the previous step (its own index when the step did not
+    /// resample) to `out` (cleared first) and returns `true`, so ancestries (distinct
+    /// ancestors, time to the common ancestor) can be counted. The default returns `false`.
+    fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
         out.clear();
         false
     }

@@ -220,6 +220,14 @@ impl<P: LogWeighted + Clone + Default> ParticleSet<P> {
         &self.particles[self.best]
     }
 
+    /// After [`ParticleSet::normalise_and_resample`], the index each particle had before that
+    /// step's resampling (its parent; its own index when the step did not resample), so
+    /// ancestries can be traced (`rfslam run --save-particles`). After
+    /// [`ParticleSet::replace`] without a resampling since, the identity.
+    pub fn last_parents(&self) -> &[usize] {
+        &self.family
+    }
+
     /// The families of identical copies, in order, as slices of the particles: the copies
     /// of one parent after the last resampling, else one particle each.
     pub fn families_mut(&mut self) -> FamiliesMut<'_, P> {

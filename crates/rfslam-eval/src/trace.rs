@@ -4,7 +4,9 @@
 //!   pose errors, the GOSPA of the map so far and the filter's report (the PHD-SLAM 3.0
 //!   paper's Fig. 2);
 //! - [`ParticlesWriter`]: `particles.csv` (`--save-particles`), every particle's pose and
-//!   log weight at every scan (Fig. 3), read through `SlamFilter::particle_poses`;
+//!   log weight at every scan (Fig. 3), read through `SlamFilter::particle_poses`, and its
+//!   parent at the previous scan (`SlamFilter::particle_parents`; empty when the filter does
+//!   not say), so ancestries can be traced;
 //! - [`write_run_context`]: `groundtruth.csv`, `landmarks.csv` and `dead_reckoning.csv`
 //!   beside the run's estimate, so `rfslam plot DIR` needs nothing but the run's folder.
 //!
@@ -66,7 +68,7 @@ pub const STEP_COLUMNS: &[&str] = &[
 
 /// Columns of `particles.csv`: scan index and time, particle index, pose (m, m, rad) and
 /// normalised natural-log weight.
-pub const PARTICLE_COLUMNS: &[&str] = &["step", "t", "particle", "x", "y", "heading", "log_weight"];
+pub const PARTICLE_COLUMNS: &[&str] = &["step", "t", "particle", "x", "y", "heading", "log_weight", "parent"];
 
 fn csv_err(path: &Path) -> impl Fn(csv::Error) -> EvalError + '_ {
     move |e| EvalError::csv(path, e)
@@ -172,6 +174,7 @@ impl<W: Write> StepsWriter<W> {
 pub struct ParticlesWriter<W: Write> {
     out: csv::Writer<W>,
     poses: Vec<(Pose, f64)>,
+    parents: Vec<usize>,
 }
 
 impl ParticlesWriter<std::fs::File> {
@@ -186,7 +189,7 @@ impl<W: Write> ParticlesWriter<W> {
     /// A writer on `out`; writes the header.
     pub fn new(mut out: csv::Writer<W>) -> Result<Self, csv::Error> {
         out.write_record(PARTICLE_COLUMNS)?;
-        Ok(ParticlesWriter { out, poses: Vec::new() })
+        Ok(ParticlesWriter { out, poses: Vec::new(), parents: Vec::new() })
     }
 
     /// Writes one row per particle of the filter after step `rec`; `Ok(false)` (and nothing
@@ -195,8 +198,10 @@ impl<W: Write> ParticlesWriter<W> {
         if !rec.filter.particle_poses(&mut self.poses) {
             return Ok(false);
         }
+        let known = rec.filter.particle_parents(&mut self.parents) && self.parents.len() == self.poses.len();
         let (k, t) = (rec.k.to_string(), fmt_f(rec.t));
         for (i, (p, lw)) in self.poses.iter().enumerate() {
+            let parent = if known { self.parents[i].to_string() } else { String::new() };
             self.out.write_record([
                 k.as_str(),
                 t.as_str(),
@@ -205,6 +210,7 @@ impl<W: Write> ParticlesWriter<W> {
                 &fmt_f(p.y),
                 &fmt_f(p.z),
                 &fmt_f(*lw),
+                &parent,
             ])?;
         }
         Ok(true)
