@@ -239,11 +239,15 @@ impl RbpfParams {
         RbpfParams { resample_ess_fraction, ..Default::default() }
     }
 
-    /// Checks ranges, with `particles` the (nominal) number of particles.
+    /// Checks ranges, with `particles` the (nominal) number of particles. `resample_ess` is
+    /// at most `N` (above it every step would resample), except with one particle, which is
+    /// never resampled: there any non-negative value passes, so one absolute threshold can
+    /// serve a sweep over `particles = [1, 5, 10]`.
     pub fn validate(&self, particles: usize) -> Result<(), ParamError> {
         self::particles(particles)?;
         Interval::UNIT.check("resample_ess_fraction", self.resample_ess_fraction)?;
-        Interval::closed(0.0, particles as f64).check_opt("resample_ess", self.resample_ess)?;
+        let ess_range = if particles == 1 { Interval::NON_NEGATIVE } else { Interval::closed(0.0, particles as f64) };
+        ess_range.check_opt("resample_ess", self.resample_ess)?;
         jitter("q_jitter", &self.q_jitter)
     }
 
@@ -434,6 +438,10 @@ mod tests {
         assert_eq!(abs(0.0).validate(5), Ok(()));
         assert_eq!(key(abs(5.5), 5), "resample_ess");
         assert_eq!(key(abs(-1.0), 5), "resample_ess");
+        // One particle is never resampled: an absolute threshold for larger N passes.
+        assert_eq!(abs(2.5).validate(1), Ok(()));
+        assert_eq!(key(abs(-1.0), 1), "resample_ess");
+        assert_eq!(key(abs(f64::INFINITY), 1), "resample_ess");
         assert_eq!(abs(1.0).threshold(25), 1.0);
         assert_eq!(key(RbpfParams { q_jitter: [0.0, -1.0, 0.0], ..Default::default() }, 5), "q_jitter");
     }
