@@ -36,6 +36,11 @@ pub struct MetricsConfig {
     /// the loop closure of the glmb-sim racetrack); off when absent.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub split_step: Option<usize>,
+    /// How far back the particles' common ancestor lies (`ancestry = true`): the depth of
+    /// the ancestral tree, what limits the loops an RBPF can close (Kaltiokallio et al. 2024,
+    /// Section VI-A-1); off by default.
+    #[serde(skip_serializing_if = "is_false")]
+    pub ancestry: bool,
 }
 
 fn is_false(b: &bool) -> bool {
@@ -91,6 +96,7 @@ impl Default for MetricsConfig {
             landmarks: false,
             xy: false,
             split_step: None,
+            ancestry: false,
         }
     }
 }

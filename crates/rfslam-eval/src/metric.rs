@@ -322,6 +322,22 @@ pub static COLUMNS: &[Column] = &[
     ),
     better(count("scored_before", "split", "scored steps before step split_step"), Better::Neither),
     better(count("scored_after", "split", "scored steps from step split_step on"), Better::Neither),
+    summarised(
+        better(
+            real(
+                "ancestor_steps",
+                "ancestry",
+                "",
+                "mean over the steps of how many steps back all particles share one ancestor ([metrics] ancestry = true; \
+                 filters that expose their parents)",
+            ),
+            Better::Higher,
+        ),
+        "ancestor_steps",
+        Some("ancestor_std"),
+        Pool::Mean,
+        "steps to common ancestor",
+    ),
 ];
 
 /// A metric: a named observer of runs that fills its columns of [`COLUMNS`].
@@ -365,6 +381,11 @@ pub static METRICS: &[MetricDecl] = &[
         name: "split",
         enabled: |m| m.split_step.is_some(),
         observer: |m, _| Box::new(SplitMetric::new(m.split_step.unwrap_or(1))),
+    },
+    MetricDecl {
+        name: "ancestry",
+        enabled: |m| m.ancestry,
+        observer: |_, s| Box::new(AncestryMetric::new(s.particles)),
     },
 ];
 
@@ -683,6 +704,123 @@ impl Observer for SplitMetric {
     }
 }
 
+/// Parent indices the ancestry metric keeps at most (16 MiB as `u32`): the history it can
+/// trace back is `MAX_ANCESTRY_INDICES / N` steps, and a deeper common ancestor is counted
+/// at that depth.
+const MAX_ANCESTRY_INDICES: usize = 1 << 22;
+
+/// The depth of the particles' ancestral tree: after every step, how many steps back all
+/// particles descend from one particle (0 when they are copies of one, the step count since
+/// the start when only the initial particle is common to all). Resampling prunes lineages;
+/// the deeper the common ancestor, the longer the stretch of trajectory over which the
+/// particles still differ, and so the larger the loops the filter can close
+/// (\[Kaltiokallio2024\] Section VI-A-1). NaN for filters that do not expose their parents
+/// (`SlamFilter::particle_parents`) or whose population changes size.
+struct AncestryMetric {
+    n: usize,
+    /// Parent vectors of the last `cap` steps, newest at `head`, as a ring of `n`-blocks.
+    ring: Vec<u32>,
+    cap: usize,
+    head: usize,
+    len: usize,
+    /// Scratch: this step's parents, the traced index set, and a stamp per index.
+    parents: Vec<usize>,
+    set: Vec<u32>,
+    next: Vec<u32>,
+    stamp: Vec<u64>,
+    clock: u64,
+    sum: f64,
+    steps: usize,
+    valid: bool,
+}
+
+impl AncestryMetric {
+    fn new(particles: usize) -> Self {
+        let n = particles.max(1);
+        let cap = (MAX_ANCESTRY_INDICES / n).max(1);
+        AncestryMetric {
+            n,
+            ring: Vec::new(),
+            cap,
+            head: 0,
+            len: 0,
+            parents: Vec::new(),
+            set: Vec::new(),
+            next: Vec::new(),
+            stamp: vec![0; n],
+            clock: 0,
+            sum: 0.0,
+            steps: 0,
+            valid: true,
+        }
+    }
+
+    /// Stores one step's parents and adds its depth; `None` (and nothing stored) when they are
+    /// not `n` indices below `n`.
+    fn push(&mut self, parents: &[usize]) -> Option<usize> {
+        let n = self.n;
+        if parents.len() != n || parents.iter().any(|&p| p >= n) {
+            return None;
+        }
+        if self.len < self.cap {
+            // Growing: the ring is allocated as the run gets longer (amortised).
+            self.head = self.len;
+            self.len += 1;
+            self.ring.extend(parents.iter().map(|&p| p as u32));
+        } else {
+            self.head = (self.head + 1) % self.cap;
+            for (dst, &p) in self.ring[self.head * n..(self.head + 1) * n].iter_mut().zip(parents) {
+                *dst = p as u32;
+            }
+        }
+        let d = self.depth();
+        self.sum += d as f64;
+        self.steps += 1;
+        Some(d)
+    }
+
+    /// Depth of the common ancestor of all particles, tracing the stored parent vectors.
+    fn depth(&mut self) -> usize {
+        let n = self.n;
+        self.set.clear();
+        self.set.extend(0..n as u32);
+        let mut depth = 0;
+        while self.set.len() > 1 && depth < self.len {
+            let block = (self.head + self.cap - depth) % self.cap;
+            let parents = &self.ring[block * n..(block + 1) * n];
+            self.clock += 1;
+            self.next.clear();
+            for &i in &self.set {
+                let p = parents[i as usize];
+                if self.stamp[p as usize] != self.clock {
+                    self.stamp[p as usize] = self.clock;
+                    self.next.push(p);
+                }
+            }
+            std::mem::swap(&mut self.set, &mut self.next);
+            depth += 1;
+        }
+        // Past the first step every particle is a copy of the initial one (depth = steps so
+        // far); with a truncated history, the deepest depth stored.
+        depth
+    }
+}
+
+impl Observer for AncestryMetric {
+    fn observe(&mut self, rec: &StepRecord) {
+        if !self.valid {
+            return;
+        }
+        let mut parents = std::mem::take(&mut self.parents);
+        self.valid = rec.filter.particle_parents(&mut parents) && self.push(&parents).is_some();
+        self.parents = parents;
+    }
+    fn finish(&mut self, _: &RunEnd, out: &mut Values) {
+        let v = if self.valid && self.steps > 0 { self.sum / self.steps as f64 } else { f64::NAN };
+        out.set("ancestor_steps", v);
+    }
+}
+
 /// A summary figure pooled over runs: the figure, the standard deviation of the per-run
 /// values and the 95 % interval of the figure (NaN where not defined, e.g. one run).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -832,6 +970,36 @@ mod tests {
         let names: Vec<&str> = columns(&m).iter().map(|c| c.name).collect();
         assert_eq!(names[names.len() - 5..], ["pos_rmse_se2_m", "ospa_m", "ospa_loc_m", "ospa_card_m", "landmarks"]);
         assert_eq!(columns(&MetricsConfig::default()).last().map(|c| c.name), Some("pos_rmse_se2_m"));
+    }
+
+    #[test]
+    fn ancestry_depth_traces_parents_to_the_common_ancestor() {
+        // Four particles. Step 0 keeps all lineages; step 1 resamples to the children of 0
+        // and 2; step 2 to those of step 1's particles 0 and 1 (both from particle 0 of step
+        // 0); step 3 keeps them.
+        let mut a = AncestryMetric::new(4);
+        assert_eq!(a.push(&[0, 1, 2, 3]), Some(1), "distinct lineages: only the initial particle is common");
+        assert_eq!(a.push(&[0, 0, 2, 2]), Some(2));
+        assert_eq!(a.push(&[0, 0, 1, 1]), Some(2), "all descend from particle 0 after step 0");
+        assert_eq!(a.push(&[0, 1, 2, 3]), Some(3));
+        assert_eq!(a.push(&[3, 3, 3, 3]), Some(1), "one parent: common ancestor one step back");
+        assert_eq!(a.push(&[0, 1, 2, 3]), Some(2));
+        let mean = (1 + 2 + 2 + 3 + 1 + 2) as f64 / 6.0;
+        assert!((a.sum / a.steps as f64 - mean).abs() < 1e-12);
+        // Wrong sizes or indices are refused and store nothing.
+        assert_eq!(a.push(&[0, 1, 2]), None);
+        assert_eq!(a.push(&[0, 1, 2, 4]), None);
+        assert_eq!(a.steps, 6);
+        // One particle: always its own ancestor.
+        let mut one = AncestryMetric::new(1);
+        assert_eq!(one.push(&[0]), Some(0));
+        // A history capped at two steps counts a deeper ancestor at the cap.
+        let mut capped = AncestryMetric { cap: 2, ..AncestryMetric::new(2) };
+        for _ in 0..5 {
+            capped.push(&[0, 1]);
+        }
+        assert_eq!(capped.push(&[0, 1]), Some(2));
+        assert_eq!(capped.push(&[1, 1]), Some(1));
     }
 
     #[test]
