@@ -97,6 +97,12 @@ pub enum PairNormalisation {
     /// PDA-style per measurement, averaged over the `J` measurements:
     /// `β̃_ij = β_ij / (J (1 + Σ_i' β_i'j))`, `β̃_0 = (1/J) Σ_j 1 / (1 + Σ_i β_ij)`.
     PerMeasurement,
+    /// The `|M_k| x |Z_k|` conditionals alone, `β̃_ij = β_ij / Σ β`, without the prior
+    /// component: the literal reading of \[Kaltiokallio2024\] Section VI-A-1 ("conditioning
+    /// the predicted robot state to the measurements independently to obtain |M_k| x |Z_k|
+    /// independent conditional distributions", then weighted averaging). The prior is the
+    /// proposal only when no pair gates.
+    PairsOnly,
 }
 
 /// Parameters of the PHD-SLAM 2.0a importance density (defaults: as \[Kaltiokallio2024\] ran it).
@@ -234,11 +240,15 @@ impl Gao2021Proposal {
             return;
         }
         match self.params.pair_normalisation {
-            PairNormalisation::Global => {
-                let mx = self.pairs.iter().fold(0.0f64, |m, p| m.max(p.log_beta));
-                let sum = (-mx).exp() + self.pairs.iter().map(|p| (p.log_beta - mx).exp()).sum::<f64>();
+            PairNormalisation::Global | PairNormalisation::PairsOnly => {
+                // The prior's ln β_0 = 0 joins the normaliser only in the global reading.
+                let with_prior = self.params.pair_normalisation == PairNormalisation::Global;
+                let start = if with_prior { 0.0 } else { f64::NEG_INFINITY };
+                let mx = self.pairs.iter().fold(start, |m, p| m.max(p.log_beta));
+                let prior = if with_prior { (-mx).exp() } else { 0.0 };
+                let sum = prior + self.pairs.iter().map(|p| (p.log_beta - mx).exp()).sum::<f64>();
                 let log_z = mx + sum.ln();
-                self.prior_weight = (-log_z).exp();
+                self.prior_weight = if with_prior { (-log_z).exp() } else { 0.0 };
                 for p in &mut self.pairs {
                     p.weight = (p.log_beta - log_z).exp();
                 }
@@ -522,6 +532,18 @@ mod tests {
         let (mean, cov) = prop.merged();
         assert!((pose_diff(&mean, &mu)).norm() < 1e-7);
         assert!((cov - sigma).norm() < 1e-6 * sigma.norm());
+
+        // Pairs only: the one conditional is the whole proposal whatever the clutter density,
+        // with the prior listed at weight 0.
+        let c = ctx(&m, &z, x_bar, q, &map, &[0], &[0.9], log_c);
+        let mut pairs = proposal(false, PairNormalisation::PairsOnly);
+        pairs.propose(&c, 1, &mut Rng::seed_from_u64(1), &mut out);
+        let terms: Vec<MixtureTerm> = pairs.mixture().collect();
+        assert_eq!((terms[0].pair, terms[0].weight), (None, 0.0));
+        assert!((terms[1].weight - 1.0).abs() < 1e-12);
+        let (mean, cov) = pairs.merged();
+        assert!((pose_diff(&mean, &mu)).norm() < 1e-7);
+        assert!((cov - sigma).norm() < 1e-6 * sigma.norm());
     }
 
     /// Test 2: when no measurement gates the proposal is the prior, sampled
@@ -538,7 +560,7 @@ mod tests {
         let z = [zhat + RangeBearing::new(30.0, 0.0), zhat + RangeBearing::new(0.0, 0.5)];
         for (map, det, pd) in [(&map, &[0usize][..], &[0.95][..]), (&GmMap::default(), &[][..], &[][..])] {
             let c = ctx(&m, &z, x_bar, q, map, det, pd, -9.0);
-            for norm in [PairNormalisation::Global, PairNormalisation::PerMeasurement] {
+            for norm in [PairNormalisation::Global, PairNormalisation::PerMeasurement, PairNormalisation::PairsOnly] {
                 let mut prop = proposal(false, norm);
                 let mut out = Vec::new();
                 let mut rng = Rng::seed_from_u64(7);
