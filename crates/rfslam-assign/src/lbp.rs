@@ -106,6 +106,27 @@ pub struct LbpReport {
 
 /// A reusable loopy-belief-propagation solver: keeps its message and marginal buffers, so
 /// solving one problem per particle and step does not allocate once warmed up.
+///
+/// ```
+/// use rfslam_assign::{AssociationProblem, LbpOptions, LbpSolver, exact_association};
+///
+/// // Two measurements (new landmark or clutter: xi_j), two tracks; track 1 gates only
+/// // measurement 1 (ungated pairs are simply not listed).
+/// let mut problem = AssociationProblem::new();
+/// problem.reset(&[0.02f64.ln(), 0.05f64.ln()])?;
+/// problem.push_track(0.1f64.ln(), [(0, 3.0f64.ln()), (1, 0.5f64.ln())])?;
+/// problem.push_track(0.3f64.ln(), [(1, 2.0f64.ln())])?;
+///
+/// let mut lbp = LbpSolver::new();
+/// let report = lbp.solve(&problem, &LbpOptions::default())?;
+/// assert!(report.converged);
+/// let p0 = lbp.track_marginals(0); // [missed, measurement 0, measurement 1]
+/// assert!((p0.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+/// // The gating graph is a tree, so -F is ln chi exactly.
+/// let exact = exact_association(&problem)?;
+/// assert!((lbp.ln_chi_bethe() - exact.ln_chi).abs() < 1e-9);
+/// # Ok::<(), rfslam_assign::AssignError>(())
+/// ```
 #[derive(Debug, Clone, Default)]
 pub struct LbpSolver {
     n_tracks: usize,
