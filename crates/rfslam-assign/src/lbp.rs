@@ -177,11 +177,17 @@ impl LbpSolver {
     }
 
     /// Runs loopy belief propagation on `problem` and computes the marginals and the Bethe
-    /// free energy. Fails on invalid `options` or a ratio `ln w_ij` above [`MAX_LN_RATIO`].
+    /// free energy. Fails on invalid `options` or a ratio `ln w_ij` above [`MAX_LN_RATIO`],
+    /// leaving an empty result (no tracks, no measurements).
     pub fn solve(&mut self, problem: &AssociationProblem, options: &LbpOptions) -> Result<LbpReport, AssignError> {
-        options.validate()?;
+        // On an error the solver holds an empty result, never the previous problem's.
         self.n_tracks = 0;
         self.n_meas = 0;
+        self.track.clear();
+        self.new.clear();
+        self.free_energy = 0.0;
+        self.report = LbpReport::default();
+        options.validate()?;
         let (n_tracks, n_meas, n_pairs) = (problem.tracks(), problem.measurements(), problem.gated_pairs());
         let (ln_miss, ln_xi, meas, ln_det) =
             (problem.ln_miss(), problem.ln_xi(), problem.pair_meas(), problem.pair_ln_det());
@@ -599,11 +605,13 @@ mod tests {
         ] {
             assert!(matches!(s.solve(&p, &opts), Err(AssignError::InvalidOption { key: k, .. }) if k == key));
         }
+        s.solve(&p, &LbpOptions::default()).unwrap();
         let huge = AssociationProblem::from_dense(&[-1.0, 0.0], &[0.0, 700.0], &[0.0]).unwrap();
         assert!(matches!(
             s.solve(&huge, &LbpOptions::default()),
             Err(AssignError::RatioTooLarge { track: 1, measurement: 0, .. })
         ));
+        assert_eq!((s.tracks(), s.new_marginals().len()), (0, 0), "no stale result after an error");
     }
 
     /// Ratios far outside `[1e-300, 1e300]` within the accepted range: two tracks competing
