@@ -39,7 +39,7 @@ impl ScenarioData for ScenarioConfig {
             WorldSpec::Environment { path } => World::from_environment_dir(&find_data(path)?).map(Some),
             WorldSpec::Mat { path } => World::from_mat(&find_data(path)?).map(Some),
             WorldSpec::Procedural(p) => World::procedural(p, p.seed).map(Some),
-            WorldSpec::GlmbSim { dt } => Ok(glmb_sim_world(self.motion.motion(), *dt)),
+            WorldSpec::GlmbSim { dt, lap_length } => Ok(glmb_sim_world(self.motion.motion(), *dt, *lap_length)),
             WorldSpec::Dataset { .. } | WorldSpec::VictoriaPark { .. } => Ok(None),
         }
     }
