@@ -186,6 +186,27 @@ mod tests {
         assert_eq!(mat_only.build_dataset(wm.as_ref(), 1).unwrap(), csv.build_dataset(wc.as_ref(), 1).unwrap());
     }
 
+    /// The shipped delta-GLMB-SLAM worlds have the scans and loop closures the scenario
+    /// files and datasets.md state: (file, poses, first scan back within 1 m of the start
+    /// (`split_step` of the configs), scan of the closure).
+    #[test]
+    fn shipped_glmb_sim_worlds_close_their_loop_where_documented() {
+        for (file, poses, within_1m, closure) in [
+            ("glmb-sim.toml", 826, 515, 520),
+            ("glmb-sim-short-lap.toml", 207, 125, 130),
+            ("glmb-sim-1hz.toml", 166, 104, 104),
+        ] {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios").join(file);
+            let sc = ScenarioConfig::from_file(&path).unwrap();
+            let w = sc.load_world().unwrap().unwrap();
+            assert_eq!((w.poses.len(), w.landmarks.len()), (poses, 23), "{file}");
+            let d: Vec<f64> = w.poses.iter().map(|(_, p)| p.xy().norm()).collect();
+            let back = (10..d.len()).find(|&k| d[k] < 1.0);
+            assert_eq!(back, Some(within_1m), "{file}");
+            assert!(d[closure] < 1e-6, "{file}: {} m from the start at scan {closure}", d[closure]);
+        }
+    }
+
     /// `scenarios/victoria-park.toml`.
     fn victoria_park_scenario() -> String {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/victoria-park.toml");
