@@ -255,7 +255,7 @@ impl DaFastSlam {
                 continue;
             };
             let det = ch.l_dirty()[(0, 0)].powi(2) * ch.l_dirty()[(1, 1)].powi(2);
-            let pd = models.detection.pd(&models.fov, &x, &lm.mean);
+            let pd = models.detection.pd_gaussian(&models.fov, &x, &lm.mean, &lm.cov);
             self.lin.push(Some(Lin {
                 zhat: l.z,
                 s_inv: ch.inverse(),
@@ -460,7 +460,7 @@ mod tests {
             control_noise: Matrix3::zeros(),
             sensor: RangeBearingSensor::default(),
             measurement_noise: Matrix2::new(0.25, 0.0, 0.0, 3e-4),
-            fov: Fov { max_range: 50.0, half_angle: std::f64::consts::FRAC_PI_2 },
+            fov: Fov::new(50.0, std::f64::consts::FRAC_PI_2),
             detection: DetectionModel::Constant { pd: 0.95 },
             clutter: ClutterModel { rate: 1.0, intensity: ClutterIntensity::Measurement },
             initial_pose: Pose::zeros(),
