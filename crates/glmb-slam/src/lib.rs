@@ -46,7 +46,7 @@
 //!   Transition density as proposal.
 //! - Resampling: systematic, every step by default (\[Moratuwage2019\] Section 3.2).
 //!
-//! Choices where the paper is silent (documented in the README of `results/glmb/`):
+//! Choices where the paper is silent (documented in `results/glmb/report.md` and `results/glmb/long-lap/report.md`):
 //! single Gaussian per track (the birth is Gaussian and each update keeps it Gaussian),
 //! `gibbs_sweeps = 60`, `max_hypotheses = 30`, gate 13.8 (chi-square 0.999), `p_D` evaluated
 //! at the track mean, the clutter intensity of the scenario (`clutter.intensity`), floored

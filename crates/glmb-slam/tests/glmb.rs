@@ -216,7 +216,7 @@ fn short_run_end_to_end() {
 /// `x_bar` with noise `H_m P H_m^T + R` and weight `p_S p_D q_j / kappa`, `q_j` the
 /// pose-marginalised likelihood (`S = H_x Q H_x^T + H_m P H_m^T + R`); their moment match is
 /// the proposal. A well-mapped landmark seen where predicted must narrow it below `Q` (the
-/// diagnostic `examples/glmb_proposal.rs` measures the same on runs, results/glmb/report.md).
+/// diagnostic `examples/glmb_proposal.rs` measures the same on runs, results/glmb/long-lap/report.md).
 #[test]
 fn proposal_matches_the_moment_matched_mixture() {
     use glmb_slam::map::optimal_proposal;

@@ -11,8 +11,8 @@ use crate::Failure;
 #[derive(Args)]
 pub struct PlotArgs {
     /// The output directory of `rfslam run` or `rfslam sweep` (or a summary CSV file).
-    /// Several directories are compared by `--kind steps` (one line per run) and
-    /// `--kind metric` (one line set per sweep).
+    /// Several directories are compared by `--kind steps` (one line per run), `--kind rms`
+    /// (one line per group of runs) and `--kind metric` (one line set per sweep).
     #[arg(required = true, value_name = "DIR")]
     inputs: Vec<PathBuf>,
     /// The image: FILE.png or FILE.svg (the format follows the extension).
@@ -22,7 +22,10 @@ pub struct PlotArgs {
     /// estimate; GPS for Victoria Park), steps (errors, GOSPA, importance-density components,
     /// ESS over time; needs `run --save-steps`), particles (particle trajectories; needs
     /// `run --save-particles`), metric (a summary column against a grid key, one line per
-    /// filter), bars (a sweep's default: a summary column per filter and N with +-1 std).
+    /// filter), bars (a sweep's default: a summary column per filter and N with +-1 std),
+    /// rms (the RMS over runs at every time step of the x, y, heading and position errors,
+    /// one line per group of runs: the runs with the same --label or, without labels, the
+    /// run directories in the same parent directory; needs `run --save-steps`).
     #[arg(long)]
     kind: Option<String>,
     /// Summary column for metric and bars: pos_rmse_m (default), pos_rmse_se2_m,
@@ -39,7 +42,8 @@ pub struct PlotArgs {
     #[arg(long = "where", value_name = "KEY=VALUE")]
     conditions: Vec<String>,
     /// Legend label of each input, in order (default: the filter and N of a run, the
-    /// directory or file name of a sweep).
+    /// directory or file name of a sweep; for rms, the name of the run's parent directory,
+    /// and inputs with the same label form one group).
     #[arg(long = "label")]
     labels: Vec<String>,
     /// Figure title instead of the default.

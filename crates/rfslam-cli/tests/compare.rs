@@ -156,3 +156,34 @@ fn nan_cells_and_unknown_metrics_are_refused() {
         &["runs.csv:3", "column `pos_rmse_m`", "`NaN` is not a finite number"],
     );
 }
+
+#[test]
+fn one_filter_pairs_with_itself_at_another_particle_count() {
+    // phd-1.0 at N = 1 and 3 on the same runs: `s:phd@1 s:@3` pairs them (B takes A's label).
+    let tmp = TempDir::new("compare-particles");
+    let scen = "scen.toml";
+    tmp.write(scen, &scenario(60, 10, 0.95, 2.0));
+    tmp.write("exp.toml", &experiment(scen, 3, 3, &[Entry::new("phd-1.0", "phd", &[1, 3])], ""));
+    ok(tmp.path(), &["sweep", "exp.toml", "--out", "s", "--jobs", "1", "--quiet"]);
+    let o = ok(tmp.path(), &["compare", "s:phd@1", "s:@3", "--out", "cmp"]);
+    assert!(o.stdout.contains("| pos RMSE [m] | phd | 1 → 3 | 3 |"), "{}", o.stdout);
+    assert!(o.stdout.contains("filter `phd`, N = 1") && o.stdout.contains("N = 3"), "{}", o.stdout);
+    let c = Csv::read(&tmp.join("cmp/compare.csv"));
+    let i = row_of(&c, "pos_rmse_m", "phd");
+    assert_eq!((c.get(i, "particles"), c.get(i, "b_particles"), c.get(i, "n")), ("1", "3", "3"));
+    let runs = Csv::read(&tmp.join("s/runs.csv"));
+    let value = |n: &str, seed: &str| {
+        let r = (0..runs.rows.len()).find(|&r| runs.get(r, "particles") == n && runs.get(r, "seed") == seed);
+        runs.num(r.unwrap(), "pos_rmse_m")
+    };
+    let mean = (3..6).map(|s| value("3", &s.to_string()) - value("1", &s.to_string())).sum::<f64>() / 3.0;
+    assert!((c.num(i, "mean_diff") - mean).abs() <= 1e-12 * (1.0 + mean.abs()));
+    // Without @N the same two sides pair N with N: B's N = 3 row meets A's N = 3 row.
+    let same = Csv::read(&{
+        ok(tmp.path(), &["compare", "s:phd", "s:phd", "--out", "same"]);
+        tmp.join("same/compare.csv")
+    });
+    assert!((0..same.rows.len()).all(|r| same.get(r, "particles") == same.get(r, "b_particles")));
+    // A count neither side has is a clear error.
+    fails(tmp.path(), &["compare", "s:phd@1", "s:@7"], 2, &["nothing to compare"]);
+}

@@ -20,6 +20,8 @@ const STEP_COLUMNS: &[&str] = &[
     "resampled",
     "cholesky_failures",
     "measurements",
+    "x_err_m",
+    "y_err_m",
 ];
 
 /// A small scenario and a phd-3.0 run of it with 3 particles, no resampling, both flags.
@@ -74,6 +76,11 @@ fn save_steps_and_save_particles_write_one_row_per_scan_and_particle() {
     for i in 0..scans {
         assert_eq!(steps.num(i, "step"), i as f64);
         assert!(steps.num(i, "pos_err_m") >= 0.0, "row {i}");
+        let (dx, dy) = (steps.num(i, "x_err_m"), steps.num(i, "y_err_m"));
+        assert!(
+            (dx.hypot(dy) - steps.num(i, "pos_err_m")).abs() < 1e-9,
+            "row {i}: x and y errors make the position error"
+        );
         assert!(steps.num(i, "head_err_deg").abs() <= 180.0, "row {i}");
         assert!(steps.num(i, "gospa_m") >= 0.0, "row {i}");
         assert!(steps.num(i, "ess") >= 1.0 - 1e-9 && steps.num(i, "ess") <= 3.0 + 1e-9, "row {i}");
@@ -186,6 +193,11 @@ fn every_kind_draws_a_png_and_an_svg() {
     ok(tmp.path(), &["plot", "run", "run1", "--kind", "steps", "--out", "both.svg"]);
     let svg = tmp.read("both.svg");
     assert!(svg.contains("phd-3.0 N=3") && svg.contains("phd-1.0 N=1"), "legend names both runs");
+    // The RMS over runs at every step, one line per label.
+    let rms = ["plot", "run", "run1", "--kind", "rms", "--label", "a", "--label", "a", "--out", "rms.svg"];
+    let o = ok(tmp.path(), &rms);
+    assert!(o.stdout.starts_with("rms figure"), "{}", o.stdout);
+    assert!(tmp.read("rms.svg").contains("a (2 runs)"), "legend names the group and its runs");
 
     // A tiny sweep over a grid: metric against the grid key, bars by default.
     let entries = [Entry::new("phd-1.0", "phd-1.0", &[1, 2]), Entry::new("dead-reckoning", "dr", &[1])];

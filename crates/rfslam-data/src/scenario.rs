@@ -150,13 +150,27 @@ pub enum WorldSpec {
     /// The simulated world of delta-GLMB-SLAM 2.0 (\[Moratuwage2019\] Section 4.1): 23
     /// landmarks beside a racetrack driven at 1 m/s with a loop closure
     /// (`glmb_sim_world` of `rfslam-sim`), driven by the scenario's `velocity` or
-    /// `ackermann` controls; key `dt`: the control and scan period (s, default 1).
+    /// `ackermann` controls; keys `dt`: the control and scan period (s, default 1), and
+    /// `lap_length`: the length of one lap (m, default [`GLMB_SIM_LAP_LENGTH`]), which
+    /// scales the whole track, the landmark spacing along it and the distance driven.
     #[serde(rename = "glmb-sim")]
     GlmbSim {
         /// Control and scan period (s).
         dt: f64,
+        /// Length of one lap of the racetrack (m).
+        lap_length: f64,
     },
 }
+
+/// Lap length of the default `glmb-sim` racetrack (m): two 30 m straights and two half
+/// circles of 22 m.
+pub const GLMB_SIM_LAP_LENGTH: f64 = 104.0;
+/// Distance the `glmb-sim` world drives, in laps: one lap and then 61 m of the default
+/// 104 m lap again over the start (the re-visit).
+pub const GLMB_SIM_LAPS_DRIVEN: f64 = 165.0 / 104.0;
+/// Bounds of `[world] lap_length` (m): from a track a few metres across to one whose
+/// 23 landmarks stand hundreds of metres apart.
+pub const GLMB_SIM_LAP_LENGTH_RANGE: Interval = Interval::closed(1.0, 10_000.0);
 
 /// Where the Victoria Park GPS truth is, relative to the initial pose (`[world] gps_frame`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -191,6 +205,7 @@ struct RawWorld {
     initial_y: Option<f64>,
     initial_heading_deg: Option<f64>,
     gps_frame: Option<GpsFrame>,
+    lap_length: Option<f64>,
 }
 
 #[derive(Deserialize, Clone, Copy)]
@@ -223,6 +238,7 @@ impl TryFrom<RawWorld> for WorldSpec {
             ("initial_y", r.initial_y.is_some()),
             ("initial_heading_deg", r.initial_heading_deg.is_some()),
             ("gps_frame", r.gps_frame.is_some()),
+            ("lap_length", r.lap_length.is_some()),
         ];
         let with_path = |name: &str| -> Result<String, String> {
             only_keys("world", name, &given, &["path"])?;
@@ -249,8 +265,8 @@ impl TryFrom<RawWorld> for WorldSpec {
                 }
             }
             WorldKind::GlmbSim => {
-                only_keys("world", "glmb-sim", &given, &["dt"])?;
-                WorldSpec::GlmbSim { dt: r.dt.unwrap_or(1.0) }
+                only_keys("world", "glmb-sim", &given, &["dt", "lap_length"])?;
+                WorldSpec::GlmbSim { dt: r.dt.unwrap_or(1.0), lap_length: r.lap_length.unwrap_or(GLMB_SIM_LAP_LENGTH) }
             }
             WorldKind::Procedural => {
                 let keys = ["seed", "steps", "dt", "speed", "max_turn_rate_deg", "extent", "landmarks"];
@@ -360,7 +376,23 @@ impl ScenarioConfig {
         self.models().validate()?;
         match &self.world {
             WorldSpec::Procedural(p) => p.validate().map_err(|e| e.prefixed("world"))?,
-            WorldSpec::GlmbSim { dt } => in_range("world.dt", Interval::POSITIVE.up_to(limits::MAX_DT), *dt)?,
+            WorldSpec::GlmbSim { dt, lap_length } => {
+                in_range("world.dt", Interval::POSITIVE.up_to(limits::MAX_DT), *dt)?;
+                in_range("world.lap_length", GLMB_SIM_LAP_LENGTH_RANGE, *lap_length)?;
+                // The generator allocates one control per scan: refuse a count that would
+                // abort the process instead of an error.
+                let scans = lap_length * GLMB_SIM_LAPS_DRIVEN / dt;
+                if scans > ProceduralParams::MAX_STEPS as f64 {
+                    return Err(ConfigError::new(
+                        "world.dt",
+                        format!(
+                            "gives {scans:.0} scans for world.lap_length = {lap_length} m (it drives {:.2} laps at 1 m/s): at most {}",
+                            GLMB_SIM_LAPS_DRIVEN,
+                            ProceduralParams::MAX_STEPS
+                        ),
+                    ));
+                }
+            }
             WorldSpec::Environment { path } | WorldSpec::Mat { path } | WorldSpec::Dataset { path } => {
                 if path.trim().is_empty() {
                     return Err(ConfigError::new("world.path", "must not be empty"));
@@ -557,5 +589,31 @@ mod tests {
         assert!(e.contains("`world.steps` is not a key of world kind \"victoria-park\""), "{e}");
         let e = err(&SMALL_SCENARIO.replace("steps = 120", "initial_x = 1.0"));
         assert!(e.contains("`world.initial_x` is not a key of world kind \"procedural\""), "{e}");
+    }
+    #[test]
+    fn glmb_sim_lap_length_defaults_and_is_bounded() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/glmb-sim.toml");
+        let text = std::fs::read_to_string(path).unwrap();
+        let sc = ScenarioConfig::from_toml_str(&text, "glmb-sim.toml").unwrap();
+        assert_eq!(sc.world, WorldSpec::GlmbSim { dt: 0.2, lap_length: GLMB_SIM_LAP_LENGTH });
+        let text2 = sc.to_toml_string().unwrap();
+        assert_eq!(ScenarioConfig::from_toml_str(&text2, "x.toml").unwrap(), sc);
+        let short = text.replace("dt = 0.2", "dt = 0.2\nlap_length = 26.0");
+        let sc = ScenarioConfig::from_toml_str(&short, "short.toml").unwrap();
+        assert_eq!(sc.world, WorldSpec::GlmbSim { dt: 0.2, lap_length: 26.0 });
+        let at = format!("scen.toml:{}:", text.lines().position(|l| l.starts_with("dt = 0.2")).unwrap() + 2);
+        let e = err(&text.replace("dt = 0.2", "dt = 0.2\nlap_length = 0.5"));
+        assert!(e.starts_with(&format!("{at} world.lap_length must be in [1, 10000] (got 0.5)")), "{e}");
+        let e = err(&text.replace("dt = 0.2", "dt = 0.2\nlap_length = nan"));
+        assert!(e.contains("world.lap_length must be in [1, 10000] (got NaN)"), "{e}");
+        // 10 km laps at a microsecond period would allocate 1.6e10 controls: refused.
+        let e = err(&text.replace("dt = 0.2", "dt = 1e-6\nlap_length = 10000"));
+        assert!(
+            e.contains("world.dt gives 15865384615 scans for world.lap_length = 10000 m")
+                && e.contains("at most 1000000"),
+            "{e}"
+        );
+        let e = err(&SMALL_SCENARIO.replace("steps = 120", "lap_length = 26.0"));
+        assert!(e.contains("`world.lap_length` is not a key of world kind \"procedural\""), "{e}");
     }
 }

@@ -49,7 +49,9 @@ pub mod files {
 /// truth labels; empty without true landmarks); `map_size` is the number of landmarks in the
 /// map estimate, `components` the filter's map components over all particles,
 /// `proposal_components` the importance-density components (`StepReport`), `ess` the
-/// effective sample size before resampling, `resampled` 0 or 1.
+/// effective sample size before resampling, `resampled` 0 or 1; `x_err_m` and `y_err_m`
+/// are the estimate's position minus the true one along x and y (empty without truth), the
+/// components of the paper's RMS errors in X and Y over runs (`rfslam plot --kind rms`).
 pub const STEP_COLUMNS: &[&str] = &[
     "step",
     "t",
@@ -64,6 +66,8 @@ pub const STEP_COLUMNS: &[&str] = &[
     "resampled",
     "cholesky_failures",
     "measurements",
+    "x_err_m",
+    "y_err_m",
 ];
 
 /// Columns of `particles.csv`: scan index and time, particle index, pose (m, m, rad) and
@@ -128,7 +132,8 @@ impl<W: Write> StepsWriter<W> {
         }
         let pose = rec.estimate.pose;
         let truth = dataset.truth_at(rec.t, self.metrics.truth_tolerance_s);
-        let pos_err = truth.map_or(f64::NAN, |g| (Point2::new(pose.x, pose.y) - g.position).norm());
+        let err = truth.map(|g| Point2::new(pose.x, pose.y) - g.position);
+        let pos_err = err.map_or(f64::NAN, |e| e.norm());
         let head_err =
             truth.and_then(|g| g.heading).map_or(f64::NAN, |h| rfslam_core::angle::diff(pose.z, h).to_degrees());
         let (gospa, seen) = self.gospa(rec);
@@ -146,6 +151,8 @@ impl<W: Write> StepsWriter<W> {
             u8::from(rec.report.resampled).to_string(),
             rec.report.cholesky_failures.to_string(),
             scan.map_or(0, |s| s.z.len()).to_string(),
+            fmt_f(err.map_or(f64::NAN, |e| e.x)),
+            fmt_f(err.map_or(f64::NAN, |e| e.y)),
         ])
     }
 
@@ -325,6 +332,8 @@ mod tests {
         assert_eq!(f.len(), STEP_COLUMNS.len());
         assert_eq!(f[0], "5");
         assert!((f[2].parse::<f64>().unwrap() - 5.0).abs() < 1e-9, "position error {}", f[2]);
+        let col = |name: &str| f[STEP_COLUMNS.iter().position(|c| *c == name).unwrap()].parse::<f64>().unwrap();
+        assert!((col("x_err_m") - 3.0).abs() < 1e-9 && (col("y_err_m") + 4.0).abs() < 1e-9);
         assert!((f[3].parse::<f64>().unwrap() - 0.1f64.to_degrees()).abs() < 1e-6);
         // One false landmark far away: GOSPA counts it, with the landmarks seen so far missed.
         let seen: usize = f[5].parse().unwrap();

@@ -28,35 +28,54 @@ use crate::experiment::{parse_cli_value, set_dotted};
 use crate::resolved::{RESOLVED_FILE, ResolvedExperiment, first_difference};
 use crate::runs::{RunRow, RunsLayout, read_rows_checked};
 
-/// One argument of `rfslam compare`: a sweep's directory and, optionally, one filter label in it.
+/// One argument of `rfslam compare`: a sweep's directory and, optionally, one filter label
+/// and one particle count in it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Side {
     /// The sweep's output directory (`runs.csv` and `experiment.resolved.toml`).
     pub dir: PathBuf,
     /// The filter label chosen in it (`DIR:LABEL`).
     pub label: Option<String>,
+    /// The particle count chosen in it (`DIR:LABEL@N` or `DIR:@N`), so that one filter can be
+    /// paired with itself at another N on the same runs.
+    pub particles: Option<usize>,
 }
 
 impl Side {
-    /// Parses `DIR[:LABEL]`. An argument that names an existing directory is a directory
-    /// even if it holds a colon; otherwise the text after the last colon is the label.
+    /// Parses `DIR[:LABEL][@N]` (`DIR:@N` chooses N alone). An argument that names an
+    /// existing directory is a directory even if it holds a colon; otherwise the text after
+    /// the last colon is the label, and a trailing `@N` (N a positive integer) the count.
     pub fn parse(arg: &str) -> Side {
+        let whole = || Side { dir: arg.into(), label: None, particles: None };
         if Path::new(arg).is_dir() {
-            return Side { dir: arg.into(), label: None };
+            return whole();
         }
-        match arg.rsplit_once(':') {
-            Some((d, l)) if !d.is_empty() && !l.is_empty() && !l.contains('/') => {
-                Side { dir: d.into(), label: Some(l.to_string()) }
-            }
-            _ => Side { dir: arg.into(), label: None },
+        let Some((d, l)) = arg.rsplit_once(':') else { return whole() };
+        if d.is_empty() || l.is_empty() || l.contains('/') {
+            return whole();
         }
+        let (label, particles) = match l.rsplit_once('@') {
+            Some((label, n)) => match n.parse::<usize>() {
+                Ok(n) if n > 0 => (label, Some(n)),
+                _ => (l, None),
+            },
+            None => (l, None),
+        };
+        Side { dir: d.into(), label: (!label.is_empty()).then(|| label.to_string()), particles }
     }
 
     fn show(&self) -> String {
-        match &self.label {
-            Some(l) => format!("{}:{l}", self.dir.display()),
-            None => self.dir.display().to_string(),
+        let mut s = self.dir.display().to_string();
+        if self.label.is_some() || self.particles.is_some() {
+            s.push(':');
         }
+        if let Some(l) = &self.label {
+            s.push_str(l);
+        }
+        if let Some(n) = self.particles {
+            s.push_str(&format!("@{n}"));
+        }
+        s
     }
 }
 
@@ -167,8 +186,10 @@ pub struct CompareRow {
     pub b_label: String,
     /// The grid point: (key, value) of A's grid, then of the keys only B's grid has.
     pub grid: Vec<(String, String)>,
-    /// Particles.
+    /// A's particles.
     pub particles: usize,
+    /// B's particles (A's unless a side chose one with `@N`).
+    pub b_particles: usize,
     /// The metric.
     pub column: &'static Column,
     /// Run seeds of this (grid point, label, N) only A has.
@@ -457,16 +478,22 @@ pub fn compare(sides: &[Side], metrics: Option<&[String]>, command: &str) -> Res
             (Some(x), None) | (None, Some(x)) => (Some(x.as_str()), Some(x.as_str())),
             (None, None) => (None, None),
         };
+        // A particle count named on one side only holds for both, as a label does.
+        let (na, nb) = match (sides[0].particles, sides[bi].particles) {
+            (Some(x), None) | (None, Some(x)) => (Some(x), Some(x)),
+            other => other,
+        };
         let b_groups = b.groups()?;
         let mut paired_b = vec![false; b_groups.len()];
         let mut scenario_difference: Option<String> = None;
         let mut compared = 0;
-        for ga in a_groups.iter().filter(|g| la.is_none_or(|l| l == g.label)) {
+        for ga in a_groups.iter().filter(|g| la.is_none_or(|l| l == g.label) && na.is_none_or(|n| n == g.particles)) {
             let want = lb.unwrap_or(ga.label);
+            let want_n = nb.unwrap_or(ga.particles);
             let mut candidates: Vec<(usize, bool)> = b_groups
                 .iter()
                 .enumerate()
-                .filter(|(_, g)| g.label == want && g.particles == ga.particles)
+                .filter(|(_, g)| g.label == want && g.particles == want_n)
                 .filter_map(|(i, g)| {
                     let (filter, scenario) = grids_agree(a, ga.grid, b, g.grid);
                     filter.then_some((i, scenario))
@@ -505,7 +532,8 @@ pub fn compare(sides: &[Side], metrics: Option<&[String]>, command: &str) -> Res
                     .collect();
                 let a_only = ga.by_seed.len() - pairs.len();
                 let b_only = gb.by_seed.len() - pairs.len();
-                let where_ = || format!("A's {} vs B's `{}`", ga.describe(&a.layout.grid_keys), gb.label);
+                let where_ =
+                    || format!("A's {} vs B's `{}`, N = {}", ga.describe(&a.layout.grid_keys), gb.label, gb.particles);
                 // The same data give the same number of recursions and of scored steps.
                 for (s, ra, rb) in &pairs {
                     for c in ["steps", "scored_steps"] {
@@ -556,6 +584,7 @@ pub fn compare(sides: &[Side], metrics: Option<&[String]>, command: &str) -> Res
                         b_label: gb.label.to_string(),
                         grid: grid.clone(),
                         particles: ga.particles,
+                        b_particles: gb.particles,
                         column: c,
                         a_only,
                         b_only,
@@ -582,7 +611,7 @@ pub fn compare(sides: &[Side], metrics: Option<&[String]>, command: &str) -> Res
             )));
         }
         for (i, g) in b_groups.iter().enumerate() {
-            if !paired_b[i] && lb.is_none_or(|l| l == g.label) {
+            if !paired_b[i] && lb.is_none_or(|l| l == g.label) && nb.is_none_or(|n| n == g.particles) {
                 notes.push(format!("B{bi}: B's {} has no counterpart", g.describe(&b.layout.grid_keys)));
             }
         }
@@ -671,7 +700,10 @@ impl Comparison {
         let _ = writeln!(s, "Regenerate: `{}`\n", self.command);
         for (i, info) in self.sides.iter().enumerate() {
             let name = if i == 0 { "A".to_string() } else { format!("B{i}") };
-            let label = info.side.label.as_ref().map(|l| format!(", filter `{l}`")).unwrap_or_default();
+            let mut label = info.side.label.as_ref().map(|l| format!(", filter `{l}`")).unwrap_or_default();
+            if let Some(n) = info.side.particles {
+                label.push_str(&format!(", N = {n}"));
+            }
             let _ = writeln!(
                 s,
                 "- {name}: `{}`{label} (experiment `{}`, {} runs, master seed {})",
@@ -727,8 +759,13 @@ impl Comparison {
                 }
                 let diff = diff_text(st.mean_diff, st.ci95_half);
                 let wins = st.wins(r.column.better).map_or_else(|| "–".to_string(), |w| format!("{w}/{}", st.n));
+                let n = if r.b_particles == r.particles {
+                    r.particles.to_string()
+                } else {
+                    format!("{} → {}", r.particles, r.b_particles)
+                };
                 cells.extend([
-                    r.particles.to_string(),
+                    n,
                     st.n.to_string(),
                     sig(st.mean_a, 4),
                     sig(st.mean_b, 4),
@@ -797,6 +834,7 @@ impl Comparison {
                 st.ties.to_string(),
                 st.wins(r.column.better).map(|w| w.to_string()).unwrap_or_default(),
                 st.sign_p.map(fmt_f).unwrap_or_default(),
+                r.b_particles.to_string(),
             ];
             for k in &keys {
                 f.push(r.grid.iter().find(|(g, _)| g == k).map(|(_, v)| v.clone()).unwrap_or_default());
@@ -833,6 +871,7 @@ pub const CSV_COLUMNS: &[&str] = &[
     "ties",
     "wins",
     "sign_p",
+    "b_particles",
 ];
 
 #[cfg(test)]
@@ -921,9 +960,20 @@ mod tests {
 
     #[test]
     fn arguments_split_at_the_last_colon() {
-        assert_eq!(Side::parse("results/x:phd-3.0"), Side { dir: "results/x".into(), label: Some("phd-3.0".into()) });
-        assert_eq!(Side::parse("results/x"), Side { dir: "results/x".into(), label: None });
-        assert_eq!(Side::parse("a:b/c"), Side { dir: "a:b/c".into(), label: None });
+        let side = |dir: &str, label: Option<&str>, particles| Side {
+            dir: dir.into(),
+            label: label.map(String::from),
+            particles,
+        };
+        assert_eq!(Side::parse("results/x:phd-3.0"), side("results/x", Some("phd-3.0"), None));
+        assert_eq!(Side::parse("results/x"), side("results/x", None, None));
+        assert_eq!(Side::parse("a:b/c"), side("a:b/c", None, None));
+        assert_eq!(Side::parse("results/x:phd-3.0@100"), side("results/x", Some("phd-3.0"), Some(100)));
+        assert_eq!(Side::parse("results/x:@10"), side("results/x", None, Some(10)));
+        // Not a count: part of the label.
+        assert_eq!(Side::parse("results/x:a@b"), side("results/x", Some("a@b"), None));
+        assert_eq!(Side::parse("results/x:a@0"), side("results/x", Some("a@0"), None));
+        assert_eq!(Side::parse("results/x:phd-3.0@100").show(), "results/x:phd-3.0@100");
     }
 
     #[test]

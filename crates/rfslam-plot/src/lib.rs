@@ -6,6 +6,8 @@
 //! - of a run directory (`rfslam run`): [`Kind::Map`] (Fig. 1; Fig. 4 with GPS for Victoria
 //!   Park), [`Kind::Steps`] (Fig. 2, needs `--save-steps`), [`Kind::Particles`] (Fig. 3,
 //!   needs `--save-particles`);
+//! - of many run directories: [`Kind::Rms`] (the RMS errors over runs at every time step of
+//!   \[Moratuwage2019\] Figs. 2-4, needs `--save-steps`);
 //! - of a sweep directory (`rfslam sweep`) or a summary CSV: [`Kind::Metric`] (Fig. 5) and
 //!   [`Kind::Bars`] (a summary table as bars with error bars).
 //!
@@ -48,16 +50,20 @@ pub enum Kind {
     Metric,
     /// A summary metric per filter and particle count of a sweep, with error bars.
     Bars,
+    /// RMS over runs at every step of the x, y, heading and position errors (`steps.csv`),
+    /// one line per group of runs.
+    Rms,
 }
 
 impl Kind {
     /// Every kind, by name.
-    pub const ALL: [(&'static str, Kind); 5] = [
+    pub const ALL: [(&'static str, Kind); 6] = [
         ("map", Kind::Map),
         ("steps", Kind::Steps),
         ("particles", Kind::Particles),
         ("metric", Kind::Metric),
         ("bars", Kind::Bars),
+        ("rms", Kind::Rms),
     ];
 
     /// The kind called `name`, or an error listing the kinds.
@@ -75,7 +81,7 @@ impl Kind {
 
     /// Whether it draws a run directory (rather than a sweep).
     pub fn is_run(self) -> bool {
-        matches!(self, Kind::Map | Kind::Steps | Kind::Particles)
+        matches!(self, Kind::Map | Kind::Steps | Kind::Particles | Kind::Rms)
     }
 }
 
@@ -165,10 +171,10 @@ fn resolve_kind(req: &PlotRequest) -> Result<Kind, PlotError> {
             req.inputs.len()
         )));
     }
-    let several_ok = matches!(kind, Kind::Steps | Kind::Metric);
+    let several_ok = matches!(kind, Kind::Steps | Kind::Metric | Kind::Rms);
     if req.inputs.len() > 1 && !several_ok {
         return Err(PlotError::Usage(format!(
-            "--kind {} draws one directory ({} given); several are compared by --kind steps and --kind metric",
+            "--kind {} draws one directory ({} given); several are compared by --kind steps, rms and metric",
             kind.name(),
             req.inputs.len()
         )));
@@ -215,6 +221,12 @@ pub fn plot(req: &PlotRequest) -> Result<PlotOutcome, PlotError> {
         Kind::Steps => {
             let dirs: Vec<&Path> = req.inputs.iter().map(PathBuf::as_path).collect();
             let fig = StepsFigure::new(&dirs, &req.labels, req.title.clone(), width)?;
+            render(&fig, &req.out)?;
+            fig.size()
+        }
+        Kind::Rms => {
+            let dirs: Vec<&Path> = req.inputs.iter().map(PathBuf::as_path).collect();
+            let fig = StepsFigure::rms(&dirs, &req.labels, req.title.clone(), width)?;
             render(&fig, &req.out)?;
             fig.size()
         }
