@@ -357,21 +357,21 @@ impl SensorConfig {
             let got = rfslam_core::params::short(self.min_range);
             return Err(ConfigError::new("min_range", format!("must be in [0, max_range) (got {got})")));
         }
-        let bands = [("edge_band_range", self.edge_band_range), ("edge_band_deg", self.edge_band_deg)];
+        // The bands are read by the taper only, but may be given with any edge, so that a
+        // grid over `scenario.sensor.edge` can switch between the treatments.
         if self.edge == EdgeKind::Taper {
-            for (key, v) in bands {
-                if v.is_none() {
-                    return Err(ConfigError::new(key, "is required with edge = \"taper\""));
-                }
+            let bands = [("edge_band_range", self.edge_band_range), ("edge_band_deg", self.edge_band_deg)];
+            if let Some((key, _)) = bands.iter().find(|(_, v)| v.is_none()) {
+                return Err(ConfigError::new(*key, "is required with edge = \"taper\""));
             }
-            let span = self.max_range - self.min_range;
-            in_range("edge_band_range", Interval::POSITIVE.up_to(span), self.edge_band_range.unwrap_or(0.0))?;
-            in_range("edge_band_deg", Interval::POSITIVE.up_to(self.half_angle_deg), self.edge_band_deg.unwrap_or(0.0))
-        } else if let Some((key, _)) = bands.iter().find(|(_, v)| v.is_some()) {
-            Err(ConfigError::new(*key, "is a key of edge = \"taper\" only"))
-        } else {
-            Ok(())
         }
+        let span = self.max_range - self.min_range;
+        let band_range = Interval::POSITIVE.up_to(span);
+        band_range
+            .check_opt("edge_band_range", self.edge_band_range)
+            .map_err(|e| ConfigError::new(e.key, e.message))?;
+        let band_deg = Interval::POSITIVE.up_to(self.half_angle_deg);
+        band_deg.check_opt("edge_band_deg", self.edge_band_deg).map_err(|e| ConfigError::new(e.key, e.message))
     }
 }
 
@@ -583,7 +583,11 @@ mod tests {
         assert_eq!(e, "sensor.edge_band_deg must be in (0, 90] (got 95)");
         let e = err("min_range = 100.0\nedge = \"taper\"\nedge_band_range = 60.0\nedge_band_deg = 1.0");
         assert_eq!(e, "sensor.edge_band_range must be in (0, 50] (got 60)");
-        assert_eq!(err("edge_band_deg = 5.0"), "sensor.edge_band_deg is a key of edge = \"taper\" only");
+        // Read by the taper only, but allowed (and checked) with any edge, for grids over `edge`.
+        let c: ModelConfig = toml::from_str(&with("edge = \"expected\"\nedge_band_deg = 5.0")).unwrap();
+        c.validate().unwrap();
+        assert_eq!(c.sensor.fov().edge, FovEdge::Expected);
+        assert_eq!(err("edge_band_deg = 0.0"), "sensor.edge_band_deg must be in (0, 90] (got 0)");
         let e = toml::from_str::<ModelConfig>(&with("edge = \"soft\"")).unwrap_err();
         assert!(e.message().contains("soft"), "{e}");
     }
