@@ -376,18 +376,10 @@ mod tests {
         let z = [RangeBearing::new(10.0, 0.0), RangeBearing::new(80.0, 1.0)];
         let (mut scratch, mut out) = (UpdateScratch::default(), GmMap::default());
         let sensor = RangeBearingSensor::default();
-        let o = phd_update(
-            &map,
-            &[0],
-            &Pose::zeros(),
-            &z,
-            &sensor,
-            &r,
-            |_, _| 0.9,
-            &settings(false),
-            &mut scratch,
-            &mut out,
-        );
+        let update = |exact: bool, scratch: &mut UpdateScratch, out: &mut GmMap| {
+            phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_, _| 0.9, &settings(exact), scratch, out)
+        };
+        let o = update(false, &mut scratch, &mut out);
         let n = 1.0 / (2.0 * std::f64::consts::PI * (1.01f64 * 0.0101).sqrt());
         assert_relative_eq!(n, 1.57579, epsilon = 1e-5);
         let a = 0.9 * n;
@@ -406,18 +398,7 @@ mod tests {
         assert_relative_eq!(out.cov[1][(0, 0)], 1.0 - 1.0 / 1.01, epsilon = 1e-12);
         assert_relative_eq!(out.cov[1][(1, 1)], 1.0 - 0.01 / 0.0101, epsilon = 1e-12);
         // The exact Poisson likelihood subtracts sum pD eta.
-        let o2 = phd_update(
-            &map,
-            &[0],
-            &Pose::zeros(),
-            &z,
-            &sensor,
-            &r,
-            |_, _| 0.9,
-            &settings(true),
-            &mut scratch,
-            &mut out,
-        );
+        let o2 = update(true, &mut scratch, &mut out);
         assert_relative_eq!(o2.log_likelihood, o.log_likelihood - 0.9, epsilon = 1e-12);
     }
 
