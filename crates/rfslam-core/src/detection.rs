@@ -272,7 +272,9 @@ pub enum DetectionModel {
 }
 
 impl DetectionModel {
-    /// `p_D(m | x)` evaluated at a point (clamped to [`PD_MAX`]).
+    /// `p_D(m | x)` evaluated at a point, with the FOV's taper when it has one (clamped to
+    /// [`PD_MAX`]). Filters call [`DetectionModel::pd_gaussian`], which also serves
+    /// [`FovEdge::Expected`].
     #[inline]
     pub fn pd(&self, fov: &Fov, x: &Pose, m: &Point2) -> f64 {
         if !fov.contains(x, m) {
