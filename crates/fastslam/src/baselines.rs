@@ -72,6 +72,10 @@ pub struct MhParams {
     /// FastSLAM 1.0. This bounds the cost per particle and scan to
     /// `O(hypotheses * bound * n^2)` for an `n`-column cost matrix.
     pub max_ambiguous_measurements: usize,
+    /// Children whose joint association is more than this many log-likelihood units below
+    /// the best association of their parent are not created (Leung et al.'s RFS-SLAM
+    /// library cuts at 3); unset (default): every one of the `hypotheses` best is kept.
+    pub hypothesis_log_cut: Option<f64>,
     /// Gate, new-landmark likelihood, resampling, jitter and existence, as `fastslam-1.0`.
     #[serde(flatten)]
     pub base: FastSlam1Params,
@@ -83,6 +87,7 @@ impl Default for MhParams {
             hypotheses: 4,
             max_population: 125,
             max_ambiguous_measurements: MAX_AMBIGUOUS_MEASUREMENTS,
+            hypothesis_log_cut: None,
             base: FastSlam1Params::default(),
         }
     }
@@ -108,6 +113,7 @@ impl FastSlam1Params {
             max_ambiguous_measurements: None,
             gate: self.gate,
             new_landmark_log_likelihood: self.new_landmark_log_likelihood,
+            hypothesis_log_cut: None,
             rbpf: self.rbpf,
             prior_existence: self.prior_existence,
             delete_existence: self.delete_existence,
@@ -187,6 +193,7 @@ impl FilterBuild for MhFastSlam {
             .check("max_population", params.max_population)
             .map_err(|e| ParamError::new(e.key, format!("{} (at least the number of particles)", e.message)))?;
         CountRange::HYPOTHESES.from(0).check("max_ambiguous_measurements", params.max_ambiguous_measurements)?;
+        Interval::BOUNDED_NON_NEGATIVE.check_opt("hypothesis_log_cut", params.hypothesis_log_cut)?;
         // The children of one step: up to `max_population` parents times `hypotheses`.
         let children = params.max_population.saturating_mul(params.hypotheses);
         if children > MAX_CHILDREN {
@@ -206,6 +213,7 @@ impl FilterBuild for MhFastSlam {
             hypotheses: p.hypotheses,
             max_population: Some(p.max_population),
             max_ambiguous_measurements: Some(p.max_ambiguous_measurements),
+            hypothesis_log_cut: p.hypothesis_log_cut,
             ..p.base.settings()
         };
         MhFastSlam(DaFastSlam::new(Self::NAME, settings, models, params.particles()))

@@ -12,7 +12,9 @@
 //!    Mahalanobis distance is within `gate` (else forbidden); then one private
 //!    "new landmark" column per measurement with cost `-ln p_0`. So each landmark takes at
 //!    most one measurement and every measurement is explained.
-//! 3. The `hypotheses` best assignments (Murty; the optimal one for FastSLAM 1.0). Child `c`
+//! 3. The `hypotheses` best assignments (Murty; the optimal one for FastSLAM 1.0), less
+//!    those more than `hypothesis_log_cut` log-likelihood units below the best when set
+//!    (the cut Leung et al.'s RFS-SLAM library applies at 3). Child `c`
 //!    of the particle has weight `w * exp(-cost_c)` (eq. 28 with the new-landmark factors),
 //!    its own copy of the map, EKF-updated (Joseph form, bearing wrapped) under its
 //!    assignment, and a new landmark (inverse sensor model, covariance `J_z R J_z^T`,
@@ -132,6 +134,9 @@ pub struct DaSettings {
     pub gate: f64,
     /// `ln p_0`; `None`: the density of `N(0, 2R)` at the gate boundary.
     pub new_landmark_log_likelihood: Option<f64>,
+    /// Children whose association is more than this many log-likelihood units below the
+    /// best of their parent are not created; `None`: all `hypotheses` are kept.
+    pub hypothesis_log_cut: Option<f64>,
     /// Resampling (`ESS <=` the threshold for the nominal N) and the pose jitter.
     pub rbpf: RbpfParams,
     /// Prior existence probability of a new landmark (0.5).
@@ -255,7 +260,7 @@ impl DaFastSlam {
                 continue;
             };
             let det = ch.l_dirty()[(0, 0)].powi(2) * ch.l_dirty()[(1, 1)].powi(2);
-            let pd = models.detection.pd(&models.fov, &x, &lm.mean);
+            let pd = models.detection.pd_gaussian(&models.fov, &x, &lm.mean, &lm.cov);
             self.lin.push(Some(Lin {
                 zhat: l.z,
                 s_inv: ch.inverse(),
@@ -323,6 +328,13 @@ impl DaFastSlam {
             failures += 1;
             self.hyps.clear();
             self.hyps.push(Assignment { col_for_row: vec![None; nz], cost: 0.0 });
+        }
+        // The likelihood cut: the ranking is in non-decreasing cost (-ln likelihood), so the
+        // kept children are a prefix.
+        if let Some(cut) = self.settings.hypothesis_log_cut {
+            let worst = self.hyps[0].cost + cut;
+            let keep = self.hyps.iter().position(|h| h.cost > worst).unwrap_or(self.hyps.len());
+            self.hyps.truncate(keep);
         }
 
         let (pe, kappa) = (self.settings.prior_existence, self.clutter_density);
@@ -460,7 +472,7 @@ mod tests {
             control_noise: Matrix3::zeros(),
             sensor: RangeBearingSensor::default(),
             measurement_noise: Matrix2::new(0.25, 0.0, 0.0, 3e-4),
-            fov: Fov { max_range: 50.0, half_angle: std::f64::consts::FRAC_PI_2 },
+            fov: Fov::new(50.0, std::f64::consts::FRAC_PI_2),
             detection: DetectionModel::Constant { pd: 0.95 },
             clutter: ClutterModel { rate: 1.0, intensity: ClutterIntensity::Measurement },
             initial_pose: Pose::zeros(),
@@ -474,6 +486,7 @@ mod tests {
             max_ambiguous_measurements: None,
             gate: 9.21,
             new_landmark_log_likelihood: None,
+            hypothesis_log_cut: None,
             rbpf: RbpfParams { q_jitter: [0.0; 3], ..RbpfParams::with_fraction(0.25) },
             prior_existence: 0.5,
             delete_existence: 0.05,
@@ -545,6 +558,33 @@ mod tests {
         // The new-landmark child has three landmarks, the others two.
         let sizes: Vec<usize> = f.set.particles().iter().map(|p| p.landmarks.len()).collect();
         assert_eq!(sizes.iter().filter(|&&s| s == 3).count(), 1);
+    }
+
+    /// The likelihood cut drops the children more than `hypothesis_log_cut` below the best
+    /// of their parent: of the three of `mh_branches_into_one_child_per_feasible_association`,
+    /// a cut between the second's and the third's deficit keeps two, a wide cut all three.
+    #[test]
+    fn mh_likelihood_cut_drops_unlikely_children() {
+        let m = models();
+        let z = RangeBearing::new(20.2, 0.004);
+        let run = |cut: Option<f64>| {
+            let mut f = DaFastSlam::new("mh-fastslam", DaSettings { hypothesis_log_cut: cut, ..mh(4, 125) }, &m, 1);
+            f.set.particles_mut()[0].landmarks = vec![landmark(20.0, 0.6, 3.0), landmark(20.0, -0.6, 3.0)];
+            f.step(&[], &Scan { t: 1.0, z: vec![z], truth: None }, &mut Rng::seed_from_u64(1));
+            let mut lw: Vec<f64> = f.set.particles().iter().map(|p| p.log_w).collect();
+            lw.sort_by(|a, b| b.total_cmp(a));
+            lw
+        };
+        let all = run(None);
+        assert_eq!(all.len(), 3);
+        let (d1, d2) = (all[0] - all[1], all[0] - all[2]);
+        assert!(d1 > 0.1 && d2 > d1 + 0.1, "{all:?}");
+        assert_eq!(run(Some(d2 + 0.05)).len(), 3);
+        let two = run(Some(0.5 * (d1 + d2)));
+        assert_eq!(two.len(), 2);
+        // The kept children are the same, renormalised.
+        assert_relative_eq!(two[0] - two[1], d1, epsilon = 1e-9);
+        assert_eq!(run(Some(0.5 * d1)).len(), 1);
     }
 
     /// The population grows by branching and is resampled back to the nominal 25 as soon

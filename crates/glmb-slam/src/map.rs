@@ -249,7 +249,7 @@ impl Workspace {
         self.row_of.resize(tracks.len(), NONE);
         let items = tracks.iter().map(|t| (t, None)).chain(self.births.iter().map(|(t, lr)| (t, Some(*lr))));
         for (idx, (t, birth_lr)) in items.enumerate() {
-            let pd = m.detection.pd(&m.fov, x, &t.mean);
+            let pd = m.detection.pd_gaussian(&m.fov, x, &t.mean, &t.cov);
             let is_birth = birth_lr.is_some();
             if pd <= 0.0 && !is_birth {
                 continue; // out of the FOV: p_S = 1, p_D = 0, deterministic

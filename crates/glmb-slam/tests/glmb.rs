@@ -18,7 +18,7 @@ fn models(sensor: &RangeBearingSensor, survival: f64) -> UpdateModels<'_> {
     UpdateModels {
         sensor,
         r: Matrix2::from_diagonal(&nalgebra::Vector2::new(0.05f64.powi(2), 0.5f64.to_radians().powi(2))),
-        fov: Fov { max_range: 3.0, half_angle: std::f64::consts::PI },
+        fov: Fov::new(3.0, std::f64::consts::PI),
         detection: DetectionModel::Constant { pd: PD },
         log_kappa: KAPPA.ln(),
         survival,

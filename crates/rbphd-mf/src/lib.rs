@@ -100,7 +100,7 @@ mod tests {
             control_noise: Matrix3::from_diagonal(&nalgebra::Vector3::new(0.04, 1e-4, 0.0)),
             sensor: rfslam_core::RangeBearingSensor::default(),
             measurement_noise: Matrix2::new(1.0, 0.0, 0.0, 3e-4),
-            fov: rfslam_core::Fov { max_range: 100.0, half_angle: std::f64::consts::FRAC_PI_2 },
+            fov: rfslam_core::Fov::new(100.0, std::f64::consts::FRAC_PI_2),
             detection: rfslam_core::DetectionModel::Constant { pd: 0.95 },
             clutter: rfslam_core::ClutterModel { rate: 1.0, intensity: rfslam_core::ClutterIntensity::Measurement },
             initial_pose: rfslam_core::Pose::zeros(),

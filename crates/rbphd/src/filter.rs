@@ -1,5 +1,6 @@
 //! The RB-PHD SLAM filter (\[Kaltiokallio2024\] Algorithm 3) generic over the importance density.
 
+use nalgebra::Matrix2;
 use rfslam_core::rbpf::{LogWeighted, ParticleSet};
 use rfslam_core::{
     ControlSegment, Estimate, FilterBuild, Fov, MapPoint, ParamError, Point2, Pose, RangeBearing, Rng, Scan,
@@ -144,7 +145,7 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                 if active_fov.contains(&rep.map.mean[i]) {
                     self.active.push(i);
                     self.is_active[i] = true;
-                    let pd = models.detection.pd_at(&sensed_fov, &rep.map.mean[i]);
+                    let pd = models.detection.pd_gaussian_at(&sensed_fov, &rep.map.mean[i], &rep.map.cov[i]);
                     if pd > 0.0 {
                         self.detectable.push(i);
                         self.pd.push(pd);
@@ -185,7 +186,7 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                     &scan.z,
                     &models.sensor,
                     &models.measurement_noise,
-                    |m| models.detection.pd_at(&placed, m),
+                    |m, p| models.detection.pd_gaussian_at(&placed, m, p),
                     &upd_settings,
                     &mut self.upd,
                     &mut self.updated,
@@ -207,7 +208,7 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                             log_clutter: self.log_clutter,
                             clutter_rate: models.clutter.rate,
                         };
-                        let pd = |m: &Point2| models.detection.pd_at(&placed, m);
+                        let pd = |m: &Point2, p: &Matrix2<f64>| models.detection.pd_gaussian_at(&placed, m, p);
                         let o = strategy_log_weight(w, &input, pd, &self.mf, &mut self.strategy);
                         chol += o.cholesky_failures;
                         p.log_w += o.log_weight;

@@ -133,9 +133,10 @@ pub struct UpdateOutcome {
 /// pose `x`, written to `out` (which is cleared first): every component once as a missed
 /// detection with weight `(1 - pD_i) eta_i`, plus one component per gated pair with weight
 /// `pD_i eta_i N(z_j; h_i, S_i) / (c(z_j) + sum_i' ...)`, EKF mean and Joseph-form
-/// covariance. `pd(i)` gives `pD` evaluated at component i's mean (as \[PHD-SLAM-3.0-code\]
-/// does; the paper approximates `E{pD}` under the component, which differs only near the
-/// FOV border).
+/// covariance. `pd(m, P)` gives `pD` of component i from its mean and covariance: at the
+/// mean with the hard edge (as \[PHD-SLAM-3.0-code\] does), or `E{pD}` under the component
+/// as the paper states (`[sensor] edge = "expected"`), which differs only near the FOV
+/// border.
 /// `scratch.gated[j]` tells whether measurement j gated with any component (those that did
 /// not form the birth set `Z^B` of the next step).
 #[allow(clippy::too_many_arguments)]
@@ -146,7 +147,7 @@ pub fn phd_update(
     z: &[RangeBearing],
     sensor: &RangeBearingSensor,
     r: &Matrix2<f64>,
-    pd: impl Fn(&Point2) -> f64,
+    pd: impl Fn(&Point2, &Matrix2<f64>) -> f64,
     settings: &UpdateSettings,
     scratch: &mut UpdateScratch,
     out: &mut GmMap,
@@ -167,7 +168,7 @@ pub fn phd_update(
 
     for &i in active {
         let m = map.mean[i];
-        let p_d = pd(&m);
+        let p_d = pd(&m, &map.cov[i]);
         if p_d <= 0.0 {
             out.push_from(map, i); // undetectable: unchanged (eq. 20 with pD = 0)
             continue;
@@ -375,8 +376,10 @@ mod tests {
         let z = [RangeBearing::new(10.0, 0.0), RangeBearing::new(80.0, 1.0)];
         let (mut scratch, mut out) = (UpdateScratch::default(), GmMap::default());
         let sensor = RangeBearingSensor::default();
-        let o =
-            phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_| 0.9, &settings(false), &mut scratch, &mut out);
+        let update = |exact: bool, scratch: &mut UpdateScratch, out: &mut GmMap| {
+            phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_, _| 0.9, &settings(exact), scratch, out)
+        };
+        let o = update(false, &mut scratch, &mut out);
         let n = 1.0 / (2.0 * std::f64::consts::PI * (1.01f64 * 0.0101).sqrt());
         assert_relative_eq!(n, 1.57579, epsilon = 1e-5);
         let a = 0.9 * n;
@@ -395,8 +398,7 @@ mod tests {
         assert_relative_eq!(out.cov[1][(0, 0)], 1.0 - 1.0 / 1.01, epsilon = 1e-12);
         assert_relative_eq!(out.cov[1][(1, 1)], 1.0 - 0.01 / 0.0101, epsilon = 1e-12);
         // The exact Poisson likelihood subtracts sum pD eta.
-        let o2 =
-            phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_| 0.9, &settings(true), &mut scratch, &mut out);
+        let o2 = update(true, &mut scratch, &mut out);
         assert_relative_eq!(o2.log_likelihood, o.log_likelihood - 0.9, epsilon = 1e-12);
     }
 
@@ -410,7 +412,7 @@ mod tests {
         map.push(0.5f64.ln(), Point2::new(-5.0, -5.0), Matrix2::identity()); // behind: pD 0
         let r = Matrix2::new(0.5, 0.0, 0.0, 1e-3);
         let sensor = RangeBearingSensor::default();
-        let pd = |m: &Point2| if m.x >= 0.0 { 0.8 } else { 0.0 };
+        let pd = |m: &Point2, _: &Matrix2<f64>| if m.x >= 0.0 { 0.8 } else { 0.0 };
         let (mut scratch, mut out) = (UpdateScratch::default(), GmMap::default());
         let o =
             phd_update(&map, &[0, 1, 2], &Pose::zeros(), &[], &sensor, &r, pd, &settings(true), &mut scratch, &mut out);
@@ -441,7 +443,7 @@ mod tests {
         let r = Matrix2::new(0.01, 0.0, 0.0, 1e-4);
         let z = [RangeBearing::new(10.0, rfslam_core::angle::wrap(std::f64::consts::PI + 0.002))];
         let (mut scratch, mut out) = (UpdateScratch::default(), GmMap::default());
-        phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_| 0.9, &settings(false), &mut scratch, &mut out);
+        phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_, _| 0.9, &settings(false), &mut scratch, &mut out);
         assert_eq!(out.len(), 2, "the measurement gates across the +-pi cut");
         assert!(out.mean[1].y < 0.01, "moved towards the measurement (bearing pi + 0.002 is below the x axis)");
     }

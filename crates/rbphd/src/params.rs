@@ -180,7 +180,7 @@ mod tests {
             control_noise: Matrix3::identity(),
             sensor: RangeBearingSensor::default(),
             measurement_noise: Matrix2::identity(),
-            fov: Fov { max_range: 50.0, half_angle: 1.0 },
+            fov: Fov::new(50.0, 1.0),
             detection,
             clutter: ClutterModel { rate: 5.0, intensity: ClutterIntensity::Cartesian },
             initial_pose: Pose::zeros(),

@@ -205,12 +205,13 @@ fn find(parent: &mut [usize], mut a: usize) -> usize {
 }
 
 /// The particle log weight under `weighting` (anything but [`Weighting::Exact`], which the
-/// update computes itself; passed here it is treated as [`Weighting::Empty`]). `pd(m)` is
-/// `pD(m | x_k)` at a point, zero outside the field of view.
+/// update computes itself; passed here it is treated as [`Weighting::Empty`]). `pd(m, P)` is
+/// `pD(m | x_k)` of a feature with mean `m` and covariance `P` (zero outside the field of
+/// view with the hard edge).
 pub fn strategy_log_weight(
     weighting: Weighting,
     input: &StrategyInput,
-    pd: impl Fn(&Point2) -> f64,
+    pd: impl Fn(&Point2, &Matrix2<f64>) -> f64,
     mf: &MultiFeatureSettings,
     s: &mut StrategyScratch,
 ) -> StrategyOutcome {
@@ -230,7 +231,7 @@ pub fn strategy_log_weight(
             let mut best: Option<usize> = None;
             for i in 0..upd.len() {
                 if best.is_none_or(|b| upd.log_w[i] > upd.log_w[b]) {
-                    let p = pd(&upd.mean[i]);
+                    let p = pd(&upd.mean[i], &upd.cov[i]);
                     if p > 0.0 {
                         best = Some(i);
                     }
@@ -238,7 +239,7 @@ pub fn strategy_log_weight(
             }
             if let Some(b) = best {
                 s.features.push(b);
-                s.feature_pd.push(pd(&upd.mean[b]));
+                s.feature_pd.push(pd(&upd.mean[b], &upd.cov[b]));
             }
         }
         Weighting::Multi => {
@@ -251,7 +252,7 @@ pub fn strategy_log_weight(
                 if s.features.len() >= mf.max_features {
                     break;
                 }
-                let p = pd(&upd.mean[c]);
+                let p = pd(&upd.mean[c], &upd.cov[c]);
                 if p <= 0.0 {
                     continue;
                 }
@@ -489,7 +490,7 @@ mod tests {
         let r = Matrix2::new(0.25, 0.0, 0.0, 4e-4);
         let (mut scratch, mut updated) = (UpdateScratch::default(), GmMap::default());
         let settings = UpdateSettings { gate: 1e9, log_clutter: C.ln(), exact_pd_term: false };
-        phd_update(&predicted, &[0, 1], &x, &z, &sensor, &r, |_| PD, &settings, &mut scratch, &mut updated);
+        phd_update(&predicted, &[0, 1], &x, &z, &sensor, &r, |_, _| PD, &settings, &mut scratch, &mut updated);
         let log_d = (0..z.len()).map(|j| scratch_log_d(&scratch, j)).collect();
         Case { predicted, updated, z, r, log_d }
     }
@@ -511,7 +512,7 @@ mod tests {
             log_clutter: C.ln(),
             clutter_rate: NC,
         };
-        strategy_log_weight(w, &input, |_| PD, mf, &mut StrategyScratch::default())
+        strategy_log_weight(w, &input, |_, _| PD, mf, &mut StrategyScratch::default())
     }
 
     /// Eqs. (20)-(22): the empty-set weight is `sum_z ln c - N_c + m^+ - m^-`, and the map
@@ -616,13 +617,13 @@ mod tests {
         let base = 2.0 * C.ln() - NC; // v^- = v^+: no ratio, no mass change
         for (ratio, kept) in [(0.01, vec![8.0]), (0.0, vec![8.0, 10.0]), (0.02, vec![])] {
             let mf = MultiFeatureSettings { likelihood_ratio: ratio, terms: MfTerms::All, ..Default::default() };
-            let o = strategy_log_weight(Weighting::Multi, &input, |_| PD, &mf, &mut StrategyScratch::default());
+            let o = strategy_log_weight(Weighting::Multi, &input, |_, _| PD, &mf, &mut StrategyScratch::default());
             let like = (1.0 - PD) + kept.iter().map(|m2: &f64| PD * peak * (-0.5 * m2).exp() / C).sum::<f64>();
             assert_relative_eq!(o.log_weight, base + like.ln(), epsilon = 1e-9);
         }
         // Highest order with no likely measurement: the feature counts as missed.
         let mf = MultiFeatureSettings { likelihood_ratio: 0.02, ..Default::default() };
-        let o = strategy_log_weight(Weighting::Multi, &input, |_| PD, &mf, &mut StrategyScratch::default());
+        let o = strategy_log_weight(Weighting::Multi, &input, |_, _| PD, &mf, &mut StrategyScratch::default());
         assert_relative_eq!(o.log_weight, base + (1.0 - PD).ln(), epsilon = 1e-9);
     }
 
@@ -636,7 +637,18 @@ mod tests {
         let r = Matrix2::new(0.25, 0.0, 0.0, 4e-4);
         let (mut scratch, mut updated) = (UpdateScratch::default(), GmMap::default());
         let settings = UpdateSettings { gate: 1e9, log_clutter: C.ln(), exact_pd_term: false };
-        phd_update(&predicted, &[0], &Pose::zeros(), &[], &sensor, &r, |_| PD, &settings, &mut scratch, &mut updated);
+        phd_update(
+            &predicted,
+            &[0],
+            &Pose::zeros(),
+            &[],
+            &sensor,
+            &r,
+            |_, _| PD,
+            &settings,
+            &mut scratch,
+            &mut updated,
+        );
         let mf = MultiFeatureSettings { weight_threshold: 0.1, ..Default::default() };
         for w in [Weighting::Empty, Weighting::Single, Weighting::Multi] {
             let input = StrategyInput {
@@ -650,7 +662,7 @@ mod tests {
                 log_clutter: C.ln(),
                 clutter_rate: NC,
             };
-            let o = strategy_log_weight(w, &input, |_| PD, &mf, &mut StrategyScratch::default());
+            let o = strategy_log_weight(w, &input, |_, _| PD, &mf, &mut StrategyScratch::default());
             assert_relative_eq!(o.log_weight, -NC - PD * 1.2, epsilon = 1e-12);
             assert_eq!(o.features, usize::from(w != Weighting::Empty), "{w:?}");
         }
@@ -674,14 +686,14 @@ mod tests {
             clutter_rate: NC,
         };
         let mf = MultiFeatureSettings::default();
-        let empty = strategy_log_weight(Weighting::Empty, &input, |_| PD, &mf, &mut StrategyScratch::default());
+        let empty = strategy_log_weight(Weighting::Empty, &input, |_, _| PD, &mf, &mut StrategyScratch::default());
         for w in [Weighting::Single, Weighting::Multi] {
-            let o = strategy_log_weight(w, &input, |_| 0.0, &mf, &mut StrategyScratch::default());
+            let o = strategy_log_weight(w, &input, |_, _| 0.0, &mf, &mut StrategyScratch::default());
             assert_eq!(o.features, 0);
             assert_relative_eq!(o.log_weight, empty.log_weight, epsilon = 1e-12);
         }
         // Only the landmark on the left (y > 0) in view: one feature.
-        let left = |m: &Point2| if m.y > 0.0 { PD } else { 0.0 };
+        let left = |m: &Point2, _: &Matrix2<f64>| if m.y > 0.0 { PD } else { 0.0 };
         let o = strategy_log_weight(Weighting::Multi, &input, left, &mf, &mut StrategyScratch::default());
         assert_eq!(o.features, 1);
     }

@@ -133,6 +133,15 @@ fn sweeps_differing_only_in_what_the_filters_assume_are_paired() {
     assert_eq!((c.get(i, "n"), c.num(i, "mean_diff")), ("3", 0.0));
     let j = (0..c.rows.len()).find(|&i| c.get(i, "metric") == "gospa_m" && c.get(i, "b_label") == "phd").unwrap();
     assert_ne!(c.num(j, "mean_diff"), 0.0, "the intensity changes phd-1.0's maps");
+    // The filters' treatment of the FOV edge is another such key (the generator keeps the
+    // hard edge): paired, and named.
+    sweep(&tmp, "e", 3, 2.0, "\n[grid]\n\"scenario.sensor.edge\" = [\"expected\"]\n");
+    let o = ok(tmp.path(), &["compare", "a", "e"]);
+    assert!(
+        o.stdout.contains("- B1 differs from A in `scenario.sensor.edge` ((absent) vs \"expected\")"),
+        "{}",
+        o.stdout
+    );
 }
 
 #[test]

@@ -30,7 +30,7 @@ pub mod rng;
 pub mod sensor;
 pub mod types;
 
-pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov, PlacedFov};
+pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov, FovEdge, PlacedFov};
 pub use filter::{FilterBuild, SlamFilter, SlamModels, Validated};
 pub use motion::{AckermannModel, Motion, MotionModel, OdometryModel, VelocityModel};
 pub use params::{ParamError, RbpfParams};

@@ -170,7 +170,7 @@ proptest! {
         free in -PI..PI,
         near_edge in proptest::bool::ANY,
     ) {
-        let fov = rfslam_core::Fov { max_range: 30.0, half_angle: half };
+        let fov = rfslam_core::Fov::new(30.0, half);
         let pose = Pose::new(x.0, x.1, x.2);
         let b = if near_edge { side * (half.min(PI) + edge) } else { free };
         let m = at_bearing(&pose, r, b);

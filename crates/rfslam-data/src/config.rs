@@ -4,7 +4,7 @@
 
 use nalgebra::{Matrix2, Matrix3};
 use rfslam_core::params::Interval;
-use rfslam_core::{AckermannModel, ClutterIntensity, ClutterModel, DetectionModel, Fov, Motion, Pose};
+use rfslam_core::{AckermannModel, ClutterIntensity, ClutterModel, DetectionModel, Fov, FovEdge, Motion, Pose};
 use rfslam_core::{RangeBearingSensor, SlamModels};
 use serde::{Deserialize, Serialize};
 
@@ -283,12 +283,58 @@ pub struct SensorConfig {
     /// Sensor position in the body frame (m): forward, left. Default `[0, 0]`.
     #[serde(default)]
     pub offset: [f64; 2],
+    /// Minimum range (m): landmarks closer are never detected (generator) nor expected to
+    /// be (filters' `p_D`); clutter is drawn beyond it. Default 0: none.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub min_range: f64,
+    /// The filters' treatment of the FOV edge in `p_D` (the generator's sensor always has
+    /// the hard edge): `hard` (default), `taper` or `expected` ([`FovEdge`]).
+    #[serde(default, skip_serializing_if = "EdgeKind::is_hard")]
+    pub edge: EdgeKind,
+    /// `edge = "taper"`: width of the band at the range limits (m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub edge_band_range: Option<f64>,
+    /// `edge = "taper"`: width of the band at the bearing limits (deg).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub edge_band_deg: Option<f64>,
+}
+
+/// The `[sensor] edge` key: see [`FovEdge`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EdgeKind {
+    /// `p_D` at the landmark mean, zero outside the FOV.
+    #[default]
+    Hard,
+    /// A linear ramp of `p_D` over `edge_band_range` / `edge_band_deg` inside each limit.
+    Taper,
+    /// `E{p_D}` under the landmark's Gaussian.
+    Expected,
+}
+
+impl EdgeKind {
+    fn is_hard(&self) -> bool {
+        *self == EdgeKind::Hard
+    }
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl SensorConfig {
     /// The field of view in SI units.
     pub fn fov(&self) -> Fov {
-        Fov { max_range: self.max_range, half_angle: self.half_angle_deg.to_radians() }
+        let edge = match self.edge {
+            EdgeKind::Hard => FovEdge::Hard,
+            EdgeKind::Expected => FovEdge::Expected,
+            // Validated: both bands are given with a taper.
+            EdgeKind::Taper => FovEdge::Taper {
+                band_range: self.edge_band_range.unwrap_or(0.0),
+                band_angle: self.edge_band_deg.unwrap_or(0.0).to_radians(),
+            },
+        };
+        Fov { max_range: self.max_range, half_angle: self.half_angle_deg.to_radians(), min_range: self.min_range, edge }
     }
 
     /// `R = diag(sigma_r^2, sigma_phi^2)` (m^2, rad^2).
@@ -306,7 +352,26 @@ impl SensorConfig {
         in_range("sigma_bearing_deg", sigma, self.sigma_bearing_deg)?;
         let length = Interval::magnitude(limits::MAX_VEHICLE_LENGTH);
         in_range("offset[0]", length, self.offset[0])?;
-        in_range("offset[1]", length, self.offset[1])
+        in_range("offset[1]", length, self.offset[1])?;
+        if !(self.min_range >= 0.0 && self.min_range < self.max_range) {
+            let got = rfslam_core::params::short(self.min_range);
+            return Err(ConfigError::new("min_range", format!("must be in [0, max_range) (got {got})")));
+        }
+        // The bands are read by the taper only, but may be given with any edge, so that a
+        // grid over `scenario.sensor.edge` can switch between the treatments.
+        if self.edge == EdgeKind::Taper {
+            let bands = [("edge_band_range", self.edge_band_range), ("edge_band_deg", self.edge_band_deg)];
+            if let Some((key, _)) = bands.iter().find(|(_, v)| v.is_none()) {
+                return Err(ConfigError::new(*key, "is required with edge = \"taper\""));
+            }
+        }
+        let span = self.max_range - self.min_range;
+        let band_range = Interval::POSITIVE.up_to(span);
+        band_range
+            .check_opt("edge_band_range", self.edge_band_range)
+            .map_err(|e| ConfigError::new(e.key, e.message))?;
+        let band_deg = Interval::POSITIVE.up_to(self.half_angle_deg);
+        band_deg.check_opt("edge_band_deg", self.edge_band_deg).map_err(|e| ConfigError::new(e.key, e.message))
     }
 }
 
@@ -376,6 +441,10 @@ impl ModelConfig {
                 sigma_range: 0.8,
                 sigma_bearing_deg: 0.3,
                 offset: [0.0, 0.0],
+                min_range: 0.0,
+                edge: EdgeKind::Hard,
+                edge_band_range: None,
+                edge_band_deg: None,
             },
             detection: DetectionModel::Constant { pd: 0.95 },
             clutter: ClutterConfig { rate: 5.0, intensity: ClutterIntensity::Cartesian },
@@ -483,6 +552,44 @@ mod tests {
         let mut c = ModelConfig::phd_slam_synthetic();
         c.clutter.rate = -1.0;
         assert_eq!(c.validate().unwrap_err().key(), Some("clutter.rate"));
+    }
+
+    #[test]
+    fn min_range_and_edge_keys() {
+        let with =
+            |keys: &str| tables().replace("sigma_bearing_deg = 0.3", &format!("sigma_bearing_deg = 0.3\n{keys}"));
+        let c: ModelConfig =
+            toml::from_str(&with("min_range = 0.5\nedge = \"taper\"\nedge_band_range = 2.0\nedge_band_deg = 5.0"))
+                .unwrap();
+        c.validate().unwrap();
+        let f = c.sensor.fov();
+        assert_eq!(f.min_range, 0.5);
+        assert_eq!(f.edge, FovEdge::Taper { band_range: 2.0, band_angle: 5f64.to_radians() });
+        let c: ModelConfig = toml::from_str(&with("edge = \"expected\"")).unwrap();
+        assert_eq!(c.sensor.fov().edge, FovEdge::Expected);
+        // The defaults are today's sensor, and write nothing new.
+        let c: ModelConfig = toml::from_str(tables()).unwrap();
+        assert_eq!(c.sensor.fov(), Fov::new(150.0, std::f64::consts::FRAC_PI_2));
+        let written = toml::to_string(&c).unwrap();
+        assert!(!written.contains("min_range") && !written.contains("edge"), "{written}");
+        let err = |keys: &str| {
+            let c: ModelConfig = toml::from_str(&with(keys)).unwrap();
+            c.validate().unwrap_err().to_string()
+        };
+        assert_eq!(err("min_range = 150.0"), "sensor.min_range must be in [0, max_range) (got 150)");
+        assert_eq!(err("min_range = -1.0"), "sensor.min_range must be in [0, max_range) (got -1)");
+        assert!(err("edge = \"taper\"\nedge_band_deg = 5.0").starts_with("sensor.edge_band_range is required"));
+        let e = err("edge = \"taper\"\nedge_band_range = 1.0\nedge_band_deg = 95.0");
+        assert_eq!(e, "sensor.edge_band_deg must be in (0, 90] (got 95)");
+        let e = err("min_range = 100.0\nedge = \"taper\"\nedge_band_range = 60.0\nedge_band_deg = 1.0");
+        assert_eq!(e, "sensor.edge_band_range must be in (0, 50] (got 60)");
+        // Read by the taper only, but allowed (and checked) with any edge, for grids over `edge`.
+        let c: ModelConfig = toml::from_str(&with("edge = \"expected\"\nedge_band_deg = 5.0")).unwrap();
+        c.validate().unwrap();
+        assert_eq!(c.sensor.fov().edge, FovEdge::Expected);
+        assert_eq!(err("edge_band_deg = 0.0"), "sensor.edge_band_deg must be in (0, 90] (got 0)");
+        let e = toml::from_str::<ModelConfig>(&with("edge = \"soft\"")).unwrap_err();
+        assert!(e.message().contains("soft"), "{e}");
     }
 
     #[test]

@@ -33,7 +33,7 @@ pub mod scenario;
 /// compiled: a feature would make `cargo test` rebuild every crate above this one).
 pub mod testutil;
 
-pub use config::{ClutterConfig, ModelConfig, MotionConfig, SensorConfig};
+pub use config::{ClutterConfig, EdgeKind, ModelConfig, MotionConfig, SensorConfig};
 pub use dataset::{Dataset, DatasetMeta, Landmark, OdometryRow, TruthPose};
 pub use error::{ConfigError, DataError};
 pub use find::{DATA_ENV, data_dirs, find_data};

@@ -218,9 +218,27 @@ pub static COLUMNS: &[Column] = &[
     ),
     better(count("steps", "filter", "recursions run"), Better::Neither),
     better(count("scored_steps", "pose", "steps scored against ground truth"), Better::Neither),
-    real("gospa_loc_m", "map_gospa", "m", "localisation part of the final-map GOSPA, (loc term)^(1/p)"),
-    count("gospa_missed", "map_gospa", "true landmarks the final map misses"),
-    count("gospa_false", "map_gospa", "false landmarks in the final map"),
+    summarised(
+        real("gospa_loc_m", "map_gospa", "m", "localisation part of the final-map GOSPA, (loc term)^(1/p)"),
+        "gospa_loc_m",
+        Some("gospa_loc_std_m"),
+        Pool::Mean,
+        "GOSPA loc [m]",
+    ),
+    summarised(
+        count("gospa_missed", "map_gospa", "true landmarks the final map misses"),
+        "gospa_missed",
+        Some("gospa_missed_std"),
+        Pool::Mean,
+        "GOSPA missed",
+    ),
+    summarised(
+        count("gospa_false", "map_gospa", "false landmarks in the final map"),
+        "gospa_false",
+        Some("gospa_false_std"),
+        Pool::Mean,
+        "GOSPA false",
+    ),
     summarised(
         better(
             real(

@@ -60,7 +60,9 @@ pub fn simulate(world: &World, models: &ModelConfig, run_seed: u64) -> Result<Da
     let mut rng = stream(&[run_seed, purpose::SCENARIO]);
     let sigma = models.motion.sigmas();
     let inputs = motion.control_columns().len();
-    let fov = models.sensor.fov();
+    // The sensor as it is: the hard edge whatever the filters' `[sensor] edge` (a model of
+    // the filters'); the minimum range applies.
+    let fov = models.sensor.fov().hard();
     let sensor = RangeBearingSensor { offset: models.sensor.offset };
     let (sr, sb) = (models.sensor.sigma_range, models.sensor.sigma_bearing_deg.to_radians());
     let clutter = models.clutter.model();
@@ -131,6 +133,7 @@ mod tests {
     use super::*;
     use rfslam_data::testutil::TempDir;
     use rfslam_data::{MotionConfig, ProceduralParams};
+    use std::f64::consts::FRAC_PI_2;
 
     fn small_world() -> World {
         World::procedural(&ProceduralParams { steps: 300, landmarks: 40, ..Default::default() }, 3).unwrap()
@@ -157,6 +160,33 @@ mod tests {
         let tmp = TempDir::new("sim");
         a.write(tmp.path()).unwrap();
         assert_eq!(Dataset::read(tmp.path()).unwrap(), a);
+    }
+
+    /// The generator's sensor: the minimum range applies, the filters' edge treatment does
+    /// not (a taper in `[sensor]` leaves the detections those of the hard edge).
+    #[test]
+    fn generator_keeps_the_minimum_range_and_the_hard_edge() {
+        let w = small_world();
+        let mut m = ModelConfig::phd_slam_synthetic();
+        m.detection = rfslam_core::DetectionModel::Constant { pd: 1.0 };
+        m.clutter.rate = 0.0;
+        m.sensor.min_range = 60.0;
+        m.sensor.edge = rfslam_data::EdgeKind::Taper;
+        m.sensor.edge_band_range = Some(50.0);
+        m.sensor.edge_band_deg = Some(45.0);
+        let d = simulate(&w, &m, 5).unwrap();
+        let (fov, full) = (m.sensor.fov().hard(), rfslam_core::Fov::new(m.sensor.max_range, FRAC_PI_2));
+        let mut near = 0;
+        for (k, s) in d.scans.iter().enumerate() {
+            let x = w.poses[k].1;
+            let mut labels = s.truth.clone().unwrap();
+            labels.sort_unstable();
+            let visible: Vec<i64> =
+                w.landmarks.iter().filter(|l| fov.contains(&x, &l.position)).map(|l| l.id).collect();
+            assert_eq!(labels, visible, "scan {k}");
+            near += w.landmarks.iter().filter(|l| full.contains(&x, &l.position)).count() - visible.len();
+        }
+        assert!(near > 0, "no landmark ever came within the minimum range");
     }
 
     #[test]

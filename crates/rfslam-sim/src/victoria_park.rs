@@ -385,8 +385,8 @@ fn for_each_row(
 mod tests {
     use super::*;
     use rfslam_core::{AckermannModel, ClutterIntensity, ControlSegment, DetectionModel, MotionModel};
-    use rfslam_data::SensorConfig;
     use rfslam_data::testutil::{TempDir, shared_data};
+    use rfslam_data::{EdgeKind, SensorConfig};
 
     /// A hand-made excerpt in the distributed layout: three scans (the second with a
     /// detection behind the FOV's range and one beyond its angle), odometry rows before,
@@ -421,6 +421,10 @@ mod tests {
                 sigma_range: 1.0,
                 sigma_bearing_deg: 1.0,
                 offset: [0.0, 0.0],
+                min_range: 0.0,
+                edge: EdgeKind::Hard,
+                edge_band_range: None,
+                edge_band_deg: None,
             },
             detection: DetectionModel::RangeLinear { pd0: 0.7 },
             clutter: rfslam_data::ClutterConfig { rate: 5.0, intensity: ClutterIntensity::Cartesian },
