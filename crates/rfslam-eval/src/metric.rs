@@ -602,14 +602,16 @@ impl Observer for GospaMetric {
     fn observe(&mut self, _: &StepRecord) {}
     fn finish(&mut self, end: &RunEnd, out: &mut Values) {
         let g = final_map(end).and_then(|(t, e)| rfslam_metrics::gospa(&t, &e, self.c, self.p).ok());
+        // Without true landmarks (Victoria Park) no part is known: the counts are empty
+        // cells too, not zeros that a report would average into "nothing missed".
         let (total, loc, missed, false_count) = match g {
-            Some(g) => (g.total, g.loc_m(), g.missed, g.false_count),
-            None => (f64::NAN, f64::NAN, 0, 0),
+            Some(g) => (g.total, g.loc_m(), g.missed as f64, g.false_count as f64),
+            None => (f64::NAN, f64::NAN, f64::NAN, f64::NAN),
         };
         out.set("gospa_m", total);
         out.set("gospa_loc_m", loc);
-        out.set("gospa_missed", missed as f64);
-        out.set("gospa_false", false_count as f64);
+        out.set("gospa_missed", missed);
+        out.set("gospa_false", false_count);
     }
 }
 
@@ -965,6 +967,29 @@ mod tests {
         let truth: Vec<Point2> = ds.landmarks.as_ref().unwrap().iter().map(|l| l.position).collect();
         let est = estimate.map.iter().map(|p| p.position).collect();
         (values, truth, est)
+    }
+
+    #[test]
+    fn gospa_parts_are_empty_without_true_landmarks() {
+        // A data set without landmark truth (as Victoria Park): GOSPA and all its parts are
+        // not available, the counts included (they were 0, which reports averaged as "none
+        // missed, none false").
+        let sc = crate::fixtures::procedural_500();
+        let world = sc.load_world().unwrap();
+        let mut ds = sc.build_dataset(world.as_ref(), 1).unwrap();
+        ds.landmarks = None;
+        let estimate = Estimate {
+            pose: ds.models().initial_pose,
+            map: vec![MapPoint { position: Point2::new(1.0, 2.0), weight: 1.0 }],
+        };
+        let mut values = Values::default();
+        let end = RunEnd { dataset: &ds, estimate: &estimate, steps: 0 };
+        for mut o in observers(&MetricsConfig::default(), &RunStart { dataset: &ds, particles: 1 }) {
+            o.finish(&end, &mut values);
+        }
+        for c in ["gospa_m", "gospa_loc_m", "gospa_missed", "gospa_false"] {
+            assert!(values.get(c).unwrap().is_nan(), "{c}: {:?}", values.get(c));
+        }
     }
 
     #[test]
