@@ -1,10 +1,8 @@
 //! The Rao-Blackwellised particle filters `pmbm-slam` and `pmb-slam` over any
 //! [`MeasurementModel`], and their registration for the planar range-bearing sensor.
 
-use nalgebra::{Matrix3, SVector};
-use rfslam_core::angle::wrap;
-use rfslam_core::gaussian::sample;
-use rfslam_core::rbpf::{LogWeighted, ParticleSet};
+use nalgebra::SVector;
+use rfslam_core::rbpf::{LogWeighted, ParticleSet, draw_transition};
 use rfslam_core::{
     ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, Point2, Pose, Rng, Scan, SlamFilter, SlamModels,
     StepReport, Validated,
@@ -160,17 +158,6 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> PmbmFilter<S, M,
                 .collect()
         };
         Estimate { pose: p.pose, map }
-    }
-}
-
-/// `x ~ N(x_bar, Q)` (heading wrapped); the mean on a Cholesky failure (counted).
-pub fn draw_transition(x_bar: &Pose, q: &Matrix3<f64>, rng: &mut Rng, chol: &mut u32) -> Pose {
-    match sample(x_bar, q, rng) {
-        Some(x) => Pose::new(x[0], x[1], wrap(x[2])),
-        None => {
-            *chol += 1;
-            *x_bar
-        }
     }
 }
 

@@ -175,6 +175,7 @@ pub struct Workspace<const M: usize> {
     best: BestAssociation,
     /// Reduction scratch.
     order: Vec<usize>,
+    row_hash: Vec<u64>,
     referenced: Vec<u32>,
     canon: Vec<u32>,
     keep_track: Vec<bool>,
@@ -398,6 +399,7 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
     }
     ws.canon.clear();
     ws.canon.resize(n_new, u32::MAX);
+    let mut changed = false;
     for &a in &ws.order {
         for t in 0..n_new {
             let h = ws.gh_hyp[a * n_new + t];
@@ -405,22 +407,34 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
                 if ws.canon[t] == u32::MAX {
                     ws.canon[t] = h;
                 }
+                changed |= h != ws.canon[t];
                 ws.gh_hyp[a * n_new + t] = ws.canon[t];
             }
         }
     }
-    // Merge equal global hypotheses (sorted by their rows; weights added).
+    // Merge equal global hypotheses, weights added. New global hypotheses are distinct
+    // (different prior hypotheses or assignments), so only a canonical substitution can make
+    // two equal: then sort by a hash of the rows, comparing rows only on equal hashes.
     let rows = &ws.gh_hyp;
     let row = |a: usize| &rows[a * n_new..(a + 1) * n_new];
-    ws.order.sort_by(|&a, &b| row(a).cmp(row(b)).then(a.cmp(&b)));
     map.gh_log_w.clear();
-    ws.referenced.clear(); // the surviving global hypotheses, in `order` positions
+    ws.referenced.clear(); // the surviving global hypotheses
+    if changed {
+        ws.row_hash.clear();
+        ws.row_hash.resize(ws.gh_log_w.len(), 0);
+        for &a in &ws.order {
+            ws.row_hash[a] =
+                row(a).iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &v| (h ^ u64::from(v)).wrapping_mul(0x100_0000_01b3));
+        }
+        let hash = &ws.row_hash;
+        ws.order.sort_by(|&a, &b| hash[a].cmp(&hash[b]).then_with(|| row(a).cmp(row(b))).then(a.cmp(&b)));
+    }
     let mut k = 0;
     while k < ws.order.len() {
         let a = ws.order[k];
         let mut w = ws.gh_log_w[a];
         let mut e = k + 1;
-        while e < ws.order.len() && row(ws.order[e]) == row(a) {
+        while changed && e < ws.order.len() && row(ws.order[e]) == row(a) {
             w = log_add(w, ws.gh_log_w[ws.order[e]]);
             e += 1;
         }

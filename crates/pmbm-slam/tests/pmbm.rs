@@ -298,3 +298,27 @@ fn short_run_end_to_end() {
         );
     }
 }
+
+/// Two prior global hypotheses that differ only in a weak track's local hypothesis: once
+/// both missed children fall below `bernoulli_prune` they are the same hypothesis, merged
+/// (weights added), and the weak track, absent from every hypothesis, is deleted.
+#[test]
+fn hypotheses_made_equal_by_bernoulli_pruning_are_merged() {
+    let m = model();
+    let x = Pose::new(0.0, 0.0, 0.0);
+    let strong = bernoulli(0.9, 10.0, 0.0);
+    let mut map = PmbmDensity {
+        hyps: vec![strong, bernoulli(0.3, 5.0, 5.0), bernoulli(0.2, 6.0, 5.0)],
+        track_start: vec![0, 1, 3],
+        gh_hyp: vec![0, 1, 0, 2],
+        gh_log_w: vec![0.6f64.ln(), 0.4f64.ln()],
+    };
+    // Missed children: r = 0.3 * 0.1 / 0.73 = 0.041 and 0.2 * 0.1 / 0.82 = 0.024.
+    let s = UpdateSettings { bernoulli_prune: 0.05, ..settings(0.0, 9.21) };
+    let out = pmbm_update(&mut map, &x, &[], &m, &s, &mut Workspace::default());
+    let chi = 0.6 * 0.73 + 0.4 * 0.82; // times 1 - 0.9 p_D for the strong track
+    assert!((out.ln_chi - (chi * (1.0 - 0.9 * PD)).ln()).abs() < 1e-12);
+    assert_eq!((map.tracks(), map.hypotheses()), (1, 1));
+    assert_eq!(map.gh_log_w, vec![0.0]);
+    assert!((map.hyps[0].r - 0.9 * (1.0 - PD) / (1.0 - 0.9 * PD)).abs() < 1e-14);
+}
