@@ -15,7 +15,11 @@
 //!   detected by a gated `z_j`: `nu(z_j) = r p_D N(z_j; h(m, x_k), H P H^T + R)`, `r' = 1`, EKF
 //!   update. `p_D` is evaluated at the local hypothesis's mean; hypotheses with `p_D = 0`
 //!   (outside the field of view) are only missed, i.e. unchanged. Gate: the chi-square
-//!   quantile of `gate_probability` (0.99).
+//!   quantile of `gate_probability` (0.999, our choice; \[Kim2022\] uses 0.99, too narrow
+//!   for the pose errors of a bootstrap RBPF with few particles: see `docs/filters.md`).
+//!   Options: \[Kim2022\] Section V's adaptive `p_D` (`missed_detection = "gated"`: a
+//!   hypothesis that gates no measurement is not missed) and a survival probability inside
+//!   the field of view (`survival_fov`, 1 by default: a static map).
 //! - **`pmbm-slam`** (Section IV-B, Appendix B): for each prior global hypothesis `a`, the
 //!   `J x (I + J)` assignment matrix (`-ln(nu_i(z_j) / nu_i(empty))`, `-ln nu_j` on the
 //!   new-track diagonal) is ranked by Murty's algorithm for `ceil(B_max beta_a)` assignments;

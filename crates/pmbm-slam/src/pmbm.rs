@@ -293,7 +293,7 @@ fn children<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
 /// hypothesis `a`, the `ceil(B_max beta_a)` best assignments of its measurement-oriented
 /// cost matrix by Murty's algorithm become new global hypotheses of log weight
 /// `ln beta_a + sum_i ln nu_i(empty) - cost`; `ln chi` is their log-sum-exp (Proposition 1);
-/// then [`reduce`].
+/// then the reduction of Section V (pruning and capping at `B_max`, merging, deletions).
 pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     map: &mut PmbmDensity<M>,
     x: &Pose,

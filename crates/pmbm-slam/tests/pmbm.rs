@@ -322,3 +322,31 @@ fn hypotheses_made_equal_by_bernoulli_pruning_are_merged() {
     assert_eq!(map.gh_log_w, vec![0.0]);
     assert!((map.hyps[0].r - 0.9 * (1.0 - PD) / (1.0 - 0.9 * PD)).abs() < 1e-14);
 }
+
+/// Step iii options: with `survival < 1` a missed landmark in view first survives
+/// (`r p_S`), then is missed; with `missed_in_fov = false` ([Kim2022] Section V) a
+/// hypothesis that gates no measurement is left unchanged and costs nothing.
+#[test]
+fn survival_and_gated_missed_detection() {
+    let m = model();
+    let x = Pose::new(0.0, 0.0, 0.0);
+    let b = bernoulli(0.8, 10.0, 0.0);
+    let far = [RangeBearing::new(30.0, 2.0)]; // gates nothing
+    let mut ws = Workspace::default();
+    let s = UpdateSettings { survival: 0.9, ..settings(0.0, 9.21) };
+    let mut map = PmbmDensity::from_bernoullis(&[b]);
+    let out = pmbm_update(&mut map, &x, &[], &m, &s, &mut ws);
+    let r = 0.8 * 0.9;
+    assert!((out.ln_chi - (1.0 - r * PD).ln()).abs() < 1e-14);
+    assert!((map.hyps[0].r - r * (1.0 - PD) / (1.0 - r * PD)).abs() < 1e-14);
+
+    let s = UpdateSettings { missed_in_fov: false, ..settings(0.0, 9.21) };
+    let mut map = PmbmDensity::from_bernoullis(&[b]);
+    let out = pmbm_update(&mut map, &x, &far, &m, &s, &mut ws);
+    assert!((out.ln_chi - KAPPA.ln()).abs() < 1e-14, "only the clutter term: {}", out.ln_chi);
+    assert_eq!((map.tracks(), map.hyps[0].r), (1, 0.8));
+    let mut pmb = PmbmDensity::from_bernoullis(&[b]);
+    let out = pmb_update(&mut pmb, &x, &far, &m, &s, PmbWeight::Bethe, &mut ws);
+    assert!((out.ln_chi - KAPPA.ln()).abs() < 1e-12);
+    assert_eq!(pmb.hyps[0].r, 0.8);
+}

@@ -248,10 +248,12 @@ impl AssociationProblem {
         }
     }
 
-    /// The assignment matrix of [`AssociationProblem::fill_measurement_costs`] as a
-    /// [`CostMatrix`] for [`crate::Murty`], built in `buffer` (its allocation reused; get
-    /// it back with [`CostMatrix::into_data`]). Row `j` is measurement `j`; column `i < I`
-    /// track `i`, column `I + j` measurement `j` starting a new track or being clutter.
+    /// The measurement-oriented assignment matrix of this problem as a [`CostMatrix`] for
+    /// [`crate::Murty`], built in `buffer` (its allocation reused; get it back with
+    /// [`CostMatrix::into_data`]): `J x (I + J)`, `C[j, i] = -(ln psi_i(j) - ln psi_i(0))`
+    /// for a gated pair, `C[j, I + j] = -ln xi_j` (measurement `j` starts a new track or is
+    /// clutter), `+inf` elsewhere. An assignment of cost `c` is the association of log
+    /// weight `sum_i ln psi_i(0) - c` (unassigned tracks missed).
     pub fn measurement_cost_matrix(&self, mut buffer: Vec<f64>) -> Result<CostMatrix, AssignError> {
         self.fill_measurement_costs(&mut buffer);
         CostMatrix::new(self.measurements(), self.tracks() + self.measurements(), buffer)
