@@ -129,10 +129,15 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> PmbmFilter<S, M,
             chol += out.cholesky_failures;
             part.log_w += out.ln_chi;
         }
+        // Components: global hypotheses (PMBM) or Bernoullis (PMB), summed over particles.
         let mut components = 0;
+        let variant = self.variant;
         let rule = self.params.rbpf.rule(self.set.len());
         let out = self.set.normalise_and_resample(rule, rng, |particles, _| {
-            components = particles.iter().map(|p| p.map.hypotheses() * p.map.tracks()).sum();
+            components = match variant {
+                Variant::Pmbm => particles.iter().map(|p| p.map.hypotheses()).sum(),
+                Variant::Pmb => particles.iter().map(|p| p.map.tracks()).sum(),
+            };
         });
         StepReport {
             ess: out.ess,

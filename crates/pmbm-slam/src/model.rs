@@ -212,6 +212,59 @@ fn ln_gamma_half_integer(a: f64) -> f64 {
 mod tests {
     use super::*;
 
+    use nalgebra::{Matrix2, Vector2};
+    use rfslam_core::Pose;
+
+    fn model() -> RangeBearingModel {
+        RangeBearingModel {
+            sensor: RangeBearingSensor { offset: [0.4, -0.2] },
+            r: Matrix2::from_diagonal(&Vector2::new(0.64, 0.3f64.to_radians().powi(2))),
+            fov: Fov { max_range: 150.0, half_angle: std::f64::consts::FRAC_PI_2 },
+            detection: DetectionModel::Constant { pd: 0.95 },
+            kappa: 0.01,
+        }
+    }
+
+    /// Jacobians of the prediction and of the inverse against central differences, the
+    /// inverse inverting the prediction, the birth covariance, `p_D` and the FOV test.
+    #[test]
+    fn range_bearing_model_is_consistent() {
+        let m = model();
+        let x = Pose::new(3.0, -2.0, 3.1);
+        let lm = Vector2::new(-20.0, -1.0);
+        let z = m.predict(&x, &lm);
+        let lin = m.linearise(&x, &lm);
+        assert_eq!(lin.z, z);
+        let hx = m.pose_jacobian(&x, &lm);
+        let eps = 1e-6;
+        for k in 0..2 {
+            let d = Vector2::ith(k, eps);
+            let fd = m.residual(&m.predict(&x, &(lm + d)), &m.predict(&x, &(lm - d))) / (2.0 * eps);
+            assert!((fd - lin.hm.column(k)).norm() < 1e-6, "H_m column {k}");
+        }
+        for k in 0..3 {
+            let d = Pose::ith(k, eps);
+            let fd = m.residual(&m.predict(&(x + d), &lm), &m.predict(&(x - d), &lm)) / (2.0 * eps);
+            assert!((fd - hx.column(k)).norm() < 1e-6, "H_x column {k}");
+        }
+        let (back, jz) = m.inverse(&x, &z);
+        assert!((back - lm).norm() < 1e-9);
+        for k in 0..2 {
+            let d = Vector2::ith(k, eps);
+            let fd = (m.inverse(&x, &(z + d)).0 - m.inverse(&x, &(z - d)).0) / (2.0 * eps);
+            assert!((fd - jz.column(k)).norm() < 1e-6, "J_z column {k}");
+        }
+        let (mean, cov) = m.birth(&x, &z);
+        assert_eq!(mean, back);
+        assert!((cov - jz * m.r * jz.transpose()).norm() < 1e-12);
+        // Behind the sensor (heading ~ pi, landmark ahead in world -x): in view.
+        assert!(m.in_fov(&x, &lm) && m.detection_probability(&x, &lm) == 0.95);
+        let behind = Vector2::new(30.0, -2.0);
+        assert!(!m.in_fov(&x, &behind) && m.detection_probability(&x, &behind) == 0.0);
+        assert_eq!(m.clutter_intensity(&z), 0.01);
+        assert_eq!(m.birth_integral(&x, &z), z[0]);
+    }
+
     #[test]
     fn chi2_quantiles() {
         // Tabulated chi-square quantiles.
