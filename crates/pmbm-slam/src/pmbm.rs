@@ -168,6 +168,8 @@ pub struct Workspace<const M: usize> {
     problem: AssociationProblem,
     /// Track of each problem row.
     rows: Vec<usize>,
+    /// New global-hypothesis row of the all-missed assignment of one prior hypothesis.
+    base_row: Vec<u32>,
     cost: Vec<f64>,
     murty: Murty,
     assignments: Vec<Assignment>,
@@ -179,6 +181,8 @@ pub struct Workspace<const M: usize> {
     referenced: Vec<u32>,
     canon: Vec<u32>,
     keep_track: Vec<bool>,
+    kept: Vec<usize>,
+    absent: Vec<bool>,
     merge_p: Vec<f64>,
     merge_h: Vec<LocalHypothesis<M>>,
 }
@@ -341,13 +345,13 @@ pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
             continue;
         }
         let cols = ws.rows.len();
+        // The all-missed row (every measurement a new track, "exists"), copied per assignment.
+        ws.base_row.clear();
+        ws.base_row.extend(row.iter().map(|&h| ws.miss_child[h as usize]));
+        ws.base_row.extend((0..z.len()).map(|j| (ws.track_start[n_old + j] + 1) as u32));
         for asg in &ws.assignments {
             let start = ws.gh_hyp.len();
-            ws.gh_hyp.extend(row.iter().map(|&h| ws.miss_child[h as usize]));
-            for j in 0..z.len() {
-                // New track of measurement j: "exists" when j takes its own column.
-                ws.gh_hyp.push((ws.track_start[n_old + j] + 1) as u32);
-            }
+            ws.gh_hyp.extend_from_slice(&ws.base_row);
             for (j, c) in asg.col_for_row.iter().enumerate() {
                 let Some(c) = *c else { continue };
                 if c < cols {
@@ -391,11 +395,14 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
     let keep =
         ws.order.iter().take(s.max_global_hypotheses).take_while(|&&a| a == ws.order[0] || w[a] >= ln_prune).count();
     ws.order.truncate(keep);
-    // Non-existent local hypotheses: one canonical index per track.
+    // Non-existent local hypotheses: one canonical index per track. (`absent` is a compact
+    // copy of `r == 0` for the passes over the whole table below.)
+    ws.absent.clear();
     for h in &mut ws.hyps {
         if h.r < s.bernoulli_prune {
             h.r = 0.0;
         }
+        ws.absent.push(h.r == 0.0);
     }
     ws.canon.clear();
     ws.canon.resize(n_new, u32::MAX);
@@ -403,7 +410,7 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
     for &a in &ws.order {
         for t in 0..n_new {
             let h = ws.gh_hyp[a * n_new + t];
-            if ws.hyps[h as usize].r == 0.0 {
+            if ws.absent[h as usize] {
                 if ws.canon[t] == u32::MAX {
                     ws.canon[t] = h;
                 }
@@ -457,9 +464,7 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
     for &g in &ws.referenced {
         for (t, &h) in row(g as usize).iter().enumerate() {
             ws.canon[h as usize] = 0;
-            if ws.hyps[h as usize].r > 0.0 {
-                ws.keep_track[t] = true;
-            }
+            ws.keep_track[t] |= !ws.absent[h as usize];
         }
     }
     map.hyps.clear();
@@ -479,13 +484,12 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
     map.track_start.push(map.hyps.len());
     map.gh_hyp.clear();
     let weights = std::mem::take(&mut map.gh_log_w);
+    ws.kept.clear();
+    ws.kept.extend((0..n_new).filter(|&t| ws.keep_track[t]));
     for &o in &ws.order {
-        let g = ws.referenced[o] as usize;
-        for (t, &h) in row(g).iter().enumerate() {
-            if ws.keep_track[t] {
-                map.gh_hyp.push(ws.canon[h as usize]);
-            }
-        }
+        let g = row(ws.referenced[o] as usize);
+        let canon = &ws.canon;
+        map.gh_hyp.extend(ws.kept.iter().map(|&t| canon[g[t] as usize]));
         map.gh_log_w.push(weights[o] - total);
     }
 }
