@@ -3,7 +3,7 @@
 use nalgebra::Matrix3;
 use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
-use rfslam_core::rbpf::{LogWeighted, ParticleSet};
+use rfslam_core::rbpf::{LogWeighted, ParticleSet, draw_transition};
 use rfslam_core::{
     ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, Pose, RangeBearing, Rng, Scan, SlamFilter, SlamModels,
     StepReport, Validated,
@@ -193,11 +193,11 @@ impl GlmbSlam {
                         // The draw fell back to the transition density: weight by Delta w(x_k).
                         chol += 1;
                         marginal = None;
-                        (draw_prior(&x_bar, &q, rng, &mut chol), 0.0)
+                        (draw_transition(&x_bar, &q, rng, &mut chol), 0.0)
                     }
                 }
             } else {
-                (draw_prior(&x_bar, &q, rng, &mut chol), 0.0)
+                (draw_transition(&x_bar, &q, rng, &mut chol), 0.0)
             };
             self.trace.push(tr);
             part.pose = x;
@@ -259,17 +259,6 @@ impl GlmbSlam {
             }
         };
         Estimate { pose: p.pose, map }
-    }
-}
-
-/// `x ~ N(x_bar, Q)` (heading wrapped); the mean on a Cholesky failure (counted).
-fn draw_prior(x_bar: &Pose, q: &Matrix3<f64>, rng: &mut Rng, chol: &mut u32) -> Pose {
-    match sample(x_bar, q, rng) {
-        Some(x) => Pose::new(x[0], x[1], wrap(x[2])),
-        None => {
-            *chol += 1;
-            *x_bar
-        }
     }
 }
 

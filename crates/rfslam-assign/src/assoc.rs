@@ -10,7 +10,7 @@
 //! its eqs. (26)-(29)). `chi` is the sum of the weights over every valid association, the
 //! normalising constant of the particle weight (\[Kim2022\] eq. (21)).
 
-use crate::AssignError;
+use crate::{AssignError, CostMatrix};
 
 /// Largest number of tracks and of measurements an [`AssociationProblem`] accepts (the
 /// marginals of [`crate::LbpSolver`] are stored densely, `I x (J + 1)`).
@@ -224,6 +224,39 @@ impl AssociationProblem {
     /// `ln psi_i(j)` of every pair in the flat pair order.
     pub(crate) fn pair_ln_det(&self) -> &[f64] {
         &self.ln_det
+    }
+
+    /// Writes the measurement-oriented assignment costs of this problem into `cost`
+    /// (cleared first): `J x (I + J)`, row-major, `C[j, i] = -(ln psi_i(j) - ln psi_i(0))`
+    /// for a gated pair, `C[j, I + j] = -ln xi_j`, `+inf` elsewhere. Every measurement is
+    /// assigned once (to a track or to its own new-track column); unassigned tracks are
+    /// missed, so an assignment of cost `c` is an association of log weight
+    /// `sum_i ln psi_i(0) - c` (\[Kim2022\] Appendix B, the PMBM update as an assignment
+    /// problem).
+    pub(crate) fn fill_measurement_costs(&self, cost: &mut Vec<f64>) {
+        let (n_tracks, n_meas) = (self.tracks(), self.measurements());
+        let cols = n_tracks + n_meas;
+        cost.clear();
+        cost.resize(n_meas * cols, f64::INFINITY);
+        for (i, &miss) in self.ln_miss.iter().enumerate() {
+            for e in self.pair_range(i) {
+                cost[self.gate_meas[e] * cols + i] = -(self.ln_det[e] - miss);
+            }
+        }
+        for (j, &x) in self.ln_xi.iter().enumerate() {
+            cost[j * cols + n_tracks + j] = -x;
+        }
+    }
+
+    /// The measurement-oriented assignment matrix of this problem as a [`CostMatrix`] for
+    /// [`crate::Murty`], built in `buffer` (its allocation reused; get it back with
+    /// [`CostMatrix::into_data`]): `J x (I + J)`, `C[j, i] = -(ln psi_i(j) - ln psi_i(0))`
+    /// for a gated pair, `C[j, I + j] = -ln xi_j` (measurement `j` starts a new track or is
+    /// clutter), `+inf` elsewhere. An assignment of cost `c` is the association of log
+    /// weight `sum_i ln psi_i(0) - c` (unassigned tracks missed).
+    pub fn measurement_cost_matrix(&self, mut buffer: Vec<f64>) -> Result<CostMatrix, AssignError> {
+        self.fill_measurement_costs(&mut buffer);
+        CostMatrix::new(self.measurements(), self.tracks() + self.measurements(), buffer)
     }
 
     /// `sum_i ln psi_i(c_i) + sum_{j unassigned} ln xi_j` of the association `c`

@@ -93,6 +93,11 @@ impl CostMatrix {
         Ok(Self { rows: m, cols, data })
     }
 
+    /// The entries (row-major), giving the allocation back for the next matrix.
+    pub fn into_data(self) -> Vec<f64> {
+        self.data
+    }
+
     /// Number of rows.
     #[inline]
     pub fn rows(&self) -> usize {

@@ -391,17 +391,7 @@ impl BestAssociation {
         self.best.clear();
         self.best.resize(n_tracks, None);
         if n_meas > 0 {
-            self.cost.clear();
-            self.cost.resize(n_meas * cols, f64::INFINITY);
-            let (ln_miss, meas, ln_det) = (problem.ln_miss(), problem.pair_meas(), problem.pair_ln_det());
-            for (i, &miss) in ln_miss.iter().enumerate() {
-                for e in problem.pair_range(i) {
-                    self.cost[meas[e] * cols + i] = -(ln_det[e] - miss);
-                }
-            }
-            for (j, &x) in problem.ln_xi().iter().enumerate() {
-                self.cost[j * cols + n_tracks + j] = -x;
-            }
+            problem.fill_measurement_costs(&mut self.cost);
             self.sap.solve(&self.cost, n_meas, cols)?;
             for (j, &c) in self.sap.col4row.iter().enumerate() {
                 if c < n_tracks {

@@ -4,6 +4,10 @@
 
 use rand::RngExt;
 
+use crate::Pose;
+use crate::angle::wrap;
+use crate::gaussian::sample;
+
 /// `ln sum_i exp(l_i)`, stable (subtracts the maximum). `-inf` for an empty or all `-inf` slice.
 pub fn log_sum_exp(log_w: &[f64]) -> f64 {
     let max = log_w.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -313,6 +317,23 @@ impl<'a, P> Iterator for FamiliesMut<'a, P> {
         self.rest = tail;
         self.family = &self.family[len..];
         Some(head)
+    }
+}
+
+/// A pose from the transition density, `x ~ N(x_bar, Q)` with the heading wrapped (the
+/// proposal of the bootstrap RBPFs); the mean when `Q` fails Cholesky, counted in `chol`.
+pub fn draw_transition<R: rand::Rng + ?Sized>(
+    x_bar: &Pose,
+    q: &nalgebra::Matrix3<f64>,
+    rng: &mut R,
+    chol: &mut u32,
+) -> Pose {
+    match sample(x_bar, q, rng) {
+        Some(x) => Pose::new(x[0], x[1], wrap(x[2])),
+        None => {
+            *chol += 1;
+            *x_bar
+        }
     }
 }
 

@@ -179,6 +179,16 @@ pub static REGISTRY: &[FilterEntry] = &[
         glmb_slam::LmbSlam,
         "LMB-SLAM (Deusch et al. 2015): LMB map per particle, Gibbs update then LMB collapse, existence pruning 0.019"
     ),
+    entry!(
+        "pmbm-slam",
+        pmbm_slam::PmbmSlam,
+        "PMBM-SLAM (Kim et al. 2022): PMBM map per particle, Murty k-best global hypotheses (B_max 200), transition density as proposal"
+    ),
+    entry!(
+        "pmb-slam",
+        pmbm_slam::PmbSlam,
+        "PMB-SLAM (Kim et al. 2022): PMB map per particle, LBP marginals and TOMB/P, Bethe free-energy particle weight"
+    ),
 ];
 
 /// Looks a filter up by name.

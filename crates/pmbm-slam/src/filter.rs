@@ -1,0 +1,252 @@
+//! The Rao-Blackwellised particle filters `pmbm-slam` and `pmb-slam` over any
+//! [`MeasurementModel`], and their registration for the planar range-bearing sensor.
+
+use nalgebra::SVector;
+use rfslam_core::rbpf::{LogWeighted, ParticleSet, draw_transition};
+use rfslam_core::{
+    ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, Point2, Pose, Rng, Scan, SlamFilter, SlamModels,
+    StepReport, Validated,
+};
+
+use crate::model::{MeasurementModel, RangeBearingModel};
+use crate::params::Params;
+use crate::pmbm::{PmbWeight, PmbmDensity, UpdateSettings, Workspace, pmb_update, pmbm_update};
+
+/// Which filter of the family.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Variant {
+    /// PMBM-SLAM: global hypotheses by Murty's k-best (\[Kim2022\] Section IV-B).
+    Pmbm,
+    /// PMB-SLAM: LBP marginals and TOMB/P, one global hypothesis (\[Kim2022\] Section IV-C).
+    Pmb,
+}
+
+/// One particle: pose, log weight and PMBM map.
+#[derive(Debug, PartialEq, Default)]
+pub struct Particle<const M: usize> {
+    /// Log weight (normalised after every step).
+    pub log_w: f64,
+    /// Pose `x_k`.
+    pub pose: Pose,
+    /// The map conditioned on the particle's trajectory.
+    pub map: PmbmDensity<M>,
+}
+
+impl<const M: usize> Clone for Particle<M> {
+    fn clone(&self) -> Self {
+        Particle { log_w: self.log_w, pose: self.pose, map: self.map.clone() }
+    }
+
+    fn clone_from(&mut self, src: &Self) {
+        self.log_w = src.log_w;
+        self.pose = src.pose;
+        self.map.clone_from(&src.map);
+    }
+}
+
+impl<const M: usize> LogWeighted for Particle<M> {
+    fn log_weight(&self) -> f64 {
+        self.log_w
+    }
+
+    fn set_log_weight(&mut self, log_w: f64) {
+        self.log_w = log_w;
+    }
+}
+
+/// A PMBM-family filter over the measurement model `S` (landmarks in `M`, measurements in
+/// `Z` dimensions).
+#[derive(Debug)]
+pub struct PmbmFilter<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> {
+    variant: Variant,
+    params: Params,
+    models: SlamModels,
+    model: S,
+    settings: UpdateSettings,
+    weight: PmbWeight,
+    set: ParticleSet<Particle<M>>,
+    ws: Workspace<M>,
+    z: Vec<SVector<f64, Z>>,
+}
+
+impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> PmbmFilter<S, M, Z> {
+    /// `n` particles at the initial pose of `models` with empty maps; `model` is the sensor
+    /// as the filter assumes it.
+    pub fn new(variant: Variant, params: Params, models: &SlamModels, model: S, n: usize) -> Self {
+        let p0 = Particle { log_w: 0.0, pose: models.initial_pose, map: PmbmDensity::new() };
+        PmbmFilter {
+            variant,
+            settings: params.update_settings(Z),
+            weight: params.pmb_weight(),
+            params,
+            models: models.clone(),
+            model,
+            set: ParticleSet::new(p0, n),
+            ws: Workspace::default(),
+            z: Vec::new(),
+        }
+    }
+
+    /// The particles (for inspection and tests).
+    pub fn particle_set(&self) -> &[Particle<M>] {
+        self.set.particles()
+    }
+
+    /// The measurement model.
+    pub fn model(&self) -> &S {
+        &self.model
+    }
+
+    /// One recursion: per particle, `x_k ~ f(x_k | x_{k-1}, u)` (the transition density as
+    /// proposal, \[Kim2022\] Section IV-B), the map update at `x_k` and
+    /// `ln w += ln chi`; then normalisation and resampling.
+    pub fn step_with(
+        &mut self,
+        odometry: &[ControlSegment],
+        z: impl IntoIterator<Item = SVector<f64, Z>>,
+        rng: &mut Rng,
+    ) -> StepReport {
+        self.z.clear();
+        self.z.extend(z);
+        let mut chol = 0u32;
+        for part in self.set.particles_mut() {
+            let (x_bar, q) = self.params.rbpf.predict(&self.models, &part.pose, odometry);
+            part.pose = draw_transition(&x_bar, &q, rng, &mut chol);
+            let out = match self.variant {
+                Variant::Pmbm => {
+                    pmbm_update(&mut part.map, &part.pose, &self.z, &self.model, &self.settings, &mut self.ws)
+                }
+                Variant::Pmb => pmb_update(
+                    &mut part.map,
+                    &part.pose,
+                    &self.z,
+                    &self.model,
+                    &self.settings,
+                    self.weight,
+                    &mut self.ws,
+                ),
+            };
+            chol += out.cholesky_failures;
+            part.log_w += out.ln_chi;
+        }
+        // Components: global hypotheses (PMBM) or Bernoullis (PMB), summed over particles.
+        let mut components = 0;
+        let variant = self.variant;
+        let rule = self.params.rbpf.rule(self.set.len());
+        let out = self.set.normalise_and_resample(rule, rng, |particles, _| {
+            components = match variant {
+                Variant::Pmbm => particles.iter().map(|p| p.map.hypotheses()).sum(),
+                Variant::Pmb => particles.iter().map(|p| p.map.tracks()).sum(),
+            };
+        });
+        StepReport {
+            ess: out.ess,
+            resampled: out.resampled,
+            components,
+            proposal_components: 0,
+            associations: None,
+            cholesky_failures: chol,
+        }
+    }
+
+    /// The best particle's pose and the landmarks with existence above `T_EP` in its best
+    /// global hypothesis, projected to the plane by `to_point`.
+    pub fn estimate_with(&self, to_point: impl Fn(&SVector<f64, M>) -> Point2) -> Estimate {
+        let p = self.set.best_particle();
+        let map = if p.map.hypotheses() == 0 {
+            Vec::new()
+        } else {
+            p.map
+                .global(0)
+                .filter(|h| h.r > self.params.estimate_existence)
+                .map(|h| MapPoint { position: to_point(&h.mean), weight: h.r })
+                .collect()
+        };
+        Estimate { pose: p.pose, map }
+    }
+}
+
+/// The family on the planar range-bearing sensor of a scenario.
+pub type RangeBearingPmbm = PmbmFilter<RangeBearingModel, 2, 2>;
+
+/// The range-bearing model a filter with `params` assumes on `models`.
+pub fn range_bearing_model(params: &Params, models: &SlamModels) -> RangeBearingModel {
+    let mut m = RangeBearingModel::new(models, params.clutter_intensity(models));
+    m.detection = params.detection(models);
+    m
+}
+
+macro_rules! variant_filter {
+    ($(#[$doc:meta])* $ty:ident, $variant:expr, $name:literal) => {
+        $(#[$doc])*
+        #[derive(Debug)]
+        pub struct $ty(pub RangeBearingPmbm);
+
+        impl $ty {
+            /// Registered name.
+            pub const NAME: &'static str = $name;
+        }
+
+        impl SlamFilter for $ty {
+            fn name(&self) -> &str {
+                Self::NAME
+            }
+
+            fn particles(&self) -> usize {
+                self.0.set.len()
+            }
+
+            fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
+                self.0.step_with(odometry, scan.z.iter().copied(), rng)
+            }
+
+            fn estimate(&self) -> Estimate {
+                self.0.estimate_with(|m| *m)
+            }
+
+            fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+                out.clear();
+                out.extend(self.0.set.particles().iter().map(|p| (p.pose, p.log_w)));
+                true
+            }
+
+            fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
+                out.clear();
+                out.extend_from_slice(self.0.set.last_parents());
+                true
+            }
+        }
+
+        impl FilterBuild for $ty {
+            type Params = Params;
+
+            fn check(params: &Params, models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+                params.validate(particles)?;
+                let model = range_bearing_model(params, models);
+                model.detection.validate().map_err(|e| ParamError::new("detection_pd", e))
+            }
+
+            fn build(params: Validated<Self>, models: &SlamModels) -> Self {
+                let (params, particles) = params.into_parts();
+                let model = range_bearing_model(&params, models);
+                $ty(PmbmFilter::new($variant, params, models, model, particles))
+            }
+        }
+    };
+}
+
+variant_filter!(
+    /// `pmbm-slam`: PMBM-SLAM (\[Kim2022\] Section IV-B): a PMBM map per particle, new global
+    /// hypotheses by Murty's k-best per prior global hypothesis, particle weight `ln chi`
+    /// (Proposition 1).
+    PmbmSlam,
+    Variant::Pmbm,
+    "pmbm-slam"
+);
+variant_filter!(
+    /// `pmb-slam`: PMB-SLAM (\[Kim2022\] Section IV-C): a PMB map per particle, LBP marginals
+    /// and TOMB/P, particle weight `-F` (Proposition 2) or eq. (47).
+    PmbSlam,
+    Variant::Pmb,
+    "pmb-slam"
+);

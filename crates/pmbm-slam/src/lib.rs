@@ -1,0 +1,59 @@
+//! PMBM-SLAM and PMB-SLAM (\[Kim2022\]): Rao-Blackwellised particle filters whose map, given
+//! a particle's trajectory, is a Poisson multi-Bernoulli mixture (PMBM); equation numbers
+//! are those of \[Kim2022\].
+//!
+//! - **Map** ([`pmbm::PmbmDensity`], Section III-B): a Poisson point process of undetected
+//!   landmarks of constant intensity `kappa_u` (\[Kim2022\] sets `p_D ~ 0` in step i, so it
+//!   never changes); tracks, one per measurement that ever started one, each with local
+//!   hypotheses `(r, N(m, P))`; global hypotheses, one local hypothesis per track with a
+//!   log weight `ln beta`, normalised.
+//! - **Update at the pose `x_k`** (Appendix A): step ii, every measurement starts a track
+//!   with `e_j = p_D kappa_u int N(z_j; h(m, x_k), R) dm` (`= p_D kappa_u rho_j` for range-bearing,
+//!   [`model::MeasurementModel::birth_integral`]), `nu_j = e_j + kappa(z_j)`, local
+//!   hypotheses "exists" `(e_j / nu_j, N(g^-1(z_j, x_k), J R J^T))` and "not started" `r = 0`;
+//!   step iii, missed: `nu(empty) = 1 - r p_D`, `r' = r (1 - p_D) / nu(empty)`; step iv,
+//!   detected by a gated `z_j`: `nu(z_j) = r p_D N(z_j; h(m, x_k), H P H^T + R)`, `r' = 1`, EKF
+//!   update. `p_D` is evaluated at the local hypothesis's mean; hypotheses with `p_D = 0`
+//!   (outside the field of view) are only missed, i.e. unchanged. Gate: the chi-square
+//!   quantile of `gate_probability` (0.999, our choice; \[Kim2022\] uses 0.99, too narrow
+//!   for the pose errors of a bootstrap RBPF with few particles: see `docs/filters.md`).
+//!   Options: \[Kim2022\] Section V's adaptive `p_D` (`missed_detection = "gated"`: a
+//!   hypothesis that gates no measurement is not missed) and a survival probability inside
+//!   the field of view (`survival_fov`, 1 by default: a static map).
+//! - **`pmbm-slam`** (Section IV-B, Appendix B): for each prior global hypothesis `a`, the
+//!   `J x (I + J)` assignment matrix (`-ln(nu_i(z_j) / nu_i(empty))`, `-ln nu_j` on the
+//!   new-track diagonal) is ranked by Murty's algorithm for `ceil(B_max beta_a)` assignments;
+//!   each is a new global hypothesis of log weight `ln beta_a + sum_i ln nu_i(empty) - cost`.
+//!   The particle weight is multiplied by `chi`, the sum of these weights (Proposition 1,
+//!   eqs. 21-22; the factor `exp(-lambda_c - int p_D lambda_u)` is common to all particles
+//!   for a constant `kappa_u` and dropped). Reduction: global hypotheses below `1e-4` pruned,
+//!   at most `B_max = 200`; local hypotheses with `r < 1e-5` non-existent (then global
+//!   hypotheses made equal are merged, and tracks that exist in none are deleted);
+//!   unreferenced local hypotheses deleted.
+//! - **`pmb-slam`** (Section IV-C, Appendix C): one global hypothesis; the marginal
+//!   association probabilities by loopy belief propagation (\[WilliamsLau2014\], at most
+//!   `L_max = 100` sweeps), TOMB/P (eqs. 48-51) back to one Bernoulli per track; particle
+//!   weight `-F`, the Bethe free energy at the fixed point (Proposition 2, eq. 30; exact
+//!   `ln chi` when the track-measurement graph is a forest), or the log weight of the most
+//!   likely association (eq. 47, `weight = "most_likely"`).
+//! - **Proposal**: the transition density (as \[Kim2022\]), one draw per particle;
+//!   systematic resampling when `ESS <= 0.5 N` (our choice; the paper gives none).
+//! - **Estimate**: the highest-weight particle's pose and the means of the local hypotheses
+//!   with `r > T_EP = 0.4` in its heaviest global hypothesis.
+//!
+//! The filters reach the sensor only through [`model::MeasurementModel`] (prediction,
+//! Jacobians, residual, inverse, detection probability, field of view, clutter intensity,
+//! birth integral), implemented for the planar range-bearing sensor by
+//! [`model::RangeBearingModel`]. The clutter intensity is in measurement space by default
+//! (`clutter_intensity = "measurement"`): it is the ratio `e_j / kappa(z_j)` that decides
+//! whether a measurement starts a landmark, and the Cartesian density of the published
+//! PHD-SLAM 3.0 tables is about 75 times smaller on their world.
+
+pub mod filter;
+pub mod model;
+pub mod params;
+pub mod pmbm;
+
+pub use filter::{Particle, PmbSlam, PmbmFilter, PmbmSlam, RangeBearingPmbm, Variant};
+pub use model::{MeasurementModel, RangeBearingModel};
+pub use params::{MissedDetection, Params, WeightRule};

@@ -1,0 +1,596 @@
+//! The Poisson multi-Bernoulli mixture map of one particle (\[Kim2022\] Section III-B,
+//! Appendix A) and its update at a known pose: steps ii-iv, the global hypotheses by
+//! Murty's k-best (PMBM) or the marginals by loopy belief propagation and TOMB/P (PMB), and
+//! the reduction.
+//!
+//! Storage is flat so that a warmed-up particle does not allocate: the local hypotheses
+//! of every track in one arena (`track_start` delimits the tracks), the global hypotheses
+//! as rows of absolute local-hypothesis indices, one per track. The undetected landmarks
+//! are a Poisson point process of constant intensity `kappa_u` (not stored: \[Kim2022\] sets
+//! `p_D ~ 0` in step i, so it never changes).
+
+use nalgebra::{SMatrix, SVector};
+use rfslam_assign::tomb::{GaussianBernoulli, tomb_merge, tomb_new_track};
+use rfslam_assign::{
+    AssignError, Assignment, AssociationProblem, BestAssociation, LbpOptions, LbpSolver, Murty, MurtyOptions,
+};
+use rfslam_core::Pose;
+use rfslam_core::gaussian::symmetrise;
+use rfslam_core::rbpf::log_sum_exp;
+
+use crate::model::MeasurementModel;
+
+const LN_2PI: f64 = 1.837_877_066_409_345_5;
+
+/// A local hypothesis: a Bernoulli with existence probability `r` and density
+/// `N(mean, cov)` (`r = 0`: the track's landmark does not exist in this hypothesis).
+pub type LocalHypothesis<const M: usize> = GaussianBernoulli<M>;
+
+/// The PMBM map of one particle.
+#[derive(Debug, Default, PartialEq)]
+pub struct PmbmDensity<const M: usize> {
+    /// Local hypotheses of every track: track `t` owns `hyps[track_start[t]..track_start[t + 1]]`.
+    pub hyps: Vec<LocalHypothesis<M>>,
+    /// Start of each track's local hypotheses, plus the end (`tracks + 1` entries, or none).
+    pub track_start: Vec<usize>,
+    /// Global hypotheses, row-major `hypotheses x tracks`: the local hypothesis (index into
+    /// `hyps`) of each track.
+    pub gh_hyp: Vec<u32>,
+    /// Normalised log weights `ln beta` of the global hypotheses, heaviest first.
+    pub gh_log_w: Vec<f64>,
+}
+
+impl<const M: usize> Clone for PmbmDensity<M> {
+    fn clone(&self) -> Self {
+        let mut d = Self::default();
+        d.clone_from(self);
+        d
+    }
+
+    /// Reuses the allocations (resampling copies a parent into a spare particle).
+    fn clone_from(&mut self, src: &Self) {
+        self.hyps.clone_from(&src.hyps);
+        self.track_start.clone_from(&src.track_start);
+        self.gh_hyp.clone_from(&src.gh_hyp);
+        self.gh_log_w.clone_from(&src.gh_log_w);
+    }
+}
+
+impl<const M: usize> PmbmDensity<M> {
+    /// An empty map: no track, one global hypothesis of weight one.
+    pub fn new() -> Self {
+        PmbmDensity { hyps: Vec::new(), track_start: vec![0], gh_hyp: Vec::new(), gh_log_w: vec![0.0] }
+    }
+
+    /// Number of tracks.
+    pub fn tracks(&self) -> usize {
+        self.track_start.len().saturating_sub(1)
+    }
+
+    /// Number of global hypotheses.
+    pub fn hypotheses(&self) -> usize {
+        self.gh_log_w.len()
+    }
+
+    /// The local hypotheses of global hypothesis `a`, one per track.
+    pub fn global(&self, a: usize) -> impl Iterator<Item = &LocalHypothesis<M>> + '_ {
+        let t = self.tracks();
+        self.gh_hyp[a * t..(a + 1) * t].iter().map(|&h| &self.hyps[h as usize])
+    }
+
+    /// Tracks built from single Bernoullis and one global hypothesis (a PMB).
+    pub fn from_bernoullis(bernoullis: &[LocalHypothesis<M>]) -> Self {
+        PmbmDensity {
+            hyps: bernoullis.to_vec(),
+            track_start: (0..=bernoullis.len()).collect(),
+            gh_hyp: (0..bernoullis.len() as u32).collect(),
+            gh_log_w: vec![0.0],
+        }
+    }
+
+    /// Expected number of landmarks of global hypothesis `a` (`sum_i r_i`).
+    pub fn expected_landmarks(&self, a: usize) -> f64 {
+        self.global(a).map(|h| h.r).sum()
+    }
+}
+
+/// The settings of one update (validated by the filter's parameters).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UpdateSettings {
+    /// Constant intensity `kappa_u` of the undetected landmarks (per unit landmark volume).
+    pub undetected_intensity: f64,
+    /// Floor of the clutter intensity, so that `nu_j = e_j + kappa` stays positive.
+    pub min_clutter_intensity: f64,
+    /// Gate `T_G` on the squared Mahalanobis distance.
+    pub gate: f64,
+    /// `B_max`: most global hypotheses kept, and the Murty budget `ceil(B_max beta_a)`.
+    pub max_global_hypotheses: usize,
+    /// Global hypotheses with a normalised weight below this are pruned.
+    pub gh_prune: f64,
+    /// Local hypotheses (PMBM) or Bernoullis (PMB) with `r` below this are non-existent.
+    pub bernoulli_prune: f64,
+    /// Loopy belief propagation (PMB).
+    pub lbp: LbpOptions,
+    /// Survival probability `p_S` of a landmark with `p_D > 0` over one step (1 outside).
+    pub survival: f64,
+    /// Missed detections with `p_D` of the field of view for every local hypothesis
+    /// (`true`), or only for those that gate a measurement (`false`, \[Kim2022\] Section V).
+    pub missed_in_fov: bool,
+}
+
+/// How a PMB particle is weighted (\[Kim2022\] Proposition 2 or eq. 47).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PmbWeight {
+    /// `-F`, the Bethe free energy at the LBP fixed point.
+    Bethe,
+    /// The weight of the most likely association (eq. 47).
+    MostLikely,
+}
+
+/// What one update did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct UpdateOutcome {
+    /// `ln chi`: the log of the normaliser of the new global-hypothesis weights (PMBM,
+    /// Proposition 1), or its Bethe / most-likely approximation (PMB).
+    pub ln_chi: f64,
+    /// Innovation covariances that failed Cholesky (those local hypotheses were treated as
+    /// not detectable).
+    pub cholesky_failures: u32,
+    /// Sub-problems the association step refused (should be zero; counted, not unwrapped).
+    pub association_errors: u32,
+}
+
+/// Detected child of a local hypothesis: measurement, new local hypothesis, `ln nu(z_j)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Detection {
+    j: usize,
+    child: u32,
+    ln_nu: f64,
+}
+
+/// The reusable buffers of the update (one per filter, shared by its particles).
+#[derive(Debug, Default)]
+pub struct Workspace<const M: usize> {
+    /// Per prior local hypothesis: `ln nu(empty)`, its missed child and its detections.
+    ln_miss: Vec<f64>,
+    miss_child: Vec<u32>,
+    det_start: Vec<usize>,
+    det: Vec<Detection>,
+    /// Per measurement: `ln nu_j` and `e_j / nu_j` of the new track it starts.
+    ln_nu_new: Vec<f64>,
+    r_new: Vec<f64>,
+    /// The new arena and global hypotheses (swapped with the particle's).
+    hyps: Vec<LocalHypothesis<M>>,
+    track_start: Vec<usize>,
+    gh_hyp: Vec<u32>,
+    gh_log_w: Vec<f64>,
+    /// Association sub-problem of one prior global hypothesis (PMBM) or of the PMB.
+    problem: AssociationProblem,
+    /// Track of each problem row.
+    rows: Vec<usize>,
+    /// New global-hypothesis row of the all-missed assignment of one prior hypothesis.
+    base_row: Vec<u32>,
+    cost: Vec<f64>,
+    murty: Murty,
+    assignments: Vec<Assignment>,
+    lbp: LbpSolver,
+    best: BestAssociation,
+    /// Reduction scratch.
+    order: Vec<usize>,
+    row_hash: Vec<u64>,
+    referenced: Vec<u32>,
+    canon: Vec<u32>,
+    keep_track: Vec<bool>,
+    kept: Vec<usize>,
+    absent: Vec<bool>,
+    merge_p: Vec<f64>,
+    merge_h: Vec<LocalHypothesis<M>>,
+}
+
+/// Step iv for local hypothesis `h` (existence `r` after survival, detection probability
+/// `p`): a detected child `r = 1` with the EKF update at the known pose for every measurement
+/// inside the gate, `ln nu(z_j) = ln(r p N(z_j; h(m, x), H P H^T + R))`. Returns 1 if the
+/// innovation covariance failed Cholesky (no child then), else 0.
+#[allow(clippy::too_many_arguments)]
+fn detect<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
+    h: &LocalHypothesis<M>,
+    r: f64,
+    p: f64,
+    x: &Pose,
+    z: &[SVector<f64, Z>],
+    model: &S,
+    s: &UpdateSettings,
+    ws: &mut Workspace<M>,
+) -> u32 {
+    let r_noise = model.noise();
+    let lin = model.linearise(x, &h.mean);
+    let s_cov = symmetrise(&(lin.hm * h.cov * lin.hm.transpose() + r_noise));
+    let Some(ch) = s_cov.cholesky() else {
+        return 1;
+    };
+    let l = ch.l();
+    let log_det: f64 = (0..Z).map(|i| 2.0 * l[(i, i)].ln()).sum();
+    let ln_rp = r.ln() + p.ln();
+    let mut gain: Option<(SMatrix<f64, M, Z>, SMatrix<f64, M, M>)> = None;
+    for (j, zj) in z.iter().enumerate() {
+        let v = model.residual(zj, &lin.z);
+        let Some(y) = l.solve_lower_triangular(&v) else { continue };
+        let maha = y.norm_squared();
+        if maha > s.gate {
+            continue;
+        }
+        let (k, cov) = *gain.get_or_insert_with(|| {
+            // K = P H^T S^-1; Joseph form of the covariance.
+            let k = ch.solve(&(lin.hm * h.cov)).transpose();
+            let a = SMatrix::<f64, M, M>::identity() - k * lin.hm;
+            (k, symmetrise(&(a * h.cov * a.transpose() + k * r_noise * k.transpose())))
+        });
+        let ln_nu = ln_rp - 0.5 * (Z as f64 * LN_2PI + log_det + maha);
+        ws.det.push(Detection { j, child: ws.hyps.len() as u32, ln_nu });
+        ws.hyps.push(LocalHypothesis { r: 1.0, mean: h.mean + k * v, cov });
+    }
+    0
+}
+
+/// Steps ii-iv of \[Kim2022\] Appendix A at pose `x` for every local hypothesis of `map`:
+/// fills the workspace's new arena (each prior local hypothesis followed by its missed
+/// child and its detected children, then the two local hypotheses of every measurement's
+/// new track) and the per-hypothesis factors. Returns the Cholesky failures.
+fn children<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
+    map: &PmbmDensity<M>,
+    x: &Pose,
+    z: &[SVector<f64, Z>],
+    model: &S,
+    s: &UpdateSettings,
+    ws: &mut Workspace<M>,
+) -> u32 {
+    let mut chol = 0;
+    ws.ln_miss.clear();
+    ws.miss_child.clear();
+    ws.det_start.clear();
+    ws.det.clear();
+    ws.hyps.clear();
+    ws.track_start.clear();
+    for t in 0..map.tracks() {
+        ws.track_start.push(ws.hyps.len());
+        for h in &map.hyps[map.track_start[t]..map.track_start[t + 1]] {
+            ws.det_start.push(ws.det.len());
+            let p = if h.r > 0.0 { model.detection_probability(x, &h.mean) } else { 0.0 };
+            // Survival inside the field of view (1: the static map of [Kim2022]).
+            let r = if p > 0.0 { h.r * s.survival } else { h.r };
+            let miss = ws.hyps.len();
+            ws.miss_child.push(miss as u32);
+            ws.hyps.push(*h);
+            let first_det = ws.det.len();
+            if p > 0.0 && !z.is_empty() {
+                chol += detect(h, r, p, x, z, model, s, ws);
+            }
+            // Step iii: missed, with [Kim2022]'s adaptive p_D (Section V): P_D if the
+            // hypothesis gates a measurement, else 0, unless `p_D` is taken in the whole FOV.
+            let p_miss = if s.missed_in_fov || ws.det.len() > first_det { p } else { 0.0 };
+            let r = if p_miss > 0.0 { r } else { h.r };
+            let nu0 = 1.0 - r * p_miss;
+            ws.hyps[miss].r = if nu0 > 0.0 { (r * (1.0 - p_miss) / nu0).clamp(0.0, 1.0) } else { 0.0 };
+            ws.ln_miss.push(nu0.ln());
+        }
+    }
+    ws.det_start.push(ws.det.len());
+    // Step ii: one new track per measurement, local hypotheses "not started" then "exists".
+    ws.ln_nu_new.clear();
+    ws.r_new.clear();
+    for zj in z {
+        let (mean, cov) = model.birth(x, zj);
+        let e = model.detection_probability(x, &mean) * s.undetected_intensity * model.birth_integral(x, zj);
+        let nu = e + model.clutter_intensity(zj).max(s.min_clutter_intensity);
+        let r = (e / nu).clamp(0.0, 1.0);
+        ws.ln_nu_new.push(nu.ln());
+        ws.r_new.push(r);
+        ws.track_start.push(ws.hyps.len());
+        ws.hyps.push(LocalHypothesis { r: 0.0, mean, cov });
+        ws.hyps.push(LocalHypothesis { r, mean, cov });
+    }
+    ws.track_start.push(ws.hyps.len());
+    chol
+}
+
+/// One PMBM update (\[Kim2022\] Appendix A steps ii-iv and Appendix B): for each prior global
+/// hypothesis `a`, the `ceil(B_max beta_a)` best assignments of its measurement-oriented
+/// cost matrix by Murty's algorithm become new global hypotheses of log weight
+/// `ln beta_a + sum_i ln nu_i(empty) - cost`; `ln chi` is their log-sum-exp (Proposition 1);
+/// then the reduction of Section V (pruning and capping at `B_max`, merging, deletions).
+pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
+    map: &mut PmbmDensity<M>,
+    x: &Pose,
+    z: &[SVector<f64, Z>],
+    model: &S,
+    s: &UpdateSettings,
+    ws: &mut Workspace<M>,
+) -> UpdateOutcome {
+    let mut out = UpdateOutcome { cholesky_failures: children(map, x, z, model, s, ws), ..Default::default() };
+    let n_old = map.tracks();
+    let n_new = n_old + z.len();
+    ws.gh_hyp.clear();
+    ws.gh_log_w.clear();
+    for a in 0..map.hypotheses() {
+        let row = &map.gh_hyp[a * n_old..(a + 1) * n_old];
+        let base: f64 = map.gh_log_w[a] + row.iter().map(|&h| ws.ln_miss[h as usize]).sum::<f64>();
+        let budget = (s.max_global_hypotheses as f64 * map.gh_log_w[a].exp()).ceil().max(1.0) as usize;
+        // Only tracks that gate a measurement are columns: the others are missed for sure.
+        if ws.problem.reset(&ws.ln_nu_new).is_err() {
+            out.association_errors += 1;
+            continue;
+        }
+        ws.rows.clear();
+        let mut failed = false;
+        for (t, &h) in row.iter().enumerate() {
+            let h = h as usize;
+            if ws.det_start[h] == ws.det_start[h + 1] {
+                continue;
+            }
+            let gates = ws.det[ws.det_start[h]..ws.det_start[h + 1]].iter().map(|d| (d.j, d.ln_nu));
+            failed |= ws.problem.push_track(ws.ln_miss[h], gates).is_err();
+            ws.rows.push(t);
+        }
+        let cost = match ws.problem.measurement_cost_matrix(std::mem::take(&mut ws.cost)) {
+            Ok(c) if !failed => c,
+            _ => {
+                out.association_errors += 1;
+                continue;
+            }
+        };
+        let found = ws.murty.k_best(&cost, &MurtyOptions::best(budget), &mut ws.assignments);
+        ws.cost = cost.into_data();
+        if found.is_err() {
+            out.association_errors += 1;
+            continue;
+        }
+        let cols = ws.rows.len();
+        // The all-missed row (every measurement a new track, "exists"), copied per assignment.
+        ws.base_row.clear();
+        ws.base_row.extend(row.iter().map(|&h| ws.miss_child[h as usize]));
+        ws.base_row.extend((0..z.len()).map(|j| (ws.track_start[n_old + j] + 1) as u32));
+        for asg in &ws.assignments {
+            let start = ws.gh_hyp.len();
+            ws.gh_hyp.extend_from_slice(&ws.base_row);
+            for (j, c) in asg.col_for_row.iter().enumerate() {
+                let Some(c) = *c else { continue };
+                if c < cols {
+                    let t = ws.rows[c];
+                    let h = row[t] as usize;
+                    let det = &ws.det[ws.det_start[h]..ws.det_start[h + 1]];
+                    let child = det.iter().find(|d| d.j == j).expect("assigned pairs are gated").child;
+                    ws.gh_hyp[start + t] = child;
+                    ws.gh_hyp[start + n_old + j] = ws.track_start[n_old + j] as u32;
+                }
+            }
+            ws.gh_log_w.push(base - asg.cost);
+        }
+    }
+    debug_assert_eq!(ws.gh_hyp.len(), ws.gh_log_w.len() * n_new);
+    out.ln_chi = log_sum_exp(&ws.gh_log_w);
+    if !out.ln_chi.is_finite() {
+        // Nothing was formed (every sub-problem refused): keep the prior map, all missed.
+        out.ln_chi = f64::NEG_INFINITY;
+        return out;
+    }
+    for w in &mut ws.gh_log_w {
+        *w -= out.ln_chi;
+    }
+    reduce(map, n_new, s, ws);
+    out
+}
+
+/// Reduction (\[Kim2022\] Section V): keep the global hypotheses with normalised weight at
+/// least `gh_prune`, at most `B_max`, heaviest first (the best always); local hypotheses
+/// with `r < bernoulli_prune` become non-existent (`r = 0`, one per track); global
+/// hypotheses made equal by that are merged; tracks absent from every global hypothesis
+/// and local hypotheses no global hypothesis references are deleted. The workspace's new
+/// arena (`n_new` tracks) becomes `map`.
+fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSettings, ws: &mut Workspace<M>) {
+    let ln_prune = s.gh_prune.ln();
+    ws.order.clear();
+    ws.order.extend(0..ws.gh_log_w.len());
+    let w = &ws.gh_log_w;
+    ws.order.sort_by(|&a, &b| w[b].total_cmp(&w[a]).then(a.cmp(&b)));
+    let keep =
+        ws.order.iter().take(s.max_global_hypotheses).take_while(|&&a| a == ws.order[0] || w[a] >= ln_prune).count();
+    ws.order.truncate(keep);
+    // Non-existent local hypotheses: one canonical index per track. (`absent` is a compact
+    // copy of `r == 0` for the passes over the whole table below.)
+    ws.absent.clear();
+    for h in &mut ws.hyps {
+        if h.r < s.bernoulli_prune {
+            h.r = 0.0;
+        }
+        ws.absent.push(h.r == 0.0);
+    }
+    ws.canon.clear();
+    ws.canon.resize(n_new, u32::MAX);
+    let mut changed = false;
+    for &a in &ws.order {
+        for t in 0..n_new {
+            let h = ws.gh_hyp[a * n_new + t];
+            if ws.absent[h as usize] {
+                if ws.canon[t] == u32::MAX {
+                    ws.canon[t] = h;
+                }
+                changed |= h != ws.canon[t];
+                ws.gh_hyp[a * n_new + t] = ws.canon[t];
+            }
+        }
+    }
+    // Merge equal global hypotheses, weights added. New global hypotheses are distinct
+    // (different prior hypotheses or assignments), so only a canonical substitution can make
+    // two equal: then sort by a hash of the rows, comparing rows only on equal hashes.
+    let rows = &ws.gh_hyp;
+    let row = |a: usize| &rows[a * n_new..(a + 1) * n_new];
+    map.gh_log_w.clear();
+    ws.referenced.clear(); // the surviving global hypotheses
+    if changed {
+        ws.row_hash.clear();
+        ws.row_hash.resize(ws.gh_log_w.len(), 0);
+        for &a in &ws.order {
+            ws.row_hash[a] =
+                row(a).iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &v| (h ^ u64::from(v)).wrapping_mul(0x100_0000_01b3));
+        }
+        let hash = &ws.row_hash;
+        ws.order.sort_by(|&a, &b| hash[a].cmp(&hash[b]).then_with(|| row(a).cmp(row(b))).then(a.cmp(&b)));
+    }
+    let mut k = 0;
+    while k < ws.order.len() {
+        let a = ws.order[k];
+        let mut w = ws.gh_log_w[a];
+        let mut e = k + 1;
+        while changed && e < ws.order.len() && row(ws.order[e]) == row(a) {
+            w = log_add(w, ws.gh_log_w[ws.order[e]]);
+            e += 1;
+        }
+        ws.referenced.push(a as u32);
+        map.gh_log_w.push(w);
+        k = e;
+    }
+    // Heaviest first again.
+    let n_gh = map.gh_log_w.len();
+    ws.order.clear();
+    ws.order.extend(0..n_gh);
+    let mw = &map.gh_log_w;
+    ws.order.sort_by(|&a, &b| mw[b].total_cmp(&mw[a]).then(a.cmp(&b)));
+    let total = log_sum_exp(&map.gh_log_w);
+    // Tracks that exist in some kept global hypothesis; referenced local hypotheses.
+    ws.keep_track.clear();
+    ws.keep_track.resize(n_new, false);
+    ws.canon.clear();
+    ws.canon.resize(ws.hyps.len(), u32::MAX);
+    for &g in &ws.referenced {
+        for (t, &h) in row(g as usize).iter().enumerate() {
+            ws.canon[h as usize] = 0;
+            ws.keep_track[t] |= !ws.absent[h as usize];
+        }
+    }
+    map.hyps.clear();
+    map.track_start.clear();
+    for t in 0..n_new {
+        if !ws.keep_track[t] {
+            continue;
+        }
+        map.track_start.push(map.hyps.len());
+        for h in ws.track_start[t]..ws.track_start[t + 1] {
+            if ws.canon[h] != u32::MAX {
+                ws.canon[h] = map.hyps.len() as u32;
+                map.hyps.push(ws.hyps[h]);
+            }
+        }
+    }
+    map.track_start.push(map.hyps.len());
+    map.gh_hyp.clear();
+    let weights = std::mem::take(&mut map.gh_log_w);
+    ws.kept.clear();
+    ws.kept.extend((0..n_new).filter(|&t| ws.keep_track[t]));
+    for &o in &ws.order {
+        let g = row(ws.referenced[o] as usize);
+        let canon = &ws.canon;
+        map.gh_hyp.extend(ws.kept.iter().map(|&t| canon[g[t] as usize]));
+        map.gh_log_w.push(weights[o] - total);
+    }
+}
+
+/// `ln(e^a + e^b)`.
+fn log_add(a: f64, b: f64) -> f64 {
+    let m = a.max(b);
+    if m == f64::NEG_INFINITY { m } else { m + ((a - m).exp() + (b - m).exp()).ln() }
+}
+
+/// One PMB update (\[Kim2022\] Section IV-C, Appendix C): steps ii-iv, the marginal
+/// association probabilities by loopy belief propagation (\[WilliamsLau2014\]), TOMB/P
+/// (eqs. 48-51) back to one Bernoulli per track, tracks with `r < bernoulli_prune`
+/// deleted. `ln_chi` is `-F` (Proposition 2) or the most likely association's log weight
+/// (eq. 47). `map` must hold one global hypothesis.
+pub fn pmb_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
+    map: &mut PmbmDensity<M>,
+    x: &Pose,
+    z: &[SVector<f64, Z>],
+    model: &S,
+    s: &UpdateSettings,
+    weight: PmbWeight,
+    ws: &mut Workspace<M>,
+) -> UpdateOutcome {
+    debug_assert_eq!(map.hypotheses(), 1);
+    let mut out = UpdateOutcome { cholesky_failures: children(map, x, z, model, s, ws), ..Default::default() };
+    let n_old = map.tracks();
+    // The problem holds the tracks that gate a measurement; the others are missed with
+    // probability one and contribute ln nu_i(empty) to ln chi directly.
+    let mut ln_fixed = 0.0;
+    ws.rows.clear();
+    let mut failed = ws.problem.reset(&ws.ln_nu_new).is_err();
+    for t in 0..n_old {
+        let h = map.gh_hyp[t] as usize;
+        if ws.det_start[h] == ws.det_start[h + 1] {
+            ln_fixed += ws.ln_miss[h];
+            continue;
+        }
+        let gates = ws.det[ws.det_start[h]..ws.det_start[h + 1]].iter().map(|d| (d.j, d.ln_nu));
+        failed |= ws.problem.push_track(ws.ln_miss[h], gates).is_err();
+        ws.rows.push(t);
+    }
+    let solved = if failed {
+        Err(AssignError::InvalidHypothesis { index: 0, what: "association problem" })
+    } else {
+        ws.lbp.solve(&ws.problem, &s.lbp).map(drop)
+    };
+    let ln_assoc = match (solved, weight) {
+        (Err(_), _) => None,
+        (Ok(()), PmbWeight::Bethe) => Some(ws.lbp.ln_chi_bethe()),
+        (Ok(()), PmbWeight::MostLikely) => ws.best.solve(&ws.problem).ok(),
+    };
+    let Some(ln_assoc) = ln_assoc else {
+        out.association_errors += 1;
+        out.ln_chi = f64::NEG_INFINITY;
+        return out;
+    };
+    out.ln_chi = ln_fixed + ln_assoc;
+    // TOMB/P: merge every track's children with its marginals; new tracks r = p_0j e_j / nu_j.
+    map.hyps.clear();
+    let mut row = 0;
+    for t in 0..n_old {
+        let h = map.gh_hyp[t] as usize;
+        let merged = if ws.rows.get(row) == Some(&t) {
+            let p = ws.lbp.track_marginals(row);
+            row += 1;
+            ws.merge_p.clear();
+            ws.merge_h.clear();
+            ws.merge_p.push(p[0]);
+            ws.merge_h.push(ws.hyps[ws.miss_child[h] as usize]);
+            for d in &ws.det[ws.det_start[h]..ws.det_start[h + 1]] {
+                ws.merge_p.push(p[d.j + 1]);
+                ws.merge_h.push(ws.hyps[d.child as usize]);
+            }
+            tomb_merge(&ws.merge_p, &ws.merge_h)
+        } else {
+            Ok(ws.hyps[ws.miss_child[h] as usize])
+        };
+        match merged {
+            Ok(b) if b.r >= s.bernoulli_prune => map.hyps.push(b),
+            Ok(_) => {}
+            Err(_) => out.association_errors += 1,
+        }
+    }
+    for j in 0..z.len() {
+        let p0 = ws.lbp.new_marginals().get(j).copied().unwrap_or(1.0);
+        match tomb_new_track(p0, ws.r_new[j]) {
+            Ok(r) if r >= s.bernoulli_prune => {
+                let b = ws.hyps[ws.track_start[n_old + j] + 1];
+                map.hyps.push(LocalHypothesis { r, ..b });
+            }
+            Ok(_) => {}
+            Err(_) => out.association_errors += 1,
+        }
+    }
+    let n = map.hyps.len();
+    map.track_start.clear();
+    map.track_start.extend(0..=n);
+    map.gh_hyp.clear();
+    map.gh_hyp.extend(0..n as u32);
+    map.gh_log_w.clear();
+    map.gh_log_w.push(0.0);
+    out
+}
