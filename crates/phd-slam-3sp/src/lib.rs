@@ -5,8 +5,8 @@
 //!
 //! Everything else is phd-3.0's code: the cost matrix (eqs. 29-31), Murty's ranked
 //! associations, the mixture (41), sampling and the weight correction (45), (47)-(48) come
-//! from [`phd_slam_3::MhProposal`], here with the SLR [`SigmaPointSlr`] in place of
-//! [`phd_slam_3::TaylorSlr`]; the map update, births, pruning and resampling are
+//! from [`mh_importance_density::MhProposal`], here with the SLR [`SigmaPointSlr`] in place of
+//! [`mh_importance_density::TaylorSlr`]; the map update, births, pruning and resampling are
 //! [`rbphd`]'s.
 //!
 //! # What "SLR with sigma points" covers
@@ -54,8 +54,8 @@
 
 pub mod sigma;
 
+use mh_importance_density::{MhParams, MhProposal, PoseSlr};
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Matrix5, SMatrix, Vector5};
-use phd_slam_3::{MhParams, MhProposal, PoseSlr};
 use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
 use rfslam_core::gaussian::{log_normal, symmetrise};
 use rfslam_core::ipl::Linearised;
@@ -285,8 +285,8 @@ pub type PhdSlam3Sp = RbPhd<SpProposal>;
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+    use mh_importance_density::TaylorSlr;
     use nalgebra::Vector2;
-    use phd_slam_3::TaylorSlr;
     use rfslam_core::ipl::{IplSettings, ipl_update, ipl_update_slr};
 
     /// `R` of the PHD-SLAM synthetic experiment.

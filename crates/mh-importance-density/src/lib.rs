@@ -1,0 +1,518 @@
+//! The multi-hypotheses importance density (GM-ID) of PHD-SLAM 3.0 (Kaltiokallio, Hostettler,
+//! Ge, Kim, Talvitie, Wymeersch, Valkama, IEEE T-RO 2024, \[Kaltiokallio2024\], Section V),
+//! in a crate of its own so that every filter that samples its poses with it depends on
+//! this crate and not on another filter: `phd-3.0` (crate `phd-slam-3`, the RB-PHD filter
+//! with it), `phd-3.0-sp` (crate `phd-slam-3sp`, sigma points in its regression). For one
+//! particle's predicted pose and map:
+//!
+//! 1. cost matrix eqs. (29)-(31) at the predicted pose, with the predicted pose covariance
+//!    in the innovation covariance `S = G_m P G_m^T + G_x Q G_x^T + R`, gated;
+//! 2. the Gamma best associations by Murty's algorithm (at most `max_assignments`, stopping
+//!    once an assignment is more than `ln(1 / assignment_ratio)` less likely than the best),
+//!    plus the all-missed association (the transition density);
+//! 3. per association, Algorithm 1 (partitioned IPL) for the component moments and eq. (44)
+//!    for its weight;
+//! 4. a component drawn from the categorical of the weights, the pose from its Gaussian, and
+//!    the weight correction `ln f - ln q` of eqs. (45), (47), (48).
+//!
+//! The statistical linear regression of Algorithm 1 (eq. 42) and the linearisation of the
+//! component weight (eq. 44) are a type parameter, [`PoseSlr`]: phd-3.0 is
+//! `MhProposal<TaylorSlr>` (the paper's first-order Taylor expansion); `phd-3.0-sp`
+//! (crate `phd-slam-3sp`) plugs in sigma points.
+
+use nalgebra::{Matrix2, Matrix3};
+use rand::RngExt;
+pub use rbphd::MissedCost;
+use rbphd::{CostMatrixBuffers, PoseSample, Proposal, ProposalContext, ProposalStats};
+use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
+use rfslam_core::angle::wrap;
+use rfslam_core::gaussian::{log_normal, sample, symmetrise};
+use rfslam_core::ipl::{IplSettings, Linearised, ipl_update_slr, pose_diff};
+use rfslam_core::params::{CountRange, Interval};
+use rfslam_core::rbpf::log_sum_exp;
+use rfslam_core::{ParamError, Point2, Pose, RangeBearing, RangeBearingSensor, Rng, SlamModels};
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the multi-hypotheses importance density (defaults: \[Kaltiokallio2024\] Section
+/// VI).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MhParams {
+    /// Maximum number of ranked assignments `Gamma_bar` (50).
+    pub max_assignments: usize,
+    /// Stop generating assignments once `gamma_t / gamma_1` falls below this (1e-3).
+    pub assignment_ratio: f64,
+    /// Maximum IPL iterations `L` (5).
+    pub ipl_iterations: usize,
+    /// IPL convergence threshold on the KL divergence between iterates (1e-3).
+    pub ipl_kl_threshold: f64,
+    /// Missed-detection convention.
+    pub missed_cost: MissedCost,
+    /// Always append the all-missed association (the transition density) to the mixture.
+    pub append_all_missed: bool,
+}
+
+impl Default for MhParams {
+    fn default() -> Self {
+        MhParams {
+            max_assignments: 50,
+            assignment_ratio: 1e-3,
+            ipl_iterations: 5,
+            ipl_kl_threshold: 1e-3,
+            missed_cost: MissedCost::Paper,
+            append_all_missed: true,
+        }
+    }
+}
+
+/// How the multi-hypotheses importance density linearises the sensor `g(m, x)` in the pose:
+/// the statistical linear regression of Algorithm 1 step 5 (\[Kaltiokallio2024\] eq. 42, put in the
+/// form of eq. 43 as [`rfslam_core::ipl::ipl_update_slr`] takes it), and the detected
+/// factor `N(z; g(m_i, mu_t), S_t,i)` of the component weight, eq. (44).
+pub trait PoseSlr: Clone + Send + 'static {
+    /// Eq. (42) for the landmark `N(m, p)` under the linearisation density
+    /// `pi = N(m_pi, p_pi)`, as `(mu~^z, B, Omega)` (see [`rfslam_core::ipl::ipl_update_slr`]);
+    /// `None` if it cannot be formed (a covariance failed Cholesky).
+    #[allow(clippy::too_many_arguments)]
+    fn linearise(
+        &self,
+        sensor: &RangeBearingSensor,
+        r: &Matrix2<f64>,
+        m_pi: &Pose,
+        p_pi: &Matrix3<f64>,
+        m: &Point2,
+        p: &Matrix2<f64>,
+    ) -> Option<Linearised>;
+
+    /// The detected factor of eq. (44), `ln N(z; mu^z, S)` for the landmark `N(m, p)` and
+    /// the component `N(mean, cov)`; `None` if `S` fails Cholesky.
+    #[allow(clippy::too_many_arguments)]
+    fn log_likelihood(
+        &self,
+        sensor: &RangeBearingSensor,
+        r: &Matrix2<f64>,
+        mean: &Pose,
+        cov: &Matrix3<f64>,
+        m: &Point2,
+        p: &Matrix2<f64>,
+        z: &RangeBearing,
+    ) -> Option<f64>;
+}
+
+/// The first-order Taylor SLR of \[Kaltiokallio2024\] (phd-3.0): `(g(m, m_pi), G_x, G_m P G_m^T +
+/// R)` at the linearisation point, and eq. (44) with `S = G_x Sigma G_x^T + G_m P G_m^T + R`
+/// at the component mean.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TaylorSlr;
+
+impl PoseSlr for TaylorSlr {
+    fn linearise(
+        &self,
+        sensor: &RangeBearingSensor,
+        r: &Matrix2<f64>,
+        m_pi: &Pose,
+        _p_pi: &Matrix3<f64>,
+        m: &Point2,
+        p: &Matrix2<f64>,
+    ) -> Option<Linearised> {
+        let lin = sensor.linearise(m_pi, m);
+        Some((lin.z, lin.hx, lin.hm * p * lin.hm.transpose() + r))
+    }
+
+    fn log_likelihood(
+        &self,
+        sensor: &RangeBearingSensor,
+        r: &Matrix2<f64>,
+        mean: &Pose,
+        cov: &Matrix3<f64>,
+        m: &Point2,
+        p: &Matrix2<f64>,
+        z: &RangeBearing,
+    ) -> Option<f64> {
+        let lin = sensor.linearise(mean, m);
+        let s = symmetrise(&(lin.hx * cov * lin.hx.transpose() + lin.hm * p * lin.hm.transpose() + r));
+        let nu = RangeBearingSensor::residual(z, &lin.z);
+        log_normal(&nu, &s)
+    }
+}
+
+/// One component of the GM-ID: association, moments and log weight.
+#[derive(Debug, Clone, Default)]
+struct Component {
+    /// Measurement index of each cost-matrix row (`None`: missed), eq. (33).
+    phi: Vec<Option<usize>>,
+    mean: Pose,
+    cov: Matrix3<f64>,
+    log_w: f64,
+    /// Cholesky of `cov` succeeded (else the component is not sampled from).
+    chol_ok: bool,
+}
+
+/// The multi-hypotheses importance density of \[Kaltiokallio2024\] Section V, with the statistical
+/// linear regression `S` (default: the paper's Taylor expansion).
+#[derive(Clone)]
+pub struct MhProposal<S: PoseSlr = TaylorSlr> {
+    params: MhParams,
+    slr: S,
+    murty: Murty,
+    ranked: Vec<Assignment>,
+    components: Vec<Component>,
+    n_components: usize,
+    /// Cost-matrix row -> map component index, of the last call.
+    rows: Vec<usize>,
+    n_meas: usize,
+    cost: CostMatrixBuffers,
+    pairs_z: Vec<RangeBearing>,
+    pairs_row: Vec<usize>,
+    log_w: Vec<f64>,
+    /// Terms of the mixture density eq. (48), reused.
+    terms: Vec<f64>,
+}
+
+impl<S: PoseSlr> MhProposal<S> {
+    /// The mixture of the last [`Proposal::propose`] call, in Murty's order (the all-missed
+    /// component last): for each component its association (measurement index per
+    /// detectable component, `None` = missed), mean, covariance and normalised log weight.
+    pub fn mixture(&self) -> impl Iterator<Item = (&[Option<usize>], &Pose, &Matrix3<f64>, f64)> {
+        self.components[..self.n_components]
+            .iter()
+            .zip(&self.log_w)
+            .map(|(c, &w)| (c.phi.as_slice(), &c.mean, &c.cov, w))
+    }
+
+    fn log_missed(&self, pd: f64, log_eta: f64) -> f64 {
+        self.params.missed_cost.log_missed(pd, log_eta)
+    }
+
+    fn component_slot(&mut self) -> &mut Component {
+        if self.n_components == self.components.len() {
+            self.components.push(Component::default());
+        }
+        self.n_components += 1;
+        &mut self.components[self.n_components - 1]
+    }
+}
+
+impl<S: PoseSlr> MhProposal<S> {
+    /// Checks the parameters (errors name the key).
+    pub fn validate_params(p: &MhParams) -> Result<(), ParamError> {
+        CountRange::HYPOTHESES.check("max_assignments", p.max_assignments)?;
+        Interval::PROBABILITY.check("assignment_ratio", p.assignment_ratio)?;
+        CountRange::ITERATIONS.check("ipl_iterations", p.ipl_iterations)?;
+        Interval::BOUNDED_NON_NEGATIVE.check("ipl_kl_threshold", p.ipl_kl_threshold)
+    }
+
+    /// The importance density with parameters `params` and the SLR `slr`.
+    pub fn with_slr(params: &MhParams, slr: S) -> Self {
+        MhProposal {
+            params: params.clone(),
+            slr,
+            murty: Murty::new(),
+            ranked: Vec::new(),
+            components: Vec::new(),
+            n_components: 0,
+            rows: Vec::new(),
+            n_meas: 0,
+            cost: CostMatrixBuffers::default(),
+            pairs_z: Vec::new(),
+            pairs_row: Vec::new(),
+            log_w: Vec::new(),
+            terms: Vec::new(),
+        }
+    }
+
+    /// [`Proposal::propose`]: Algorithm 2 steps 2-9 for one particle (or group of copies).
+    pub fn propose_mh(
+        &mut self,
+        ctx: &ProposalContext,
+        n: usize,
+        rng: &mut Rng,
+        out: &mut Vec<PoseSample>,
+    ) -> ProposalStats {
+        let models = ctx.models;
+        let r = models.measurement_noise;
+        let sensor = &models.sensor;
+        let (x_bar, q) = (ctx.predicted, ctx.q);
+        let nz = ctx.z.len();
+        let mut stats = ProposalStats::default();
+        self.rows.clear();
+        self.rows.extend_from_slice(ctx.detectable);
+        self.n_meas = nz;
+        let m = self.rows.len();
+        self.n_components = 0;
+
+        // 1. Cost matrix, eqs. (29)-(31), at the predicted pose.
+        stats.cholesky_failures += self.cost.fill(ctx, self.params.missed_cost);
+
+        // 2. Ranked associations (Murty), then the all-missed one.
+        self.ranked.clear();
+        if m > 0
+            && nz > 0
+            && let Ok(cm) = CostMatrix::with_missed_diagonal(&self.cost.detection, &self.cost.missed, m, nz)
+        {
+            let opts = MurtyOptions {
+                max_count: self.params.max_assignments,
+                max_log_ratio: Some(-self.params.assignment_ratio.ln()),
+                max_ambiguous_rows: None,
+            };
+            if self.murty.k_best(&cm, &opts, &mut self.ranked).is_err() {
+                self.ranked.clear();
+            }
+        }
+        let ipl =
+            IplSettings { max_iterations: self.params.ipl_iterations, kl_threshold: self.params.ipl_kl_threshold };
+        let n_ranked = self.ranked.len();
+        let total = n_ranked + usize::from(self.params.append_all_missed || n_ranked == 0);
+        for t in 0..total {
+            // phi for this component
+            let mut phi = std::mem::take(&mut self.component_slot().phi);
+            phi.clear();
+            if t < n_ranked {
+                phi.extend(self.ranked[t].col_for_row.iter().map(|c| c.filter(|&c| c < nz)));
+            } else {
+                phi.resize(m, None);
+            }
+            // 3. Algorithm 1 on the associated landmarks, in row order.
+            self.pairs_z.clear();
+            self.pairs_row.clear();
+            for (row, j) in phi.iter().enumerate() {
+                if let Some(j) = j {
+                    self.pairs_row.push(row);
+                    self.pairs_z.push(ctx.z[*j]);
+                }
+            }
+            let (rows, pairs_row, slr) = (&self.rows, &self.pairs_row, &self.slr);
+            let res = ipl_update_slr(
+                &x_bar,
+                &q,
+                &self.pairs_z,
+                |k, m_pi, p_pi| {
+                    let i = rows[pairs_row[k]];
+                    slr.linearise(sensor, &r, m_pi, p_pi, &ctx.map.mean[i], &ctx.map.cov[i])
+                },
+                &ipl,
+            );
+            if res.lost_definiteness {
+                stats.cholesky_failures += 1;
+            }
+            // Eq. (44): missed factors, and detected factors evaluated at (mu_t, Sigma_t).
+            let mut log_w = 0.0;
+            for (row, j) in phi.iter().enumerate() {
+                let i = self.rows[row];
+                let (lw, pd) = (ctx.map.log_w[i], ctx.pd[row]);
+                match j {
+                    None => log_w += self.log_missed(pd, lw),
+                    Some(j) => {
+                        let (m_i, p_i) = (&ctx.map.mean[i], &ctx.map.cov[i]);
+                        match self.slr.log_likelihood(sensor, &r, &res.mean, &res.cov, m_i, p_i, &ctx.z[*j]) {
+                            Some(l) => log_w += pd.ln() + lw - ctx.log_clutter + l,
+                            None => {
+                                stats.cholesky_failures += 1;
+                                log_w = f64::NEG_INFINITY;
+                            }
+                        }
+                    }
+                }
+            }
+            let chol_ok = res.cov.cholesky().is_some();
+            let slot = &mut self.components[t];
+            slot.phi = phi;
+            slot.mean = res.mean;
+            slot.cov = res.cov;
+            slot.log_w = if chol_ok { log_w } else { f64::NEG_INFINITY };
+            slot.chol_ok = chol_ok;
+        }
+        stats.components = self.n_components;
+
+        // Normalised component weights kappa~_t.
+        self.log_w.clear();
+        self.log_w.extend(self.components[..self.n_components].iter().map(|c| c.log_w));
+        let z_norm = log_sum_exp(&self.log_w);
+        if !z_norm.is_finite() {
+            // Every component failed: fall back to the transition density.
+            self.log_w.iter_mut().for_each(|l| *l = f64::NEG_INFINITY);
+            let last = self.n_components - 1;
+            self.components[last].mean = x_bar;
+            self.components[last].cov = q;
+            self.components[last].phi.iter_mut().for_each(|p| *p = None);
+            self.log_w[last] = 0.0;
+        } else {
+            self.log_w.iter_mut().for_each(|l| *l -= z_norm);
+        }
+
+        // 4. Sample and weight, eqs. (45), (47), (48).
+        out.clear();
+        let mut terms = std::mem::take(&mut self.terms);
+        for _ in 0..n {
+            let u: f64 = rng.random();
+            let mut acc = 0.0;
+            let mut t = self.n_components - 1;
+            for (k, l) in self.log_w.iter().enumerate() {
+                acc += l.exp();
+                if u < acc {
+                    t = k;
+                    break;
+                }
+            }
+            let c = &self.components[t];
+            let Some(mut x) = sample(&c.mean, &c.cov, rng) else {
+                // Keep the predicted mean and leave the weight (the public code's fallback).
+                stats.cholesky_failures += 1;
+                out.push(PoseSample { pose: x_bar, log_correction: 0.0, component: t });
+                continue;
+            };
+            x[2] = wrap(x[2]);
+            let log_prior = log_normal(&pose_diff(&x, &x_bar), &q).unwrap_or(f64::NEG_INFINITY);
+            terms.clear();
+            for (k, comp) in self.components[..self.n_components].iter().enumerate() {
+                if self.log_w[k] == f64::NEG_INFINITY {
+                    continue;
+                }
+                if let Some(l) = log_normal(&pose_diff(&x, &comp.mean), &comp.cov) {
+                    terms.push(self.log_w[k] + l);
+                }
+            }
+            let log_q = log_sum_exp(&terms);
+            let corr = log_prior - log_q;
+            let corr = if corr.is_finite() { corr } else { 0.0 };
+            out.push(PoseSample { pose: x, log_correction: corr, component: t });
+        }
+        self.terms = terms;
+        stats
+    }
+
+    /// [`Proposal::associations`].
+    pub fn associations_mh(&self, component: usize, out: &mut Vec<Option<usize>>) -> bool {
+        out.clear();
+        out.resize(self.n_meas, None);
+        if let Some(c) = self.components[..self.n_components].get(component) {
+            for (row, j) in c.phi.iter().enumerate() {
+                if let Some(j) = j {
+                    out[*j] = Some(self.rows[row]);
+                }
+            }
+        }
+        true
+    }
+}
+
+impl Proposal for MhProposal {
+    const NAME: &'static str = "phd-3.0";
+    type Params = MhParams;
+
+    fn validate(p: &MhParams) -> Result<(), ParamError> {
+        Self::validate_params(p)
+    }
+
+    fn new(params: &MhParams, _models: &SlamModels) -> Self {
+        Self::with_slr(params, TaylorSlr)
+    }
+
+    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+        self.propose_mh(ctx, n, rng, out)
+    }
+
+    fn associations(&self, component: usize, out: &mut Vec<Option<usize>>) -> bool {
+        self.associations_mh(component, out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Matrix2;
+    use rand::SeedableRng;
+    use rbphd::GmMap;
+    use rfslam_core::Point2;
+
+    use rfslam_eval::fixtures::phd_slam_synthetic_models as models;
+
+    /// Two well-separated landmarks, each gating one measurement, and a third
+    /// measurement gating nothing. Ranked: both detected; then the single detection of the
+    /// landmark with the larger ratio pD N / c (the one measured exactly); then the other
+    /// single detection; both missed last. The third measurement is never assigned.
+    /// With the paper's stop ratio 1e-3 only the best survives, plus the all-missed component.
+    #[test]
+    fn ranked_associations_on_two_landmarks_three_measurements() {
+        let m = models();
+        let sensor = m.sensor;
+        let x_bar = Pose::new(0.0, 0.0, 0.0);
+        let q = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.01, 0.01, 1e-6));
+        let mut map = GmMap::default();
+        map.push(0.0, Point2::new(20.0, 10.0), Matrix2::identity() * 0.05);
+        map.push(0.0, Point2::new(20.0, -10.0), Matrix2::identity() * 0.05);
+        let z0 = sensor.predict(&x_bar, &map.mean[0]);
+        let z1 = sensor.predict(&x_bar, &map.mean[1]) + RangeBearing::new(1.0, 0.002);
+        let z = [z1, RangeBearing::new(60.0, 0.0), z0]; // order must not matter
+        let ctx = ProposalContext {
+            models: &m,
+            z: &z,
+            prior_pose: x_bar,
+            predicted: x_bar,
+            q,
+            map: &map,
+            detectable: &[0, 1],
+            pd: &[0.95, 0.95],
+            log_clutter: m.clutter.intensity(&m.fov).ln(),
+            gate: 41.4465,
+        };
+        let mut rng = Rng::seed_from_u64(1);
+        let mut out = Vec::new();
+        let all = MhParams { assignment_ratio: 1e-300, append_all_missed: false, ..Default::default() };
+        let mut p = MhProposal::new(&all, &m);
+        let stats = p.propose(&ctx, 4, &mut rng, &mut out);
+        let phis: Vec<Vec<Option<usize>>> = p.mixture().map(|(phi, ..)| phi.to_vec()).collect();
+        assert_eq!(stats.components, 4);
+        assert_eq!(
+            phis,
+            vec![vec![Some(2), Some(0)], vec![Some(2), None], vec![None, Some(0)], vec![None, None]],
+            "ranked associations"
+        );
+        // Mixture weights follow the same order here (separated landmarks, accurate prior).
+        let w: Vec<f64> = p.mixture().map(|(.., w)| w).collect();
+        assert!(w.windows(2).all(|p| p[0] > p[1]), "{w:?}");
+        // associations() maps measurements to map components; the third is clutter.
+        let mut assoc = Vec::new();
+        assert!(p.associations(0, &mut assoc));
+        assert_eq!(assoc, vec![Some(1), None, Some(0)]);
+
+        let mut p = MhProposal::new(&MhParams::default(), &m);
+        let stats = p.propose(&ctx, 4, &mut rng, &mut out);
+        let phis: Vec<Vec<Option<usize>>> = p.mixture().map(|(phi, ..)| phi.to_vec()).collect();
+        assert_eq!(stats.components, 2);
+        assert_eq!(phis, vec![vec![Some(2), Some(0)], vec![None, None]]);
+        // The all-missed component is the transition density.
+        let (_, mean, cov, _) = p.mixture().nth(1).unwrap();
+        assert_eq!((*mean, *cov), (x_bar, q));
+        assert!(out.iter().all(|s| s.log_correction.is_finite()));
+    }
+
+    /// With no map the proposal is the transition density: one component and a zero
+    /// weight correction.
+    #[test]
+    fn no_map_means_prior_proposal() {
+        let m = models();
+        let map = GmMap::default();
+        let q = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.5, 0.5, 1e-4));
+        let z = [RangeBearing::new(10.0, 0.1)];
+        let ctx = ProposalContext {
+            models: &m,
+            z: &z,
+            prior_pose: Pose::zeros(),
+            predicted: Pose::new(1.0, 0.0, 0.0),
+            q,
+            map: &map,
+            detectable: &[],
+            pd: &[],
+            log_clutter: -9.0,
+            gate: 41.4465,
+        };
+        let mut p = MhProposal::new(&MhParams::default(), &m);
+        let mut out = Vec::new();
+        let stats = p.propose(&ctx, 3, &mut Rng::seed_from_u64(2), &mut out);
+        assert_eq!(stats.components, 1);
+        for s in &out {
+            assert!(s.log_correction.abs() < 1e-9, "{}", s.log_correction);
+        }
+    }
+}
