@@ -219,7 +219,7 @@ mod tests {
         RangeBearingModel {
             sensor: RangeBearingSensor { offset: [0.4, -0.2] },
             r: Matrix2::from_diagonal(&Vector2::new(0.64, 0.3f64.to_radians().powi(2))),
-            fov: Fov { max_range: 150.0, half_angle: std::f64::consts::FRAC_PI_2 },
+            fov: Fov::new(150.0, std::f64::consts::FRAC_PI_2),
             detection: DetectionModel::Constant { pd: 0.95 },
             kappa: 0.01,
         }

@@ -19,7 +19,7 @@ fn model() -> RangeBearingModel {
     RangeBearingModel {
         sensor: RangeBearingSensor::default(),
         r: Matrix2::from_diagonal(&Vector2::new(0.3f64.powi(2), 2f64.to_radians().powi(2))),
-        fov: Fov { max_range: 50.0, half_angle: std::f64::consts::PI },
+        fov: Fov::new(50.0, std::f64::consts::PI),
         detection: DetectionModel::Constant { pd: PD },
         kappa: KAPPA,
     }
