@@ -49,11 +49,14 @@
 //! whether a measurement starts a landmark, and the Cartesian density of the published
 //! PHD-SLAM 3.0 tables is about 75 times smaller on their world.
 
+pub mod cubature;
 pub mod filter;
 pub mod model;
+pub mod mpmb;
 pub mod params;
 pub mod pmbm;
 
 pub use filter::{Particle, PmbSlam, PmbmFilter, PmbmSlam, RangeBearingPmbm, Variant};
 pub use model::{MeasurementModel, RangeBearingModel};
+pub use mpmb::{MpmbFilter, MpmbParams, MpmbSlam};
 pub use params::{MissedDetection, Params, WeightRule};
