@@ -40,6 +40,10 @@
 //!   systematic resampling when `ESS <= 0.5 N` (our choice; the paper gives none).
 //! - **Estimate**: the highest-weight particle's pose and the means of the local hypotheses
 //!   with `r > T_EP = 0.4` in its heaviest global hypothesis.
+//! - **`mpmb-slam`** (Section IV-D, eqs. 39-41; [`mpmb`]): no particles, the vehicle one
+//!   Gaussian predicted and updated with the cubature Kalman filter ([`cubature`]), the map
+//!   a PMB updated by joint cubature, LBP and TOMB/P, the vehicle by one stacked update with
+//!   the most likely association.
 //!
 //! The filters reach the sensor only through [`model::MeasurementModel`] (prediction,
 //! Jacobians, residual, inverse, detection probability, field of view, clutter intensity,
@@ -49,11 +53,14 @@
 //! whether a measurement starts a landmark, and the Cartesian density of the published
 //! PHD-SLAM 3.0 tables is about 75 times smaller on their world.
 
+pub mod cubature;
 pub mod filter;
 pub mod model;
+pub mod mpmb;
 pub mod params;
 pub mod pmbm;
 
 pub use filter::{Particle, PmbSlam, PmbmFilter, PmbmSlam, RangeBearingPmbm, Variant};
 pub use model::{MeasurementModel, RangeBearingModel};
+pub use mpmb::{MpmbFilter, MpmbParams, MpmbSlam};
 pub use params::{MissedDetection, Params, WeightRule};

@@ -4,7 +4,7 @@
 use nalgebra::{Matrix2, Vector2};
 use pmbm_slam::model::{MeasurementModel, RangeBearingModel};
 use pmbm_slam::pmbm::{PmbWeight, PmbmDensity, UpdateSettings, Workspace, pmb_update, pmbm_update};
-use pmbm_slam::{Params, PmbSlam, PmbmSlam};
+use pmbm_slam::{MpmbParams, MpmbSlam, Params, PmbSlam, PmbmSlam};
 use rfslam_assign::tomb::GaussianBernoulli;
 use rfslam_assign::{AssociationProblem, LbpOptions, exact_association, for_each_association};
 use rfslam_core::gaussian::log_normal;
@@ -259,8 +259,8 @@ fn bad_parameters_name_the_key() {
     assert!(PmbmSlam::validate(Params::default(), &models, 5).is_ok());
 }
 
-/// Both filters on a small procedural world (pD 0.95, clutter 1 per scan, control noise
-/// 0.2 m/s and 0.1 deg/s, 10 particles): they localise better than dead reckoning and the
+/// The three filters on a small procedural world (pD 0.95, clutter 1 per scan, control noise
+/// 0.2 m/s and 0.1 deg/s, 10 particles; `mpmb-slam` has none): they localise better than dead reckoning and the
 /// final map GOSPA is below 0.6 times the empty map's (duplicates and the last clutter remain).
 #[test]
 fn short_run_end_to_end() {
@@ -278,9 +278,10 @@ fn short_run_end_to_end() {
     let metrics = MetricsConfig::default();
     let mut dr = dead_reckoning::DeadReckoning::try_build(Default::default(), &ds.models(), 1).unwrap();
     let o_dr = run_filter(&ds, &mut dr, 1, &metrics, &mut |_| {});
-    let filters: [(&str, Box<dyn rfslam_core::SlamFilter>); 2] = [
+    let filters: [(&str, Box<dyn rfslam_core::SlamFilter>); 3] = [
         ("pmbm-slam", Box::new(PmbmSlam::try_build(Params::default(), &ds.models(), 10).unwrap())),
         ("pmb-slam", Box::new(PmbSlam::try_build(Params::default(), &ds.models(), 10).unwrap())),
+        ("mpmb-slam", Box::new(MpmbSlam::try_build(MpmbParams::default(), &ds.models(), 1).unwrap())),
     ];
     for (name, mut f) in filters {
         let o = run_filter(&ds, f.as_mut(), 1, &metrics, &mut |_| {});

@@ -189,6 +189,11 @@ pub static REGISTRY: &[FilterEntry] = &[
         pmbm_slam::PmbSlam,
         "PMB-SLAM (Kim et al. 2022): PMB map per particle, LBP marginals and TOMB/P, Bethe free-energy particle weight"
     ),
+    entry!(
+        "mpmb-slam",
+        pmbm_slam::MpmbSlam,
+        "Marginalized PMB-SLAM (Kim et al. 2022): no particles, CKF vehicle, LBP + TOMB/P map, stacked update with the most likely association"
+    ),
 ];
 
 /// Looks a filter up by name.

@@ -1,0 +1,137 @@
+//! The third-degree spherical-radial cubature rule (\[Kim2022\] eqs. 39-41) for a function of
+//! a planar pose and an independent Gaussian input: `[s; v] ~ N([mu_s; v0], blkdiag(U, P))`
+//! in `n` stacked dimensions (`n` may exceed `3 + dim v` when the pair is one block of a
+//! larger stacked state). The rule's `2n` points are `mu +- sqrt(n) L e_c` (`L L^T` the
+//! covariance, block-diagonal here), all of weight `1 / (2n)`; a point moves either the pose
+//! or the input, so the moments split into a pose part and an input part, and the points of
+//! other blocks leave `y = f(mu_s, v0)`.
+//!
+//! Deviations are taken relative to `y0 = f(mu_s, v0)` through a caller-given difference
+//! (angles wrapped there), so bearings and headings average correctly.
+//!
+//! Written for this crate rather than shared with the unscented rule of `phd-slam-3sp`:
+//! a filter crate does not depend on another variant, and the split (block-diagonal)
+//! evaluation here is what the stacked vehicle update needs.
+
+use nalgebra::{Matrix3, SMatrix, SVector};
+use rfslam_core::Pose;
+
+/// The points of a pose block: `y0 = f(mu_s)` and the deviations `f(mu_s +- sqrt(n) L_U e_c) -
+/// y0` in the order `+e_0, -e_0, +e_1, ...`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PosePoints<const K: usize> {
+    /// `f` at the mean.
+    pub y0: SVector<f64, K>,
+    /// Deviations at the six pose points.
+    pub dev: [SVector<f64, K>; 6],
+    /// The pose offsets `+- sqrt(n) L_U e_c` of those points.
+    pub ds: [Pose; 6],
+}
+
+impl<const K: usize> PosePoints<K> {
+    /// Evaluates `f` at the pose points of `N(mu, L L^T)` with spread `sqrt(n)`.
+    pub fn new(
+        n: usize,
+        mu: &Pose,
+        l: &Matrix3<f64>,
+        mut f: impl FnMut(&Pose) -> SVector<f64, K>,
+        diff: impl Fn(&SVector<f64, K>, &SVector<f64, K>) -> SVector<f64, K>,
+    ) -> Self {
+        let scale = (n as f64).sqrt();
+        let y0 = f(mu);
+        let mut dev = [SVector::zeros(); 6];
+        let mut ds = [Pose::zeros(); 6];
+        for c in 0..3 {
+            let d = l.column(c) * scale;
+            ds[2 * c] = d;
+            ds[2 * c + 1] = -d;
+            dev[2 * c] = diff(&f(&(mu + d)), &y0);
+            dev[2 * c + 1] = diff(&f(&(mu - d)), &y0);
+        }
+        PosePoints { y0, dev, ds }
+    }
+
+    /// `sum_c d_c`.
+    pub fn sum(&self) -> SVector<f64, K> {
+        self.dev.iter().sum()
+    }
+
+    /// `sum_c d_c e_c^T` against another pose block's deviations at the same points.
+    pub fn outer<const L: usize>(&self, other: &PosePoints<L>) -> SMatrix<f64, K, L> {
+        self.dev.iter().zip(&other.dev).map(|(a, b)| a * b.transpose()).sum()
+    }
+
+    /// `sum_c (s_c - mu_s) d_c^T`.
+    pub fn cross(&self) -> SMatrix<f64, 3, K> {
+        self.ds.iter().zip(&self.dev).map(|(s, d)| s * d.transpose()).sum()
+    }
+}
+
+/// Sums over the points of an input block `v ~ N(v0, L L^T)` (pose at its mean): `sum d`,
+/// `sum d d^T` and `sum (v_c - v0) d^T`, with `d = f(v_c) - f(v0)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InputPoints<const V: usize, const K: usize> {
+    /// `sum_c d_c`.
+    pub sum: SVector<f64, K>,
+    /// `sum_c d_c d_c^T`.
+    pub sq: SMatrix<f64, K, K>,
+    /// `sum_c (v_c - v0) d_c^T`.
+    pub cross: SMatrix<f64, V, K>,
+}
+
+impl<const V: usize, const K: usize> InputPoints<V, K> {
+    /// Evaluates `f` at the `2V` input points with spread `sqrt(n)`; `y0 = f(v0)` is given.
+    pub fn new(
+        n: usize,
+        v0: &SVector<f64, V>,
+        l: &SMatrix<f64, V, V>,
+        y0: &SVector<f64, K>,
+        mut f: impl FnMut(&SVector<f64, V>) -> SVector<f64, K>,
+        diff: impl Fn(&SVector<f64, K>, &SVector<f64, K>) -> SVector<f64, K>,
+    ) -> Self {
+        let scale = (n as f64).sqrt();
+        let mut out = InputPoints { sum: SVector::zeros(), sq: SMatrix::zeros(), cross: SMatrix::zeros() };
+        for c in 0..V {
+            let d = l.column(c) * scale;
+            for dv in [d, -d] {
+                let e = diff(&f(&(v0 + dv)), y0);
+                out.sum += e;
+                out.sq += e * e.transpose();
+                out.cross += dv * e.transpose();
+            }
+        }
+        out
+    }
+}
+
+/// Moments of `y = f(s, v)` from one pose block and one input block in `n` dimensions.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PairMoments<const V: usize, const K: usize> {
+    /// `E[y] - y0` (add to `y0`; angles are not wrapped).
+    pub dmean: SVector<f64, K>,
+    /// `Cov[y]`.
+    pub cov: SMatrix<f64, K, K>,
+    /// `Cov[v, y]`.
+    pub cross_v: SMatrix<f64, V, K>,
+    /// `Cov[s, y]`.
+    pub cross_s: SMatrix<f64, 3, K>,
+}
+
+impl<const V: usize, const K: usize> PairMoments<V, K> {
+    /// The moments in `n` dimensions (`n = 3 + V` for the pair alone).
+    pub fn new(n: usize, pose: &PosePoints<K>, input: &InputPoints<V, K>) -> Self {
+        let w = 0.5 / n as f64;
+        let dmean = (pose.sum() + input.sum) * w;
+        let cov = (pose.outer(pose) + input.sq) * w - dmean * dmean.transpose();
+        PairMoments { dmean, cov: 0.5 * (cov + cov.transpose()), cross_v: input.cross * w, cross_s: pose.cross() * w }
+    }
+}
+
+/// A lower factor `L` with `L L^T = P`: the Cholesky factor, or zero for `P = 0` (a known
+/// pose); `None` if `P` is not positive definite otherwise.
+pub fn lower_factor<const D: usize>(p: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
+    if p.iter().all(|&v| v == 0.0) {
+        return Some(SMatrix::zeros());
+    }
+    p.cholesky().map(|c| c.l())
+}

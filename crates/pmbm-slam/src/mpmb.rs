@@ -1,0 +1,564 @@
+//! `mpmb-slam`: marginalized PMB-SLAM (\[Kim2022\] Section IV-D, eqs. 39-41). No particles:
+//! the vehicle is one Gaussian `N(s; mu_s, U)` propagated and updated with the cubature
+//! Kalman filter; the map is a Poisson point process of constant intensity and Bernoullis
+//! `(r_i, N(m_i, P_i))`, the landmark-vehicle correlations not kept.
+//!
+//! One recursion:
+//! 1. predict: `mu_s` by cubature through the motion model (pose points of `N(mu_s, U)`),
+//!    `U <- Cov + F_u Q_u F_u^T` (the control noise at the mean) `+ diag(dithering)`;
+//! 2. step ii: each measurement starts a Bernoulli whose Gaussian is the cubature moment of
+//!    `g^-1(z, s)` over `[s; z] ~ N([mu_s; z_j], blkdiag(U, R_U))`, `R_U = noise_inflation R`;
+//!    `e_j = p_D kappa_u int N(z_j; h(m, mu_s), R) dm`, `r_j = e_j / (e_j + kappa(z_j))`;
+//! 3. step iii: missed, `p_D` at `(mu_s, m_i)`;
+//! 4. step iv: joint cubature (n = 3 + dim m) over `[s; m_i] ~ N([mu_s; m_i], blkdiag(U, P_i))`
+//!    for `z_hat`, `S = P_zz + R_U` and `P_mz`; gated pairs give `nu_i(z_j) = r_i p_D
+//!    N(z_j; z_hat, S)` and the landmark-block update only;
+//! 5. LBP marginals and TOMB/P (\[Kim2022\] Section IV-C), Bernoullis below `bernoulli_prune`
+//!    deleted;
+//! 6. vehicle (eqs. 39-41): the most likely association of the same problem (eq. 47); its
+//!    detected Bernoullis with prior `r > T_EP` give one stacked cubature update of
+//!    `[s; m_i1; ...] ~ N(., blkdiag(U, P_i1, ...))` with noise `blkdiag(R, ...)`; the vehicle
+//!    posterior is its `s` marginal (new-landmark and missed terms constant in `s`).
+//!
+//! Estimate: `mu_s` and the Bernoulli means with `r > T_EP`.
+
+use nalgebra::{Cholesky, DMatrix, Dyn, Matrix3, SMatrix, SVector};
+use rfslam_assign::tomb::{GaussianBernoulli, tomb_merge, tomb_new_track};
+use rfslam_assign::{AssociationProblem, BestAssociation, LbpOptions, LbpSolver, MAX_LBP_SWEEPS};
+use rfslam_assign::{DEFAULT_LBP_MAX_SWEEPS, DEFAULT_LBP_TOLERANCE};
+use rfslam_core::angle::wrap;
+use rfslam_core::gaussian::symmetrise;
+use rfslam_core::motion::{propagate, propagate_with_covariance};
+use rfslam_core::params::{CountRange, Interval};
+use rfslam_core::{
+    ClutterIntensity, ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, Point2, Pose, Rng, Scan, SlamFilter,
+    SlamModels, StepReport, Validated,
+};
+use serde::{Deserialize, Serialize};
+
+use crate::cubature::{InputPoints, PairMoments, PosePoints, lower_factor};
+use crate::filter::range_bearing_model;
+use crate::model::{MeasurementModel, RangeBearingModel, chi2_quantile};
+use crate::params::Params;
+
+const LN_2PI: f64 = 1.837_877_066_409_345_5;
+
+/// Parameters of `mpmb-slam` (defaults: \[Kim2022\] Section V where it gives one; the map
+/// keys mean what they mean for `pmb-slam`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(remote = "Self", default)]
+pub struct MpmbParams {
+    /// The filter's detection probability, overriding the scenario's.
+    pub detection_pd: Option<f64>,
+    /// Probability that a true detection falls inside the gate (0.999, as `pmb-slam`).
+    pub gate_probability: f64,
+    /// Most LBP sweeps (`L_max`, \[Kim2022\]: 100).
+    pub lbp_max_sweeps: usize,
+    /// LBP stops when the largest relative message change falls below this.
+    pub lbp_tolerance: f64,
+    /// Bernoullis with existence below this are deleted (\[Kim2022\]: 1e-5).
+    pub bernoulli_prune: f64,
+    /// `T_EP` (\[Kim2022\]: 0.4): the map estimate, and the Bernoullis that update the vehicle.
+    pub estimate_existence: f64,
+    /// Constant intensity `kappa_u` of the undetected landmarks (per m^2; 1.6e-4 as `pmb-slam`).
+    pub undetected_intensity: f64,
+    /// Clutter intensity units: `"measurement"` (default) or `"cartesian"`.
+    pub clutter_intensity: ClutterIntensity,
+    /// The filter's clutter rate, overriding the scenario's.
+    pub clutter_rate: Option<f64>,
+    /// Floor of the clutter intensity (a scenario without clutter keeps `nu_j > 0`).
+    pub min_clutter_intensity: f64,
+    /// `R_U = noise_inflation R` in steps ii and iv (\[Kim2022\] Section V: 4).
+    pub noise_inflation: f64,
+    /// Dithering: `diag(dithering)` (m^2, m^2, rad^2) added to the predicted vehicle
+    /// covariance every step against an over-concentrated `U`. \[Kim2022\] names it without
+    /// a magnitude; default 0.
+    pub dithering: [f64; 3],
+}
+
+impl Default for MpmbParams {
+    fn default() -> Self {
+        MpmbParams {
+            detection_pd: None,
+            gate_probability: 0.999,
+            lbp_max_sweeps: DEFAULT_LBP_MAX_SWEEPS,
+            lbp_tolerance: DEFAULT_LBP_TOLERANCE,
+            bernoulli_prune: 1e-5,
+            estimate_existence: 0.4,
+            undetected_intensity: 1.6e-4,
+            clutter_intensity: ClutterIntensity::Measurement,
+            clutter_rate: None,
+            min_clutter_intensity: 1e-12,
+            noise_inflation: 4.0,
+            dithering: [0.0; 3],
+        }
+    }
+}
+
+rfslam_core::flat_params!(MpmbParams);
+
+impl MpmbParams {
+    /// Checks ranges, naming the key.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        Interval::PROBABILITY.check_opt("detection_pd", self.detection_pd)?;
+        Interval::OPEN_UNIT.check("gate_probability", self.gate_probability)?;
+        CountRange::new(1, MAX_LBP_SWEEPS).check("lbp_max_sweeps", self.lbp_max_sweeps)?;
+        Interval::OPEN_UNIT.check("lbp_tolerance", self.lbp_tolerance)?;
+        Interval::OPEN_UNIT.check("bernoulli_prune", self.bernoulli_prune)?;
+        Interval::OPEN_UNIT.check("estimate_existence", self.estimate_existence)?;
+        Interval::BOUNDED_NON_NEGATIVE.check("undetected_intensity", self.undetected_intensity)?;
+        Interval::BOUNDED_POSITIVE.check("min_clutter_intensity", self.min_clutter_intensity)?;
+        Interval::BOUNDED_POSITIVE.check("noise_inflation", self.noise_inflation)?;
+        for d in self.dithering {
+            Interval::BOUNDED_NON_NEGATIVE.check("dithering", d)?;
+        }
+        self.sensor_params().validate(1)
+    }
+
+    /// The sensor-side keys as `pmb-slam`'s parameters (clutter and detection resolved the
+    /// same way).
+    fn sensor_params(&self) -> Params {
+        Params {
+            detection_pd: self.detection_pd,
+            clutter_intensity: self.clutter_intensity,
+            clutter_rate: self.clutter_rate,
+            ..Params::default()
+        }
+    }
+}
+
+/// A detected child of a prior Bernoulli: measurement, `ln nu_i(z_j)`, updated Bernoulli.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Detection<const M: usize> {
+    j: usize,
+    ln_nu: f64,
+    child: GaussianBernoulli<M>,
+}
+
+/// Reusable buffers of one recursion.
+#[derive(Debug)]
+struct Workspace<const M: usize, const Z: usize> {
+    missed: Vec<GaussianBernoulli<M>>,
+    ln_miss: Vec<f64>,
+    det_start: Vec<usize>,
+    det: Vec<Detection<M>>,
+    rows: Vec<usize>,
+    ln_nu_new: Vec<f64>,
+    born: Vec<GaussianBernoulli<M>>,
+    problem: AssociationProblem,
+    lbp: LbpSolver,
+    best: BestAssociation,
+    merge_p: Vec<f64>,
+    merge_h: Vec<GaussianBernoulli<M>>,
+    next: Vec<GaussianBernoulli<M>>,
+    /// Stacked update: (Bernoulli, measurement) pairs, their pose points and input sums.
+    sel: Vec<(usize, usize)>,
+    pose_pts: Vec<PosePoints<Z>>,
+    input_pts: Vec<InputPoints<M, Z>>,
+    s_mat: DMatrix<f64>,
+    rhs: DMatrix<f64>,
+    sol: DMatrix<f64>,
+}
+
+impl<const M: usize, const Z: usize> Default for Workspace<M, Z> {
+    fn default() -> Self {
+        Workspace {
+            missed: Vec::new(),
+            ln_miss: Vec::new(),
+            det_start: Vec::new(),
+            det: Vec::new(),
+            rows: Vec::new(),
+            ln_nu_new: Vec::new(),
+            born: Vec::new(),
+            problem: AssociationProblem::new(),
+            lbp: LbpSolver::new(),
+            best: BestAssociation::new(),
+            merge_p: Vec::new(),
+            merge_h: Vec::new(),
+            next: Vec::new(),
+            sel: Vec::new(),
+            pose_pts: Vec::new(),
+            input_pts: Vec::new(),
+            s_mat: DMatrix::zeros(0, 0),
+            rhs: DMatrix::zeros(0, 0),
+            sol: DMatrix::zeros(0, 0),
+        }
+    }
+}
+
+/// The marginalized PMB filter over the measurement model `S`.
+#[derive(Debug)]
+pub struct MpmbFilter<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> {
+    params: MpmbParams,
+    models: SlamModels,
+    model: S,
+    gate: f64,
+    lbp: LbpOptions,
+    /// `R_U` and its lower factor.
+    r_u: SMatrix<f64, Z, Z>,
+    l_ru: Option<SMatrix<f64, Z, Z>>,
+    /// Vehicle mean and covariance.
+    pub mean: Pose,
+    /// Vehicle covariance `U`.
+    pub cov: Matrix3<f64>,
+    /// The Bernoullis of the map.
+    pub bernoullis: Vec<GaussianBernoulli<M>>,
+    ws: Workspace<M, Z>,
+    z: Vec<SVector<f64, Z>>,
+}
+
+impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M, Z> {
+    /// The filter at the initial pose of `models` (`U = 0`) with an empty map.
+    pub fn new(params: MpmbParams, models: &SlamModels, model: S) -> Self {
+        let r_u = model.noise() * params.noise_inflation;
+        MpmbFilter {
+            gate: chi2_quantile(Z, params.gate_probability),
+            lbp: LbpOptions { tolerance: params.lbp_tolerance, max_sweeps: params.lbp_max_sweeps },
+            l_ru: lower_factor(&r_u),
+            r_u,
+            mean: models.initial_pose,
+            cov: Matrix3::zeros(),
+            bernoullis: Vec::new(),
+            params,
+            models: models.clone(),
+            model,
+            ws: Workspace::default(),
+            z: Vec::new(),
+        }
+    }
+
+    /// The measurement model.
+    pub fn model(&self) -> &S {
+        &self.model
+    }
+
+    /// Step 1: cubature prediction of the vehicle through the motion model, plus the control
+    /// noise at the mean and the dithering. Returns the Cholesky failures.
+    fn predict(&mut self, odometry: &[ControlSegment]) -> u32 {
+        let motion = &self.models.motion;
+        let (_, q) = propagate_with_covariance(motion, &self.mean, odometry, &self.models.control_noise);
+        let dither = Matrix3::from_diagonal(&self.params.dithering.into());
+        let Some(l) = lower_factor(&self.cov) else {
+            self.mean = propagate(motion, &self.mean, odometry);
+            self.cov = symmetrise(&(self.cov + q + dither));
+            return 1;
+        };
+        let pts = PosePoints::new(3, &self.mean, &l, |s| propagate(motion, s, odometry), pose_diff);
+        let w = 1.0 / 6.0;
+        let dmean = pts.sum() * w;
+        let cov = pts.outer(&pts) * w - dmean * dmean.transpose();
+        self.mean = pts.y0 + dmean;
+        self.mean[2] = wrap(self.mean[2]);
+        self.cov = symmetrise(&(cov + q + dither));
+        0
+    }
+
+    /// One recursion (steps 1-6 of the module docs).
+    pub fn step_with(
+        &mut self,
+        odometry: &[ControlSegment],
+        z: impl IntoIterator<Item = SVector<f64, Z>>,
+    ) -> StepReport {
+        self.z.clear();
+        self.z.extend(z);
+        let mut chol = self.predict(odometry);
+        let l_u = lower_factor(&self.cov).unwrap_or_else(|| {
+            chol += 1;
+            Matrix3::zeros()
+        });
+        let Some(l_ru) = self.l_ru else {
+            // R_U is not positive definite: no measurement can be used.
+            return report(self.bernoullis.len(), chol + 1);
+        };
+        chol += self.map_children(&l_u);
+        self.births(&l_u, &l_ru);
+        // Step 5: the association problem, LBP marginals and the most likely association.
+        let ws = &mut self.ws;
+        let mut ok = ws.problem.reset(&ws.ln_nu_new).is_ok();
+        ws.rows.clear();
+        for i in 0..self.bernoullis.len() {
+            let d = &ws.det[ws.det_start[i]..ws.det_start[i + 1]];
+            if d.is_empty() {
+                continue;
+            }
+            ok &= ws.problem.push_track(ws.ln_miss[i], d.iter().map(|d| (d.j, d.ln_nu))).is_ok();
+            ws.rows.push(i);
+        }
+        let solved = ok && ws.lbp.solve(&ws.problem, &self.lbp).is_ok();
+        // Step 6 (with the prior Bernoullis), then TOMB/P.
+        if solved && ws.best.solve(&ws.problem).is_ok() {
+            chol += self.vehicle_update(&l_u);
+        }
+        self.merge(solved);
+        report(self.bernoullis.len(), chol)
+    }
+
+    /// Steps iii-iv for every Bernoulli: the missed child (with `ln nu(empty)` kept in its
+    /// `ln_miss`) and a detected child per gated measurement. Returns the Cholesky
+    /// failures (a Bernoulli whose `P` or `S` fails is only missed).
+    fn map_children(&mut self, l_u: &Matrix3<f64>) -> u32 {
+        let (model, ws, mu) = (&self.model, &mut self.ws, self.mean);
+        let mut chol = 0;
+        ws.missed.clear();
+        ws.ln_miss.clear();
+        ws.det_start.clear();
+        ws.det.clear();
+        let n = 3 + M;
+        for b in &self.bernoullis {
+            ws.det_start.push(ws.det.len());
+            let p = model.detection_probability(&mu, &b.mean);
+            let nu0 = 1.0 - b.r * p;
+            let r_miss = if nu0 > 0.0 { (b.r * (1.0 - p) / nu0).clamp(0.0, 1.0) } else { 0.0 };
+            ws.missed.push(GaussianBernoulli { r: r_miss, ..*b });
+            ws.ln_miss.push(nu0.ln());
+            if p <= 0.0 || self.z.is_empty() {
+                continue;
+            }
+            let Some(l_p) = lower_factor(&b.cov) else {
+                chol += 1;
+                continue;
+            };
+            let res = |a: &SVector<f64, Z>, b: &SVector<f64, Z>| model.residual(a, b);
+            let pose = PosePoints::new(n, &mu, l_u, |s| model.predict(s, &b.mean), res);
+            let input = InputPoints::new(n, &b.mean, &l_p, &pose.y0, |m| model.predict(&mu, m), res);
+            let mom = PairMoments::new(n, &pose, &input);
+            let s_cov = symmetrise(&(mom.cov + self.r_u));
+            let Some(ch) = s_cov.cholesky() else {
+                chol += 1;
+                continue;
+            };
+            let l = ch.l();
+            let log_det: f64 = (0..Z).map(|i| 2.0 * l[(i, i)].ln()).sum();
+            let ln_rp = b.r.ln() + p.ln();
+            let k = ch.solve(&mom.cross_v.transpose()).transpose();
+            let cov = symmetrise(&(b.cov - k * s_cov * k.transpose()));
+            for (j, zj) in self.z.iter().enumerate() {
+                let v = model.residual(zj, &pose.y0) - mom.dmean;
+                let Some(y) = l.solve_lower_triangular(&v) else { continue };
+                let maha = y.norm_squared();
+                if maha > self.gate {
+                    continue;
+                }
+                let ln_nu = ln_rp - 0.5 * (Z as f64 * LN_2PI + log_det + maha);
+                ws.det.push(Detection { j, ln_nu, child: GaussianBernoulli { r: 1.0, mean: b.mean + k * v, cov } });
+            }
+        }
+        ws.det_start.push(ws.det.len());
+        chol
+    }
+
+    /// Step ii: the Bernoulli each measurement starts (cubature over `[s; z]`) and `ln nu_j`.
+    fn births(&mut self, l_u: &Matrix3<f64>, l_ru: &SMatrix<f64, Z, Z>) {
+        let (model, ws, mu, s) = (&self.model, &mut self.ws, self.mean, &self.params);
+        ws.ln_nu_new.clear();
+        ws.born.clear();
+        let n = 3 + Z;
+        let sub = |a: &SVector<f64, M>, b: &SVector<f64, M>| a - b;
+        for zj in &self.z {
+            let pose = PosePoints::new(n, &mu, l_u, |x| model.inverse(x, zj).0, sub);
+            let input = InputPoints::new(n, zj, l_ru, &pose.y0, |z| model.inverse(&mu, z).0, sub);
+            let mom = PairMoments::new(n, &pose, &input);
+            let mean = pose.y0 + mom.dmean;
+            let e = model.detection_probability(&mu, &mean) * s.undetected_intensity * model.birth_integral(&mu, zj);
+            let nu = e + model.clutter_intensity(zj).max(s.min_clutter_intensity);
+            ws.ln_nu_new.push(nu.ln());
+            ws.born.push(GaussianBernoulli { r: (e / nu).clamp(0.0, 1.0), mean, cov: mom.cov });
+        }
+    }
+
+    /// Step 6: the stacked cubature update of the vehicle with the detected Bernoullis of the
+    /// most likely association whose prior existence exceeds `T_EP`. Returns the Cholesky
+    /// failures (then the vehicle keeps its prediction).
+    fn vehicle_update(&mut self, l_u: &Matrix3<f64>) -> u32 {
+        let (model, ws, mu) = (&self.model, &mut self.ws, self.mean);
+        ws.sel.clear();
+        for (row, c) in ws.best.association().iter().enumerate() {
+            let i = ws.rows[row];
+            if let Some(j) = *c
+                && self.bernoullis[i].r > self.params.estimate_existence
+            {
+                ws.sel.push((i, j));
+            }
+        }
+        if ws.sel.is_empty() {
+            return 0;
+        }
+        let mut chol = 0;
+        let k = ws.sel.len();
+        let n = 3 + M * k;
+        let w = 0.5 / n as f64;
+        ws.pose_pts.clear();
+        ws.input_pts.clear();
+        let res = |a: &SVector<f64, Z>, b: &SVector<f64, Z>| model.residual(a, b);
+        for &(i, _) in &ws.sel {
+            let b = &self.bernoullis[i];
+            let l_p = lower_factor(&b.cov).unwrap_or_else(|| {
+                chol += 1;
+                SMatrix::zeros()
+            });
+            let pose = PosePoints::new(n, &mu, l_u, |s| model.predict(s, &b.mean), res);
+            ws.input_pts.push(InputPoints::new(n, &b.mean, &l_p, &pose.y0, |m| model.predict(&mu, m), res));
+            ws.pose_pts.push(pose);
+        }
+        // S (Zk x Zk) and [P_sz^T | innovation] (Zk x 4).
+        let d = Z * k;
+        if ws.s_mat.shape() != (d, d) {
+            ws.s_mat = DMatrix::zeros(d, d);
+            ws.rhs = DMatrix::zeros(d, 4);
+            ws.sol = DMatrix::zeros(d, 4);
+        }
+        let r = model.noise();
+        for a in 0..k {
+            let (pa, ia) = (&ws.pose_pts[a], &ws.input_pts[a]);
+            let da = (pa.sum() + ia.sum) * w;
+            for b in 0..=a {
+                let pb = &ws.pose_pts[b];
+                let db = (pb.sum() + ws.input_pts[b].sum) * w;
+                let mut blk = pa.outer(pb) * w - da * db.transpose();
+                if a == b {
+                    blk += ia.sq * w + r;
+                }
+                ws.s_mat.view_mut((Z * a, Z * b), (Z, Z)).copy_from(&blk);
+                ws.s_mat.view_mut((Z * b, Z * a), (Z, Z)).copy_from(&blk.transpose());
+            }
+            let psz = pa.cross() * w;
+            ws.rhs.view_mut((Z * a, 0), (Z, 3)).copy_from(&psz.transpose());
+            let v = model.residual(&self.z[ws.sel[a].1], &pa.y0) - da;
+            ws.rhs.view_mut((Z * a, 3), (Z, 1)).copy_from(&v);
+        }
+        let s_mat = std::mem::replace(&mut ws.s_mat, DMatrix::zeros(0, 0));
+        let Some(ch) = Cholesky::<f64, Dyn>::new(s_mat) else {
+            return chol + 1;
+        };
+        ws.sol.copy_from(&ws.rhs);
+        ch.solve_mut(&mut ws.sol);
+        ws.s_mat = ch.unpack();
+        let (rhs, sol) = (&ws.rhs, &ws.sol);
+        // mu += P_sz S^-1 nu, U -= P_sz S^-1 P_sz^T.
+        let (mut dmu, mut du) = (Pose::zeros(), Matrix3::zeros());
+        for row in 0..d {
+            for a in 0..3 {
+                dmu[a] += rhs[(row, a)] * sol[(row, 3)];
+                for b in 0..3 {
+                    du[(a, b)] += rhs[(row, a)] * sol[(row, b)];
+                }
+            }
+        }
+        self.mean += dmu;
+        self.mean[2] = wrap(self.mean[2]);
+        self.cov = symmetrise(&(self.cov - du));
+        chol
+    }
+
+    /// Step 5's TOMB/P: each Bernoulli merged over its children with the LBP marginals (only
+    /// missed if the problem failed), new Bernoullis `r = p_0j e_j / nu_j`, those below
+    /// `bernoulli_prune` deleted.
+    fn merge(&mut self, solved: bool) {
+        let ws = &mut self.ws;
+        ws.next.clear();
+        let mut row = 0;
+        for i in 0..self.bernoullis.len() {
+            let d = &ws.det[ws.det_start[i]..ws.det_start[i + 1]];
+            let merged = if !d.is_empty() && ws.rows.get(row) == Some(&i) {
+                row += 1;
+                if solved {
+                    let p = ws.lbp.track_marginals(row - 1);
+                    ws.merge_p.clear();
+                    ws.merge_h.clear();
+                    ws.merge_p.push(p[0]);
+                    ws.merge_h.push(ws.missed[i]);
+                    for det in d {
+                        ws.merge_p.push(p[det.j + 1]);
+                        ws.merge_h.push(det.child);
+                    }
+                    tomb_merge(&ws.merge_p, &ws.merge_h).unwrap_or(ws.missed[i])
+                } else {
+                    ws.missed[i]
+                }
+            } else {
+                ws.missed[i]
+            };
+            if merged.r >= self.params.bernoulli_prune {
+                ws.next.push(merged);
+            }
+        }
+        for (j, b) in ws.born.iter().enumerate() {
+            let p0 = if solved { ws.lbp.new_marginals().get(j).copied().unwrap_or(1.0) } else { 1.0 };
+            if let Ok(r) = tomb_new_track(p0, b.r)
+                && r >= self.params.bernoulli_prune
+            {
+                ws.next.push(GaussianBernoulli { r, ..*b });
+            }
+        }
+        std::mem::swap(&mut self.bernoullis, &mut ws.next);
+    }
+
+    /// The vehicle mean and the Bernoulli means with `r > T_EP`, projected by `to_point`.
+    pub fn estimate_with(&self, to_point: impl Fn(&SVector<f64, M>) -> Point2) -> Estimate {
+        let map = self
+            .bernoullis
+            .iter()
+            .filter(|b| b.r > self.params.estimate_existence)
+            .map(|b| MapPoint { position: to_point(&b.mean), weight: b.r })
+            .collect();
+        Estimate { pose: self.mean, map }
+    }
+}
+
+/// Pose difference with the heading wrapped.
+fn pose_diff(a: &Pose, b: &Pose) -> Pose {
+    let mut d = a - b;
+    d[2] = wrap(d[2]);
+    d
+}
+
+fn report(components: usize, cholesky_failures: u32) -> StepReport {
+    StepReport { components, cholesky_failures, ..StepReport::plain(1) }
+}
+
+/// `mpmb-slam`: marginalized PMB-SLAM (\[Kim2022\] Section IV-D) on the planar range-bearing
+/// sensor of a scenario.
+#[derive(Debug)]
+pub struct MpmbSlam(pub MpmbFilter<RangeBearingModel, 2, 2>);
+
+impl MpmbSlam {
+    /// Registered name.
+    pub const NAME: &'static str = "mpmb-slam";
+}
+
+impl SlamFilter for MpmbSlam {
+    fn name(&self) -> &str {
+        Self::NAME
+    }
+
+    fn particles(&self) -> usize {
+        1
+    }
+
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, _rng: &mut Rng) -> StepReport {
+        self.0.step_with(odometry, scan.z.iter().copied())
+    }
+
+    fn estimate(&self) -> Estimate {
+        self.0.estimate_with(|m| *m)
+    }
+}
+
+impl FilterBuild for MpmbSlam {
+    type Params = MpmbParams;
+
+    fn check(params: &MpmbParams, models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+        if particles != 1 {
+            return Err(ParamError::new("particles", "mpmb-slam has no particles (one Gaussian vehicle): use 1"));
+        }
+        params.validate()?;
+        let model = range_bearing_model(&params.sensor_params(), models);
+        model.detection.validate().map_err(|e| ParamError::new("detection_pd", e))
+    }
+
+    fn build(params: Validated<Self>, models: &SlamModels) -> Self {
+        let (params, _) = params.into_parts();
+        let model = range_bearing_model(&params.sensor_params(), models);
+        MpmbSlam(MpmbFilter::new(params, models, model))
+    }
+}
