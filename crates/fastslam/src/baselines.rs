@@ -40,6 +40,10 @@ pub struct FastSlam1Params {
     pub prior_existence: f64,
     /// Landmarks whose existence probability falls below this are removed (0.05).
     pub delete_existence: f64,
+    /// `P_F` of eq. (31), the probability that an associated measurement is false; default
+    /// (`None`) `1 - exp(-kappa V_G)`, the clutter expected in the gate (\[LeungInostrozaAdams\]
+    /// give no value).
+    pub false_alarm: Option<f64>,
 }
 
 impl Default for FastSlam1Params {
@@ -50,6 +54,7 @@ impl Default for FastSlam1Params {
             rbpf: RbpfParams::with_fraction(0.25),
             prior_existence: 0.5,
             delete_existence: 0.05,
+            false_alarm: None,
         }
     }
 }
@@ -102,7 +107,8 @@ impl FastSlam1Params {
         Interval::magnitude(MAX_PARAM).check_opt("new_landmark_log_likelihood", self.new_landmark_log_likelihood)?;
         self.rbpf.validate(particles)?;
         Interval::OPEN_UNIT.check("prior_existence", self.prior_existence)?;
-        Interval::BELOW_ONE.check("delete_existence", self.delete_existence)
+        Interval::BELOW_ONE.check("delete_existence", self.delete_existence)?;
+        Interval::OPEN_UNIT.check_opt("false_alarm", self.false_alarm)
     }
 
     /// The engine's settings of FastSLAM 1.0: one child per particle, no population cap.
@@ -117,6 +123,7 @@ impl FastSlam1Params {
             rbpf: self.rbpf,
             prior_existence: self.prior_existence,
             delete_existence: self.delete_existence,
+            false_alarm: self.false_alarm,
         }
     }
 }

@@ -143,6 +143,8 @@ pub struct DaSettings {
     pub prior_existence: f64,
     /// A landmark whose existence probability falls below this is removed.
     pub delete_existence: f64,
+    /// `P_F` of eq. (31); `None`: `1 - exp(-kappa V_G)` with `V_G` the gate's area.
+    pub false_alarm: Option<f64>,
 }
 
 /// Per-landmark linearisation at the particle's pose (reused buffer).
@@ -383,7 +385,11 @@ impl DaFastSlam {
                 if let Some(l) = &self.lin[i]
                     && l.in_view
                 {
-                    let pf = if self.associated[i] { 1.0 - (-kappa * l.gate_area).exp() } else { 0.0 };
+                    let pf = match (self.associated[i], self.settings.false_alarm) {
+                        (false, _) => 0.0,
+                        (true, Some(pf)) => pf,
+                        (true, None) => 1.0 - (-kappa * l.gate_area).exp(),
+                    };
                     lm.log_odds += log_odds_increment(self.associated[i], l.pd, pf, pe);
                 }
             }
@@ -490,6 +496,7 @@ mod tests {
             rbpf: RbpfParams { q_jitter: [0.0; 3], ..RbpfParams::with_fraction(0.25) },
             prior_existence: 0.5,
             delete_existence: 0.05,
+            false_alarm: None,
         }
     }
 
@@ -672,5 +679,26 @@ mod tests {
         assert_eq!(e.map.len(), 1);
         assert!((e.map[0].position - lm).norm() < 0.5);
         assert!(e.map[0].weight > 0.9);
+    }
+
+    #[test]
+    fn a_given_false_alarm_probability_sets_the_hit_increment() {
+        // The landmark seen twice: its log odds are 0 (new) plus one eq. (31) increment with
+        // the given P_F (one particle, no jitter: the pose stays at the origin).
+        let m = models();
+        let lm = Point2::new(15.0, 2.0);
+        let zl = m.sensor.predict(&Pose::zeros(), &lm);
+        for pf in [0.1, 0.3] {
+            let settings = DaSettings { hypotheses: 1, max_population: None, false_alarm: Some(pf), ..mh(1, 1) };
+            let mut f = DaFastSlam::new("fastslam-1.0", settings, &m, 1);
+            let mut rng = Rng::seed_from_u64(3);
+            for t in [1.0, 2.0] {
+                f.step(&[], &Scan { t, z: vec![zl], truth: None }, &mut rng);
+            }
+            let l = &f.set.particles()[0].landmarks;
+            assert_eq!(l.len(), 1);
+            let pd = m.detection.pd(&m.fov, &Pose::zeros(), &lm);
+            assert_relative_eq!(l[0].log_odds, log_odds_increment(true, pd, pf, 0.5), epsilon = 1e-12);
+        }
     }
 }
