@@ -83,6 +83,15 @@ pub struct PoseDraw {
     pub cholesky_failures: u32,
 }
 
+impl PoseDraw {
+    /// `x_k ~ f(x_k | x_{k-1}, u)`, the transition density (no components, correction 0).
+    pub fn transition<S, const M: usize, const Z: usize>(ctx: &DrawContext<'_, S, M, Z>, rng: &mut Rng) -> Self {
+        let mut chol = 0;
+        let pose = draw_transition(&ctx.predicted, &ctx.q, rng, &mut chol);
+        PoseDraw { pose, log_correction: 0.0, components: 0, cholesky_failures: chol }
+    }
+}
+
 /// A PMBM-family filter over the measurement model `S` (landmarks in `M`, measurements in
 /// `Z` dimensions).
 #[derive(Debug)]
@@ -135,11 +144,7 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> PmbmFilter<S, M,
         z: impl IntoIterator<Item = SVector<f64, Z>>,
         rng: &mut Rng,
     ) -> StepReport {
-        self.step_with_proposal(odometry, z, rng, |ctx, rng| {
-            let mut chol = 0;
-            let pose = draw_transition(&ctx.predicted, &ctx.q, rng, &mut chol);
-            PoseDraw { pose, log_correction: 0.0, components: 0, cholesky_failures: chol }
-        })
+        self.step_with_proposal(odometry, z, rng, PoseDraw::transition)
     }
 
     /// [`Self::step_with`] with the pose of each particle drawn by `propose` (an importance

@@ -21,7 +21,6 @@
 use mh_importance_density::{MhParams, MhProposal, TaylorSlr};
 use rbphd::{GmMap, PoseSample, ProposalContext};
 use rfslam_core::params::Interval;
-use rfslam_core::rbpf::draw_transition;
 use rfslam_core::{
     ControlSegment, Estimate, FilterBuild, ParamError, Pose, Rng, Scan, SlamFilter, SlamModels, StepReport, Validated,
 };
@@ -126,9 +125,7 @@ impl SlamFilter for PmbmSlamMh {
                 }
             }
             if mh.detectable.is_empty() {
-                let mut chol = 0;
-                let pose = draw_transition(&ctx.predicted, &ctx.q, rng, &mut chol);
-                return PoseDraw { pose, log_correction: 0.0, components: 1, cholesky_failures: chol };
+                return PoseDraw::transition(ctx, rng);
             }
             let pctx = ProposalContext {
                 models: ctx.models,
