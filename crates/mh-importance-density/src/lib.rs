@@ -2,7 +2,8 @@
 //! Ge, Kim, Talvitie, Wymeersch, Valkama, IEEE T-RO 2024, \[Kaltiokallio2024\], Section V),
 //! in a crate of its own so that every filter that samples its poses with it depends on
 //! this crate and not on another filter: `phd-3.0` (crate `phd-slam-3`, the RB-PHD filter
-//! with it), `phd-3.0-sp` (crate `phd-slam-3sp`, sigma points in its regression). For one
+//! with it), `phd-3.0-sp` (crate `phd-slam-3sp`, sigma points in its regression), `pmbm-slam-mh` (crate
+//! `pmbm-slam`, on a particle's heaviest PMBM global hypothesis). For one
 //! particle's predicted pose and map:
 //!
 //! 1. cost matrix eqs. (29)-(31) at the predicted pose, with the predicted pose covariance

@@ -1,7 +1,7 @@
 //! The Rao-Blackwellised particle filters `pmbm-slam` and `pmb-slam` over any
 //! [`MeasurementModel`], and their registration for the planar range-bearing sensor.
 
-use nalgebra::SVector;
+use nalgebra::{Matrix3, SVector};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet, draw_transition};
 use rfslam_core::{
     ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, Point2, Pose, Rng, Scan, SlamFilter, SlamModels,
@@ -54,6 +54,44 @@ impl<const M: usize> LogWeighted for Particle<M> {
     }
 }
 
+/// What a pose proposal sees for one particle (see [`PmbmFilter::step_with_proposal`]).
+pub struct DrawContext<'a, S, const M: usize, const Z: usize> {
+    /// The particle before the step: pose `x_{k-1}`, weight and map.
+    pub particle: &'a Particle<M>,
+    /// `f(x_{k-1}, u_k)` through the odometry segments.
+    pub predicted: Pose,
+    /// Predicted pose covariance `Q_{k-1}` (with jitter).
+    pub q: Matrix3<f64>,
+    /// The scan `Z_k`.
+    pub z: &'a [SVector<f64, Z>],
+    /// The measurement model the filter assumes.
+    pub model: &'a S,
+    /// The scenario's models.
+    pub models: &'a SlamModels,
+}
+
+/// One pose drawn by a proposal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseDraw {
+    /// `x_k`.
+    pub pose: Pose,
+    /// `ln f(x_k | x_{k-1}, u_k) - ln q(x_k)`: 0 for the transition density.
+    pub log_correction: f64,
+    /// Components of the importance density (0 for the transition density).
+    pub components: usize,
+    /// Covariances that failed Cholesky.
+    pub cholesky_failures: u32,
+}
+
+impl PoseDraw {
+    /// `x_k ~ f(x_k | x_{k-1}, u)`, the transition density (no components, correction 0).
+    pub fn transition<S, const M: usize, const Z: usize>(ctx: &DrawContext<'_, S, M, Z>, rng: &mut Rng) -> Self {
+        let mut chol = 0;
+        let pose = draw_transition(&ctx.predicted, &ctx.q, rng, &mut chol);
+        PoseDraw { pose, log_correction: 0.0, components: 0, cholesky_failures: chol }
+    }
+}
+
 /// A PMBM-family filter over the measurement model `S` (landmarks in `M`, measurements in
 /// `Z` dimensions).
 #[derive(Debug)]
@@ -64,7 +102,7 @@ pub struct PmbmFilter<S: MeasurementModel<M, Z>, const M: usize, const Z: usize>
     model: S,
     settings: UpdateSettings,
     weight: PmbWeight,
-    set: ParticleSet<Particle<M>>,
+    pub(crate) set: ParticleSet<Particle<M>>,
     ws: Workspace<M>,
     z: Vec<SVector<f64, Z>>,
 }
@@ -106,12 +144,31 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> PmbmFilter<S, M,
         z: impl IntoIterator<Item = SVector<f64, Z>>,
         rng: &mut Rng,
     ) -> StepReport {
+        self.step_with_proposal(odometry, z, rng, PoseDraw::transition)
+    }
+
+    /// [`Self::step_with`] with the pose of each particle drawn by `propose` (an importance
+    /// density `q`) instead of the transition density: `ln w += (ln f - ln q) + ln chi`.
+    pub fn step_with_proposal(
+        &mut self,
+        odometry: &[ControlSegment],
+        z: impl IntoIterator<Item = SVector<f64, Z>>,
+        rng: &mut Rng,
+        mut propose: impl FnMut(&DrawContext<'_, S, M, Z>, &mut Rng) -> PoseDraw,
+    ) -> StepReport {
         self.z.clear();
         self.z.extend(z);
         let mut chol = 0u32;
+        let mut proposal_components = 0;
         for part in self.set.particles_mut() {
-            let (x_bar, q) = self.params.rbpf.predict(&self.models, &part.pose, odometry);
-            part.pose = draw_transition(&x_bar, &q, rng, &mut chol);
+            let (predicted, q) = self.params.rbpf.predict(&self.models, &part.pose, odometry);
+            let ctx =
+                DrawContext { particle: &*part, predicted, q, z: &self.z, model: &self.model, models: &self.models };
+            let draw = propose(&ctx, rng);
+            chol += draw.cholesky_failures;
+            proposal_components += draw.components;
+            part.pose = draw.pose;
+            part.log_w += draw.log_correction;
             let out = match self.variant {
                 Variant::Pmbm => {
                     pmbm_update(&mut part.map, &part.pose, &self.z, &self.model, &self.settings, &mut self.ws)
@@ -143,10 +200,24 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> PmbmFilter<S, M,
             ess: out.ess,
             resampled: out.resampled,
             components,
-            proposal_components: 0,
+            proposal_components,
             associations: None,
             cholesky_failures: chol,
         }
+    }
+
+    /// [`SlamFilter::particle_poses`]: every particle's pose and log weight.
+    pub fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+        out.clear();
+        out.extend(self.set.particles().iter().map(|p| (p.pose, p.log_w)));
+        true
+    }
+
+    /// [`SlamFilter::particle_parents`]: the parent of each particle at the last resampling.
+    pub fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
+        out.clear();
+        out.extend_from_slice(self.set.last_parents());
+        true
     }
 
     /// The best particle's pose and the landmarks with existence above `T_EP` in its best
@@ -205,15 +276,11 @@ macro_rules! variant_filter {
             }
 
             fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
-                out.clear();
-                out.extend(self.0.set.particles().iter().map(|p| (p.pose, p.log_w)));
-                true
+                self.0.particle_poses(out)
             }
 
             fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-                out.clear();
-                out.extend_from_slice(self.0.set.last_parents());
-                true
+                self.0.particle_parents(out)
             }
         }
 

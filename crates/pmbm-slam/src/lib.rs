@@ -40,6 +40,9 @@
 //!   systematic resampling when `ESS <= 0.5 N` (our choice; the paper gives none).
 //! - **Estimate**: the highest-weight particle's pose and the means of the local hypotheses
 //!   with `r > T_EP = 0.4` in its heaviest global hypothesis.
+//! - **`pmbm-slam-mh`** (our variant, [`mh`]): `pmbm-slam` with each particle's pose drawn
+//!   from PHD-SLAM 3.0's multi-hypotheses importance density (\[Kaltiokallio2024\] Section V)
+//!   on its heaviest global hypothesis, `r` in place of the PHD weight; range-bearing only.
 //! - **`mpmb-slam`** (Section IV-D, eqs. 39-41; [`mpmb`]): no particles, the vehicle one
 //!   Gaussian predicted and updated with the cubature Kalman filter ([`cubature`]), the map
 //!   a PMB updated by joint cubature, LBP and TOMB/P, the vehicle by one stacked update with
@@ -55,12 +58,14 @@
 
 pub mod cubature;
 pub mod filter;
+pub mod mh;
 pub mod model;
 pub mod mpmb;
 pub mod params;
 pub mod pmbm;
 
-pub use filter::{Particle, PmbSlam, PmbmFilter, PmbmSlam, RangeBearingPmbm, Variant};
+pub use filter::{DrawContext, Particle, PmbSlam, PmbmFilter, PmbmSlam, PoseDraw, RangeBearingPmbm, Variant};
+pub use mh::{MhPmbmParams, PmbmSlamMh};
 pub use model::{MeasurementModel, RangeBearingModel};
 pub use mpmb::{MpmbFilter, MpmbParams, MpmbSlam};
 pub use params::{MissedDetection, Params, WeightRule};

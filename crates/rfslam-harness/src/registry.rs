@@ -185,6 +185,11 @@ pub static REGISTRY: &[FilterEntry] = &[
         "PMBM-SLAM (Kim et al. 2022): PMBM map per particle, Murty k-best global hypotheses (B_max 200), transition density as proposal"
     ),
     entry!(
+        "pmbm-slam-mh",
+        pmbm_slam::PmbmSlamMh,
+        "our variant: PMBM-SLAM with PHD-SLAM 3.0's multi-hypotheses importance density (Murty + partitioned IPL) on each particle's heaviest global hypothesis"
+    ),
+    entry!(
         "pmb-slam",
         pmbm_slam::PmbSlam,
         "PMB-SLAM (Kim et al. 2022): PMB map per particle, LBP marginals and TOMB/P, Bethe free-energy particle weight"
