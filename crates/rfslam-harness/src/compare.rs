@@ -79,6 +79,15 @@ impl Side {
     }
 }
 
+/// A choice (label or particle count) of A and of B, where one named on one side only
+/// holds for both.
+fn both_sides<T: Copy>(a: Option<T>, b: Option<T>) -> (Option<T>, Option<T>) {
+    match (a, b) {
+        (Some(x), None) | (None, Some(x)) => (Some(x), Some(x)),
+        other => other,
+    }
+}
+
 /// The median of `x` (the mean of the two middle values for an even count); NaN for none.
 pub fn median(x: &[f64]) -> f64 {
     let mut s = x.to_vec();
@@ -475,16 +484,9 @@ pub fn compare(sides: &[Side], metrics: Option<&[String]>, command: &str) -> Res
         if let Some(d) = metrics_difference(&a.resolved, &b.resolved) {
             return Err(HarnessError::Unpaired { a: a.dir.clone(), b: b.dir.clone(), message: d });
         }
-        let (la, lb) = match (&sides[0].label, &sides[bi].label) {
-            (Some(x), Some(y)) => (Some(x.as_str()), Some(y.as_str())),
-            (Some(x), None) | (None, Some(x)) => (Some(x.as_str()), Some(x.as_str())),
-            (None, None) => (None, None),
-        };
-        // A particle count named on one side only holds for both, as a label does.
-        let (na, nb) = match (sides[0].particles, sides[bi].particles) {
-            (Some(x), None) | (None, Some(x)) => (Some(x), Some(x)),
-            other => other,
-        };
+        // A label or particle count named on one side only holds for both.
+        let (la, lb) = both_sides(sides[0].label.as_deref(), sides[bi].label.as_deref());
+        let (na, nb) = both_sides(sides[0].particles, sides[bi].particles);
         let b_groups = b.groups()?;
         let mut paired_b = vec![false; b_groups.len()];
         let mut scenario_difference: Option<String> = None;
