@@ -24,6 +24,7 @@ use crate::config::MetricsConfig;
 use crate::error::EvalError;
 use crate::fmt_f;
 use crate::run::StepRecord;
+use crate::seen::SeenGospa;
 
 /// File names of the run outputs written here.
 pub mod files {
@@ -82,13 +83,8 @@ fn csv_err(path: &Path) -> impl Fn(csv::Error) -> EvalError + '_ {
 pub struct StepsWriter<W: Write> {
     out: csv::Writer<W>,
     metrics: MetricsConfig,
-    /// True landmarks, and whether each has been detected so far.
-    landmarks: Vec<(i64, Point2)>,
-    seen: Vec<bool>,
-    /// Whether any scan carries truth labels (else every landmark counts as seen).
-    labelled: bool,
-    truth_pts: Vec<Point2>,
-    est_pts: Vec<Point2>,
+    /// The true landmarks detected so far, and the map's GOSPA against them.
+    map: SeenGospa,
 }
 
 impl StepsWriter<std::fs::File> {
@@ -103,40 +99,21 @@ impl<W: Write> StepsWriter<W> {
     /// A writer on `out` for runs over `dataset`; writes the header.
     pub fn new(mut out: csv::Writer<W>, dataset: &Dataset, metrics: &MetricsConfig) -> Result<Self, csv::Error> {
         out.write_record(STEP_COLUMNS)?;
-        let mut landmarks: Vec<(i64, Point2)> =
-            dataset.landmarks.iter().flatten().map(|l| (l.id, l.position)).collect();
-        landmarks.sort_by_key(|l| l.0);
-        let labelled = dataset.scans.iter().any(|s| s.truth.is_some());
-        Ok(StepsWriter {
-            out,
-            metrics: metrics.clone(),
-            seen: vec![!labelled; landmarks.len()],
-            landmarks,
-            labelled,
-            truth_pts: Vec::new(),
-            est_pts: Vec::new(),
-        })
+        let map = SeenGospa::new(dataset, metrics.gospa_c, metrics.gospa_p);
+        Ok(StepsWriter { out, metrics: metrics.clone(), map })
     }
 
     /// Writes the row of the step `rec` of a run over `dataset`.
     pub fn record(&mut self, dataset: &Dataset, rec: &StepRecord) -> Result<(), csv::Error> {
         let scan = dataset.scans.get(rec.k);
-        if self.labelled
-            && let Some(labels) = scan.and_then(|s| s.truth.as_ref())
-        {
-            for &id in labels.iter().filter(|&&id| id >= 0) {
-                if let Ok(i) = self.landmarks.binary_search_by_key(&id, |l| l.0) {
-                    self.seen[i] = true;
-                }
-            }
-        }
+        self.map.detect(scan.and_then(|s| s.truth.as_deref()));
         let pose = rec.estimate.pose;
         let truth = dataset.truth_at(rec.t, self.metrics.truth_tolerance_s);
         let err = truth.map(|g| Point2::new(pose.x, pose.y) - g.position);
         let pos_err = err.map_or(f64::NAN, |e| e.norm());
         let head_err =
             truth.and_then(|g| g.heading).map_or(f64::NAN, |h| rfslam_core::angle::diff(pose.z, h).to_degrees());
-        let (gospa, seen) = self.gospa(rec);
+        let (gospa, seen) = (self.map.gospa(rec.estimate), self.map.count());
         self.out.write_record([
             rec.k.to_string(),
             fmt_f(rec.t),
@@ -154,21 +131,6 @@ impl<W: Write> StepsWriter<W> {
             fmt_f(err.map_or(f64::NAN, |e| e.x)),
             fmt_f(err.map_or(f64::NAN, |e| e.y)),
         ])
-    }
-
-    /// GOSPA of the map estimate against the landmarks seen so far, and their number;
-    /// NaN without true landmarks (or with a non-finite estimate).
-    fn gospa(&mut self, rec: &StepRecord) -> (f64, usize) {
-        if self.landmarks.is_empty() {
-            return (f64::NAN, 0);
-        }
-        self.truth_pts.clear();
-        self.truth_pts.extend(self.landmarks.iter().zip(&self.seen).filter(|(_, s)| **s).map(|(l, _)| l.1));
-        self.est_pts.clear();
-        self.est_pts.extend(rec.estimate.map.iter().map(|m| m.position));
-        let g = rfslam_metrics::gospa(&self.truth_pts, &self.est_pts, self.metrics.gospa_c, self.metrics.gospa_p)
-            .map_or(f64::NAN, |g| g.total);
-        (g, self.truth_pts.len())
     }
 
     /// Flushes the file.
