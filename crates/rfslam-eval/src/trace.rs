@@ -305,6 +305,36 @@ mod tests {
     }
 
     #[test]
+    fn steps_rows_and_the_gospa_over_time_score_the_same_map() {
+        // With a checkpoint at every step, the map GOSPA over time sees what steps.csv
+        // writes: its last row is gospa_t100_m, its mean the mean of the column, and its
+        // rows with an unchanged landmarks_seen the quiet pairs.
+        let ds = dataset();
+        let m = MetricsConfig { gospa_every: Some(1), ..Default::default() };
+        let mut w = StepsWriter::new(csv::Writer::from_writer(Vec::new()), &ds, &m).unwrap();
+        let mut f =
+            <dead_reckoning::DeadReckoning as FilterBuild>::try_build(Default::default(), &ds.models(), 1).unwrap();
+        let o = crate::run_filter(&ds, &mut f, 3, &m, &mut |r| w.record(&ds, r).unwrap());
+        let text = String::from_utf8(w.out.into_inner().unwrap()).unwrap();
+        let col = |name: &str| STEP_COLUMNS.iter().position(|c| *c == name).unwrap();
+        let rows: Vec<(f64, usize)> = text
+            .lines()
+            .skip(1)
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                (f[col("gospa_m")].parse().unwrap(), f[col("landmarks_seen")].parse().unwrap())
+            })
+            .collect();
+        assert_eq!(rows.len(), ds.scans.len());
+        assert!(rows[0].1 < rows[rows.len() - 1].1, "landmarks are detected along the way");
+        assert_eq!(o["gospa_t100_m"], rows[rows.len() - 1].0);
+        let mean = rows.iter().map(|r| r.0).sum::<f64>() / rows.len() as f64;
+        assert_eq!(o["gospa_time_mean_m"], mean);
+        assert_eq!(o["gospa_quiet_pairs"], rows.windows(2).filter(|w| w[0].1 == w[1].1).count() as f64);
+        assert_eq!(o["gospa_checkpoints"], rows.len() as f64);
+    }
+
+    #[test]
     fn dead_reckoning_has_one_pose_per_scan() {
         let ds = dataset();
         let dr = dead_reckoning(&ds);
