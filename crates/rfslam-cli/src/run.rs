@@ -88,12 +88,13 @@ fn overrides(set: &[String]) -> Result<Overrides, Failure> {
         Ok(toml::Value::Table(t)) => t,
         _ => toml::Table::new(),
     };
+    let parse = |t: &toml::Table| toml::Value::Table(t.clone()).try_into::<MetricsConfig>();
     for (k, v) in metric_sets {
         set_dotted(&mut mtable, &k, v).map_err(|m| usage(format!("--set metrics.{k}: {m}")))?;
+        // Read after each key, so that a value of the wrong type names its key.
+        parse(&mtable).map_err(|e| usage(format!("--set metrics.{k}: {}", e.message())))?;
     }
-    let metrics: MetricsConfig = toml::Value::Table(mtable)
-        .try_into()
-        .map_err(|e: toml::de::Error| usage(format!("--set metrics.*: {}", e.message())))?;
+    let metrics = parse(&mtable).map_err(|e| usage(format!("--set metrics.*: {}", e.message())))?;
     // The ranges an experiment's [metrics] is held to.
     metrics.validate().map_err(|e| usage(format!("--set metrics.{}: {}", e.key, e.message)))?;
     Ok(Overrides { params, scenario, metrics })

@@ -268,6 +268,10 @@ fn usage_errors_exit_with_2() {
     }
     fails(tmp.path(), &[&run[..], &["--set", "metrics.truth_tolerance_s=-1"]].concat(), 2, &["truth_tolerance_s"]);
     fails(tmp.path(), &[&run[..], &["--set", "metrics.ospa.c=-1"]].concat(), 2, &["metrics.ospa.c"]);
+    for bad in ["0", "-1", "1.5", "1000001"] {
+        let set = format!("metrics.gospa_every={bad}");
+        fails(tmp.path(), &[&run[..], &["--set", &set]].concat(), 2, &["--set metrics.gospa_every:"]);
+    }
     fails(
         tmp.path(),
         &["simulate", "--scenario", "scen.toml", "--set", "clutter.rate=-1", "--out", "ds"],
@@ -279,6 +283,14 @@ fn usage_errors_exit_with_2() {
     let o = rfslam(tmp.path(), &["sweep", "missing.toml", "--out", "o"]);
     assert_ne!(o.code, 0);
     assert!(o.stderr.contains("missing.toml"), "{}", o.stderr);
+}
+
+/// A metric setting out of range in an experiment file is refused naming its line and key.
+#[test]
+fn metric_settings_out_of_range_name_their_key() {
+    let (tmp, _, exp) = setup("metric-settings");
+    let text = format!("{exp}\n[metrics]\ngospa_every = 0\n");
+    sweep_config_error(&tmp, &text, "gospa_every = 0", &["metrics.gospa_every", "must be in [1, 1000000]"]);
 }
 
 /// Duplicate jobs (a particle count or a grid value listed twice) would run twice and pool

@@ -7,6 +7,8 @@ use serde::{Deserialize, Serialize};
 
 /// Largest cut-off `c` of GOSPA and OSPA (m), the largest distance of a scenario.
 pub const MAX_CUTOFF: f64 = 1e7;
+/// Largest checkpoint spacing of the map GOSPA over time (`gospa_every`), in steps.
+pub const MAX_GOSPA_EVERY: usize = 1_000_000;
 /// Largest order `p` of GOSPA and OSPA: `MAX_CUTOFF^p` stays far from overflow (1e140), so the
 /// sum of `c^p` over every landmark of a map is finite (the papers use 1 and 2).
 pub const MAX_ORDER: f64 = 20.0;
@@ -41,6 +43,14 @@ pub struct MetricsConfig {
     /// Section VI-A-1); off by default.
     #[serde(skip_serializing_if = "is_false")]
     pub ancestry: bool,
+    /// The map GOSPA over time (`gospa_every = 10`): every this many steps and at the last
+    /// step, the GOSPA of the map estimate against the true landmarks detected so far (as
+    /// `steps.csv`), summarised per run by deciles, mean and rises; off when absent. Each
+    /// checkpoint costs one GOSPA: 0.13-0.15 ms on the PHD-SLAM synthetic world (160
+    /// landmarks, maps of up to 170), so on its 4000 steps 10 adds 0.06 s to a run and 1
+    /// adds 0.53 s; 10 is the recommended spacing.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gospa_every: Option<usize>,
 }
 
 fn is_false(b: &bool) -> bool {
@@ -97,6 +107,7 @@ impl Default for MetricsConfig {
             xy: false,
             split_step: None,
             ancestry: false,
+            gospa_every: None,
         }
     }
 }
@@ -114,7 +125,8 @@ pub struct MetricsConfigError {
 impl MetricsConfig {
     /// Checks every setting's range: cut-offs in (0, [`MAX_CUTOFF`]], orders in [1,
     /// [`MAX_ORDER`]] (so that `c^p`, summed over every landmark, stays finite), the truth
-    /// tolerance >= 0, the split step >= 1 (step 0 would leave nothing before it).
+    /// tolerance >= 0, the split step >= 1 (step 0 would leave nothing before it), the GOSPA
+    /// checkpoint spacing in [1, [`MAX_GOSPA_EVERY`]].
     pub fn validate(&self) -> Result<(), MetricsConfigError> {
         let err = |key, message: &str| Err(MetricsConfigError { key, message: message.to_string() });
         let range = |key: &'static str, range: Interval, v: f64| {
@@ -132,6 +144,11 @@ impl MetricsConfig {
         }
         if self.split_step == Some(0) {
             return err("split_step", "must be >= 1");
+        }
+        if let Some(k) = self.gospa_every
+            && !(1..=MAX_GOSPA_EVERY).contains(&k)
+        {
+            return err("gospa_every", &format!("must be in [1, {MAX_GOSPA_EVERY}] steps (got {k})"));
         }
         Ok(())
     }

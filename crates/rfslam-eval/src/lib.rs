@@ -5,6 +5,8 @@
 //!   per-step [`StepRecord`] an observer sees and the scores of the run ([`JobOutcome`]);
 //! - [`metric`]: the metric table, every column of `runs.csv` and summary figure declared once;
 //! - [`config`]: the metric settings of an experiment's `[metrics]` table ([`MetricsConfig`]);
+//! - [`seen`]: the GOSPA of a map against the true landmarks detected so far, shared by
+//!   `steps.csv` and the map GOSPA over time;
 //! - [`trace`]: the per-step files of `rfslam run` (`steps.csv`, `particles.csv`) and the
 //!   truth and dead-reckoning files a plot of a run needs;
 //! - [`fixtures`]: the data sets and warmed-up filters the filter crates' end-to-end tests
@@ -18,6 +20,7 @@ pub mod error;
 pub mod fixtures;
 pub mod metric;
 pub mod run;
+pub mod seen;
 pub mod trace;
 
 pub use config::{MetricsConfig, MetricsConfigError, OspaNormalise, OspaSettings};

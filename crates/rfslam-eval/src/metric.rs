@@ -19,6 +19,7 @@ use rfslam_metrics::{DaCounts, PoseErrors, Se2AlignedRmse, SumSquares};
 
 use crate::config::{MetricsConfig, OspaNormalise};
 use crate::run::{RunEnd, RunStart, StepRecord};
+use crate::seen::SeenGospa;
 
 /// Whether a column holds a count (written as an integer) or a real number.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -94,15 +95,19 @@ impl Better {
 const fn family_of(metric: &'static str) -> &'static str {
     match metric.as_bytes() {
         b"pose" | b"aligned_pose" | b"xy" | b"split" => "localisation",
-        b"map_gospa" | b"ospa" | b"landmarks" => "map",
+        b"map_gospa" | b"ospa" | b"landmarks" | b"map_gospa_time" => "map",
         b"association" => "data association",
         b"time" => "cost",
         _ => "filter",
     }
 }
 
-/// The report families in the order reports print them.
-pub const FAMILIES: [&str; 5] = ["localisation", "map", "filter", "data association", "cost"];
+/// The family of the deciles of the map GOSPA over time (`[metrics] gospa_every`): a table
+/// of its own, one column per decile, so that the map table stays narrow.
+pub const GOSPA_TIME_FAMILY: &str = "map GOSPA over time";
+
+/// The report families in the order `rfslam compare` prints them.
+pub const FAMILIES: [&str; 6] = ["localisation", "map", "filter", "data association", "cost", GOSPA_TIME_FAMILY];
 
 /// One column of `runs.csv`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -169,6 +174,32 @@ const fn summarised(
 }
 
 const SCORED: Pool = Pool::Rmse { steps: "scored_steps" };
+
+/// The column of the map GOSPA over time at `$pct` % of the run's steps, in the family
+/// [`GOSPA_TIME_FAMILY`].
+macro_rules! gospa_at {
+    ($pct:literal) => {
+        Column {
+            figure: Some(Figure {
+                name: concat!("gospa_t", $pct, "_m"),
+                std: Some(concat!("gospa_t", $pct, "_std_m")),
+                pool: Pool::Mean,
+                title: concat!("GOSPA at ", $pct, " % [m]"),
+                family: GOSPA_TIME_FAMILY,
+            }),
+            ..real(
+                concat!("gospa_t", $pct, "_m"),
+                "map_gospa_time",
+                "m",
+                concat!(
+                    "GOSPA against the landmarks detected so far at the first checkpoint k with k + 1 >= ceil(",
+                    $pct,
+                    " % of the steps) ([metrics] gospa_every)"
+                ),
+            )
+        }
+    };
+}
 
 /// Every column, in the order of `runs.csv` (after the identity columns `run, filter,
 /// particles, seed` and before the grid columns). An experiment writes the columns of the
@@ -356,6 +387,74 @@ pub static COLUMNS: &[Column] = &[
         Pool::Mean,
         "steps to common ancestor",
     ),
+    gospa_at!(10),
+    gospa_at!(20),
+    gospa_at!(30),
+    gospa_at!(40),
+    gospa_at!(50),
+    gospa_at!(60),
+    gospa_at!(70),
+    gospa_at!(80),
+    gospa_at!(90),
+    gospa_at!(100),
+    summarised(
+        real(
+            "gospa_time_mean_m",
+            "map_gospa_time",
+            "m",
+            "mean over the checkpoints of the GOSPA against the landmarks detected so far ([metrics] gospa_every)",
+        ),
+        "gospa_time_mean_m",
+        Some("gospa_time_mean_std_m"),
+        Pool::Mean,
+        "GOSPA over time, mean [m]",
+    ),
+    summarised(
+        real(
+            "gospa_rise_m",
+            "map_gospa_time",
+            "m",
+            "mean over the quiet checkpoint pairs (no landmark detected for the first time in between) of max(0, increase of the GOSPA)",
+        ),
+        "gospa_rise_m",
+        Some("gospa_rise_std_m"),
+        Pool::Mean,
+        "GOSPA rise per quiet pair [m]",
+    ),
+    summarised(
+        real(
+            "gospa_rises",
+            "map_gospa_time",
+            "",
+            "fraction of the quiet checkpoint pairs in which the GOSPA rose by more than 1e-9 m",
+        ),
+        "gospa_rises",
+        Some("gospa_rises_std"),
+        Pool::Mean,
+        "GOSPA rises / quiet pairs",
+    ),
+    summarised(
+        better(
+            count(
+                "gospa_quiet_pairs",
+                "map_gospa_time",
+                "consecutive checkpoint pairs between which no landmark was detected for the first time",
+            ),
+            Better::Neither,
+        ),
+        "gospa_quiet_pairs",
+        Some("gospa_quiet_pairs_std"),
+        Pool::Mean,
+        "quiet checkpoint pairs",
+    ),
+    better(
+        count(
+            "gospa_checkpoints",
+            "map_gospa_time",
+            "checkpoints of the map GOSPA over time (every gospa_every-th step and the last)",
+        ),
+        Better::Neither,
+    ),
 ];
 
 /// A metric: a named observer of runs that fills its columns of [`COLUMNS`].
@@ -404,6 +503,11 @@ pub static METRICS: &[MetricDecl] = &[
         name: "ancestry",
         enabled: |m| m.ancestry,
         observer: |_, s| Box::new(AncestryMetric::new(s.particles)),
+    },
+    MetricDecl {
+        name: "map_gospa_time",
+        enabled: |m| m.gospa_every.is_some(),
+        observer: |m, s| Box::new(GospaTimeMetric::new(m, s.dataset)),
     },
 ];
 
@@ -841,6 +945,109 @@ impl Observer for AncestryMetric {
     }
 }
 
+/// The deciles of the map GOSPA over time, in column order: `gospa_t10_m` is at 10 %.
+const GOSPA_DECILES: [&str; 10] = [
+    "gospa_t10_m",
+    "gospa_t20_m",
+    "gospa_t30_m",
+    "gospa_t40_m",
+    "gospa_t50_m",
+    "gospa_t60_m",
+    "gospa_t70_m",
+    "gospa_t80_m",
+    "gospa_t90_m",
+    "gospa_t100_m",
+];
+
+/// A rise of the GOSPA between two checkpoints smaller than this (m) is rounding, not a rise.
+const GOSPA_RISE_TOLERANCE: f64 = 1e-9;
+
+/// The map GOSPA over time (`[metrics] gospa_every = K`): at every checkpoint (steps k with
+/// (k + 1) % K == 0, and the last step) the GOSPA of the map estimate against the true
+/// landmarks detected so far ([`SeenGospa`], as `steps.csv`). Per run: the GOSPA at the
+/// first checkpoint k with k + 1 >= ceil(q * steps) for q = 10 %, ..., 100 % (the last is
+/// the final step), the mean over the checkpoints, and over the *quiet* pairs of consecutive
+/// checkpoints (no landmark detected for the first time in between, so the truth the map is
+/// scored against did not grow) the mean of max(0, g_k - g_{k-1}) and the fraction of rises:
+/// how much and how often the map gets worse on its own, the fluctuation Kim et al. 2022
+/// report for the PHD filter's map and not for the PMBM filters'. A checkpoint whose GOSPA
+/// is not a number (a non-finite map estimate) empties every real column, and
+/// [`crate::JobOutcome::not_finite`] fails the run.
+struct GospaTimeMetric {
+    every: usize,
+    /// The index of the run's last step.
+    last: usize,
+    map: SeenGospa,
+    /// (step, GOSPA, landmarks detected so far) at each checkpoint.
+    checkpoints: Vec<(usize, f64, usize)>,
+}
+
+impl GospaTimeMetric {
+    fn new(m: &MetricsConfig, ds: &Dataset) -> Self {
+        GospaTimeMetric {
+            every: m.gospa_every.unwrap_or(1).max(1),
+            last: ds.scans.len().saturating_sub(1),
+            map: SeenGospa::new(ds, m.gospa_c, m.gospa_p),
+            checkpoints: Vec::new(),
+        }
+    }
+}
+
+impl Observer for GospaTimeMetric {
+    fn observe(&mut self, rec: &StepRecord) {
+        if !self.map.has_truth() {
+            return;
+        }
+        self.map.detect(rec.scan.truth.as_deref());
+        if (rec.k + 1).is_multiple_of(self.every) || rec.k == self.last {
+            let g = self.map.gospa(rec.estimate);
+            self.checkpoints.push((rec.k, g, self.map.count()));
+        }
+    }
+    fn finish(&mut self, end: &RunEnd, out: &mut Values) {
+        let cps = &self.checkpoints;
+        if cps.is_empty() {
+            // No true landmarks (or no step): nothing scored, every cell stays empty (NaN).
+            return;
+        }
+        let failed = cps.iter().any(|c| !c.1.is_finite());
+        let real = |v: f64| if failed { f64::NAN } else { v };
+        for (d, name) in GOSPA_DECILES.iter().enumerate() {
+            // The first checkpoint at or after (d + 1) tenths of the steps (integer ceil).
+            let need = ((d + 1) * end.steps).div_ceil(10);
+            let g = cps.iter().find(|c| c.0 + 1 >= need).map_or(f64::NAN, |c| c.1);
+            out.set(name, real(g));
+        }
+        out.set("gospa_time_mean_m", real(cps.iter().map(|c| c.1).sum::<f64>() / cps.len() as f64));
+        let (mut quiet, mut rises, mut rise) = (0usize, 0usize, 0.0);
+        for w in cps.windows(2) {
+            if w[1].2 == w[0].2 {
+                let up = w[1].1 - w[0].1;
+                quiet += 1;
+                rise += up.max(0.0);
+                rises += usize::from(up > GOSPA_RISE_TOLERANCE);
+            }
+        }
+        let per_pair = |x: f64| if quiet == 0 { f64::NAN } else { real(x / quiet as f64) };
+        out.set("gospa_rise_m", per_pair(rise));
+        out.set("gospa_rises", per_pair(rises as f64));
+        out.set("gospa_quiet_pairs", quiet as f64);
+        out.set("gospa_checkpoints", cps.len() as f64);
+    }
+}
+
+/// The count column over which a NaN in column `name` of the map GOSPA over time means the
+/// run failed (a checkpoint whose map estimate was not finite), with what it counts: the
+/// deciles and the mean are over the checkpoints, the rise figures over the quiet pairs.
+pub fn gospa_time_over(name: &str) -> Option<(&'static str, &'static str)> {
+    match name {
+        "gospa_rise_m" | "gospa_rises" => Some(("gospa_quiet_pairs", "quiet checkpoint pairs")),
+        "gospa_time_mean_m" => Some(("gospa_checkpoints", "checkpoints")),
+        _ if GOSPA_DECILES.contains(&name) => Some(("gospa_checkpoints", "checkpoints")),
+        _ => None,
+    }
+}
+
 /// A summary figure pooled over runs: the figure, the standard deviation of the per-run
 /// values and the 95 % interval of the figure (NaN where not defined, e.g. one run).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -1104,6 +1311,130 @@ mod tests {
         assert_eq!(names[names.len() - 8..names.len() - 6], ["pos_rmse_se2_m", "x_rmse_m"]);
     }
 
+    /// Drives the map GOSPA over time through a hand-made run of `maps.len()` steps over
+    /// `ds` (its scans replaced by empty ones carrying `labels[k]`), the map estimate after
+    /// step k being `maps[k]`, and returns the values of its columns.
+    fn gospa_time(ds: &mut Dataset, every: usize, labels: &[Option<Vec<i64>>], maps: &[Vec<(f64, f64)>]) -> Values {
+        use rfslam_core::{FilterBuild, Scan, StepReport};
+        ds.scans = labels.iter().enumerate().map(|(k, l)| Scan { t: k as f64, z: vec![], truth: l.clone() }).collect();
+        let m = MetricsConfig { gospa_p: 1.0, gospa_every: Some(every), ..Default::default() };
+        let filter = dead_reckoning::DeadReckoning::try_build(Default::default(), &ds.models(), 1).unwrap();
+        let report = StepReport::plain(1);
+        let mut o = (METRICS.iter().find(|d| d.name == "map_gospa_time").unwrap().observer)(
+            &m,
+            &RunStart { dataset: ds, particles: 1 },
+        );
+        let estimate = |map: &[(f64, f64)]| Estimate {
+            pose: ds.models().initial_pose,
+            map: map.iter().map(|&(x, y)| MapPoint { position: Point2::new(x, y), weight: 1.0 }).collect(),
+        };
+        for (k, map) in maps.iter().enumerate() {
+            let est = estimate(map);
+            let rec = StepRecord {
+                k,
+                t: k as f64,
+                scan: &ds.scans[k],
+                truth: None,
+                time_s: 0.0,
+                estimate: &est,
+                report: &report,
+                filter: &filter,
+            };
+            o.observe(&rec);
+        }
+        let mut values = Values::default();
+        o.finish(&RunEnd { dataset: ds, estimate: &estimate(maps.last().unwrap()), steps: maps.len() }, &mut values);
+        values
+    }
+
+    #[test]
+    fn gospa_over_time_by_hand() {
+        // Three landmarks on the x axis; c = 20, p = 1: GOSPA = sum of the distances of the
+        // real pairs + 10 per missed or false landmark. 16 steps, checkpoints every 3 steps:
+        // k = 2, 5, 8, 11, 14 and the last step, 15. Landmark 0 is detected at step 0,
+        // landmark 1 at step 7, landmark 2 at step 15 (with a clutter label -1 at step 3).
+        let sc = crate::fixtures::procedural_500();
+        let world = sc.load_world().unwrap();
+        let mut ds = sc.build_dataset(world.as_ref(), 1).unwrap();
+        ds.landmarks = Some(
+            [(0, 0.0), (1, 100.0), (2, 200.0)]
+                .map(|(id, x)| rfslam_data::Landmark { id, position: Point2::new(x, 0.0) })
+                .to_vec(),
+        );
+        let mut labels = vec![Some(vec![]); 16];
+        labels[0] = Some(vec![0]);
+        labels[3] = Some(vec![-1, 0]);
+        labels[7] = Some(vec![1, 0]);
+        labels[15] = Some(vec![2]);
+        let tiny = 1e-12;
+        let mut maps = vec![vec![(50.0, 50.0)]; 16];
+        maps[2] = vec![(1.0, 0.0)]; // 1
+        maps[5] = vec![(3.0, 0.0)]; // 3: quiet pair (2, 5), a rise of 2
+        maps[8] = vec![(3.0, 0.0), (100.0, 0.0)]; // 3: landmark 1 is new, not quiet
+        maps[11] = vec![(2.0, 0.0), (100.0, 0.0)]; // 2: quiet, a fall
+        maps[14] = vec![(2.0 + tiny, 0.0), (100.0, 0.0)]; // 2 + 1e-12: quiet, below the tolerance
+        maps[15] = vec![(2.0, 0.0), (100.0, 0.0), (500.0, 0.0)]; // 2 + 10 missed + 10 false
+        let v = gospa_time(&mut ds, 3, &labels, &maps);
+        let g = |name: &str| v.get(name).unwrap();
+        // Decile q: the first checkpoint k with k + 1 >= ceil(q * 16) = 2, 4, 5, 7, 8, 10,
+        // 12, 13, 15, 16.
+        let deciles = [1.0, 3.0, 3.0, 3.0, 3.0, 2.0, 2.0, 2.0 + tiny, 2.0 + tiny, 22.0];
+        for (name, want) in GOSPA_DECILES.iter().zip(deciles) {
+            assert!((g(name) - want).abs() < 1e-13, "{name}: {} vs {want}", g(name));
+        }
+        assert!((g("gospa_time_mean_m") - 33.0 / 6.0).abs() < 1e-12);
+        assert_eq!((g("gospa_quiet_pairs"), g("gospa_checkpoints")), (3.0, 6.0));
+        assert!((g("gospa_rise_m") - (2.0 + tiny) / 3.0).abs() < 1e-13, "{}", g("gospa_rise_m"));
+        assert_eq!(g("gospa_rises"), 1.0 / 3.0);
+
+        // Without truth labels every landmark counts as detected from the start: the
+        // checkpoints score 21, 23, 13, 12, 12 + 1e-12, 22, and every pair is quiet, with two
+        // rises (+2, +10).
+        let unlabelled = vec![None; 16];
+        let v = gospa_time(&mut ds, 3, &unlabelled, &maps);
+        assert_eq!(v.get("gospa_quiet_pairs"), Some(5.0));
+        assert_eq!(v.get("gospa_t10_m"), Some(21.0));
+        assert_eq!(v.get("gospa_rises"), Some(2.0 / 5.0));
+        assert!((v.get("gospa_rise_m").unwrap() - 12.0 / 5.0).abs() < 1e-13, "+2, +1e-12, +10 - 1e-12");
+        // A non-finite map estimate at a checkpoint empties the real columns, and the run
+        // fails; a non-finite map between checkpoints is never scored.
+        let mut bad = maps.clone();
+        bad[4] = vec![(f64::NAN, 0.0)];
+        assert_eq!(gospa_time(&mut ds, 3, &labels, &bad).get("gospa_t10_m"), Some(1.0));
+        bad[8] = vec![(f64::INFINITY, 0.0)];
+        let v = gospa_time(&mut ds, 3, &labels, &bad);
+        assert!(GOSPA_DECILES.iter().all(|n| v.get(n).unwrap().is_nan()));
+        assert!(v.get("gospa_rise_m").unwrap().is_nan() && v.get("gospa_time_mean_m").unwrap().is_nan());
+        let outcome = crate::JobOutcome { values: v, final_estimate: Estimate::default() };
+        let m = MetricsConfig { gospa_every: Some(3), ..Default::default() };
+        assert_eq!(outcome.not_finite(&m).as_deref(), Some("gospa_t10_m is NaN over 6 checkpoints"));
+        // Without true landmarks every column is empty, and the run does not fail.
+        ds.landmarks = None;
+        let v = gospa_time(&mut ds, 3, &labels, &maps);
+        for c in COLUMNS.iter().filter(|c| c.metric == "map_gospa_time") {
+            assert!(v.get(c.name).unwrap().is_nan(), "{}", c.name);
+        }
+        let outcome = crate::JobOutcome { values: v, final_estimate: Estimate::default() };
+        assert_eq!(outcome.not_finite(&m), None);
+    }
+
+    #[test]
+    fn gospa_over_time_columns_come_last_and_only_when_asked_for() {
+        let off: Vec<&str> = columns(&MetricsConfig::default()).iter().map(|c| c.name).collect();
+        let m = MetricsConfig { gospa_every: Some(10), ..Default::default() };
+        let on: Vec<&str> = columns(&m).iter().map(|c| c.name).collect();
+        assert_eq!(on[..off.len()], off[..], "an experiment without the key keeps its columns");
+        let mut want: Vec<&str> = GOSPA_DECILES.to_vec();
+        want.extend(["gospa_time_mean_m", "gospa_rise_m", "gospa_rises", "gospa_quiet_pairs", "gospa_checkpoints"]);
+        assert_eq!(on[off.len()..], want[..]);
+        // Deciles in a report table of their own, the rest in the map table.
+        for n in &want {
+            let family = if GOSPA_DECILES.contains(n) { GOSPA_TIME_FAMILY } else { "map" };
+            assert_eq!(column(n).unwrap().family(), family, "{n}");
+        }
+        assert_eq!(column("gospa_t30_m").unwrap().title(), "GOSPA at 30 % [m]");
+    }
+
     #[test]
     fn settings_out_of_range_name_their_key() {
         let bad = |m: MetricsConfig| m.validate().unwrap_err().key;
@@ -1123,6 +1454,10 @@ mod tests {
             "ospa.p"
         );
         assert_eq!(bad(MetricsConfig { split_step: Some(0), ..Default::default() }), "split_step");
+        assert_eq!(bad(MetricsConfig { gospa_every: Some(0), ..Default::default() }), "gospa_every");
+        let e = MetricsConfig { gospa_every: Some(1_000_001), ..Default::default() }.validate().unwrap_err();
+        assert_eq!((e.key, e.message.as_str()), ("gospa_every", "must be in [1, 1000000] steps (got 1000001)"));
+        assert!(MetricsConfig { gospa_every: Some(1_000_000), ..Default::default() }.validate().is_ok());
         // c^p overflowed to inf with finite but absurd settings.
         assert_eq!(bad(MetricsConfig { gospa_c: 1e200, ..Default::default() }), "gospa_c");
         assert_eq!(bad(MetricsConfig { gospa_p: 400.0, ..Default::default() }), "gospa_p");

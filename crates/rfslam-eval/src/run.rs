@@ -134,7 +134,8 @@ impl JobOutcome {
     /// must be one, described (`pos_rmse_m is NaN over 200 scored steps`): an infinite value
     /// anywhere; NaN in the position RMSE of a run with scored steps (every scored step has a
     /// true position, unlike a true heading) or in a rate of a run with the events it is
-    /// over. NaN elsewhere means "not available" (no true heading, landmarks or labels). A
+    /// over, or in a figure of the map GOSPA over time over the checkpoints or quiet pairs it
+    /// is over (a map estimate that was not finite at a checkpoint). NaN elsewhere means "not available" (no true heading, landmarks or labels). A
     /// run with such a score failed: its scores are never written as a row.
     pub fn not_finite(&self, m: &MetricsConfig) -> Option<String> {
         let get = |name: &str| self.values.get(name).unwrap_or(f64::NAN);
@@ -146,7 +147,7 @@ impl JobOutcome {
             let over = match c.figure.map(|f| f.pool) {
                 Some(crate::metric::Pool::Rmse { steps }) if c.name == "pos_rmse_m" => Some((steps, "scored steps")),
                 Some(crate::metric::Pool::Rate { events }) => Some((events, "events")),
-                _ => None,
+                _ => crate::metric::gospa_time_over(c.name),
             };
             if let Some((count, what)) = over
                 && v.is_nan()

@@ -24,6 +24,7 @@ use crate::config::MetricsConfig;
 use crate::error::EvalError;
 use crate::fmt_f;
 use crate::run::StepRecord;
+use crate::seen::SeenGospa;
 
 /// File names of the run outputs written here.
 pub mod files {
@@ -82,13 +83,8 @@ fn csv_err(path: &Path) -> impl Fn(csv::Error) -> EvalError + '_ {
 pub struct StepsWriter<W: Write> {
     out: csv::Writer<W>,
     metrics: MetricsConfig,
-    /// True landmarks, and whether each has been detected so far.
-    landmarks: Vec<(i64, Point2)>,
-    seen: Vec<bool>,
-    /// Whether any scan carries truth labels (else every landmark counts as seen).
-    labelled: bool,
-    truth_pts: Vec<Point2>,
-    est_pts: Vec<Point2>,
+    /// The true landmarks detected so far, and the map's GOSPA against them.
+    map: SeenGospa,
 }
 
 impl StepsWriter<std::fs::File> {
@@ -103,40 +99,21 @@ impl<W: Write> StepsWriter<W> {
     /// A writer on `out` for runs over `dataset`; writes the header.
     pub fn new(mut out: csv::Writer<W>, dataset: &Dataset, metrics: &MetricsConfig) -> Result<Self, csv::Error> {
         out.write_record(STEP_COLUMNS)?;
-        let mut landmarks: Vec<(i64, Point2)> =
-            dataset.landmarks.iter().flatten().map(|l| (l.id, l.position)).collect();
-        landmarks.sort_by_key(|l| l.0);
-        let labelled = dataset.scans.iter().any(|s| s.truth.is_some());
-        Ok(StepsWriter {
-            out,
-            metrics: metrics.clone(),
-            seen: vec![!labelled; landmarks.len()],
-            landmarks,
-            labelled,
-            truth_pts: Vec::new(),
-            est_pts: Vec::new(),
-        })
+        let map = SeenGospa::new(dataset, metrics.gospa_c, metrics.gospa_p);
+        Ok(StepsWriter { out, metrics: metrics.clone(), map })
     }
 
     /// Writes the row of the step `rec` of a run over `dataset`.
     pub fn record(&mut self, dataset: &Dataset, rec: &StepRecord) -> Result<(), csv::Error> {
         let scan = dataset.scans.get(rec.k);
-        if self.labelled
-            && let Some(labels) = scan.and_then(|s| s.truth.as_ref())
-        {
-            for &id in labels.iter().filter(|&&id| id >= 0) {
-                if let Ok(i) = self.landmarks.binary_search_by_key(&id, |l| l.0) {
-                    self.seen[i] = true;
-                }
-            }
-        }
+        self.map.detect(scan.and_then(|s| s.truth.as_deref()));
         let pose = rec.estimate.pose;
         let truth = dataset.truth_at(rec.t, self.metrics.truth_tolerance_s);
         let err = truth.map(|g| Point2::new(pose.x, pose.y) - g.position);
         let pos_err = err.map_or(f64::NAN, |e| e.norm());
         let head_err =
             truth.and_then(|g| g.heading).map_or(f64::NAN, |h| rfslam_core::angle::diff(pose.z, h).to_degrees());
-        let (gospa, seen) = self.gospa(rec);
+        let (gospa, seen) = (self.map.gospa(rec.estimate), self.map.count());
         self.out.write_record([
             rec.k.to_string(),
             fmt_f(rec.t),
@@ -154,21 +131,6 @@ impl<W: Write> StepsWriter<W> {
             fmt_f(err.map_or(f64::NAN, |e| e.x)),
             fmt_f(err.map_or(f64::NAN, |e| e.y)),
         ])
-    }
-
-    /// GOSPA of the map estimate against the landmarks seen so far, and their number;
-    /// NaN without true landmarks (or with a non-finite estimate).
-    fn gospa(&mut self, rec: &StepRecord) -> (f64, usize) {
-        if self.landmarks.is_empty() {
-            return (f64::NAN, 0);
-        }
-        self.truth_pts.clear();
-        self.truth_pts.extend(self.landmarks.iter().zip(&self.seen).filter(|(_, s)| **s).map(|(l, _)| l.1));
-        self.est_pts.clear();
-        self.est_pts.extend(rec.estimate.map.iter().map(|m| m.position));
-        let g = rfslam_metrics::gospa(&self.truth_pts, &self.est_pts, self.metrics.gospa_c, self.metrics.gospa_p)
-            .map_or(f64::NAN, |g| g.total);
-        (g, self.truth_pts.len())
     }
 
     /// Flushes the file.
@@ -340,6 +302,36 @@ mod tests {
         let c2 = 0.5 * 20.0f64.powi(2);
         assert!((f[4].parse::<f64>().unwrap() - (c2 * (seen + 1) as f64).sqrt()).abs() < 1e-9);
         assert_eq!(f[6], "1");
+    }
+
+    #[test]
+    fn steps_rows_and_the_gospa_over_time_score_the_same_map() {
+        // With a checkpoint at every step, the map GOSPA over time sees what steps.csv
+        // writes: its last row is gospa_t100_m, its mean the mean of the column, and its
+        // rows with an unchanged landmarks_seen the quiet pairs.
+        let ds = dataset();
+        let m = MetricsConfig { gospa_every: Some(1), ..Default::default() };
+        let mut w = StepsWriter::new(csv::Writer::from_writer(Vec::new()), &ds, &m).unwrap();
+        let mut f =
+            <dead_reckoning::DeadReckoning as FilterBuild>::try_build(Default::default(), &ds.models(), 1).unwrap();
+        let o = crate::run_filter(&ds, &mut f, 3, &m, &mut |r| w.record(&ds, r).unwrap());
+        let text = String::from_utf8(w.out.into_inner().unwrap()).unwrap();
+        let col = |name: &str| STEP_COLUMNS.iter().position(|c| *c == name).unwrap();
+        let rows: Vec<(f64, usize)> = text
+            .lines()
+            .skip(1)
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                (f[col("gospa_m")].parse().unwrap(), f[col("landmarks_seen")].parse().unwrap())
+            })
+            .collect();
+        assert_eq!(rows.len(), ds.scans.len());
+        assert!(rows[0].1 < rows[rows.len() - 1].1, "landmarks are detected along the way");
+        assert_eq!(o["gospa_t100_m"], rows[rows.len() - 1].0);
+        let mean = rows.iter().map(|r| r.0).sum::<f64>() / rows.len() as f64;
+        assert_eq!(o["gospa_time_mean_m"], mean);
+        assert_eq!(o["gospa_quiet_pairs"], rows.windows(2).filter(|w| w[0].1 == w[1].1).count() as f64);
+        assert_eq!(o["gospa_checkpoints"], rows.len() as f64);
     }
 
     #[test]

@@ -410,6 +410,10 @@ fn metrics_difference(a: &ResolvedExperiment, b: &ResolvedExperiment) -> Option<
         && x != y
     {
         ("metrics.split_step", x.to_string(), y.to_string())
+    } else if let (Some(x), Some(y)) = (ma.gospa_every, mb.gospa_every)
+        && x != y
+    {
+        ("metrics.gospa_every", x.to_string(), y.to_string())
     } else {
         return None;
     };
@@ -924,6 +928,9 @@ mod tests {
         assert_eq!(metrics_difference(&with("split_step = 515"), &with("")), None);
         let d = metrics_difference(&with("split_step = 515"), &with("split_step = 100")).unwrap();
         assert!(d.contains("`metrics.split_step`: 515 vs 100"), "{d}");
+        assert_eq!(metrics_difference(&with("gospa_every = 10"), &with("")), None);
+        let d = metrics_difference(&with("gospa_every = 10"), &with("gospa_every = 50")).unwrap();
+        assert!(d.contains("`metrics.gospa_every`: 10 vs 50"), "{d}");
         let (max, truth) = ("ospa = { c = 3.0, p = 2.0 }", "ospa = { c = 3.0, p = 2.0, normalise = \"truth\" }");
         let d = metrics_difference(&with(max), &with(truth)).unwrap();
         assert!(d.contains("normalise = \"max\" } vs { c = 3, p = 2, normalise = \"truth\""), "{d}");

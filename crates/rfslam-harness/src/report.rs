@@ -145,6 +145,12 @@ pub fn render(info: &ReportInfo, rows: &[SummaryRow], published: Option<&Publish
         s,
         "- position and heading RMSE over all steps of all runs (± std of the per-run RMSE); GOSPA of the final map (mean ± std); ms per recursion is the mean wall time of one filter step on one core of this machine"
     );
+    if rows.iter().any(|r| r.get("gospa_t100_m").is_some_and(|x| !x.is_nan())) {
+        let _ = writeln!(
+            s,
+            "- map GOSPA over time: the GOSPA (the experiment's c and p) of the map estimate against the true landmarks detected so far, at checkpoints every `gospa_every` steps and at the last step; GOSPA at q % is the first checkpoint at or after q % of the steps (mean ± std over runs, 95 % intervals in `summary.csv`); a quiet pair is two consecutive checkpoints between which no landmark was detected for the first time, and the rise figures (the mean of max(0, increase) and the fraction of increases) are over those pairs: how much and how often the map gets worse on its own"
+        );
+    }
     let aligned = shows_aligned(rows);
     if aligned {
         let _ = writeln!(
