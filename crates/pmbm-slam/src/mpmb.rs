@@ -306,7 +306,7 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M,
         let n = 3 + M;
         for b in &self.bernoullis {
             ws.det_start.push(ws.det.len());
-            let p = model.detection_probability(&mu, &b.mean);
+            let p = model.detection_probability(&mu, &b.mean, &b.cov);
             let nu0 = 1.0 - b.r * p;
             let r_miss = if nu0 > 0.0 { (b.r * (1.0 - p) / nu0).clamp(0.0, 1.0) } else { 0.0 };
             ws.missed.push(GaussianBernoulli { r: r_miss, ..*b });
@@ -359,7 +359,9 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M,
             let input = InputPoints::new(n, zj, l_ru, &pose.y0, |z| model.inverse(&mu, z).0, sub);
             let mom = PairMoments::new(n, &pose, &input);
             let mean = pose.y0 + mom.dmean;
-            let e = model.detection_probability(&mu, &mean) * s.undetected_intensity * model.birth_integral(&mu, zj);
+            let e = model.detection_probability(&mu, &mean, &mom.cov)
+                * s.undetected_intensity
+                * model.birth_integral(&mu, zj);
             let nu = e + model.clutter_intensity(zj).max(s.min_clutter_intensity);
             ws.ln_nu_new.push(nu.ln());
             ws.born.push(GaussianBernoulli { r: (e / nu).clamp(0.0, 1.0), mean, cov: mom.cov });

@@ -36,7 +36,7 @@ impl MeasurementModel<2, 2> for Linear {
     fn inverse(&self, x: &Pose, z: &Vector2<f64>) -> (Vector2<f64>, Matrix2<f64>) {
         (z + x.xy(), Matrix2::identity())
     }
-    fn detection_probability(&self, _x: &Pose, _m: &Vector2<f64>) -> f64 {
+    fn detection_probability(&self, _x: &Pose, _m: &Vector2<f64>, _cov: &Matrix2<f64>) -> f64 {
         PD
     }
     fn in_fov(&self, _x: &Pose, _m: &Vector2<f64>) -> bool {
