@@ -13,8 +13,10 @@
 //!   hypotheses "exists" `(e_j / nu_j, N(g^-1(z_j, x_k), J R J^T))` and "not started" `r = 0`;
 //!   step iii, missed: `nu(empty) = 1 - r p_D`, `r' = r (1 - p_D) / nu(empty)`; step iv,
 //!   detected by a gated `z_j`: `nu(z_j) = r p_D N(z_j; h(m, x_k), H P H^T + R)`, `r' = 1`, EKF
-//!   update. `p_D` is evaluated at the local hypothesis's mean; hypotheses with `p_D = 0`
-//!   (outside the field of view) are only missed, i.e. unchanged. Gate: the chi-square
+//!   update. `p_D` is evaluated at the local hypothesis's mean with the scenario's
+//!   field-of-view edge (`[sensor] edge`: the hard edge by default, a taper, or with
+//!   `expected` its expectation under the local hypothesis's Gaussian); hypotheses with
+//!   `p_D = 0` (outside the field of view) are only missed, i.e. unchanged. Gate: the chi-square
 //!   quantile of `gate_probability` (0.999, our choice; \[Kim2022\] uses 0.99, too narrow
 //!   for the pose errors of a bootstrap RBPF with few particles: see `docs/filters.md`).
 //!   Options: \[Kim2022\] Section V's adaptive `p_D` (`missed_detection = "gated"`: a

@@ -8,8 +8,8 @@
 //! component of weight `r` (in place of the PHD weight `eta`, our choice: `r` is the expected
 //! number of landmarks a Bernoulli carries, as `eta` is a component's), mean and covariance;
 //! the detectable components are those with `p_D > 0` at the predicted pose (the detection
-//! probability of the filter's model, at the mean, as the update evaluates it); `ln kappa`
-//! is the filter's clutter intensity. The particle weight is
+//! probability of the filter's model with the local hypothesis's mean and covariance, as the
+//! update evaluates it); `ln kappa` is the filter's clutter intensity. The particle weight is
 //! `ln w += (ln f - ln q) + ln chi`. A particle with no detectable Bernoulli draws from the
 //! transition density directly (the mixture would be that density alone, with a zero
 //! correction), so its random stream is `pmbm-slam`'s.
@@ -116,7 +116,7 @@ impl SlamFilter for PmbmSlamMh {
             let map = &ctx.particle.map;
             if map.hypotheses() > 0 {
                 for h in map.global(0).filter(|h| h.r > 0.0) {
-                    let pd = ctx.model.detection_probability(&ctx.predicted, &h.mean);
+                    let pd = ctx.model.detection_probability(&ctx.predicted, &h.mean, &h.cov);
                     if pd > 0.0 {
                         mh.detectable.push(mh.map.len());
                         mh.pd.push(pd);

@@ -57,8 +57,11 @@ pub trait MeasurementModel<const M: usize, const Z: usize>: std::fmt::Debug + Cl
         (m, symmetrise(&(jz * self.noise() * jz.transpose())))
     }
 
-    /// `p_D(m | x)`, zero outside the field of view.
-    fn detection_probability(&self, x: &Pose, m: &SVector<f64, M>) -> f64;
+    /// `p_D` of a landmark with density `N(m, P)` seen from `x`, with the sensor's
+    /// treatment of the field-of-view edge: zero outside the field of view for a hard
+    /// edge, the expectation of `p_D(m | x)` under `N(m, P)` when the edge says so (then
+    /// positive just outside the field of view too).
+    fn detection_probability(&self, x: &Pose, m: &SVector<f64, M>, cov: &SMatrix<f64, M, M>) -> f64;
 
     /// Whether `m` is inside the field of view of `x`.
     fn in_fov(&self, x: &Pose, m: &SVector<f64, M>) -> bool;
@@ -132,9 +135,11 @@ impl MeasurementModel<2, 2> for RangeBearingModel {
         (m, jz)
     }
 
+    /// The scenario's [`rfslam_core::FovEdge`]: `p_D` at the mean for the hard edge and
+    /// the taper, its expectation under `N(m, P)` for `expected`.
     #[inline]
-    fn detection_probability(&self, x: &Pose, m: &Vector2<f64>) -> f64 {
-        self.detection.pd(&self.fov, x, m)
+    fn detection_probability(&self, x: &Pose, m: &Vector2<f64>, cov: &Matrix2<f64>) -> f64 {
+        self.detection.pd_gaussian(&self.fov, x, m, cov)
     }
 
     #[inline]
@@ -258,9 +263,9 @@ mod tests {
         assert_eq!(mean, back);
         assert!((cov - jz * m.r * jz.transpose()).norm() < 1e-12);
         // Behind the sensor (heading ~ pi, landmark ahead in world -x): in view.
-        assert!(m.in_fov(&x, &lm) && m.detection_probability(&x, &lm) == 0.95);
+        assert!(m.in_fov(&x, &lm) && m.detection_probability(&x, &lm, &cov) == 0.95);
         let behind = Vector2::new(30.0, -2.0);
-        assert!(!m.in_fov(&x, &behind) && m.detection_probability(&x, &behind) == 0.0);
+        assert!(!m.in_fov(&x, &behind) && m.detection_probability(&x, &behind, &cov) == 0.0);
         assert_eq!(m.clutter_intensity(&z), 0.01);
         assert_eq!(m.birth_integral(&x, &z), z[0]);
     }

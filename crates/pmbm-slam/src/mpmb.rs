@@ -68,6 +68,9 @@ pub struct MpmbParams {
     pub clutter_rate: Option<f64>,
     /// Floor of the clutter intensity (a scenario without clutter keeps `nu_j > 0`).
     pub min_clutter_intensity: f64,
+    /// Survival probability `p_S` per step of a landmark with `p_D > 0` (1 outside the field
+    /// of view; default 1, the static map of \[Kim2022\]), as `pmb-slam`'s key.
+    pub survival_fov: f64,
     /// `R_U = noise_inflation R` in steps ii and iv (\[Kim2022\] Section V: 4).
     pub noise_inflation: f64,
     /// Dithering: `diag(dithering)` (m^2, m^2, rad^2) added to the predicted vehicle
@@ -89,6 +92,7 @@ impl Default for MpmbParams {
             clutter_intensity: ClutterIntensity::Measurement,
             clutter_rate: None,
             min_clutter_intensity: 1e-12,
+            survival_fov: 1.0,
             noise_inflation: 4.0,
             dithering: [0.0; 3],
         }
@@ -108,6 +112,7 @@ impl MpmbParams {
         Interval::OPEN_UNIT.check("estimate_existence", self.estimate_existence)?;
         Interval::BOUNDED_NON_NEGATIVE.check("undetected_intensity", self.undetected_intensity)?;
         Interval::BOUNDED_POSITIVE.check("min_clutter_intensity", self.min_clutter_intensity)?;
+        Interval::PROBABILITY.check("survival_fov", self.survival_fov)?;
         Interval::BOUNDED_POSITIVE.check("noise_inflation", self.noise_inflation)?;
         for d in self.dithering {
             Interval::BOUNDED_NON_NEGATIVE.check("dithering", d)?;
@@ -297,7 +302,7 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M,
     /// `ln_miss`) and a detected child per gated measurement. Returns the Cholesky
     /// failures (a Bernoulli whose `P` or `S` fails is only missed).
     fn map_children(&mut self, l_u: &Matrix3<f64>) -> u32 {
-        let (model, ws, mu) = (&self.model, &mut self.ws, self.mean);
+        let (model, ws, mu, survival) = (&self.model, &mut self.ws, self.mean, self.params.survival_fov);
         let mut chol = 0;
         ws.missed.clear();
         ws.ln_miss.clear();
@@ -306,9 +311,11 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M,
         let n = 3 + M;
         for b in &self.bernoullis {
             ws.det_start.push(ws.det.len());
-            let p = model.detection_probability(&mu, &b.mean);
-            let nu0 = 1.0 - b.r * p;
-            let r_miss = if nu0 > 0.0 { (b.r * (1.0 - p) / nu0).clamp(0.0, 1.0) } else { 0.0 };
+            let p = model.detection_probability(&mu, &b.mean, &b.cov);
+            // Survival where the landmark is detectable (1: the static map of [Kim2022]).
+            let r = if p > 0.0 { b.r * survival } else { b.r };
+            let nu0 = 1.0 - r * p;
+            let r_miss = if nu0 > 0.0 { (r * (1.0 - p) / nu0).clamp(0.0, 1.0) } else { 0.0 };
             ws.missed.push(GaussianBernoulli { r: r_miss, ..*b });
             ws.ln_miss.push(nu0.ln());
             if p <= 0.0 || self.z.is_empty() {
@@ -329,7 +336,7 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M,
             };
             let l = ch.l();
             let log_det: f64 = (0..Z).map(|i| 2.0 * l[(i, i)].ln()).sum();
-            let ln_rp = b.r.ln() + p.ln();
+            let ln_rp = r.ln() + p.ln();
             let k = ch.solve(&mom.cross_v.transpose()).transpose();
             let cov = symmetrise(&(b.cov - k * s_cov * k.transpose()));
             for (j, zj) in self.z.iter().enumerate() {
@@ -359,7 +366,9 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M,
             let input = InputPoints::new(n, zj, l_ru, &pose.y0, |z| model.inverse(&mu, z).0, sub);
             let mom = PairMoments::new(n, &pose, &input);
             let mean = pose.y0 + mom.dmean;
-            let e = model.detection_probability(&mu, &mean) * s.undetected_intensity * model.birth_integral(&mu, zj);
+            let e = model.detection_probability(&mu, &mean, &mom.cov)
+                * s.undetected_intensity
+                * model.birth_integral(&mu, zj);
             let nu = e + model.clutter_intensity(zj).max(s.min_clutter_intensity);
             ws.ln_nu_new.push(nu.ln());
             ws.born.push(GaussianBernoulli { r: (e / nu).clamp(0.0, 1.0), mean, cov: mom.cov });

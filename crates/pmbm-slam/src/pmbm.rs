@@ -255,7 +255,7 @@ fn children<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
         ws.track_start.push(ws.hyps.len());
         for h in &map.hyps[map.track_start[t]..map.track_start[t + 1]] {
             ws.det_start.push(ws.det.len());
-            let p = if h.r > 0.0 { model.detection_probability(x, &h.mean) } else { 0.0 };
+            let p = if h.r > 0.0 { model.detection_probability(x, &h.mean, &h.cov) } else { 0.0 };
             // Survival inside the field of view (1: the static map of [Kim2022]).
             let r = if p > 0.0 { h.r * s.survival } else { h.r };
             let miss = ws.hyps.len();
@@ -280,7 +280,7 @@ fn children<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     ws.r_new.clear();
     for zj in z {
         let (mean, cov) = model.birth(x, zj);
-        let e = model.detection_probability(x, &mean) * s.undetected_intensity * model.birth_integral(x, zj);
+        let e = model.detection_probability(x, &mean, &cov) * s.undetected_intensity * model.birth_integral(x, zj);
         let nu = e + model.clutter_intensity(zj).max(s.min_clutter_intensity);
         let r = (e / nu).clamp(0.0, 1.0);
         ws.ln_nu_new.push(nu.ln());

@@ -36,7 +36,7 @@ impl MeasurementModel<2, 2> for Linear {
     fn inverse(&self, x: &Pose, z: &Vector2<f64>) -> (Vector2<f64>, Matrix2<f64>) {
         (z + x.xy(), Matrix2::identity())
     }
-    fn detection_probability(&self, _x: &Pose, _m: &Vector2<f64>) -> f64 {
+    fn detection_probability(&self, _x: &Pose, _m: &Vector2<f64>, _cov: &Matrix2<f64>) -> f64 {
         PD
     }
     fn in_fov(&self, _x: &Pose, _m: &Vector2<f64>) -> bool {
@@ -149,12 +149,31 @@ fn linear_sensor_equals_the_kalman_filter() {
     close(&f.mean, &mu, "vehicle without landmarks");
 }
 
+/// `survival_fov`: a Bernoulli in view that is missed first survives (`r p_S`), then is
+/// missed (`r' = r p_S (1 - p_D) / (1 - r p_S p_D)`); a detected one (`r = 1`) then decays
+/// instead of keeping `r = 1` as with the default `p_S = 1`.
+#[test]
+fn survival_in_view() {
+    let r = Matrix2::new(0.2, 0.05, 0.05, 0.3);
+    for (p_s, r0) in [(0.9, 0.8), (0.99, 1.0), (1.0, 1.0)] {
+        let params = MpmbParams { survival_fov: p_s, undetected_intensity: 0.0, ..MpmbParams::default() };
+        let mut f = MpmbFilter::new(params, &models(), Linear { r });
+        let lm = GaussianBernoulli { r: r0, mean: Vector2::new(10.0, -3.0), cov: Matrix2::new(0.6, 0.2, 0.2, 0.9) };
+        f.bernoullis = vec![lm];
+        f.step_with(&[], std::iter::empty());
+        let want = r0 * p_s * (1.0 - PD) / (1.0 - r0 * p_s * PD);
+        assert_eq!(f.bernoullis.len(), 1);
+        assert!((f.bernoullis[0].r - want).abs() < 1e-12, "p_S {p_s}: r = {}, want {want}", f.bernoullis[0].r);
+    }
+}
+
 /// Bad parameters are refused with the key named; particles other than one are refused.
 #[test]
 fn bad_parameters_name_the_key() {
     let models = models();
     type Set = fn(&mut MpmbParams);
-    let cases: [(&str, Set); 10] = [
+    let cases: [(&str, Set); 11] = [
+        ("survival_fov", |p| p.survival_fov = 1.5),
         ("gate_probability", |p| p.gate_probability = 1.0),
         ("lbp_max_sweeps", |p| p.lbp_max_sweeps = 0),
         ("lbp_tolerance", |p| p.lbp_tolerance = 0.0),

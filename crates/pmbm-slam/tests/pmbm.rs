@@ -9,7 +9,7 @@ use rfslam_assign::tomb::GaussianBernoulli;
 use rfslam_assign::{AssociationProblem, LbpOptions, exact_association, for_each_association};
 use rfslam_core::gaussian::log_normal;
 use rfslam_core::sensor::RangeBearingSensor;
-use rfslam_core::{DetectionModel, FilterBuild, Fov, Pose, RangeBearing};
+use rfslam_core::{DetectionModel, FilterBuild, Fov, FovEdge, Pose, RangeBearing};
 use rfslam_sim::ScenarioData;
 
 const PD: f64 = 0.9;
@@ -350,4 +350,38 @@ fn survival_and_gated_missed_detection() {
     let out = pmb_update(&mut pmb, &x, &far, &m, &s, PmbWeight::Bethe, &mut ws);
     assert!((out.ln_chi - KAPPA.ln()).abs() < 1e-12);
     assert_eq!(pmb.hyps[0].r, 0.8);
+}
+
+/// The scenario's field-of-view edge reaches the update (with `edge = "expected"` the filters
+/// used to give the hard edge's results, bit for bit). A detected track (`r = 1`) whose mean
+/// lies just outside the bearing limit, its Gaussian across it, and a measurement of its
+/// landmark just inside: with the hard edge `p_D = 0` at the mean, the track is only missed
+/// (`r = 1` kept) and the measurement starts a second track, a duplicate in the best global
+/// hypothesis; with the expected edge `p_D` is `P_D` times the mass inside the field of
+/// view, the track is detected and the best global hypothesis holds one landmark.
+#[test]
+fn expected_fov_edge_reaches_the_update() {
+    let x = Pose::new(0.0, 0.0, 0.0);
+    let b = GaussianBernoulli {
+        r: 1.0,
+        mean: Vector2::new(20.0 * 90.5f64.to_radians().cos(), 20.0 * 90.5f64.to_radians().sin()),
+        cov: Matrix2::new(0.5, 0.0, 0.0, 0.5),
+    };
+    let z = [RangeBearing::new(20.0, 89.7f64.to_radians())];
+    let s = settings(1e-3, 13.8);
+    let mut landmarks = Vec::new();
+    for edge in [FovEdge::Hard, FovEdge::Expected] {
+        let m = RangeBearingModel { fov: Fov { edge, ..Fov::new(50.0, std::f64::consts::FRAC_PI_2) }, ..model() };
+        let pd = m.detection_probability(&x, &b.mean, &b.cov);
+        assert_eq!(pd, m.detection.pd_gaussian(&m.fov, &x, &b.mean, &b.cov));
+        match edge {
+            FovEdge::Hard => assert_eq!(pd, 0.0),
+            _ => assert!(pd > 0.2 * PD && pd < 0.6 * PD, "expected p_D {pd}"),
+        }
+        let mut map = PmbmDensity::from_bernoullis(&[b]);
+        let out = pmbm_update(&mut map, &x, &z, &m, &s, &mut Workspace::default());
+        assert!(out.ln_chi.is_finite());
+        landmarks.push(map.global(0).filter(|h| h.r > 0.4).count());
+    }
+    assert_eq!(landmarks, [2, 1], "landmarks in the best global hypothesis (hard, expected)");
 }
