@@ -28,7 +28,11 @@ pub const MAX_CHILDREN: usize = 1_000_000;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(remote = "Self", default)]
 pub struct FastSlam1Params {
-    /// Gate on the squared Mahalanobis distance (chi^2_2 at 0.99: 9.21).
+    /// Gate on the squared Mahalanobis distance (chi^2_2 at 0.99: 9.21) under
+    /// `G_m P G_m^T + R`, which leaves out the pose noise: where that noise is not small
+    /// against `R` a re-observation leaves the gate and starts a duplicate. \[LeungInostrozaAdams\]
+    /// give no value; 100 (with `false_alarm = 0.3`) maps a simple world's landmarks once
+    /// (docs/filters.md).
     pub gate: f64,
     /// `ln p_0` of a new landmark; default the density of `N(0, 2R)` at the gate boundary.
     pub new_landmark_log_likelihood: Option<f64>,

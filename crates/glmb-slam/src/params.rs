@@ -26,7 +26,9 @@ pub enum ProposalWeight {
 #[serde(remote = "Self", default)]
 pub struct Params {
     /// Survival probability `p_S` of a landmark inside the FOV (\[Moratuwage2019\]: 0.95; 1
-    /// outside, eqs. 7-9).
+    /// outside, eqs. 7-9). With 0.95 and `p_D = 0.95` a landmark missed once is more likely
+    /// dead (0.05) than undetected (0.0475), so maps lose landmarks; 0.999 keeps them and
+    /// still removes duplicates, 1 keeps every duplicate (docs/filters.md).
     pub survival_fov: f64,
     /// Birth probability `r_B` of a measurement of the previous scan not explained by an
     /// existing landmark (\[Moratuwage2019\]: 1e-4; adaptive birth, eq. 27).

@@ -61,6 +61,10 @@ pub struct BootstrapProposal;
 
 impl Proposal for BootstrapProposal {
     const NAME: &'static str = "rbphd-mf";
+    /// \[LeungInostrozaAdams\] Section IV-B: "the means of all the Gaussians that have a weight
+    /// higher than 0.5", each weight "rounded to the nearest integer" features.
+    const ESTIMATE_THRESHOLD: Option<f64> = Some(0.5);
+    const ESTIMATE_ROUNDING: bool = true;
     type Params = MfParams;
 
     fn validate(_: &MfParams) -> Result<(), ParamError> {

@@ -39,6 +39,7 @@ pub struct RbPhd<P: Proposal> {
     log_clutter: f64,
     fov_active: Fov,
     estimate_threshold: f64,
+    estimate_rounding: bool,
     has_associations: bool,
     // reusable buffers
     samples: Vec<PoseSample>,
@@ -65,7 +66,8 @@ impl<P: Proposal> RbPhd<P> {
         let log_clutter = models.clutter.intensity(&models.fov).max(1e-300).ln();
         let mf = params.multi_feature();
         let fov_active = models.fov.enlarged(params.fov_buffer_range, params.fov_buffer_deg.to_radians());
-        let estimate_threshold = params.estimate_threshold(models);
+        let estimate_threshold = params.estimate_threshold(models, P::ESTIMATE_THRESHOLD);
+        let estimate_rounding = params.estimate_rounding.unwrap_or(P::ESTIMATE_ROUNDING);
         let p0 = Particle { pose: models.initial_pose, ..Default::default() };
         RbPhd {
             params,
@@ -75,6 +77,7 @@ impl<P: Proposal> RbPhd<P> {
             log_clutter,
             fov_active,
             estimate_threshold,
+            estimate_rounding,
             has_associations: false,
             samples: Vec::new(),
             active: Vec::new(),
@@ -258,10 +261,13 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
     fn estimate(&self) -> Estimate {
         let p = self.set.best_particle();
         let ln_t = self.estimate_threshold.ln();
-        let map = (0..p.map.len())
-            .filter(|&i| p.map.log_w[i] > ln_t)
-            .map(|i| MapPoint { position: p.map.mean[i], weight: p.map.log_w[i].exp() })
-            .collect();
+        let mut map = Vec::new();
+        for i in (0..p.map.len()).filter(|&i| p.map.log_w[i] > ln_t) {
+            let w = p.map.log_w[i].exp();
+            // Leung et al.: a component of weight w stands for round(w) features.
+            let copies = if self.estimate_rounding { (w.round() as usize).max(1) } else { 1 };
+            map.extend(std::iter::repeat_n(MapPoint { position: p.map.mean[i], weight: w }, copies));
+        }
         Estimate { pose: p.pose, map }
     }
 }
@@ -302,5 +308,80 @@ impl LogWeighted for Particle {
 
     fn set_log_weight(&mut self, log_w: f64) {
         self.log_w = log_w;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::proposal::{ProposalStats, sample_transition};
+    use nalgebra::Matrix3;
+    use rfslam_core::{ClutterIntensity, ClutterModel, DetectionModel, Motion, RangeBearingSensor};
+
+    /// The transition density, with the map-estimate defaults of `rbphd-mf` when `ROUND`.
+    struct Prior<const ROUND: bool>;
+
+    impl<const ROUND: bool> Proposal for Prior<ROUND> {
+        const NAME: &'static str = "prior";
+        const ESTIMATE_THRESHOLD: Option<f64> = if ROUND { Some(0.5) } else { None };
+        const ESTIMATE_ROUNDING: bool = ROUND;
+        type Params = ();
+
+        fn validate(_: &()) -> Result<(), ParamError> {
+            Ok(())
+        }
+
+        fn new(_: &(), _: &SlamModels) -> Self {
+            Prior
+        }
+
+        fn propose(
+            &mut self,
+            ctx: &ProposalContext,
+            n: usize,
+            rng: &mut Rng,
+            out: &mut Vec<PoseSample>,
+        ) -> ProposalStats {
+            sample_transition(ctx, n, rng, out)
+        }
+    }
+
+    fn models() -> SlamModels {
+        SlamModels {
+            motion: Motion::Velocity,
+            control_noise: Matrix3::zeros(),
+            sensor: RangeBearingSensor::default(),
+            measurement_noise: Matrix2::new(1.0, 0.0, 0.0, 3e-4),
+            fov: Fov::new(100.0, std::f64::consts::FRAC_PI_2),
+            detection: DetectionModel::Constant { pd: 0.95 },
+            clutter: ClutterModel { rate: 1.0, intensity: ClutterIntensity::Measurement },
+            initial_pose: Pose::zeros(),
+        }
+    }
+
+    /// The number of landmarks in the estimate of a one-particle map with components of
+    /// weights 1.7, 0.9, 0.3 and 0.004.
+    fn estimated<const ROUND: bool>(params: RbPhdParams) -> usize {
+        let mut f = RbPhd::new(params, Prior::<ROUND>, &models(), 1);
+        let map = &mut f.set.particles_mut()[0].map;
+        for (k, w) in [1.7f64, 0.9, 0.3, 0.004].into_iter().enumerate() {
+            map.push(w.ln(), Point2::new(10.0 * k as f64, 0.0), Matrix2::identity());
+        }
+        f.estimate().map.len()
+    }
+
+    /// Leung, Inostroza and Adams (Section IV-B) count a Gaussian of weight above 0.5 as its
+    /// weight rounded to the nearest integer features: 2 + 1 here. One landmark per component
+    /// above `(1 - pD)^2 = 0.0025` (the PHD-SLAM default) gives 4, above 0.5 without rounding 2.
+    #[test]
+    fn the_map_estimate_threshold_and_rounding_follow_the_variant_and_the_keys() {
+        assert_eq!(estimated::<false>(RbPhdParams::default()), 4);
+        assert_eq!(estimated::<true>(RbPhdParams::default()), 3, "the variant's 0.5 and rounding");
+        let leung = RbPhdParams { estimate_threshold: Some(0.5), estimate_rounding: Some(true), ..Default::default() };
+        assert_eq!(estimated::<false>(leung.clone()), 3);
+        assert_eq!(estimated::<false>(RbPhdParams { estimate_rounding: None, ..leung }), 2);
+        let kaltiokallio =
+            RbPhdParams { estimate_threshold: Some(0.0025), estimate_rounding: Some(false), ..Default::default() };
+        assert_eq!(estimated::<true>(kaltiokallio), 4, "the keys override the variant");
     }
 }

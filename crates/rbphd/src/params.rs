@@ -24,8 +24,14 @@ pub struct RbPhdParams {
     pub fov_buffer_range: f64,
     /// Angle added to the FOV half-angle for the active set (deg): 10.
     pub fov_buffer_deg: f64,
-    /// Map estimate threshold `T_eta`; default `(1 - pD)^2` of the detection model.
+    /// Map estimate threshold `T_eta`; default the variant's ([`crate::Proposal::ESTIMATE_THRESHOLD`]:
+    /// 0.5 for `rbphd-mf`, \[LeungInostrozaAdams\] Section IV-B), else `(1 - pD)^2` of the
+    /// detection model (\[Kaltiokallio2024\]).
     pub estimate_threshold: Option<f64>,
+    /// Map estimate: a component above the threshold stands for `round(w)` landmarks (at
+    /// least one) at its mean, as \[LeungInostrozaAdams\] Section IV-B count features, instead
+    /// of one; default the variant's ([`crate::Proposal::ESTIMATE_ROUNDING`]).
+    pub estimate_rounding: Option<bool>,
     /// `resample_ess_fraction` (\[Kaltiokallio2024\] Table II: 0.2; Table I: 0, never),
     /// `resample_ess` (Victoria Park: 1) and `q_jitter`.
     #[serde(flatten)]
@@ -76,6 +82,7 @@ impl Default for RbPhdParams {
             fov_buffer_range: 10.0,
             fov_buffer_deg: 10.0,
             estimate_threshold: None,
+            estimate_rounding: None,
             rbpf: RbpfParams::with_fraction(0.2),
             exact_pd_term: false,
             clutter_intensity: None,
@@ -141,10 +148,11 @@ impl RbPhdParams {
         }
     }
 
-    /// The map estimate threshold: the parameter, else `(1 - pD)^2` (Victoria Park's
-    /// range-dependent model: its value at zero range).
-    pub fn estimate_threshold(&self, models: &SlamModels) -> f64 {
-        self.estimate_threshold.unwrap_or_else(|| {
+    /// The map estimate threshold: the parameter, else the variant's default
+    /// `variant`, else `(1 - pD)^2` (Victoria Park's range-dependent model: its value at zero
+    /// range).
+    pub fn estimate_threshold(&self, models: &SlamModels, variant: Option<f64>) -> f64 {
+        self.estimate_threshold.or(variant).unwrap_or_else(|| {
             let pd = match models.detection {
                 DetectionModel::Constant { pd } => pd,
                 DetectionModel::RangeLinear { pd0 } => pd0,

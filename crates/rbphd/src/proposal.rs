@@ -56,6 +56,12 @@ pub struct ProposalStats {
 pub trait Proposal: Send + Sized + 'static {
     /// The registered name of the variant (`phd-3.0`).
     const NAME: &'static str;
+    /// The variant's map-estimate threshold when `estimate_threshold` is unset; `None`:
+    /// `(1 - pD)^2` (\[Kaltiokallio2024\]).
+    const ESTIMATE_THRESHOLD: Option<f64> = None;
+    /// Whether the variant's map estimate counts `round(w)` landmarks per component when
+    /// `estimate_rounding` is unset (`false`: one per component).
+    const ESTIMATE_ROUNDING: bool = false;
     /// The proposal's own parameters (`deny_unknown_fields`; defaults = the paper's).
     type Params: Serialize + DeserializeOwned + Default + Clone + Send;
 
