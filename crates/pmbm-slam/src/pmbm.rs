@@ -149,7 +149,7 @@ struct Detection {
 }
 
 /// The reusable buffers of the update (one per filter, shared by its particles).
-#[derive(Debug, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct Workspace<const M: usize> {
     /// Per prior local hypothesis: `ln nu(empty)`, its missed child and its detections.
     ln_miss: Vec<f64>,
@@ -166,13 +166,33 @@ pub struct Workspace<const M: usize> {
     gh_log_w: Vec<f64>,
     /// Association sub-problem of one prior global hypothesis (PMBM) or of the PMB.
     problem: AssociationProblem,
-    /// Track of each problem row.
+    /// Track of each problem row (PMB).
     rows: Vec<usize>,
+    /// Prior tracks (PMBM): with a local hypothesis of `ln nu(empty) != 0`, with one that
+    /// gates a measurement, with more than one local hypothesis (also reused for the new
+    /// tracks in the reduction).
+    ln_miss_tracks: Vec<usize>,
+    gating: Vec<usize>,
+    multi: Vec<usize>,
+    /// Sub-problem groups (PMBM): the group of each prior global hypothesis; per group the
+    /// hash and key (local hypotheses on the gating tracks, delimited by `group_key_start`),
+    /// the key's tracks, the largest budget, the state and the ranked assignments.
+    group_of: Vec<u32>,
+    group_hash: Vec<u64>,
+    group_key: Vec<u32>,
+    group_tracks: Vec<usize>,
+    group_key_start: Vec<usize>,
+    group_budget: Vec<usize>,
+    group_state: Vec<GroupState>,
+    group_asg: Vec<Vec<Assignment>>,
+    /// A global-hypothesis row with the columns every row shares.
+    template: Vec<u32>,
+    /// Kept tracks with several local hypotheses: (column in the new rows, track).
+    kept_multi: Vec<(usize, usize)>,
     /// New global-hypothesis row of the all-missed assignment of one prior hypothesis.
     base_row: Vec<u32>,
     cost: Vec<f64>,
     murty: Murty,
-    assignments: Vec<Assignment>,
     lbp: LbpSolver,
     best: BestAssociation,
     /// Reduction scratch.
@@ -181,7 +201,6 @@ pub struct Workspace<const M: usize> {
     referenced: Vec<u32>,
     canon: Vec<u32>,
     keep_track: Vec<bool>,
-    kept: Vec<usize>,
     absent: Vec<bool>,
     merge_p: Vec<f64>,
     merge_h: Vec<LocalHypothesis<M>>,
@@ -298,6 +317,14 @@ fn children<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
 /// cost matrix by Murty's algorithm become new global hypotheses of log weight
 /// `ln beta_a + sum_i ln nu_i(empty) - cost`; `ln chi` is their log-sum-exp (Proposition 1);
 /// then the reduction of Section V (pruning and capping at `B_max`, merging, deletions).
+///
+/// The cost matrix of `a` depends only on the local hypotheses `a` takes on the tracks
+/// that gate a measurement, and many prior global hypotheses agree there: each distinct
+/// matrix is ranked once, for the largest budget of the hypotheses that share it, and each
+/// of them takes its own budget's prefix of that ranking (Murty's enumeration does not
+/// depend on the budget before it stops, so the prefix is what its own call would return).
+/// Tracks with a single local hypothesis take it in every global hypothesis: their columns
+/// are written from a template, not looked up row by row.
 pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     map: &mut PmbmDensity<M>,
     x: &Pose,
@@ -309,53 +336,38 @@ pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     let mut out = UpdateOutcome { cholesky_failures: children(map, x, z, model, s, ws), ..Default::default() };
     let n_old = map.tracks();
     let n_new = n_old + z.len();
+    classify_prior_tracks(map, ws);
+    group_subproblems(map, s, ws);
+    // The all-missed row (every measurement a new track, "exists") where it is the same for
+    // every prior global hypothesis; the tracks in `multi` are filled per hypothesis.
+    ws.template.clear();
+    ws.template.extend((0..n_old).map(|t| ws.miss_child[map.track_start[t]]));
+    ws.template.extend((0..z.len()).map(|j| (ws.track_start[n_old + j] + 1) as u32));
     ws.gh_hyp.clear();
     ws.gh_log_w.clear();
     for a in 0..map.hypotheses() {
         let row = &map.gh_hyp[a * n_old..(a + 1) * n_old];
-        let base: f64 = map.gh_log_w[a] + row.iter().map(|&h| ws.ln_miss[h as usize]).sum::<f64>();
+        let g = ws.group_of[a] as usize;
+        if ws.problem.reset(&ws.ln_nu_new).is_err() || !solve_group(g, ws) {
+            out.association_errors += 1;
+            continue;
+        }
+        // `sum_i ln nu_i(empty)`: the tracks left out have `ln nu(empty) = 0` exactly.
+        let base: f64 = map.gh_log_w[a] + ws.ln_miss_tracks.iter().map(|&t| ws.ln_miss[row[t] as usize]).sum::<f64>();
         let budget = (s.max_global_hypotheses as f64 * map.gh_log_w[a].exp()).ceil().max(1.0) as usize;
-        // Only tracks that gate a measurement are columns: the others are missed for sure.
-        if ws.problem.reset(&ws.ln_nu_new).is_err() {
-            out.association_errors += 1;
-            continue;
-        }
-        ws.rows.clear();
-        let mut failed = false;
-        for (t, &h) in row.iter().enumerate() {
-            let h = h as usize;
-            if ws.det_start[h] == ws.det_start[h + 1] {
-                continue;
-            }
-            let gates = ws.det[ws.det_start[h]..ws.det_start[h + 1]].iter().map(|d| (d.j, d.ln_nu));
-            failed |= ws.problem.push_track(ws.ln_miss[h], gates).is_err();
-            ws.rows.push(t);
-        }
-        let cost = match ws.problem.measurement_cost_matrix(std::mem::take(&mut ws.cost)) {
-            Ok(c) if !failed => c,
-            _ => {
-                out.association_errors += 1;
-                continue;
-            }
-        };
-        let found = ws.murty.k_best(&cost, &MurtyOptions::best(budget), &mut ws.assignments);
-        ws.cost = cost.into_data();
-        if found.is_err() {
-            out.association_errors += 1;
-            continue;
-        }
-        let cols = ws.rows.len();
-        // The all-missed row (every measurement a new track, "exists"), copied per assignment.
         ws.base_row.clear();
-        ws.base_row.extend(row.iter().map(|&h| ws.miss_child[h as usize]));
-        ws.base_row.extend((0..z.len()).map(|j| (ws.track_start[n_old + j] + 1) as u32));
-        for asg in &ws.assignments {
+        ws.base_row.extend_from_slice(&ws.template);
+        for &t in &ws.multi {
+            ws.base_row[t] = ws.miss_child[row[t] as usize];
+        }
+        let rows = &ws.group_tracks[ws.group_key_start[g]..ws.group_key_start[g + 1]];
+        for asg in ws.group_asg[g].iter().take(budget) {
             let start = ws.gh_hyp.len();
             ws.gh_hyp.extend_from_slice(&ws.base_row);
             for (j, c) in asg.col_for_row.iter().enumerate() {
                 let Some(c) = *c else { continue };
-                if c < cols {
-                    let t = ws.rows[c];
+                if c < rows.len() {
+                    let t = rows[c];
                     let h = row[t] as usize;
                     let det = &ws.det[ws.det_start[h]..ws.det_start[h + 1]];
                     let child = det.iter().find(|d| d.j == j).expect("assigned pairs are gated").child;
@@ -380,12 +392,130 @@ pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     out
 }
 
+/// Sorts the prior tracks for the update: `ln_miss_tracks`, those with a local hypothesis of
+/// `ln nu(empty) != 0`; `gating`, those with a local hypothesis that gates a measurement;
+/// `multi`, those with more than one local hypothesis (the others take their only one in
+/// every global hypothesis).
+fn classify_prior_tracks<const M: usize>(map: &PmbmDensity<M>, ws: &mut Workspace<M>) {
+    ws.ln_miss_tracks.clear();
+    ws.gating.clear();
+    ws.multi.clear();
+    for t in 0..map.tracks() {
+        let hs = map.track_start[t]..map.track_start[t + 1];
+        if hs.len() > 1 {
+            ws.multi.push(t);
+        }
+        if hs.clone().any(|h| ws.ln_miss[h] != 0.0) {
+            ws.ln_miss_tracks.push(t);
+        }
+        if hs.clone().any(|h| ws.det_start[h] != ws.det_start[h + 1]) {
+            ws.gating.push(t);
+        }
+    }
+}
+
+/// Groups the prior global hypotheses by their association sub-problem: the sequence of
+/// local hypotheses they take on the tracks that gate a measurement (which fixes the rows
+/// of the cost matrix, in track order). Fills `group_of` (per hypothesis), the groups' keys
+/// and tracks and their budgets (the largest `ceil(B_max beta_a)` of their members), and
+/// marks every group unsolved.
+fn group_subproblems<const M: usize>(map: &PmbmDensity<M>, s: &UpdateSettings, ws: &mut Workspace<M>) {
+    let n_old = map.tracks();
+    ws.group_of.clear();
+    ws.group_hash.clear();
+    ws.group_key.clear();
+    ws.group_tracks.clear();
+    ws.group_key_start.clear();
+    ws.group_key_start.push(0);
+    ws.group_budget.clear();
+    for a in 0..map.hypotheses() {
+        let row = &map.gh_hyp[a * n_old..(a + 1) * n_old];
+        let key_start = ws.group_key.len();
+        for &t in &ws.gating {
+            let h = row[t];
+            if ws.det_start[h as usize] != ws.det_start[h as usize + 1] {
+                ws.group_key.push(h);
+                ws.group_tracks.push(t);
+            }
+        }
+        let key = &ws.group_key[key_start..];
+        let hash = key.iter().fold(FNV_OFFSET, |h, &v| fnv_step(h, v));
+        let ks = &ws.group_key_start;
+        let found =
+            (0..ws.group_hash.len()).find(|&g| ws.group_hash[g] == hash && ws.group_key[ks[g]..ks[g + 1]] == *key);
+        let budget = (s.max_global_hypotheses as f64 * map.gh_log_w[a].exp()).ceil().max(1.0) as usize;
+        let g = match found {
+            Some(g) => {
+                ws.group_key.truncate(key_start);
+                ws.group_tracks.truncate(key_start);
+                ws.group_budget[g] = ws.group_budget[g].max(budget);
+                g
+            }
+            None => {
+                ws.group_hash.push(hash);
+                ws.group_key_start.push(ws.group_key.len());
+                ws.group_budget.push(budget);
+                ws.group_hash.len() - 1
+            }
+        };
+        ws.group_of.push(g as u32);
+    }
+    let groups = ws.group_hash.len();
+    ws.group_state.clear();
+    ws.group_state.resize(groups, GroupState::Unsolved);
+    if ws.group_asg.len() < groups {
+        ws.group_asg.resize_with(groups, Vec::new);
+    }
+}
+
+/// Whether a group's sub-problem has been ranked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum GroupState {
+    Unsolved,
+    Solved,
+    Failed,
+}
+
+/// Ranks group `g`'s sub-problem by Murty's algorithm for the group's budget, on its first
+/// use (`ws.problem` must have been reset to the new-track factors). Returns whether the
+/// group has its assignments (`false`: the association step refused the sub-problem).
+fn solve_group<const M: usize>(g: usize, ws: &mut Workspace<M>) -> bool {
+    if ws.group_state[g] == GroupState::Unsolved {
+        let mut failed = false;
+        for &h in &ws.group_key[ws.group_key_start[g]..ws.group_key_start[g + 1]] {
+            let h = h as usize;
+            let gates = ws.det[ws.det_start[h]..ws.det_start[h + 1]].iter().map(|d| (d.j, d.ln_nu));
+            failed |= ws.problem.push_track(ws.ln_miss[h], gates).is_err();
+        }
+        let solved = match ws.problem.measurement_cost_matrix(std::mem::take(&mut ws.cost)) {
+            Ok(cost) if !failed => {
+                let found = ws.murty.k_best(&cost, &MurtyOptions::best(ws.group_budget[g]), &mut ws.group_asg[g]);
+                ws.cost = cost.into_data();
+                found.is_ok()
+            }
+            _ => false,
+        };
+        ws.group_state[g] = if solved { GroupState::Solved } else { GroupState::Failed };
+    }
+    ws.group_state[g] == GroupState::Solved
+}
+
+const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+
+/// One step of the FNV-1a hash.
+fn fnv_step(h: u64, v: u32) -> u64 {
+    (h ^ u64::from(v)).wrapping_mul(0x100_0000_01b3)
+}
+
 /// Reduction (\[Kim2022\] Section V): keep the global hypotheses with normalised weight at
 /// least `gh_prune`, at most `B_max`, heaviest first (the best always); local hypotheses
 /// with `r < bernoulli_prune` become non-existent (`r = 0`, one per track); global
 /// hypotheses made equal by that are merged; tracks absent from every global hypothesis
 /// and local hypotheses no global hypothesis references are deleted. The workspace's new
 /// arena (`n_new` tracks) becomes `map`.
+///
+/// Only the tracks with more than one local hypothesis (`multi`) can differ between global
+/// hypotheses; the passes over the table visit those columns only.
 fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSettings, ws: &mut Workspace<M>) {
     let ln_prune = s.gh_prune.ln();
     ws.order.clear();
@@ -404,11 +534,13 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
         }
         ws.absent.push(h.r == 0.0);
     }
+    ws.multi.clear();
+    ws.multi.extend((0..n_new).filter(|&t| ws.track_start[t + 1] - ws.track_start[t] > 1));
     ws.canon.clear();
     ws.canon.resize(n_new, u32::MAX);
     let mut changed = false;
     for &a in &ws.order {
-        for t in 0..n_new {
+        for &t in &ws.multi {
             let h = ws.gh_hyp[a * n_new + t];
             if ws.absent[h as usize] {
                 if ws.canon[t] == u32::MAX {
@@ -421,27 +553,30 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
     }
     // Merge equal global hypotheses, weights added. New global hypotheses are distinct
     // (different prior hypotheses or assignments), so only a canonical substitution can make
-    // two equal: then sort by a hash of the rows, comparing rows only on equal hashes.
+    // two equal: then sort by a hash of the rows, comparing rows only on equal hashes (on the
+    // `multi` columns: the others are equal in every row).
     let rows = &ws.gh_hyp;
     let row = |a: usize| &rows[a * n_new..(a + 1) * n_new];
+    let multi = &ws.multi;
+    let multi_cmp =
+        |a: usize, b: usize| multi.iter().map(|&t| rows[a * n_new + t]).cmp(multi.iter().map(|&t| rows[b * n_new + t]));
     map.gh_log_w.clear();
     ws.referenced.clear(); // the surviving global hypotheses
     if changed {
         ws.row_hash.clear();
         ws.row_hash.resize(ws.gh_log_w.len(), 0);
         for &a in &ws.order {
-            ws.row_hash[a] =
-                row(a).iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &v| (h ^ u64::from(v)).wrapping_mul(0x100_0000_01b3));
+            ws.row_hash[a] = row(a).iter().fold(FNV_OFFSET, |h, &v| fnv_step(h, v));
         }
         let hash = &ws.row_hash;
-        ws.order.sort_by(|&a, &b| hash[a].cmp(&hash[b]).then_with(|| row(a).cmp(row(b))).then(a.cmp(&b)));
+        ws.order.sort_by(|&a, &b| hash[a].cmp(&hash[b]).then_with(|| multi_cmp(a, b)).then(a.cmp(&b)));
     }
     let mut k = 0;
     while k < ws.order.len() {
         let a = ws.order[k];
         let mut w = ws.gh_log_w[a];
         let mut e = k + 1;
-        while changed && e < ws.order.len() && row(ws.order[e]) == row(a) {
+        while changed && e < ws.order.len() && multi_cmp(ws.order[e], a).is_eq() {
             w = log_add(w, ws.gh_log_w[ws.order[e]]);
             e += 1;
         }
@@ -456,15 +591,25 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
     let mw = &map.gh_log_w;
     ws.order.sort_by(|&a, &b| mw[b].total_cmp(&mw[a]).then(a.cmp(&b)));
     let total = log_sum_exp(&map.gh_log_w);
-    // Tracks that exist in some kept global hypothesis; referenced local hypotheses.
+    // Tracks that exist in some kept global hypothesis; referenced local hypotheses (a
+    // track's only local hypothesis is referenced by every global hypothesis).
     ws.keep_track.clear();
     ws.keep_track.resize(n_new, false);
     ws.canon.clear();
     ws.canon.resize(ws.hyps.len(), u32::MAX);
+    for t in 0..n_new {
+        let h = ws.track_start[t];
+        if ws.track_start[t + 1] - h == 1 {
+            ws.canon[h] = 0;
+            ws.keep_track[t] = !ws.absent[h];
+        }
+    }
     for &g in &ws.referenced {
-        for (t, &h) in row(g as usize).iter().enumerate() {
-            ws.canon[h as usize] = 0;
-            ws.keep_track[t] |= !ws.absent[h as usize];
+        let g = g as usize;
+        for &t in multi {
+            let h = rows[g * n_new + t] as usize;
+            ws.canon[h] = 0;
+            ws.keep_track[t] |= !ws.absent[h];
         }
     }
     map.hyps.clear();
@@ -482,14 +627,26 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
         }
     }
     map.track_start.push(map.hyps.len());
+    // The new rows: a template of the kept single-hypothesis tracks, the kept `multi`
+    // tracks (column, track) filled per row.
+    ws.template.clear();
+    ws.kept_multi.clear();
+    for t in (0..n_new).filter(|&t| ws.keep_track[t]) {
+        let h = ws.track_start[t];
+        if ws.track_start[t + 1] - h > 1 {
+            ws.kept_multi.push((ws.template.len(), t));
+        }
+        ws.template.push(ws.canon[h]);
+    }
     map.gh_hyp.clear();
     let weights = std::mem::take(&mut map.gh_log_w);
-    ws.kept.clear();
-    ws.kept.extend((0..n_new).filter(|&t| ws.keep_track[t]));
     for &o in &ws.order {
-        let g = row(ws.referenced[o] as usize);
-        let canon = &ws.canon;
-        map.gh_hyp.extend(ws.kept.iter().map(|&t| canon[g[t] as usize]));
+        let g = ws.referenced[o] as usize;
+        let start = map.gh_hyp.len();
+        map.gh_hyp.extend_from_slice(&ws.template);
+        for &(c, t) in &ws.kept_multi {
+            map.gh_hyp[start + c] = ws.canon[rows[g * n_new + t] as usize];
+        }
         map.gh_log_w.push(weights[o] - total);
     }
 }
