@@ -5,7 +5,9 @@
 //!
 //! Storage is flat so that a warmed-up particle does not allocate: the local hypotheses
 //! of every track in one arena (`track_start` delimits the tracks), the global hypotheses
-//! as rows of absolute local-hypothesis indices, one per track. The undetected landmarks
+//! as rows of absolute local-hypothesis indices, one per track with more than one local
+//! hypothesis (a track with one takes it in every global hypothesis: most tracks, those no
+//! measurement has gated since the last reduction, need no column). The undetected landmarks
 //! are a Poisson point process of constant intensity `kappa_u` (not stored: \[Kim2022\] sets
 //! `p_D ~ 0` in step i, so it never changes).
 
@@ -33,8 +35,11 @@ pub struct PmbmDensity<const M: usize> {
     pub hyps: Vec<LocalHypothesis<M>>,
     /// Start of each track's local hypotheses, plus the end (`tracks + 1` entries, or none).
     pub track_start: Vec<usize>,
-    /// Global hypotheses, row-major `hypotheses x tracks`: the local hypothesis (index into
-    /// `hyps`) of each track.
+    /// The tracks with more than one local hypothesis, ascending. Every other track has
+    /// exactly one, which every global hypothesis takes.
+    pub branching: Vec<usize>,
+    /// Global hypotheses, row-major `hypotheses x branching.len()`: the local hypothesis
+    /// (index into `hyps`) of each branching track.
     pub gh_hyp: Vec<u32>,
     /// Normalised log weights `ln beta` of the global hypotheses, heaviest first.
     pub gh_log_w: Vec<f64>,
@@ -51,6 +56,7 @@ impl<const M: usize> Clone for PmbmDensity<M> {
     fn clone_from(&mut self, src: &Self) {
         self.hyps.clone_from(&src.hyps);
         self.track_start.clone_from(&src.track_start);
+        self.branching.clone_from(&src.branching);
         self.gh_hyp.clone_from(&src.gh_hyp);
         self.gh_log_w.clone_from(&src.gh_log_w);
     }
@@ -59,7 +65,13 @@ impl<const M: usize> Clone for PmbmDensity<M> {
 impl<const M: usize> PmbmDensity<M> {
     /// An empty map: no track, one global hypothesis of weight one.
     pub fn new() -> Self {
-        PmbmDensity { hyps: Vec::new(), track_start: vec![0], gh_hyp: Vec::new(), gh_log_w: vec![0.0] }
+        PmbmDensity {
+            hyps: Vec::new(),
+            track_start: vec![0],
+            branching: Vec::new(),
+            gh_hyp: Vec::new(),
+            gh_log_w: vec![0.0],
+        }
     }
 
     /// Number of tracks.
@@ -74,8 +86,18 @@ impl<const M: usize> PmbmDensity<M> {
 
     /// The local hypotheses of global hypothesis `a`, one per track.
     pub fn global(&self, a: usize) -> impl Iterator<Item = &LocalHypothesis<M>> + '_ {
-        let t = self.tracks();
-        self.gh_hyp[a * t..(a + 1) * t].iter().map(|&h| &self.hyps[h as usize])
+        let nb = self.branching.len();
+        let row = &self.gh_hyp[a * nb..(a + 1) * nb];
+        let mut k = 0;
+        (0..self.tracks()).map(move |t| {
+            let h = if self.branching.get(k) == Some(&t) {
+                k += 1;
+                row[k - 1] as usize
+            } else {
+                self.track_start[t]
+            };
+            &self.hyps[h]
+        })
     }
 
     /// Tracks built from single Bernoullis and one global hypothesis (a PMB).
@@ -83,7 +105,8 @@ impl<const M: usize> PmbmDensity<M> {
         PmbmDensity {
             hyps: bernoullis.to_vec(),
             track_start: (0..=bernoullis.len()).collect(),
-            gh_hyp: (0..bernoullis.len() as u32).collect(),
+            branching: Vec::new(),
+            gh_hyp: Vec::new(),
             gh_log_w: vec![0.0],
         }
     }
@@ -173,7 +196,12 @@ pub struct Workspace<const M: usize> {
     /// tracks in the reduction).
     ln_miss_tracks: Vec<usize>,
     gating: Vec<usize>,
+    /// Per prior track: its column among the prior map's branching tracks (`u32::MAX`: none).
+    prior_slot: Vec<u32>,
+    /// The new arena's tracks with more than one local hypothesis (the columns of the new
+    /// global hypotheses), and each new track's column among them (`u32::MAX`: none).
     multi: Vec<usize>,
+    slot: Vec<u32>,
     /// Sub-problem groups (PMBM): the group of each prior global hypothesis; per group the
     /// hash and key (local hypotheses on the gating tracks, delimited by `group_key_start`),
     /// the key's tracks, the largest budget, the state and the ranked assignments.
@@ -185,10 +213,10 @@ pub struct Workspace<const M: usize> {
     group_budget: Vec<usize>,
     group_state: Vec<GroupState>,
     group_asg: Vec<Vec<Assignment>>,
-    /// A global-hypothesis row with the columns every row shares.
+    /// A new global-hypothesis row with the columns every row shares.
     template: Vec<u32>,
-    /// Kept tracks with several local hypotheses: (column in the new rows, track).
-    kept_multi: Vec<(usize, usize)>,
+    /// Columns (in the new rows) of the tracks that branch in the reduced map.
+    kept_multi: Vec<usize>,
     /// New global-hypothesis row of the all-missed assignment of one prior hypothesis.
     base_row: Vec<u32>,
     cost: Vec<f64>,
@@ -323,8 +351,6 @@ fn children<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
 /// matrix is ranked once, for the largest budget of the hypotheses that share it, and each
 /// of them takes its own budget's prefix of that ranking (Murty's enumeration does not
 /// depend on the budget before it stops, so the prefix is what its own call would return).
-/// Tracks with a single local hypothesis take it in every global hypothesis: their columns
-/// are written from a template, not looked up row by row.
 pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     map: &mut PmbmDensity<M>,
     x: &Pose,
@@ -336,49 +362,58 @@ pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     let mut out = UpdateOutcome { cholesky_failures: children(map, x, z, model, s, ws), ..Default::default() };
     let n_old = map.tracks();
     let n_new = n_old + z.len();
-    classify_prior_tracks(map, ws);
+    let nb = map.branching.len();
+    classify_tracks(map, ws);
     group_subproblems(map, s, ws);
-    // The all-missed row (every measurement a new track, "exists") where it is the same for
-    // every prior global hypothesis; the tracks in `multi` are filled per hypothesis.
+    // The all-missed row (every measurement a new track, "exists") on the new branching
+    // tracks, where it is the same for every prior global hypothesis; the prior branching
+    // tracks are filled per hypothesis.
     ws.template.clear();
-    ws.template.extend((0..n_old).map(|t| ws.miss_child[map.track_start[t]]));
-    ws.template.extend((0..z.len()).map(|j| (ws.track_start[n_old + j] + 1) as u32));
+    for &t in &ws.multi {
+        ws.template.push(if t < n_old { ws.miss_child[map.track_start[t]] } else { (ws.track_start[t] + 1) as u32 });
+    }
+    let nm = ws.multi.len();
     ws.gh_hyp.clear();
     ws.gh_log_w.clear();
     for a in 0..map.hypotheses() {
-        let row = &map.gh_hyp[a * n_old..(a + 1) * n_old];
+        let prow = &map.gh_hyp[a * nb..(a + 1) * nb];
         let g = ws.group_of[a] as usize;
         if ws.problem.reset(&ws.ln_nu_new).is_err() || !solve_group(g, ws) {
             out.association_errors += 1;
             continue;
         }
+        let hyp_of = |t: usize| match ws.prior_slot[t] {
+            u32::MAX => map.track_start[t],
+            k => prow[k as usize] as usize,
+        };
         // `sum_i ln nu_i(empty)`: the tracks left out have `ln nu(empty) = 0` exactly.
-        let base: f64 = map.gh_log_w[a] + ws.ln_miss_tracks.iter().map(|&t| ws.ln_miss[row[t] as usize]).sum::<f64>();
+        let base: f64 = map.gh_log_w[a] + ws.ln_miss_tracks.iter().map(|&t| ws.ln_miss[hyp_of(t)]).sum::<f64>();
         let budget = (s.max_global_hypotheses as f64 * map.gh_log_w[a].exp()).ceil().max(1.0) as usize;
         ws.base_row.clear();
         ws.base_row.extend_from_slice(&ws.template);
-        for &t in &ws.multi {
-            ws.base_row[t] = ws.miss_child[row[t] as usize];
+        for (&t, &h) in map.branching.iter().zip(prow) {
+            ws.base_row[ws.slot[t] as usize] = ws.miss_child[h as usize];
         }
         let rows = &ws.group_tracks[ws.group_key_start[g]..ws.group_key_start[g + 1]];
+        let keys = &ws.group_key[ws.group_key_start[g]..ws.group_key_start[g + 1]];
         for asg in ws.group_asg[g].iter().take(budget) {
             let start = ws.gh_hyp.len();
             ws.gh_hyp.extend_from_slice(&ws.base_row);
             for (j, c) in asg.col_for_row.iter().enumerate() {
                 let Some(c) = *c else { continue };
                 if c < rows.len() {
-                    let t = rows[c];
-                    let h = row[t] as usize;
+                    // A track that gates a measurement and a new track both branch.
+                    let h = keys[c] as usize;
                     let det = &ws.det[ws.det_start[h]..ws.det_start[h + 1]];
                     let child = det.iter().find(|d| d.j == j).expect("assigned pairs are gated").child;
-                    ws.gh_hyp[start + t] = child;
-                    ws.gh_hyp[start + n_old + j] = ws.track_start[n_old + j] as u32;
+                    ws.gh_hyp[start + ws.slot[rows[c]] as usize] = child;
+                    ws.gh_hyp[start + ws.slot[n_old + j] as usize] = ws.track_start[n_old + j] as u32;
                 }
             }
             ws.gh_log_w.push(base - asg.cost);
         }
     }
-    debug_assert_eq!(ws.gh_hyp.len(), ws.gh_log_w.len() * n_new);
+    debug_assert_eq!(ws.gh_hyp.len(), ws.gh_log_w.len() * nm);
     out.ln_chi = log_sum_exp(&ws.gh_log_w);
     if !out.ln_chi.is_finite() {
         // Nothing was formed (every sub-problem refused): keep the prior map, all missed.
@@ -392,24 +427,38 @@ pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     out
 }
 
-/// Sorts the prior tracks for the update: `ln_miss_tracks`, those with a local hypothesis of
-/// `ln nu(empty) != 0`; `gating`, those with a local hypothesis that gates a measurement;
-/// `multi`, those with more than one local hypothesis (the others take their only one in
-/// every global hypothesis).
-fn classify_prior_tracks<const M: usize>(map: &PmbmDensity<M>, ws: &mut Workspace<M>) {
+/// Sorts the tracks for the update. Prior tracks: `ln_miss_tracks`, those with a local
+/// hypothesis of `ln nu(empty) != 0`; `gating`, those with a local hypothesis that gates a
+/// measurement; `prior_slot`, the column of a branching track in the prior rows. New arena:
+/// `multi`, the tracks with more than one local hypothesis (prior branching tracks, tracks
+/// that gate a measurement, the measurements' new tracks), and `slot`, their columns in the
+/// new rows.
+fn classify_tracks<const M: usize>(map: &PmbmDensity<M>, ws: &mut Workspace<M>) {
     ws.ln_miss_tracks.clear();
     ws.gating.clear();
-    ws.multi.clear();
     for t in 0..map.tracks() {
         let hs = map.track_start[t]..map.track_start[t + 1];
-        if hs.len() > 1 {
-            ws.multi.push(t);
-        }
         if hs.clone().any(|h| ws.ln_miss[h] != 0.0) {
             ws.ln_miss_tracks.push(t);
         }
         if hs.clone().any(|h| ws.det_start[h] != ws.det_start[h + 1]) {
             ws.gating.push(t);
+        }
+    }
+    ws.prior_slot.clear();
+    ws.prior_slot.resize(map.tracks(), u32::MAX);
+    for (k, &t) in map.branching.iter().enumerate() {
+        ws.prior_slot[t] = k as u32;
+    }
+    let n_new = ws.track_start.len() - 1;
+    ws.multi.clear();
+    ws.slot.clear();
+    for t in 0..n_new {
+        if ws.track_start[t + 1] - ws.track_start[t] > 1 {
+            ws.slot.push(ws.multi.len() as u32);
+            ws.multi.push(t);
+        } else {
+            ws.slot.push(u32::MAX);
         }
     }
 }
@@ -420,7 +469,7 @@ fn classify_prior_tracks<const M: usize>(map: &PmbmDensity<M>, ws: &mut Workspac
 /// and tracks and their budgets (the largest `ceil(B_max beta_a)` of their members), and
 /// marks every group unsolved.
 fn group_subproblems<const M: usize>(map: &PmbmDensity<M>, s: &UpdateSettings, ws: &mut Workspace<M>) {
-    let n_old = map.tracks();
+    let nb = map.branching.len();
     ws.group_of.clear();
     ws.group_hash.clear();
     ws.group_key.clear();
@@ -429,12 +478,15 @@ fn group_subproblems<const M: usize>(map: &PmbmDensity<M>, s: &UpdateSettings, w
     ws.group_key_start.push(0);
     ws.group_budget.clear();
     for a in 0..map.hypotheses() {
-        let row = &map.gh_hyp[a * n_old..(a + 1) * n_old];
+        let prow = &map.gh_hyp[a * nb..(a + 1) * nb];
         let key_start = ws.group_key.len();
         for &t in &ws.gating {
-            let h = row[t];
-            if ws.det_start[h as usize] != ws.det_start[h as usize + 1] {
-                ws.group_key.push(h);
+            let h = match ws.prior_slot[t] {
+                u32::MAX => map.track_start[t],
+                k => prow[k as usize] as usize,
+            };
+            if ws.det_start[h] != ws.det_start[h + 1] {
+                ws.group_key.push(h as u32);
                 ws.group_tracks.push(t);
             }
         }
@@ -512,11 +564,9 @@ fn fnv_step(h: u64, v: u32) -> u64 {
 /// with `r < bernoulli_prune` become non-existent (`r = 0`, one per track); global
 /// hypotheses made equal by that are merged; tracks absent from every global hypothesis
 /// and local hypotheses no global hypothesis references are deleted. The workspace's new
-/// arena (`n_new` tracks) becomes `map`.
-///
-/// Only the tracks with more than one local hypothesis (`multi`) can differ between global
-/// hypotheses; the passes over the table visit those columns only.
+/// arena (`n_new` tracks, rows over its `multi` tracks) becomes `map`.
 fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSettings, ws: &mut Workspace<M>) {
+    let nm = ws.multi.len();
     let ln_prune = s.gh_prune.ln();
     ws.order.clear();
     ws.order.extend(0..ws.gh_log_w.len());
@@ -534,49 +584,51 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
         }
         ws.absent.push(h.r == 0.0);
     }
-    ws.multi.clear();
-    ws.multi.extend((0..n_new).filter(|&t| ws.track_start[t + 1] - ws.track_start[t] > 1));
     ws.canon.clear();
-    ws.canon.resize(n_new, u32::MAX);
+    ws.canon.resize(nm, u32::MAX);
     let mut changed = false;
     for &a in &ws.order {
-        for &t in &ws.multi {
-            let h = ws.gh_hyp[a * n_new + t];
-            if ws.absent[h as usize] {
-                if ws.canon[t] == u32::MAX {
-                    ws.canon[t] = h;
+        for (k, h) in ws.gh_hyp[a * nm..(a + 1) * nm].iter_mut().enumerate() {
+            if ws.absent[*h as usize] {
+                if ws.canon[k] == u32::MAX {
+                    ws.canon[k] = *h;
                 }
-                changed |= h != ws.canon[t];
-                ws.gh_hyp[a * n_new + t] = ws.canon[t];
+                changed |= *h != ws.canon[k];
+                *h = ws.canon[k];
             }
         }
     }
     // Merge equal global hypotheses, weights added. New global hypotheses are distinct
     // (different prior hypotheses or assignments), so only a canonical substitution can make
-    // two equal: then sort by a hash of the rows, comparing rows only on equal hashes (on the
-    // `multi` columns: the others are equal in every row).
+    // two equal: then sort by a hash of the rows (over every track, in track order),
+    // comparing rows only on equal hashes.
     let rows = &ws.gh_hyp;
-    let row = |a: usize| &rows[a * n_new..(a + 1) * n_new];
-    let multi = &ws.multi;
-    let multi_cmp =
-        |a: usize, b: usize| multi.iter().map(|&t| rows[a * n_new + t]).cmp(multi.iter().map(|&t| rows[b * n_new + t]));
+    let row = |a: usize| &rows[a * nm..(a + 1) * nm];
     map.gh_log_w.clear();
     ws.referenced.clear(); // the surviving global hypotheses
     if changed {
         ws.row_hash.clear();
         ws.row_hash.resize(ws.gh_log_w.len(), 0);
         for &a in &ws.order {
-            ws.row_hash[a] = row(a).iter().fold(FNV_OFFSET, |h, &v| fnv_step(h, v));
+            let r = row(a);
+            let mut h = FNV_OFFSET;
+            let mut t0 = 0;
+            for (&t, &v) in ws.multi.iter().zip(r) {
+                h = (t0..t).fold(h, |h, u| fnv_step(h, ws.track_start[u] as u32));
+                h = fnv_step(h, v);
+                t0 = t + 1;
+            }
+            ws.row_hash[a] = (t0..n_new).fold(h, |h, u| fnv_step(h, ws.track_start[u] as u32));
         }
         let hash = &ws.row_hash;
-        ws.order.sort_by(|&a, &b| hash[a].cmp(&hash[b]).then_with(|| multi_cmp(a, b)).then(a.cmp(&b)));
+        ws.order.sort_by(|&a, &b| hash[a].cmp(&hash[b]).then_with(|| row(a).cmp(row(b))).then(a.cmp(&b)));
     }
     let mut k = 0;
     while k < ws.order.len() {
         let a = ws.order[k];
         let mut w = ws.gh_log_w[a];
         let mut e = k + 1;
-        while changed && e < ws.order.len() && multi_cmp(ws.order[e], a).is_eq() {
+        while changed && e < ws.order.len() && row(ws.order[e]) == row(a) {
             w = log_add(w, ws.gh_log_w[ws.order[e]]);
             e += 1;
         }
@@ -597,56 +649,45 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
     ws.keep_track.resize(n_new, false);
     ws.canon.clear();
     ws.canon.resize(ws.hyps.len(), u32::MAX);
-    for t in 0..n_new {
+    for t in (0..n_new).filter(|&t| ws.slot[t] == u32::MAX) {
         let h = ws.track_start[t];
-        if ws.track_start[t + 1] - h == 1 {
-            ws.canon[h] = 0;
-            ws.keep_track[t] = !ws.absent[h];
-        }
+        ws.canon[h] = 0;
+        ws.keep_track[t] = !ws.absent[h];
     }
     for &g in &ws.referenced {
-        let g = g as usize;
-        for &t in multi {
-            let h = rows[g * n_new + t] as usize;
-            ws.canon[h] = 0;
-            ws.keep_track[t] |= !ws.absent[h];
+        for (&t, &h) in ws.multi.iter().zip(row(g as usize)) {
+            ws.canon[h as usize] = 0;
+            ws.keep_track[t] |= !ws.absent[h as usize];
         }
     }
     map.hyps.clear();
     map.track_start.clear();
+    map.branching.clear();
+    ws.kept_multi.clear();
     for t in 0..n_new {
         if !ws.keep_track[t] {
             continue;
         }
-        map.track_start.push(map.hyps.len());
+        let start = map.hyps.len();
+        map.track_start.push(start);
         for h in ws.track_start[t]..ws.track_start[t + 1] {
             if ws.canon[h] != u32::MAX {
                 ws.canon[h] = map.hyps.len() as u32;
                 map.hyps.push(ws.hyps[h]);
             }
         }
+        if map.hyps.len() - start > 1 {
+            map.branching.push(map.track_start.len() - 1);
+            ws.kept_multi.push(ws.slot[t] as usize);
+        }
     }
     map.track_start.push(map.hyps.len());
-    // The new rows: a template of the kept single-hypothesis tracks, the kept `multi`
-    // tracks (column, track) filled per row.
-    ws.template.clear();
-    ws.kept_multi.clear();
-    for t in (0..n_new).filter(|&t| ws.keep_track[t]) {
-        let h = ws.track_start[t];
-        if ws.track_start[t + 1] - h > 1 {
-            ws.kept_multi.push((ws.template.len(), t));
-        }
-        ws.template.push(ws.canon[h]);
-    }
     map.gh_hyp.clear();
     let weights = std::mem::take(&mut map.gh_log_w);
     for &o in &ws.order {
-        let g = ws.referenced[o] as usize;
-        let start = map.gh_hyp.len();
-        map.gh_hyp.extend_from_slice(&ws.template);
-        for &(c, t) in &ws.kept_multi {
-            map.gh_hyp[start + c] = ws.canon[rows[g * n_new + t] as usize];
-        }
+        let g = row(ws.referenced[o] as usize);
+        let canon = &ws.canon;
+        map.gh_hyp.extend(ws.kept_multi.iter().map(|&k| canon[g[k] as usize]));
         map.gh_log_w.push(weights[o] - total);
     }
 }
@@ -661,7 +702,7 @@ fn log_add(a: f64, b: f64) -> f64 {
 /// association probabilities by loopy belief propagation (\[WilliamsLau2014\]), TOMB/P
 /// (eqs. 48-51) back to one Bernoulli per track, tracks with `r < bernoulli_prune`
 /// deleted. `ln_chi` is `-F` (Proposition 2) or the most likely association's log weight
-/// (eq. 47). `map` must hold one global hypothesis.
+/// (eq. 47). `map` must hold one global hypothesis (so one local hypothesis per track).
 pub fn pmb_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     map: &mut PmbmDensity<M>,
     x: &Pose,
@@ -671,7 +712,7 @@ pub fn pmb_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     weight: PmbWeight,
     ws: &mut Workspace<M>,
 ) -> UpdateOutcome {
-    debug_assert_eq!(map.hypotheses(), 1);
+    debug_assert!(map.hypotheses() == 1 && map.branching.is_empty());
     let mut out = UpdateOutcome { cholesky_failures: children(map, x, z, model, s, ws), ..Default::default() };
     let n_old = map.tracks();
     // The problem holds the tracks that gate a measurement; the others are missed with
@@ -680,7 +721,7 @@ pub fn pmb_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     ws.rows.clear();
     let mut failed = ws.problem.reset(&ws.ln_nu_new).is_err();
     for t in 0..n_old {
-        let h = map.gh_hyp[t] as usize;
+        let h = map.track_start[t];
         if ws.det_start[h] == ws.det_start[h + 1] {
             ln_fixed += ws.ln_miss[h];
             continue;
@@ -709,7 +750,7 @@ pub fn pmb_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     map.hyps.clear();
     let mut row = 0;
     for t in 0..n_old {
-        let h = map.gh_hyp[t] as usize;
+        let h = map.track_start[t];
         let merged = if ws.rows.get(row) == Some(&t) {
             let p = ws.lbp.track_marginals(row);
             row += 1;
@@ -745,8 +786,8 @@ pub fn pmb_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     let n = map.hyps.len();
     map.track_start.clear();
     map.track_start.extend(0..=n);
+    map.branching.clear();
     map.gh_hyp.clear();
-    map.gh_hyp.extend(0..n as u32);
     map.gh_log_w.clear();
     map.gh_log_w.push(0.0);
     out
