@@ -609,17 +609,7 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
     if changed {
         ws.row_hash.clear();
         ws.row_hash.resize(ws.gh_log_w.len(), 0);
-        for &a in &ws.order {
-            let r = row(a);
-            let mut h = FNV_OFFSET;
-            let mut t0 = 0;
-            for (&t, &v) in ws.multi.iter().zip(r) {
-                h = (t0..t).fold(h, |h, u| fnv_step(h, ws.track_start[u] as u32));
-                h = fnv_step(h, v);
-                t0 = t + 1;
-            }
-            ws.row_hash[a] = (t0..n_new).fold(h, |h, u| fnv_step(h, ws.track_start[u] as u32));
-        }
+        row_hashes(&ws.order, rows, &ws.multi, &ws.track_start[..n_new], &mut ws.row_hash);
         let hash = &ws.row_hash;
         ws.order.sort_by(|&a, &b| hash[a].cmp(&hash[b]).then_with(|| row(a).cmp(row(b))).then(a.cmp(&b)));
     }
@@ -689,6 +679,36 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
         let canon = &ws.canon;
         map.gh_hyp.extend(ws.kept_multi.iter().map(|&k| canon[g[k] as usize]));
         map.gh_log_w.push(weights[o] - total);
+    }
+}
+
+/// FNV-1a hash of each global hypothesis `a` in `order` over every track in track order
+/// (`rows`: its values on the `multi` tracks; a track with one local hypothesis contributes
+/// that one, its `track_start`), into `out[a]`. Four rows at a time: the hash is a chain of
+/// dependent multiplications, so interleaving rows hides their latency.
+fn row_hashes(order: &[usize], rows: &[u32], multi: &[usize], track_start: &[usize], out: &mut [u64]) {
+    const LANES: usize = 4;
+    let nm = multi.len();
+    for chunk in order.chunks(LANES) {
+        let mut h = [FNV_OFFSET; LANES];
+        let mut t0 = 0;
+        for k in 0..=nm {
+            let t = multi.get(k).copied().unwrap_or(track_start.len());
+            for &v in &track_start[t0..t] {
+                for hl in &mut h {
+                    *hl = fnv_step(*hl, v as u32);
+                }
+            }
+            if k < nm {
+                for (hl, &a) in h.iter_mut().zip(chunk) {
+                    *hl = fnv_step(*hl, rows[a * nm + k]);
+                }
+            }
+            t0 = t + 1;
+        }
+        for (&hl, &a) in h.iter().zip(chunk) {
+            out[a] = hl;
+        }
     }
 }
 
