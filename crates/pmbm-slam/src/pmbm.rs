@@ -6,8 +6,8 @@
 //! Storage is flat so that a warmed-up particle does not allocate: the local hypotheses
 //! of every track in one arena (`track_start` delimits the tracks), the global hypotheses
 //! as rows of absolute local-hypothesis indices, one per track with more than one local
-//! hypothesis (a track with one takes it in every global hypothesis: most tracks, those no
-//! measurement has gated since the last reduction, need no column). The undetected landmarks
+//! hypothesis (a track with one takes it in every global hypothesis, so it needs no column;
+//! most tracks are such, every global hypothesis agreeing on them). The undetected landmarks
 //! are a Poisson point process of constant intensity `kappa_u` (not stored: \[Kim2022\] sets
 //! `p_D ~ 0` in step i, so it never changes).
 
@@ -84,7 +84,8 @@ impl<const M: usize> PmbmDensity<M> {
         self.gh_log_w.len()
     }
 
-    /// The local hypotheses of global hypothesis `a`, one per track.
+    /// The local hypotheses of global hypothesis `a`, one per track (a track that does not
+    /// branch gives its only one).
     pub fn global(&self, a: usize) -> impl Iterator<Item = &LocalHypothesis<M>> + '_ {
         let nb = self.branching.len();
         let row = &self.gh_hyp[a * nb..(a + 1) * nb];
@@ -191,9 +192,8 @@ pub struct Workspace<const M: usize> {
     problem: AssociationProblem,
     /// Track of each problem row (PMB).
     rows: Vec<usize>,
-    /// Prior tracks (PMBM): with a local hypothesis of `ln nu(empty) != 0`, with one that
-    /// gates a measurement, with more than one local hypothesis (also reused for the new
-    /// tracks in the reduction).
+    /// Prior tracks (PMBM): with a local hypothesis of `ln nu(empty) != 0`, and with one
+    /// that gates a measurement.
     ln_miss_tracks: Vec<usize>,
     gating: Vec<usize>,
     /// Per prior track: its column among the prior map's branching tracks (`u32::MAX`: none).
