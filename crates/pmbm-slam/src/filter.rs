@@ -94,7 +94,7 @@ impl PoseDraw {
 
 /// A PMBM-family filter over the measurement model `S` (landmarks in `M`, measurements in
 /// `Z` dimensions).
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct PmbmFilter<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> {
     variant: Variant,
     params: Params,
@@ -250,7 +250,7 @@ pub fn range_bearing_model(params: &Params, models: &SlamModels) -> RangeBearing
 macro_rules! variant_filter {
     ($(#[$doc:meta])* $ty:ident, $variant:expr, $name:literal) => {
         $(#[$doc])*
-        #[derive(Debug)]
+        #[derive(Debug, Clone)]
         pub struct $ty(pub RangeBearingPmbm);
 
         impl $ty {

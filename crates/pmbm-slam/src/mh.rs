@@ -84,7 +84,7 @@ impl std::fmt::Debug for MhDraw {
 /// `pmbm-slam-mh`: PMBM-SLAM (\[Kim2022\] Section IV-B) with the poses drawn from PHD-SLAM
 /// 3.0's multi-hypotheses importance density on each particle's heaviest global hypothesis
 /// (our variant; see the module docs).
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct PmbmSlamMh {
     /// The PMBM filter on the range-bearing sensor.
     pub filter: RangeBearingPmbm,

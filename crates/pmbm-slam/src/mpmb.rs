@@ -141,7 +141,7 @@ struct Detection<const M: usize> {
 }
 
 /// Reusable buffers of one recursion.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 struct Workspace<const M: usize, const Z: usize> {
     missed: Vec<GaussianBernoulli<M>>,
     ln_miss: Vec<f64>,
@@ -192,7 +192,7 @@ impl<const M: usize, const Z: usize> Default for Workspace<M, Z> {
 }
 
 /// The marginalized PMB filter over the measurement model `S`.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct MpmbFilter<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> {
     params: MpmbParams,
     models: SlamModels,
@@ -527,7 +527,7 @@ fn report(components: usize, cholesky_failures: u32) -> StepReport {
 
 /// `mpmb-slam`: marginalized PMB-SLAM (\[Kim2022\] Section IV-D) on the planar range-bearing
 /// sensor of a scenario.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct MpmbSlam(pub MpmbFilter<RangeBearingModel, 2, 2>);
 
 impl MpmbSlam {

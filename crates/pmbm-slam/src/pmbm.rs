@@ -5,7 +5,9 @@
 //!
 //! Storage is flat so that a warmed-up particle does not allocate: the local hypotheses
 //! of every track in one arena (`track_start` delimits the tracks), the global hypotheses
-//! as rows of absolute local-hypothesis indices, one per track. The undetected landmarks
+//! as rows of absolute local-hypothesis indices, one per track with more than one local
+//! hypothesis (a track with one takes it in every global hypothesis, so it needs no column;
+//! most tracks are such, every global hypothesis agreeing on them). The undetected landmarks
 //! are a Poisson point process of constant intensity `kappa_u` (not stored: \[Kim2022\] sets
 //! `p_D ~ 0` in step i, so it never changes).
 
@@ -33,8 +35,11 @@ pub struct PmbmDensity<const M: usize> {
     pub hyps: Vec<LocalHypothesis<M>>,
     /// Start of each track's local hypotheses, plus the end (`tracks + 1` entries, or none).
     pub track_start: Vec<usize>,
-    /// Global hypotheses, row-major `hypotheses x tracks`: the local hypothesis (index into
-    /// `hyps`) of each track.
+    /// The tracks with more than one local hypothesis, ascending. Every other track has
+    /// exactly one, which every global hypothesis takes.
+    pub branching: Vec<usize>,
+    /// Global hypotheses, row-major `hypotheses x branching.len()`: the local hypothesis
+    /// (index into `hyps`) of each branching track.
     pub gh_hyp: Vec<u32>,
     /// Normalised log weights `ln beta` of the global hypotheses, heaviest first.
     pub gh_log_w: Vec<f64>,
@@ -51,6 +56,7 @@ impl<const M: usize> Clone for PmbmDensity<M> {
     fn clone_from(&mut self, src: &Self) {
         self.hyps.clone_from(&src.hyps);
         self.track_start.clone_from(&src.track_start);
+        self.branching.clone_from(&src.branching);
         self.gh_hyp.clone_from(&src.gh_hyp);
         self.gh_log_w.clone_from(&src.gh_log_w);
     }
@@ -59,7 +65,13 @@ impl<const M: usize> Clone for PmbmDensity<M> {
 impl<const M: usize> PmbmDensity<M> {
     /// An empty map: no track, one global hypothesis of weight one.
     pub fn new() -> Self {
-        PmbmDensity { hyps: Vec::new(), track_start: vec![0], gh_hyp: Vec::new(), gh_log_w: vec![0.0] }
+        PmbmDensity {
+            hyps: Vec::new(),
+            track_start: vec![0],
+            branching: Vec::new(),
+            gh_hyp: Vec::new(),
+            gh_log_w: vec![0.0],
+        }
     }
 
     /// Number of tracks.
@@ -72,10 +84,21 @@ impl<const M: usize> PmbmDensity<M> {
         self.gh_log_w.len()
     }
 
-    /// The local hypotheses of global hypothesis `a`, one per track.
+    /// The local hypotheses of global hypothesis `a`, one per track (a track that does not
+    /// branch gives its only one).
     pub fn global(&self, a: usize) -> impl Iterator<Item = &LocalHypothesis<M>> + '_ {
-        let t = self.tracks();
-        self.gh_hyp[a * t..(a + 1) * t].iter().map(|&h| &self.hyps[h as usize])
+        let nb = self.branching.len();
+        let row = &self.gh_hyp[a * nb..(a + 1) * nb];
+        let mut k = 0;
+        (0..self.tracks()).map(move |t| {
+            let h = if self.branching.get(k) == Some(&t) {
+                k += 1;
+                row[k - 1] as usize
+            } else {
+                self.track_start[t]
+            };
+            &self.hyps[h]
+        })
     }
 
     /// Tracks built from single Bernoullis and one global hypothesis (a PMB).
@@ -83,7 +106,8 @@ impl<const M: usize> PmbmDensity<M> {
         PmbmDensity {
             hyps: bernoullis.to_vec(),
             track_start: (0..=bernoullis.len()).collect(),
-            gh_hyp: (0..bernoullis.len() as u32).collect(),
+            branching: Vec::new(),
+            gh_hyp: Vec::new(),
             gh_log_w: vec![0.0],
         }
     }
@@ -149,7 +173,7 @@ struct Detection {
 }
 
 /// The reusable buffers of the update (one per filter, shared by its particles).
-#[derive(Debug, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct Workspace<const M: usize> {
     /// Per prior local hypothesis: `ln nu(empty)`, its missed child and its detections.
     ln_miss: Vec<f64>,
@@ -166,13 +190,37 @@ pub struct Workspace<const M: usize> {
     gh_log_w: Vec<f64>,
     /// Association sub-problem of one prior global hypothesis (PMBM) or of the PMB.
     problem: AssociationProblem,
-    /// Track of each problem row.
+    /// Track of each problem row (PMB).
     rows: Vec<usize>,
+    /// Prior tracks (PMBM): with a local hypothesis of `ln nu(empty) != 0`, and with one
+    /// that gates a measurement.
+    ln_miss_tracks: Vec<usize>,
+    gating: Vec<usize>,
+    /// Per prior track: its column among the prior map's branching tracks (`u32::MAX`: none).
+    prior_slot: Vec<u32>,
+    /// The new arena's tracks with more than one local hypothesis (the columns of the new
+    /// global hypotheses), and each new track's column among them (`u32::MAX`: none).
+    multi: Vec<usize>,
+    slot: Vec<u32>,
+    /// Sub-problem groups (PMBM): the group of each prior global hypothesis; per group the
+    /// hash and key (local hypotheses on the gating tracks, delimited by `group_key_start`),
+    /// the key's tracks, the largest budget, the state and the ranked assignments.
+    group_of: Vec<u32>,
+    group_hash: Vec<u64>,
+    group_key: Vec<u32>,
+    group_tracks: Vec<usize>,
+    group_key_start: Vec<usize>,
+    group_budget: Vec<usize>,
+    group_state: Vec<GroupState>,
+    group_asg: Vec<Vec<Assignment>>,
+    /// A new global-hypothesis row with the columns every row shares.
+    template: Vec<u32>,
+    /// Columns (in the new rows) of the tracks that branch in the reduced map.
+    kept_multi: Vec<usize>,
     /// New global-hypothesis row of the all-missed assignment of one prior hypothesis.
     base_row: Vec<u32>,
     cost: Vec<f64>,
     murty: Murty,
-    assignments: Vec<Assignment>,
     lbp: LbpSolver,
     best: BestAssociation,
     /// Reduction scratch.
@@ -181,7 +229,6 @@ pub struct Workspace<const M: usize> {
     referenced: Vec<u32>,
     canon: Vec<u32>,
     keep_track: Vec<bool>,
-    kept: Vec<usize>,
     absent: Vec<bool>,
     merge_p: Vec<f64>,
     merge_h: Vec<LocalHypothesis<M>>,
@@ -298,6 +345,12 @@ fn children<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
 /// cost matrix by Murty's algorithm become new global hypotheses of log weight
 /// `ln beta_a + sum_i ln nu_i(empty) - cost`; `ln chi` is their log-sum-exp (Proposition 1);
 /// then the reduction of Section V (pruning and capping at `B_max`, merging, deletions).
+///
+/// The cost matrix of `a` depends only on the local hypotheses `a` takes on the tracks
+/// that gate a measurement, and many prior global hypotheses agree there: each distinct
+/// matrix is ranked once, for the largest budget of the hypotheses that share it, and each
+/// of them takes its own budget's prefix of that ranking (Murty's enumeration does not
+/// depend on the budget before it stops, so the prefix is what its own call would return).
 pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     map: &mut PmbmDensity<M>,
     x: &Pose,
@@ -309,64 +362,58 @@ pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     let mut out = UpdateOutcome { cholesky_failures: children(map, x, z, model, s, ws), ..Default::default() };
     let n_old = map.tracks();
     let n_new = n_old + z.len();
+    let nb = map.branching.len();
+    classify_tracks(map, ws);
+    group_subproblems(map, s, ws);
+    // The all-missed row (every measurement a new track, "exists") on the new branching
+    // tracks, where it is the same for every prior global hypothesis; the prior branching
+    // tracks are filled per hypothesis.
+    ws.template.clear();
+    for &t in &ws.multi {
+        ws.template.push(if t < n_old { ws.miss_child[map.track_start[t]] } else { (ws.track_start[t] + 1) as u32 });
+    }
+    let nm = ws.multi.len();
     ws.gh_hyp.clear();
     ws.gh_log_w.clear();
     for a in 0..map.hypotheses() {
-        let row = &map.gh_hyp[a * n_old..(a + 1) * n_old];
-        let base: f64 = map.gh_log_w[a] + row.iter().map(|&h| ws.ln_miss[h as usize]).sum::<f64>();
-        let budget = (s.max_global_hypotheses as f64 * map.gh_log_w[a].exp()).ceil().max(1.0) as usize;
-        // Only tracks that gate a measurement are columns: the others are missed for sure.
-        if ws.problem.reset(&ws.ln_nu_new).is_err() {
+        let prow = &map.gh_hyp[a * nb..(a + 1) * nb];
+        let g = ws.group_of[a] as usize;
+        if ws.problem.reset(&ws.ln_nu_new).is_err() || !solve_group(g, ws) {
             out.association_errors += 1;
             continue;
         }
-        ws.rows.clear();
-        let mut failed = false;
-        for (t, &h) in row.iter().enumerate() {
-            let h = h as usize;
-            if ws.det_start[h] == ws.det_start[h + 1] {
-                continue;
-            }
-            let gates = ws.det[ws.det_start[h]..ws.det_start[h + 1]].iter().map(|d| (d.j, d.ln_nu));
-            failed |= ws.problem.push_track(ws.ln_miss[h], gates).is_err();
-            ws.rows.push(t);
-        }
-        let cost = match ws.problem.measurement_cost_matrix(std::mem::take(&mut ws.cost)) {
-            Ok(c) if !failed => c,
-            _ => {
-                out.association_errors += 1;
-                continue;
-            }
+        let hyp_of = |t: usize| match ws.prior_slot[t] {
+            u32::MAX => map.track_start[t],
+            k => prow[k as usize] as usize,
         };
-        let found = ws.murty.k_best(&cost, &MurtyOptions::best(budget), &mut ws.assignments);
-        ws.cost = cost.into_data();
-        if found.is_err() {
-            out.association_errors += 1;
-            continue;
-        }
-        let cols = ws.rows.len();
-        // The all-missed row (every measurement a new track, "exists"), copied per assignment.
+        // `sum_i ln nu_i(empty)`: the tracks left out have `ln nu(empty) = 0` exactly.
+        let base: f64 = map.gh_log_w[a] + ws.ln_miss_tracks.iter().map(|&t| ws.ln_miss[hyp_of(t)]).sum::<f64>();
+        let budget = (s.max_global_hypotheses as f64 * map.gh_log_w[a].exp()).ceil().max(1.0) as usize;
         ws.base_row.clear();
-        ws.base_row.extend(row.iter().map(|&h| ws.miss_child[h as usize]));
-        ws.base_row.extend((0..z.len()).map(|j| (ws.track_start[n_old + j] + 1) as u32));
-        for asg in &ws.assignments {
+        ws.base_row.extend_from_slice(&ws.template);
+        for (&t, &h) in map.branching.iter().zip(prow) {
+            ws.base_row[ws.slot[t] as usize] = ws.miss_child[h as usize];
+        }
+        let rows = &ws.group_tracks[ws.group_key_start[g]..ws.group_key_start[g + 1]];
+        let keys = &ws.group_key[ws.group_key_start[g]..ws.group_key_start[g + 1]];
+        for asg in ws.group_asg[g].iter().take(budget) {
             let start = ws.gh_hyp.len();
             ws.gh_hyp.extend_from_slice(&ws.base_row);
             for (j, c) in asg.col_for_row.iter().enumerate() {
                 let Some(c) = *c else { continue };
-                if c < cols {
-                    let t = ws.rows[c];
-                    let h = row[t] as usize;
+                if c < rows.len() {
+                    // A track that gates a measurement and a new track both branch.
+                    let h = keys[c] as usize;
                     let det = &ws.det[ws.det_start[h]..ws.det_start[h + 1]];
                     let child = det.iter().find(|d| d.j == j).expect("assigned pairs are gated").child;
-                    ws.gh_hyp[start + t] = child;
-                    ws.gh_hyp[start + n_old + j] = ws.track_start[n_old + j] as u32;
+                    ws.gh_hyp[start + ws.slot[rows[c]] as usize] = child;
+                    ws.gh_hyp[start + ws.slot[n_old + j] as usize] = ws.track_start[n_old + j] as u32;
                 }
             }
             ws.gh_log_w.push(base - asg.cost);
         }
     }
-    debug_assert_eq!(ws.gh_hyp.len(), ws.gh_log_w.len() * n_new);
+    debug_assert_eq!(ws.gh_hyp.len(), ws.gh_log_w.len() * nm);
     out.ln_chi = log_sum_exp(&ws.gh_log_w);
     if !out.ln_chi.is_finite() {
         // Nothing was formed (every sub-problem refused): keep the prior map, all missed.
@@ -380,13 +427,146 @@ pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     out
 }
 
+/// Sorts the tracks for the update. Prior tracks: `ln_miss_tracks`, those with a local
+/// hypothesis of `ln nu(empty) != 0`; `gating`, those with a local hypothesis that gates a
+/// measurement; `prior_slot`, the column of a branching track in the prior rows. New arena:
+/// `multi`, the tracks with more than one local hypothesis (prior branching tracks, tracks
+/// that gate a measurement, the measurements' new tracks), and `slot`, their columns in the
+/// new rows.
+fn classify_tracks<const M: usize>(map: &PmbmDensity<M>, ws: &mut Workspace<M>) {
+    ws.ln_miss_tracks.clear();
+    ws.gating.clear();
+    for t in 0..map.tracks() {
+        let hs = map.track_start[t]..map.track_start[t + 1];
+        if hs.clone().any(|h| ws.ln_miss[h] != 0.0) {
+            ws.ln_miss_tracks.push(t);
+        }
+        if hs.clone().any(|h| ws.det_start[h] != ws.det_start[h + 1]) {
+            ws.gating.push(t);
+        }
+    }
+    ws.prior_slot.clear();
+    ws.prior_slot.resize(map.tracks(), u32::MAX);
+    for (k, &t) in map.branching.iter().enumerate() {
+        ws.prior_slot[t] = k as u32;
+    }
+    let n_new = ws.track_start.len() - 1;
+    ws.multi.clear();
+    ws.slot.clear();
+    for t in 0..n_new {
+        if ws.track_start[t + 1] - ws.track_start[t] > 1 {
+            ws.slot.push(ws.multi.len() as u32);
+            ws.multi.push(t);
+        } else {
+            ws.slot.push(u32::MAX);
+        }
+    }
+}
+
+/// Groups the prior global hypotheses by their association sub-problem: the sequence of
+/// local hypotheses they take on the tracks that gate a measurement (which fixes the rows
+/// of the cost matrix, in track order). Fills `group_of` (per hypothesis), the groups' keys
+/// and tracks and their budgets (the largest `ceil(B_max beta_a)` of their members), and
+/// marks every group unsolved.
+fn group_subproblems<const M: usize>(map: &PmbmDensity<M>, s: &UpdateSettings, ws: &mut Workspace<M>) {
+    let nb = map.branching.len();
+    ws.group_of.clear();
+    ws.group_hash.clear();
+    ws.group_key.clear();
+    ws.group_tracks.clear();
+    ws.group_key_start.clear();
+    ws.group_key_start.push(0);
+    ws.group_budget.clear();
+    for a in 0..map.hypotheses() {
+        let prow = &map.gh_hyp[a * nb..(a + 1) * nb];
+        let key_start = ws.group_key.len();
+        for &t in &ws.gating {
+            let h = match ws.prior_slot[t] {
+                u32::MAX => map.track_start[t],
+                k => prow[k as usize] as usize,
+            };
+            if ws.det_start[h] != ws.det_start[h + 1] {
+                ws.group_key.push(h as u32);
+                ws.group_tracks.push(t);
+            }
+        }
+        let key = &ws.group_key[key_start..];
+        let hash = key.iter().fold(FNV_OFFSET, |h, &v| fnv_step(h, v));
+        let ks = &ws.group_key_start;
+        let found =
+            (0..ws.group_hash.len()).find(|&g| ws.group_hash[g] == hash && ws.group_key[ks[g]..ks[g + 1]] == *key);
+        let budget = (s.max_global_hypotheses as f64 * map.gh_log_w[a].exp()).ceil().max(1.0) as usize;
+        let g = match found {
+            Some(g) => {
+                ws.group_key.truncate(key_start);
+                ws.group_tracks.truncate(key_start);
+                ws.group_budget[g] = ws.group_budget[g].max(budget);
+                g
+            }
+            None => {
+                ws.group_hash.push(hash);
+                ws.group_key_start.push(ws.group_key.len());
+                ws.group_budget.push(budget);
+                ws.group_hash.len() - 1
+            }
+        };
+        ws.group_of.push(g as u32);
+    }
+    let groups = ws.group_hash.len();
+    ws.group_state.clear();
+    ws.group_state.resize(groups, GroupState::Unsolved);
+    if ws.group_asg.len() < groups {
+        ws.group_asg.resize_with(groups, Vec::new);
+    }
+}
+
+/// Whether a group's sub-problem has been ranked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum GroupState {
+    Unsolved,
+    Solved,
+    Failed,
+}
+
+/// Ranks group `g`'s sub-problem by Murty's algorithm for the group's budget, on its first
+/// use (`ws.problem` must have been reset to the new-track factors). Returns whether the
+/// group has its assignments (`false`: the association step refused the sub-problem).
+fn solve_group<const M: usize>(g: usize, ws: &mut Workspace<M>) -> bool {
+    if ws.group_state[g] == GroupState::Unsolved {
+        let mut failed = false;
+        for &h in &ws.group_key[ws.group_key_start[g]..ws.group_key_start[g + 1]] {
+            let h = h as usize;
+            let gates = ws.det[ws.det_start[h]..ws.det_start[h + 1]].iter().map(|d| (d.j, d.ln_nu));
+            failed |= ws.problem.push_track(ws.ln_miss[h], gates).is_err();
+        }
+        let solved = match ws.problem.measurement_cost_matrix(std::mem::take(&mut ws.cost)) {
+            Ok(cost) if !failed => {
+                let found = ws.murty.k_best(&cost, &MurtyOptions::best(ws.group_budget[g]), &mut ws.group_asg[g]);
+                ws.cost = cost.into_data();
+                found.is_ok()
+            }
+            _ => false,
+        };
+        ws.group_state[g] = if solved { GroupState::Solved } else { GroupState::Failed };
+    }
+    ws.group_state[g] == GroupState::Solved
+}
+
+const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+
+/// One step of the FNV-1a hash.
+fn fnv_step(h: u64, v: u32) -> u64 {
+    (h ^ u64::from(v)).wrapping_mul(0x100_0000_01b3)
+}
+
 /// Reduction (\[Kim2022\] Section V): keep the global hypotheses with normalised weight at
 /// least `gh_prune`, at most `B_max`, heaviest first (the best always); local hypotheses
 /// with `r < bernoulli_prune` become non-existent (`r = 0`, one per track); global
 /// hypotheses made equal by that are merged; tracks absent from every global hypothesis
 /// and local hypotheses no global hypothesis references are deleted. The workspace's new
-/// arena (`n_new` tracks) becomes `map`.
+/// arena (`n_new` tracks, rows over its `multi` tracks) becomes `map`.
 fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSettings, ws: &mut Workspace<M>) {
+    let nm = ws.multi.len();
     let ln_prune = s.gh_prune.ln();
     ws.order.clear();
     ws.order.extend(0..ws.gh_log_w.len());
@@ -405,34 +585,31 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
         ws.absent.push(h.r == 0.0);
     }
     ws.canon.clear();
-    ws.canon.resize(n_new, u32::MAX);
+    ws.canon.resize(nm, u32::MAX);
     let mut changed = false;
     for &a in &ws.order {
-        for t in 0..n_new {
-            let h = ws.gh_hyp[a * n_new + t];
-            if ws.absent[h as usize] {
-                if ws.canon[t] == u32::MAX {
-                    ws.canon[t] = h;
+        for (k, h) in ws.gh_hyp[a * nm..(a + 1) * nm].iter_mut().enumerate() {
+            if ws.absent[*h as usize] {
+                if ws.canon[k] == u32::MAX {
+                    ws.canon[k] = *h;
                 }
-                changed |= h != ws.canon[t];
-                ws.gh_hyp[a * n_new + t] = ws.canon[t];
+                changed |= *h != ws.canon[k];
+                *h = ws.canon[k];
             }
         }
     }
     // Merge equal global hypotheses, weights added. New global hypotheses are distinct
     // (different prior hypotheses or assignments), so only a canonical substitution can make
-    // two equal: then sort by a hash of the rows, comparing rows only on equal hashes.
+    // two equal: then sort by a hash of the rows (over every track, in track order),
+    // comparing rows only on equal hashes.
     let rows = &ws.gh_hyp;
-    let row = |a: usize| &rows[a * n_new..(a + 1) * n_new];
+    let row = |a: usize| &rows[a * nm..(a + 1) * nm];
     map.gh_log_w.clear();
     ws.referenced.clear(); // the surviving global hypotheses
     if changed {
         ws.row_hash.clear();
         ws.row_hash.resize(ws.gh_log_w.len(), 0);
-        for &a in &ws.order {
-            ws.row_hash[a] =
-                row(a).iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &v| (h ^ u64::from(v)).wrapping_mul(0x100_0000_01b3));
-        }
+        row_hashes(&ws.order, rows, &ws.multi, &ws.track_start[..n_new], &mut ws.row_hash);
         let hash = &ws.row_hash;
         ws.order.sort_by(|&a, &b| hash[a].cmp(&hash[b]).then_with(|| row(a).cmp(row(b))).then(a.cmp(&b)));
     }
@@ -456,41 +633,82 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
     let mw = &map.gh_log_w;
     ws.order.sort_by(|&a, &b| mw[b].total_cmp(&mw[a]).then(a.cmp(&b)));
     let total = log_sum_exp(&map.gh_log_w);
-    // Tracks that exist in some kept global hypothesis; referenced local hypotheses.
+    // Tracks that exist in some kept global hypothesis; referenced local hypotheses (a
+    // track's only local hypothesis is referenced by every global hypothesis).
     ws.keep_track.clear();
     ws.keep_track.resize(n_new, false);
     ws.canon.clear();
     ws.canon.resize(ws.hyps.len(), u32::MAX);
+    for t in (0..n_new).filter(|&t| ws.slot[t] == u32::MAX) {
+        let h = ws.track_start[t];
+        ws.canon[h] = 0;
+        ws.keep_track[t] = !ws.absent[h];
+    }
     for &g in &ws.referenced {
-        for (t, &h) in row(g as usize).iter().enumerate() {
+        for (&t, &h) in ws.multi.iter().zip(row(g as usize)) {
             ws.canon[h as usize] = 0;
             ws.keep_track[t] |= !ws.absent[h as usize];
         }
     }
     map.hyps.clear();
     map.track_start.clear();
+    map.branching.clear();
+    ws.kept_multi.clear();
     for t in 0..n_new {
         if !ws.keep_track[t] {
             continue;
         }
-        map.track_start.push(map.hyps.len());
+        let start = map.hyps.len();
+        map.track_start.push(start);
         for h in ws.track_start[t]..ws.track_start[t + 1] {
             if ws.canon[h] != u32::MAX {
                 ws.canon[h] = map.hyps.len() as u32;
                 map.hyps.push(ws.hyps[h]);
             }
         }
+        if map.hyps.len() - start > 1 {
+            map.branching.push(map.track_start.len() - 1);
+            ws.kept_multi.push(ws.slot[t] as usize);
+        }
     }
     map.track_start.push(map.hyps.len());
     map.gh_hyp.clear();
     let weights = std::mem::take(&mut map.gh_log_w);
-    ws.kept.clear();
-    ws.kept.extend((0..n_new).filter(|&t| ws.keep_track[t]));
     for &o in &ws.order {
         let g = row(ws.referenced[o] as usize);
         let canon = &ws.canon;
-        map.gh_hyp.extend(ws.kept.iter().map(|&t| canon[g[t] as usize]));
+        map.gh_hyp.extend(ws.kept_multi.iter().map(|&k| canon[g[k] as usize]));
         map.gh_log_w.push(weights[o] - total);
+    }
+}
+
+/// FNV-1a hash of each global hypothesis `a` in `order` over every track in track order
+/// (`rows`: its values on the `multi` tracks; a track with one local hypothesis contributes
+/// that one, its `track_start`), into `out[a]`. Four rows at a time: the hash is a chain of
+/// dependent multiplications, so interleaving rows hides their latency.
+fn row_hashes(order: &[usize], rows: &[u32], multi: &[usize], track_start: &[usize], out: &mut [u64]) {
+    const LANES: usize = 4;
+    let nm = multi.len();
+    for chunk in order.chunks(LANES) {
+        let mut h = [FNV_OFFSET; LANES];
+        let mut t0 = 0;
+        for k in 0..=nm {
+            let t = multi.get(k).copied().unwrap_or(track_start.len());
+            for &v in &track_start[t0..t] {
+                for hl in &mut h {
+                    *hl = fnv_step(*hl, v as u32);
+                }
+            }
+            if k < nm {
+                for (hl, &a) in h.iter_mut().zip(chunk) {
+                    *hl = fnv_step(*hl, rows[a * nm + k]);
+                }
+            }
+            t0 = t + 1;
+        }
+        for (&hl, &a) in h.iter().zip(chunk) {
+            out[a] = hl;
+        }
     }
 }
 
@@ -504,7 +722,7 @@ fn log_add(a: f64, b: f64) -> f64 {
 /// association probabilities by loopy belief propagation (\[WilliamsLau2014\]), TOMB/P
 /// (eqs. 48-51) back to one Bernoulli per track, tracks with `r < bernoulli_prune`
 /// deleted. `ln_chi` is `-F` (Proposition 2) or the most likely association's log weight
-/// (eq. 47). `map` must hold one global hypothesis.
+/// (eq. 47). `map` must hold one global hypothesis (so one local hypothesis per track).
 pub fn pmb_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     map: &mut PmbmDensity<M>,
     x: &Pose,
@@ -514,7 +732,7 @@ pub fn pmb_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     weight: PmbWeight,
     ws: &mut Workspace<M>,
 ) -> UpdateOutcome {
-    debug_assert_eq!(map.hypotheses(), 1);
+    debug_assert!(map.hypotheses() == 1 && map.branching.is_empty());
     let mut out = UpdateOutcome { cholesky_failures: children(map, x, z, model, s, ws), ..Default::default() };
     let n_old = map.tracks();
     // The problem holds the tracks that gate a measurement; the others are missed with
@@ -523,7 +741,7 @@ pub fn pmb_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     ws.rows.clear();
     let mut failed = ws.problem.reset(&ws.ln_nu_new).is_err();
     for t in 0..n_old {
-        let h = map.gh_hyp[t] as usize;
+        let h = map.track_start[t];
         if ws.det_start[h] == ws.det_start[h + 1] {
             ln_fixed += ws.ln_miss[h];
             continue;
@@ -552,7 +770,7 @@ pub fn pmb_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     map.hyps.clear();
     let mut row = 0;
     for t in 0..n_old {
-        let h = map.gh_hyp[t] as usize;
+        let h = map.track_start[t];
         let merged = if ws.rows.get(row) == Some(&t) {
             let p = ws.lbp.track_marginals(row);
             row += 1;
@@ -588,8 +806,8 @@ pub fn pmb_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     let n = map.hyps.len();
     map.track_start.clear();
     map.track_start.extend(0..=n);
+    map.branching.clear();
     map.gh_hyp.clear();
-    map.gh_hyp.extend(0..n as u32);
     map.gh_log_w.clear();
     map.gh_log_w.push(0.0);
     out

@@ -207,6 +207,39 @@ fn reduction_caps_and_prunes_global_hypotheses() {
     assert!((total - 1.0).abs() < 1e-12);
 }
 
+/// Prior global hypotheses that differ only in a track no measurement gates share one
+/// association sub-problem, ranked once; each still takes its own budget
+/// `ceil(B_max beta_a)` of it: `chi = 0.7 (top 3) + 0.3 (top 2)` with `B_max = 4`.
+#[test]
+fn shared_subproblem_keeps_each_hypothesis_budget() {
+    let m = model();
+    let x = Pose::new(0.0, 0.0, 0.0);
+    let near = bernoulli(0.9, 10.0, 1.0);
+    // Beyond the 50 m range: p_D = 0, so both local hypotheses are only missed, `nu = 1`.
+    let mut map = PmbmDensity {
+        hyps: vec![near, bernoulli(0.3, 100.0, 0.0), bernoulli(0.2, 100.0, 5.0)],
+        track_start: vec![0, 1, 3],
+        branching: vec![1],
+        gh_hyp: vec![1, 2],
+        gh_log_w: vec![0.7f64.ln(), 0.3f64.ln()],
+    };
+    let z = [RangeBearing::new(10.1, 0.10), RangeBearing::new(9.8, 0.08)];
+    let p = problem(&m, &x, &[near], &z, 1e-3);
+    let mut lw = Vec::new();
+    for_each_association(&p, |_, l| lw.push(l)).unwrap();
+    lw.sort_by(|a, b| b.total_cmp(a));
+    assert_eq!(lw.len(), 3);
+    let top = |k: usize| lw[..k].iter().map(|l| l.exp()).sum::<f64>();
+    let s = UpdateSettings { max_global_hypotheses: 4, ..settings(1e-3, 1e6) };
+    let out = pmbm_update(&mut map, &x, &z, &m, &s, &mut Workspace::default());
+    let expected = (0.7 * top(3) + 0.3 * top(2)).ln();
+    assert!((out.ln_chi - expected).abs() < 1e-9, "{} vs {expected}", out.ln_chi);
+    assert_eq!(map.hypotheses(), 4);
+    // Both far local hypotheses survive, so the far track (now track 1) still branches.
+    assert_eq!(map.hyps[map.track_start[1]..map.track_start[2]].iter().map(|h| h.r).collect::<Vec<_>>(), [0.3, 0.2]);
+    assert!(map.branching.contains(&1));
+}
+
 /// Test 5: the birth integral `int N(z; h(m, x), R) dm` equals the measured range (grid
 /// quadrature around the birth point, PHD-SLAM 3.0 noise: 0.8 m, 0.3 deg).
 #[test]
@@ -311,7 +344,8 @@ fn hypotheses_made_equal_by_bernoulli_pruning_are_merged() {
     let mut map = PmbmDensity {
         hyps: vec![strong, bernoulli(0.3, 5.0, 5.0), bernoulli(0.2, 6.0, 5.0)],
         track_start: vec![0, 1, 3],
-        gh_hyp: vec![0, 1, 0, 2],
+        branching: vec![1],
+        gh_hyp: vec![1, 2],
         gh_log_w: vec![0.6f64.ln(), 0.4f64.ln()],
     };
     // Missed children: r = 0.3 * 0.1 / 0.73 = 0.041 and 0.2 * 0.1 / 0.82 = 0.024.
