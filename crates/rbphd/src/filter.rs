@@ -109,6 +109,9 @@ impl<P: Proposal> RbPhd<P> {
     }
 }
 
+/// Most landmarks one component stands for in the rounded map estimate.
+const MAX_ROUNDED_COPIES: f64 = 1000.0;
+
 impl<P: Proposal> SlamFilter for RbPhd<P> {
     fn name(&self) -> &str {
         P::NAME
@@ -264,8 +267,9 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
         let mut map = Vec::new();
         for i in (0..p.map.len()).filter(|&i| p.map.log_w[i] > ln_t) {
             let w = p.map.log_w[i].exp();
-            // Leung et al.: a component of weight w stands for round(w) features.
-            let copies = if self.estimate_rounding { (w.round() as usize).max(1) } else { 1 };
+            // Leung et al.: a component of weight w stands for round(w) features (bounded, so
+            // that a corrupt weight cannot make the estimate unbounded).
+            let copies = if self.estimate_rounding { w.round().clamp(1.0, MAX_ROUNDED_COPIES) as usize } else { 1 };
             map.extend(std::iter::repeat_n(MapPoint { position: p.map.mean[i], weight: w }, copies));
         }
         Estimate { pose: p.pose, map }
@@ -383,5 +387,13 @@ mod tests {
         let kaltiokallio =
             RbPhdParams { estimate_threshold: Some(0.0025), estimate_rounding: Some(false), ..Default::default() };
         assert_eq!(estimated::<true>(kaltiokallio), 4, "the keys override the variant");
+    }
+
+    /// A component of absurd weight stands for at most `MAX_ROUNDED_COPIES` landmarks.
+    #[test]
+    fn the_rounded_estimate_is_bounded() {
+        let mut f = RbPhd::new(RbPhdParams::default(), Prior::<true>, &models(), 1);
+        f.set.particles_mut()[0].map.push(1e300f64.ln(), Point2::new(1.0, 0.0), Matrix2::identity());
+        assert_eq!(f.estimate().map.len(), MAX_ROUNDED_COPIES as usize);
     }
 }
