@@ -4,25 +4,9 @@
 //! at N = 1 and 10, `pmb-slam` at N = 1, 10 and 100, `mpmb-slam` (no particles). Run with
 //! `cargo bench -p pmbm-slam --bench recursion`.
 
-use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
+use criterion::{Criterion, criterion_group, criterion_main};
 use pmbm_slam::{MpmbSlam, PmbSlam, PmbmSlam, PmbmSlamMh};
-use rfslam_core::FilterBuild;
-use rfslam_data::Dataset;
-use rfslam_eval::fixtures::{benchmark_dataset, warmed_up};
-
-const WARM: usize = 1000;
-
-fn bench_filter<F: FilterBuild + Clone>(c: &mut Criterion, name: &str, ds: &Dataset, n: usize) {
-    let w = warmed_up::<F>(ds, n, WARM);
-    let scan = &ds.scans[WARM];
-    c.bench_function(&format!("{name} N={n} one recursion"), |b| {
-        b.iter_batched_ref(
-            || (w.filter.clone(), w.rng.clone()),
-            |(f, r)| f.step(&w.segments, scan, r),
-            BatchSize::SmallInput,
-        )
-    });
-}
+use rfslam_bench::{bench_recursion as bench_filter, benchmark_dataset};
 
 fn recursion(c: &mut Criterion) {
     let ds = benchmark_dataset();

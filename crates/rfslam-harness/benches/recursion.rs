@@ -4,24 +4,8 @@
 //! the papers' synthetic environment when it is found (else the procedural world).
 //! Compare with the time column of \[Kaltiokallio2024\] Table II (one recursion, one core).
 
-use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
-use rfslam_core::FilterBuild;
-use rfslam_data::Dataset;
-use rfslam_eval::fixtures::{benchmark_dataset, warmed_up};
-
-const WARM: usize = 1000;
-
-fn bench_filter<F: FilterBuild + Clone>(c: &mut Criterion, name: &str, ds: &Dataset, n: usize) {
-    let w = warmed_up::<F>(ds, n, WARM);
-    let scan = &ds.scans[WARM];
-    c.bench_function(&format!("{name} N={n} one recursion"), |b| {
-        b.iter_batched_ref(
-            || (w.filter.clone(), w.rng.clone()),
-            |(f, r)| f.step(&w.segments, scan, r),
-            BatchSize::SmallInput,
-        )
-    });
-}
+use criterion::{Criterion, criterion_group, criterion_main};
+use rfslam_bench::{bench_recursion as bench_filter, benchmark_dataset};
 
 fn recursion(c: &mut Criterion) {
     let ds = benchmark_dataset();
