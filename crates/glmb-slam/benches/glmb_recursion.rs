@@ -3,10 +3,10 @@
 //! the first lap of 520 steps: a map of most landmarks, in the loop closure). Target (issue 7):
 //! glmb-2.0 at most 5 ms per recursion on one core.
 
-use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
+use criterion::{Criterion, criterion_group, criterion_main};
+use rfslam_bench::bench_recursion_after;
 use rfslam_core::FilterBuild;
 use rfslam_data::{Dataset, ScenarioConfig};
-use rfslam_eval::fixtures::warmed_up;
 use rfslam_sim::ScenarioData;
 
 const WARM: usize = 600;
@@ -21,15 +21,7 @@ fn dataset() -> Dataset {
 }
 
 fn bench_filter<F: FilterBuild + Clone>(c: &mut Criterion, name: &str, ds: &Dataset, n: usize) {
-    let w = warmed_up::<F>(ds, n, WARM);
-    let scan = &ds.scans[WARM];
-    c.bench_function(&format!("{name} N={n} clutter 15 one recursion"), |b| {
-        b.iter_batched_ref(
-            || (w.filter.clone(), w.rng.clone()),
-            |(f, r)| f.step(&w.segments, scan, r),
-            BatchSize::SmallInput,
-        )
-    });
+    bench_recursion_after::<F>(c, &format!("{name} N={n} clutter 15 one recursion"), ds, n, WARM);
 }
 
 fn recursion(c: &mut Criterion) {

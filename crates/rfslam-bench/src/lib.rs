@@ -19,9 +19,21 @@ pub const WARM_STEPS: usize = 1000;
 /// Benchmarks recursion `WARM_STEPS` of filter `F` with `n` particles on `ds`, named
 /// `"{name} N={n} one recursion"`.
 pub fn bench_recursion<F: FilterBuild + Clone>(c: &mut Criterion, name: &str, ds: &Dataset, n: usize) {
-    let w = warmed_up::<F>(ds, n, WARM_STEPS);
-    let scan = &ds.scans[WARM_STEPS];
-    c.bench_function(&format!("{name} N={n} one recursion"), |b| {
+    bench_recursion_after::<F>(c, &format!("{name} N={n} one recursion"), ds, n, WARM_STEPS);
+}
+
+/// Benchmarks recursion `warm` (counted from 0) of filter `F` with `n` particles on `ds`,
+/// as the criterion function `label`.
+pub fn bench_recursion_after<F: FilterBuild + Clone>(
+    c: &mut Criterion,
+    label: &str,
+    ds: &Dataset,
+    n: usize,
+    warm: usize,
+) {
+    let w = warmed_up::<F>(ds, n, warm);
+    let scan = &ds.scans[warm];
+    c.bench_function(label, |b| {
         b.iter_batched_ref(
             || (w.filter.clone(), w.rng.clone()),
             |(f, r)| f.step(&w.segments, scan, r),
