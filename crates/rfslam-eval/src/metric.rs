@@ -705,11 +705,14 @@ struct GospaMetric {
 impl Observer for GospaMetric {
     fn observe(&mut self, _: &StepRecord) {}
     fn finish(&mut self, end: &RunEnd, out: &mut Values) {
-        let g = final_map(end).and_then(|(t, e)| rfslam_metrics::gospa(&t, &e, self.c, self.p).ok());
+        let g = final_map(end).map(|(t, e)| rfslam_metrics::gospa(&t, &e, self.c, self.p));
         // Without true landmarks (Victoria Park) no part is known: the counts are empty
-        // cells too, not zeros that a report would average into "nothing missed".
+        // cells too, not zeros that a report would average into "nothing missed". With
+        // them, a map GOSPA cannot score (a non-finite landmark estimate) is infinite, so
+        // that the run fails by name instead of writing an empty cell.
         let (total, loc, missed, false_count) = match g {
-            Some(g) => (g.total, g.loc_m(), g.missed as f64, g.false_count as f64),
+            Some(Ok(g)) => (g.total, g.loc_m(), g.missed as f64, g.false_count as f64),
+            Some(Err(_)) => (f64::INFINITY, f64::NAN, f64::NAN, f64::NAN),
             None => (f64::NAN, f64::NAN, f64::NAN, f64::NAN),
         };
         out.set("gospa_m", total);
@@ -1197,6 +1200,17 @@ mod tests {
         for c in ["gospa_m", "gospa_loc_m", "gospa_missed", "gospa_false"] {
             assert!(values.get(c).unwrap().is_nan(), "{c}: {:?}", values.get(c));
         }
+    }
+
+    /// A final map with a non-finite landmark fails the run, naming `gospa_m` (it was an
+    /// empty cell, which a report would have left out of the mean).
+    #[test]
+    fn a_final_map_that_is_not_finite_fails_the_run() {
+        let m = MetricsConfig::default();
+        let (values, ..) = end_values(&m, &[(0.0, 0.0), (f64::NAN, 5.0)]);
+        assert_eq!(values.get("gospa_m"), Some(f64::INFINITY));
+        let outcome = crate::run::JobOutcome { values, final_estimate: Estimate::default() };
+        assert_eq!(outcome.not_finite(&m).as_deref(), Some("gospa_m is inf"));
     }
 
     #[test]
