@@ -171,6 +171,72 @@ fn interrupted_sweep_resumes_with_only_the_missing_jobs() {
     }
 }
 
+/// A sweep killed mid-way (SIGKILL: no handler runs) used to leave its finished rows but
+/// not its wall time, so the report of the resumed sweep stated the cost of the resume only.
+/// Now the killed invocation's record (its finished jobs, its wall time at the last of them)
+/// is folded into `invocations.csv` by the resume, and the report counts both invocations.
+#[test]
+fn a_killed_invocation_keeps_its_wall_time() {
+    let tmp = TempDir::new("killed-wall");
+    tmp.write("scen.toml", &scenario(1500, 60, 0.95, 5.0));
+    let runs = 30;
+    tmp.write("exp.toml", &experiment("scen.toml", runs, 5, &[Entry::new("phd-1.0", "phd", &[10])], ""));
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_rfslam"))
+        .args(["sweep", "exp.toml", "--jobs", "1", "--out", "k", "--quiet"])
+        .current_dir(tmp.path())
+        .env("RFSLAM_DATA", tmp.join("data"))
+        .env("CI", "1")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("start rfslam");
+    // Kill it once it has finished two jobs (bounded wait: a job takes well under a second).
+    let complete_rows = || {
+        let text = std::fs::read_to_string(tmp.join("k/runs.csv")).unwrap_or_default();
+        text.matches('\n').count().saturating_sub(1)
+    };
+    let t0 = std::time::Instant::now();
+    while complete_rows() < 2 {
+        assert!(t0.elapsed().as_secs() < 120, "the sweep finished no job in 120 s");
+        assert!(child.try_wait().unwrap().is_none(), "the sweep ended before it could be killed");
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let killed_rows = complete_rows();
+    assert!(killed_rows < runs, "the sweep finished before it was killed");
+    let running = tmp.read("k/invocation.running");
+    assert!(running.starts_with("jobs,threads,wall_s,interrupted\n"), "{running}");
+
+    let o = ok(tmp.path(), &["sweep", "exp.toml", "--jobs", "1", "--out", "k", "--resume"]);
+    let kept: usize = o.stdout.split(" jobs run (").nth(1).and_then(|t| t.split(' ').next()).unwrap().parse().unwrap();
+    assert!(kept >= 2 && kept <= killed_rows, "{}", o.stdout);
+    assert!(!tmp.join("k/invocation.running").exists());
+    let inv = Csv::read(&tmp.join("k/invocations.csv"));
+    assert_eq!(inv.header, ["jobs", "threads", "wall_s", "interrupted"]);
+    assert_eq!(inv.rows.len(), 2, "{inv:?}");
+    assert_eq!((inv.get(0, "threads"), inv.get(0, "interrupted")), ("1", "true"));
+    assert_eq!((inv.get(1, "threads"), inv.get(1, "interrupted")), ("1", "false"));
+    // The killed invocation recorded each job once its row was written: all the rows it left
+    // but, killed between the two writes, the last one.
+    let killed_jobs = inv.num(0, "jobs") as usize;
+    assert!(killed_jobs == kept || killed_jobs + 1 == kept, "{inv:?}, {kept} rows kept");
+    assert_eq!(inv.num(1, "jobs") as usize, runs - kept);
+    assert!(inv.num(0, "wall_s") > 0.0 && inv.num(1, "wall_s") > 0.0);
+    let report = tmp.read("k/report.md");
+    let line = report.lines().find(|l| l.contains("wall time over")).unwrap_or_else(|| panic!("{report}"));
+    assert!(line.contains("over 2 sweep invocation(s) with 1 / 1 thread(s) (1 of them interrupted"), "{line}");
+    assert_eq!(line.contains("recorded a wall time"), killed_jobs + 1 == kept, "{line}");
+    assert_eq!(Csv::read(&tmp.join("k/runs.csv")).rows.len(), runs);
+
+    // A sweep from scratch in a directory of old records (runs.csv deleted) starts them anew.
+    std::fs::remove_file(tmp.join("k/runs.csv")).unwrap();
+    ok(tmp.path(), &["sweep", "exp.toml", "--jobs", "1", "--out", "k", "--quiet", "--runs", "2"]);
+    let inv = Csv::read(&tmp.join("k/invocations.csv"));
+    assert_eq!(inv.rows.len(), 1, "{inv:?}");
+    assert_eq!((inv.get(0, "jobs"), inv.get(0, "interrupted")), ("2", "false"));
+}
+
 /// `--resume` with fewer `--runs` than the directory holds is refused (the resolved
 /// experiment and report would say fewer runs than the summary pools); more runs extend the
 /// sweep and the resolved experiment and report say so. A directory whose resolved experiment

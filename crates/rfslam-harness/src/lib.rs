@@ -4,6 +4,7 @@
 //! - [`experiment`]: experiment TOML -> validated [`experiment::Plan`] of jobs;
 //! - [`sweep`](mod@sweep): parallel, deterministic, resumable execution; `runs.csv`;
 //! - [`shard`]: `sweep --shard I/N` (disjoint parts of a sweep) and `merge`;
+//! - [`invocations`]: what each sweep invocation in a directory cost, killed ones included;
 //! - [`memory`]: the least memory a job needs, against what the machine has;
 //! - [`compare`]: paired per-run differences between filters and sweeps (`rfslam compare`);
 //! - [`summary`], [`report`]: `summary.csv` with the columns of
@@ -12,6 +13,7 @@
 pub mod compare;
 pub mod error;
 pub mod experiment;
+pub mod invocations;
 pub mod lock;
 pub mod memory;
 pub mod registry;

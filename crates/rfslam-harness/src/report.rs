@@ -82,8 +82,8 @@ pub struct ReportInfo<'a> {
     pub seed: u64,
     /// Grid keys.
     pub grid_keys: &'a [String],
-    /// Sweep invocations that ran jobs: (jobs, threads, wall seconds).
-    pub invocations: Vec<(usize, usize, f64)>,
+    /// Sweep invocations that ran jobs ([`crate::invocations`]).
+    pub invocations: Vec<crate::invocations::Invocation>,
 }
 
 /// Whether the report shows the SE(2)-aligned position RMSE: only where it adds
@@ -120,17 +120,24 @@ pub fn render(info: &ReportInfo, rows: &[SummaryRow], published: Option<&Publish
     // Jobs in the summary that no finished invocation accounts for: run by a sweep that was
     // killed (its rows are kept, its wall time was never recorded).
     let rows_total: usize = rows.iter().map(|r| r.runs).sum();
-    let jobs: usize = info.invocations.iter().map(|i| i.0).sum();
+    let jobs: usize = info.invocations.iter().map(|i| i.jobs).sum();
     let unrecorded = rows_total.saturating_sub(jobs);
     if !info.invocations.is_empty() {
-        let wall: f64 = info.invocations.iter().map(|i| i.2).sum();
-        let threads: Vec<String> = info.invocations.iter().map(|i| i.1.to_string()).collect();
+        let wall: f64 = info.invocations.iter().map(|i| i.wall_s).sum();
+        let threads: Vec<String> = info.invocations.iter().map(|i| i.threads.to_string()).collect();
         let _ = write!(
             s,
             "- {jobs} jobs run in {wall:.1} s wall time over {} sweep invocation(s) with {} thread(s)",
             info.invocations.len(),
             threads.join(" / ")
         );
+        let interrupted = info.invocations.iter().filter(|i| i.interrupted).count();
+        if interrupted > 0 {
+            let _ = write!(
+                s,
+                " ({interrupted} of them interrupted: counted up to the last job each finished, without the work of the jobs it was running)"
+            );
+        }
         if unrecorded > 0 {
             let _ = write!(s, "; {unrecorded} more by invocation(s) interrupted before they recorded a wall time");
         }
@@ -373,15 +380,24 @@ mod tests {
     fn jobs_of_interrupted_invocations_are_counted() {
         // After a killed sweep and a resume, the report counted only the invocation that
         // finished: 3 rows of which 1 was run by the resume.
+        use crate::invocations::Invocation;
+        let inv = |jobs, wall_s, interrupted| Invocation { jobs, threads: 2, wall_s, interrupted };
         let mut i = info();
-        i.invocations = vec![(1, 2, 0.5)];
+        i.invocations = vec![inv(1, 0.5, false)];
         let md = render(&i, &[row("phd-3.0", 0.4)], None);
         assert!(
             md.contains("- 1 jobs run in 0.5 s wall time over 1 sweep invocation(s) with 2 thread(s); 2 more by invocation(s) interrupted before they recorded a wall time\n"),
             "{md}"
         );
-        i.invocations = vec![(3, 2, 0.5)];
+        i.invocations = vec![inv(3, 0.5, false)];
         assert!(!render(&i, &[row("phd-3.0", 0.4)], None).contains("interrupted"));
+        // A killed invocation that left its record: its jobs and wall time are counted.
+        i.invocations = vec![inv(2, 1.0, true), inv(1, 0.5, false)];
+        let md = render(&i, &[row("phd-3.0", 0.4)], None);
+        assert!(
+            md.contains("- 3 jobs run in 1.5 s wall time over 2 sweep invocation(s) with 2 / 2 thread(s) (1 of them interrupted: counted up to the last job each finished, without the work of the jobs it was running)\n"),
+            "{md}"
+        );
         i.invocations = vec![];
         assert!(
             render(&i, &[row("phd-3.0", 0.4)], None)

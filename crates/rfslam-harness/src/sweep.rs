@@ -18,6 +18,7 @@ use rayon::prelude::*;
 
 use crate::error::HarnessError;
 use crate::experiment::{ExperimentConfig, Job, JobFilter, JobKey, Plan};
+use crate::invocations::{self, Invocation, Tracker};
 use crate::lock::DirLock;
 use crate::registry;
 use crate::report::{PublishedTable, ReportInfo, render};
@@ -221,6 +222,11 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
             }
         }
         previous = rows;
+        // The cost of an invocation that was killed before it recorded itself.
+        invocations::fold_interrupted(out)?;
+    } else {
+        // A sweep from scratch: records of earlier invocations account for no row.
+        invocations::clear(out)?;
     }
     std::fs::write(&resolved_path, resolved.to_toml()).map_err(|e| HarnessError::io(&resolved_path, e))?;
     match opts.shard {
@@ -252,6 +258,7 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
         .build()
         .map_err(|e| HarnessError::Run(format!("thread pool: {e}")))?;
     let appender = Mutex::new(RunsAppender::open(&runs_path, &plan.layout())?);
+    let tracker = Mutex::new(Tracker::new(out, threads, start));
     let failure: Mutex<Option<HarnessError>> = Mutex::new(None);
     let progress = Progress::new(todo.len(), opts.quiet);
     if skipped > 0 && !opts.quiet {
@@ -264,6 +271,7 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
             }
             let res = run_job(plan, job).and_then(|row| {
                 appender.lock().unwrap_or_else(|p| p.into_inner()).append(&row)?;
+                tracker.lock().unwrap_or_else(|p| p.into_inner()).job_done()?;
                 progress.tick(&row);
                 Ok(())
             });
@@ -277,13 +285,14 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
     });
     progress.finish();
     drop(appender);
+    let tracker = tracker.into_inner().unwrap_or_else(|p| p.into_inner());
     if let Some(e) = failure.into_inner().unwrap_or_else(|p| p.into_inner()) {
+        // Stopped by a failing job: the jobs that ended are recorded as an interrupted
+        // invocation (the first error is the one reported).
+        let _ = tracker.finish(true);
         return Err(e);
     }
-    let wall_s = start.elapsed().as_secs_f64();
-    if !todo.is_empty() {
-        record_invocation(out, todo.len(), threads, wall_s)?;
-    }
+    let wall_s = tracker.finish(false)?.wall_s;
     let summary = finish(plan, out)?;
     let table = crate::report::terminal_table(&summary, &plan.grid_keys, plan.published.as_ref());
     Ok(SweepOutcome { ran: todo.len(), skipped, total: all_jobs.len(), wall_s, out: out.clone(), table })
@@ -377,36 +386,6 @@ fn check_shard_dir(
     }
 }
 
-/// File listing every sweep invocation that ran jobs in an output directory.
-pub const INVOCATIONS: &str = "invocations.csv";
-
-/// Appends `jobs,threads,wall_s` of this invocation to `invocations.csv`.
-fn record_invocation(out: &Path, jobs: usize, threads: usize, wall_s: f64) -> Result<(), HarnessError> {
-    use std::io::Write;
-    let path = out.join(INVOCATIONS);
-    let new = !path.exists();
-    let mut f =
-        std::fs::OpenOptions::new().create(true).append(true).open(&path).map_err(|e| HarnessError::io(&path, e))?;
-    let mut text = String::new();
-    if new {
-        text.push_str("jobs,threads,wall_s\n");
-    }
-    text.push_str(&format!("{jobs},{threads},{wall_s:.3}\n"));
-    f.write_all(text.as_bytes()).map_err(|e| HarnessError::io(&path, e))
-}
-
-/// The invocations recorded in `out`: (jobs, threads, wall seconds) each.
-pub fn read_invocations(out: &Path) -> Vec<(usize, usize, f64)> {
-    let Ok(text) = std::fs::read_to_string(out.join(INVOCATIONS)) else { return Vec::new() };
-    text.lines()
-        .skip(1)
-        .filter_map(|l| {
-            let mut it = l.split(',');
-            Some((it.next()?.parse().ok()?, it.next()?.parse().ok()?, it.next()?.parse().ok()?))
-        })
-        .collect()
-}
-
 /// What writing the outputs of a sweep needs to know about its experiment.
 pub struct OutputContext<'a> {
     /// The experiment (name, description, runs, seed, filters, grid).
@@ -434,7 +413,7 @@ impl Plan {
 pub fn write_outputs(
     ctx: &OutputContext,
     rows: Vec<RunRow>,
-    invocations: Vec<(usize, usize, f64)>,
+    invocations: Vec<Invocation>,
     out: &Path,
 ) -> Result<Vec<crate::summary::SummaryRow>, HarnessError> {
     let grid_keys = ctx.config.grid_keys();
@@ -503,7 +482,7 @@ pub fn report_dir(dir: &Path) -> Result<usize, HarnessError> {
     let n = rows.len();
     let ctx =
         OutputContext { config: &config, experiment: resolved.experiment_file.clone(), published: published.as_ref() };
-    write_outputs(&ctx, rows, read_invocations(dir), dir)?;
+    write_outputs(&ctx, rows, invocations::read(dir), dir)?;
     Ok(n)
 }
 
@@ -511,5 +490,5 @@ pub fn report_dir(dir: &Path) -> Result<usize, HarnessError> {
 /// from every row in it ([`write_outputs`]).
 pub fn finish(plan: &Plan, out: &Path) -> Result<Vec<crate::summary::SummaryRow>, HarnessError> {
     let rows = read_rows(&out.join("runs.csv"), &plan.layout())?;
-    write_outputs(&plan.output_context(), rows, read_invocations(out), out)
+    write_outputs(&plan.output_context(), rows, invocations::read(out), out)
 }

@@ -9,11 +9,12 @@ use super::record::ShardRecord;
 use super::{MERGED_FILE, PUBLISHED_COPY, RESOLVED_FILE, SHARD_FILE};
 use crate::error::HarnessError;
 use crate::experiment::JobKey;
+use crate::invocations::{self, Invocation};
 use crate::lock::DirLock;
 use crate::report::PublishedTable;
 use crate::resolved::ResolvedExperiment;
 use crate::runs::{GroupKey, RunRow, RunsLayout, fields_but_time, read_rows};
-use crate::sweep::{INVOCATIONS, OutputContext, read_invocations, write_outputs};
+use crate::sweep::{OutputContext, write_outputs};
 
 /// One input directory of a merge.
 struct Input {
@@ -344,15 +345,10 @@ fn check_complete(
 }
 
 /// Step 5a: `invocations.csv` of the merged directory, every shard's invocations.
-fn write_invocations(inputs: &[Input], out: &Path) -> Result<Vec<(usize, usize, f64)>, HarnessError> {
-    let invocations: Vec<(usize, usize, f64)> = inputs.iter().flat_map(|i| read_invocations(&i.dir)).collect();
-    let path = out.join(INVOCATIONS);
-    let mut text = String::from("jobs,threads,wall_s\n");
-    for (j, t, w) in &invocations {
-        text.push_str(&format!("{j},{t},{w:.3}\n"));
-    }
-    std::fs::write(&path, text).map_err(|e| HarnessError::io(&path, e))?;
-    Ok(invocations)
+fn write_invocations(inputs: &[Input], out: &Path) -> Result<Vec<Invocation>, HarnessError> {
+    let all: Vec<Invocation> = inputs.iter().flat_map(|i| invocations::read(&i.dir)).collect();
+    invocations::write(out, &all)?;
+    Ok(all)
 }
 
 /// Step 5b: [`MERGED_FILE`], the shard directories the merged directory was made from.
