@@ -24,6 +24,15 @@ pub mod shard;
 pub mod summary;
 pub mod sweep;
 
+/// A fresh, empty scratch directory for one unit test: `<temp>/rfslam-<module>-<name>-<pid>`.
+#[cfg(test)]
+pub(crate) fn test_dir(module: &str, name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("rfslam-{module}-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
 pub use error::HarnessError;
 pub use experiment::{ExperimentConfig, JobFilter, Plan};
 pub use shard::{MergeOutcome, Shard, merge};

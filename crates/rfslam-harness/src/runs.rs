@@ -413,8 +413,7 @@ mod tests {
 
     #[test]
     fn rows_round_trip_with_the_aligned_column() {
-        let dir = std::env::temp_dir().join(format!("rfslam-runs-rt-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::test_dir("runs", "rt");
         let path = dir.join("runs.csv");
         let layout = layout();
         write_rows(&path, &layout, &[row(0), row(1)]).unwrap();
@@ -431,8 +430,7 @@ mod tests {
 
     #[test]
     fn legacy_file_without_the_aligned_column_is_read_with_nan() {
-        let dir = std::env::temp_dir().join(format!("rfslam-runs-legacy-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::test_dir("runs", "legacy");
         let path = dir.join("runs.csv");
         let layout = layout();
         // The header and row of a runs.csv written before pos_rmse_se2_m existed.
@@ -458,8 +456,7 @@ mod tests {
 
     #[test]
     fn columns_are_read_by_header_in_any_order() {
-        let dir = std::env::temp_dir().join(format!("rfslam-runs-order-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::test_dir("runs", "order");
         let path = dir.join("runs.csv");
         let layout = layout();
         let mut hdr = layout.header();
