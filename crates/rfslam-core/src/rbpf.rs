@@ -130,6 +130,11 @@ pub trait LogWeighted {
     fn log_weight(&self) -> f64;
     /// Sets `ln w`.
     fn set_log_weight(&mut self, log_w: f64);
+
+    /// Called when the particle becomes a spare of a [`ParticleSet`] (kept for its
+    /// allocations until a later resampling overwrites it with `clone_from`): drops what it
+    /// shares with live particles. Nothing by default.
+    fn release(&mut self) {}
 }
 
 /// The particles of an RBPF and the bookkeeping every filter of rfslam shares, written
@@ -247,6 +252,7 @@ impl<P: LogWeighted + Clone + Default> ParticleSet<P> {
     /// become spares and `next` is left empty. Every particle is its own family.
     pub fn replace(&mut self, next: &mut Vec<P>) {
         std::mem::swap(&mut self.particles, next);
+        next.iter_mut().for_each(LogWeighted::release);
         self.pool.append(next);
         self.family.clear();
         self.family.extend(0..self.particles.len());
@@ -290,6 +296,7 @@ impl<P: LogWeighted + Clone + Default> ParticleSet<P> {
                 self.next.push(dst);
             }
             std::mem::swap(&mut self.particles, &mut self.next);
+            self.next.iter_mut().for_each(LogWeighted::release);
             self.pool.append(&mut self.next);
             self.family.clone_from(&self.parents);
             self.best = self.parents.iter().position(|&p| p == best).unwrap_or(0);
