@@ -11,7 +11,9 @@
 //!   the shortest augmenting path method (\[JonkerVolgenant1987\], laid out as in \[Crouse2016\]);
 //! - [`Murty`]: the k best assignments in non-decreasing cost (\[Murty1968\], with the dual
 //!   inheritance speed-up of \[Miller1997\]), with the likelihood-ratio early stop used by
-//!   \[Kaltiokallio2024\] (\[CoxMiller1995\]);
+//!   \[Kaltiokallio2024\] (\[CoxMiller1995\]); [`ComponentMurty`]: the same ranking of a
+//!   problem that splits into independent components, each ranked on its own and the lists
+//!   merged best first;
 //! - [`gibbs`]: the Gibbs sampler of the efficient delta-GLMB filter (\[Vo2017\])
 //!   that draws association / survival / birth decisions for delta-GLMB-SLAM and LMB-SLAM;
 //! - [`AssociationProblem`]: one track-oriented association problem of a PMB density
@@ -30,6 +32,7 @@
 #![warn(missing_docs)]
 
 mod assoc;
+mod components;
 mod cost;
 mod error;
 pub mod gibbs;
@@ -41,6 +44,7 @@ pub mod tomb;
 pub use assoc::{
     AssociationProblem, ExactAssociation, MAX_ASSOCIATION_DIM, MAX_EXACT_DIM, exact_association, for_each_association,
 };
+pub use components::ComponentMurty;
 pub use cost::CostMatrix;
 pub use error::AssignError;
 pub use gibbs::{GibbsSampler, GibbsTable};
