@@ -9,8 +9,9 @@ use rfslam_core::{
 };
 
 use crate::model::{MeasurementModel, RangeBearingModel};
-use crate::params::Params;
+use crate::params::{Params, undetected_cell};
 use crate::pmbm::{PmbWeight, PmbmDensity, UpdateSettings, Workspace, pmb_update, pmbm_update};
+use crate::undetected::Undetected;
 
 /// Which filter of the family.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -51,6 +52,12 @@ impl<const M: usize> LogWeighted for Particle<M> {
 
     fn set_log_weight(&mut self, log_w: f64) {
         self.log_w = log_w;
+    }
+
+    /// A spare keeps no tile of the undetected grid alive, so that the live copies of a
+    /// parent write their shared tiles without copying them when no other copy holds them.
+    fn release(&mut self) {
+        self.map.undetected.release();
     }
 }
 
@@ -111,7 +118,8 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> PmbmFilter<S, M,
     /// `n` particles at the initial pose of `models` with empty maps; `model` is the sensor
     /// as the filter assumes it.
     pub fn new(variant: Variant, params: Params, models: &SlamModels, model: S, n: usize) -> Self {
-        let p0 = Particle { log_w: 0.0, pose: models.initial_pose, map: PmbmDensity::new() };
+        let undetected = Undetected::new(params.undetected, undetected_cell(params.undetected_cell, &model));
+        let p0 = Particle { log_w: 0.0, pose: models.initial_pose, map: PmbmDensity::with_undetected(undetected) };
         PmbmFilter {
             variant,
             settings: params.update_settings(Z),
@@ -136,8 +144,9 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> PmbmFilter<S, M,
     }
 
     /// One recursion: per particle, `x_k ~ f(x_k | x_{k-1}, u)` (the transition density as
-    /// proposal, \[Kim2022\] Section IV-B), the map update at `x_k` and
-    /// `ln w += ln chi`; then normalisation and resampling.
+    /// proposal, \[Kim2022\] Section IV-B), the map update at `x_k` (steps ii-iv, births
+    /// against `lambda_u,k-1`), `ln w += ln chi`, then step i (the thinned intensity:
+    /// `ln w -= int p_D lambda_u,k-1`); then normalisation and resampling.
     pub fn step_with(
         &mut self,
         odometry: &[ControlSegment],
@@ -165,6 +174,7 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> PmbmFilter<S, M,
             let ctx =
                 DrawContext { particle: &*part, predicted, q, z: &self.z, model: &self.model, models: &self.models };
             let draw = propose(&ctx, rng);
+
             chol += draw.cholesky_failures;
             proposal_components += draw.components;
             part.pose = draw.pose;
@@ -185,6 +195,11 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> PmbmFilter<S, M,
             };
             chol += out.cholesky_failures;
             part.log_w += out.ln_chi;
+            // Step i: lambda_u,k = (1 - p_D) lambda_u,k-1 (the births above read lambda_u,k-1),
+            // and the factor exp(-int p_D lambda_u,k-1) of the likelihood, which no longer
+            // cancels between particles (0 for the constant intensity).
+            let mass = part.map.undetected.thin(&self.model, &part.pose);
+            part.log_w -= self.settings.undetected_intensity * mass;
         }
         // Components: global hypotheses (PMBM) or Bernoullis (PMB), summed over particles.
         let mut components = 0;
@@ -290,7 +305,8 @@ macro_rules! variant_filter {
             fn check(params: &Params, models: &SlamModels, particles: usize) -> Result<(), ParamError> {
                 params.validate(particles)?;
                 let model = range_bearing_model(params, models);
-                model.detection.validate().map_err(|e| ParamError::new("detection_pd", e))
+                model.detection.validate().map_err(|e| ParamError::new("detection_pd", e))?;
+                params.check_undetected(&model)
             }
 
             fn build(params: Validated<Self>, models: &SlamModels) -> Self {

@@ -3,13 +3,17 @@
 //! are those of \[Kim2022\].
 //!
 //! - **Map** ([`pmbm::PmbmDensity`], Section III-B): a Poisson point process of undetected
-//!   landmarks of constant intensity `kappa_u` (\[Kim2022\] sets `p_D ~ 0` in step i, so it
-//!   never changes); tracks, one per measurement that ever started one, each with local
-//!   hypotheses `(r, N(m, P))`; global hypotheses, one local hypothesis per track with a
-//!   log weight `ln beta`, normalised.
+//!   landmarks ([`undetected`]), by default thinned at every scan, `lambda_u <- (1 - p_D)
+//!   lambda_u` (Appendix A step i, on a grid along the particle's poses), or of constant
+//!   intensity `kappa_u` (`undetected = "constant"`: Section V's `p_D ~ 0` in step i); tracks,
+//!   one per measurement that ever started one, each with local hypotheses `(r, N(m, P))`;
+//!   global hypotheses, one local hypothesis per track with a log weight `ln beta`,
+//!   normalised.
 //! - **Update at the pose `x_k`** (Appendix A): step ii, every measurement starts a track
-//!   with `e_j = p_D kappa_u int N(z_j; h(m, x_k), R) dm` (`= p_D kappa_u rho_j` for range-bearing,
-//!   [`model::MeasurementModel::birth_integral`]), `nu_j = e_j + kappa(z_j)`, local
+//!   with `e_j = p_D int lambda_u N(z_j; h(m, x_k), R) dm` (`= p_D kappa_u rho_j` for
+//!   range-bearing and the constant intensity, [`model::MeasurementModel::birth_integral`];
+//!   the thinned grid's intensity around the new landmark in place of `kappa_u` otherwise),
+//!   `nu_j = e_j + kappa(z_j)`, local
 //!   hypotheses "exists" `(e_j / nu_j, N(g^-1(z_j, x_k), J R J^T))` and "not started" `r = 0`;
 //!   step iii, missed: `nu(empty) = 1 - r p_D`, `r' = r (1 - p_D) / nu(empty)`; step iv,
 //!   detected by a gated `z_j`: `nu(z_j) = r p_D N(z_j; h(m, x_k), H P H^T + R)`, `r' = 1`, EKF
@@ -19,16 +23,23 @@
 //!   `p_D = 0` (outside the field of view) are only missed, i.e. unchanged. Gate: the chi-square
 //!   quantile of `gate_probability` (0.999, our choice; \[Kim2022\] uses 0.99, too narrow
 //!   for the pose errors of a bootstrap RBPF with few particles: see `docs/filters.md`).
-//!   Options: \[Kim2022\] Section V's adaptive `p_D` (`missed_detection = "gated"`: a
-//!   hypothesis that gates no measurement is not missed) and a survival probability inside
-//!   the field of view (`survival_fov`, 1 by default: a static map).
+//!   Step iii takes `p_D` of the field of view for every hypothesis (`missed_detection =
+//!   "fov"`, Appendix A as written; not the paper's experimental setting): \[Kim2022\]
+//!   Section V's adaptive `p_D` (`"gated"`: a hypothesis that gates no measurement is not
+//!   missed) lets a particle that lost the map go unpunished (`docs/filters.md`). A survival
+//!   probability inside the field of view is an option (`survival_fov`, 1 by default: the
+//!   paper's static map).
 //! - **`pmbm-slam`** (Section IV-B, Appendix B): for each prior global hypothesis `a`, the
 //!   `J x (I + J)` assignment matrix (`-ln(nu_i(z_j) / nu_i(empty))`, `-ln nu_j` on the
 //!   new-track diagonal) is ranked by Murty's algorithm for `ceil(B_max beta_a)` assignments;
-//!   each is a new global hypothesis of log weight `ln beta_a + sum_i ln nu_i(empty) - cost`.
-//!   The particle weight is multiplied by `chi`, the sum of these weights (Proposition 1,
-//!   eqs. 21-22; the factor `exp(-lambda_c - int p_D lambda_u)` is common to all particles
-//!   for a constant `kappa_u` and dropped). Reduction: global hypotheses below `1e-4` pruned,
+//!   each is a new global hypothesis of log weight `ln beta_a + sum_i ln nu_i(empty) - cost`
+//!   (the ranking stops early at assignments the reduction would prune, `murty_prune`, our
+//!   choice; a problem that splits into independent parts is ranked part by part,
+//!   [`rfslam_assign::ComponentMurty`]). The particle weight is multiplied by `chi`, the sum
+//!   of these weights (Proposition 1, eqs. 21-22), and by `exp(-int p_D lambda_u)` for the
+//!   thinned intensity (the factor of the PMBM likelihood that Proposition 1 leaves out: it is
+//!   common to all particles only for a constant `kappa_u`, where it is dropped; `lambda_c`
+//!   is common always). Reduction: global hypotheses below `1e-4` pruned,
 //!   at most `B_max = 200`; local hypotheses with `r < 1e-5` non-existent (then global
 //!   hypotheses made equal are merged, and tracks that exist in none are deleted);
 //!   unreferenced local hypotheses deleted.
@@ -65,9 +76,11 @@ pub mod model;
 pub mod mpmb;
 pub mod params;
 pub mod pmbm;
+pub mod undetected;
 
 pub use filter::{DrawContext, Particle, PmbSlam, PmbmFilter, PmbmSlam, PoseDraw, RangeBearingPmbm, Variant};
 pub use mh::{MhPmbmParams, PmbmSlamMh};
 pub use model::{MeasurementModel, RangeBearingModel};
 pub use mpmb::{MpmbFilter, MpmbParams, MpmbSlam};
 pub use params::{MissedDetection, Params, WeightRule};
+pub use undetected::{ThinnedGrid, Undetected, UndetectedModel};

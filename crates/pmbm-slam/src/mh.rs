@@ -169,7 +169,8 @@ impl FilterBuild for PmbmSlamMh {
     fn check(params: &MhPmbmParams, models: &SlamModels, particles: usize) -> Result<(), ParamError> {
         params.validate(particles)?;
         let model = range_bearing_model(&params.pmbm, models);
-        model.detection.validate().map_err(|e| ParamError::new("detection_pd", e))
+        model.detection.validate().map_err(|e| ParamError::new("detection_pd", e))?;
+        params.pmbm.check_undetected(&model)
     }
 
     fn build(params: Validated<Self>, models: &SlamModels) -> Self {

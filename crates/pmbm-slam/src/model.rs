@@ -4,9 +4,9 @@
 //! The filters need from a sensor only: the prediction `h(m, x)` with its Jacobians, the
 //! residual (angles wrapped), the noise `R`, the inverse `g^-1(z, x)` with its Jacobian (the
 //! Gaussian of a new landmark), the detection probability (zero outside the field of view),
-//! the clutter intensity `kappa(z)` and the birth integral `int N(z; h(m, x), R) dm` (the
+//! the clutter intensity `kappa(z)`, the birth integral `int N(z; h(m, x), R) dm` (the
 //! new-track weight `e_j` of \[Kim2022\] Appendix A step ii for a constant undetected
-//! intensity). The landmark dimension `M` and the measurement dimension `Z` are const
+//! intensity) and, for the thinned undetected intensity, the detection sector. The landmark dimension `M` and the measurement dimension `Z` are const
 //! generics (nalgebra fixed sizes), so a 3-D radio model can be added without touching the
 //! filters. The vehicle state is the planar [`Pose`] that every motion model of rfslam
 //! propagates.
@@ -72,6 +72,14 @@ pub trait MeasurementModel<const M: usize, const Z: usize>: std::fmt::Debug + Cl
     /// `int N(z; h(m, x), R) dm` over the landmark space: the new-track weight of a
     /// constant undetected intensity `kappa_u` is `e = p_D kappa_u` times this.
     fn birth_integral(&self, x: &Pose, z: &SVector<f64, Z>) -> f64;
+
+    /// The sector field of view and the detection model of a planar sensor, with which the
+    /// thinned undetected intensity (\[Kim2022\] Appendix A step i, [`crate::undetected`])
+    /// is thinned on a grid over the first two landmark coordinates. `None` (the default):
+    /// the model has no such sector, and the filters refuse `undetected = "thinned"` for it.
+    fn detection_sector(&self) -> Option<(Fov, DetectionModel)> {
+        None
+    }
 }
 
 /// The planar range-bearing sensor of rfslam (\[Kaltiokallio2024\] eq. 50) with its noise, field
@@ -158,6 +166,10 @@ impl MeasurementModel<2, 2> for RangeBearingModel {
     #[inline]
     fn birth_integral(&self, _x: &Pose, z: &Vector2<f64>) -> f64 {
         z[0].max(0.0)
+    }
+
+    fn detection_sector(&self) -> Option<(Fov, DetectionModel)> {
+        Some((self.fov, self.detection))
     }
 }
 

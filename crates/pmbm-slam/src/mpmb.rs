@@ -8,7 +8,10 @@
 //!    `U <- Cov + F_u Q_u F_u^T` (the control noise at the mean) `+ diag(dithering)`;
 //! 2. step ii: each measurement starts a Bernoulli whose Gaussian is the cubature moment of
 //!    `g^-1(z, s)` over `[s; z] ~ N([mu_s; z_j], blkdiag(U, R_U))`, `R_U = noise_inflation R`;
-//!    `e_j = p_D kappa_u int N(z_j; h(m, mu_s), R) dm`, `r_j = e_j / (e_j + kappa(z_j))`;
+//!    `e_j = p_D lambda_u int N(z_j; h(m, mu_s), R) dm` (`lambda_u` around the new landmark),
+//!    `r_j = e_j / (e_j + kappa(z_j))`; then step i, the thinned undetected intensity thinned
+//!    along the predicted vehicle mean `mu_s` (\[Kim2022\] Appendix D-A averages `p_D` over
+//!    the vehicle density; our one-point version), or the constant one left as it is;
 //! 3. step iii: missed, `p_D` at `(mu_s, m_i)`;
 //! 4. step iv: joint cubature (n = 3 + dim m) over `[s; m_i] ~ N([mu_s; m_i], blkdiag(U, P_i))`
 //!    for `z_hat`, `S = P_zz + R_U` and `P_mz`; gated pairs give `nu_i(z_j) = r_i p_D
@@ -39,7 +42,8 @@ use serde::{Deserialize, Serialize};
 use crate::cubature::{InputPoints, PairMoments, PosePoints, lower_factor};
 use crate::filter::range_bearing_model;
 use crate::model::{MeasurementModel, RangeBearingModel, chi2_quantile};
-use crate::params::Params;
+use crate::params::{Params, check_cell, check_undetected, undetected_cell};
+use crate::undetected::{Undetected, UndetectedModel};
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
@@ -60,8 +64,15 @@ pub struct MpmbParams {
     pub bernoulli_prune: f64,
     /// `T_EP` (\[Kim2022\]: 0.4): the map estimate, and the Bernoullis that update the vehicle.
     pub estimate_existence: f64,
-    /// Constant intensity `kappa_u` of the undetected landmarks (per m^2; 1.6e-4 as `pmb-slam`).
+    /// Intensity `kappa_u` of the undetected landmarks before any scan (per m^2; 1.6e-4 as
+    /// `pmb-slam`).
     pub undetected_intensity: f64,
+    /// `"thinned"` (default; thinned along the vehicle mean, see [`crate::undetected`]) or
+    /// `"constant"` (\[Kim2022\] Section V), as `pmb-slam`'s key.
+    pub undetected: UndetectedModel,
+    /// Cell side of the thinned intensity's grid (m); by default the sensor's maximum range
+    /// over [`crate::params::CELLS_PER_RANGE`].
+    pub undetected_cell: Option<f64>,
     /// Clutter intensity units: `"measurement"` (default) or `"cartesian"`.
     pub clutter_intensity: ClutterIntensity,
     /// The filter's clutter rate, overriding the scenario's.
@@ -89,6 +100,8 @@ impl Default for MpmbParams {
             bernoulli_prune: 1e-5,
             estimate_existence: 0.4,
             undetected_intensity: 1.6e-4,
+            undetected: UndetectedModel::Thinned,
+            undetected_cell: None,
             clutter_intensity: ClutterIntensity::Measurement,
             clutter_rate: None,
             min_clutter_intensity: 1e-12,
@@ -111,6 +124,7 @@ impl MpmbParams {
         Interval::OPEN_UNIT.check("bernoulli_prune", self.bernoulli_prune)?;
         Interval::OPEN_UNIT.check("estimate_existence", self.estimate_existence)?;
         Interval::BOUNDED_NON_NEGATIVE.check("undetected_intensity", self.undetected_intensity)?;
+        check_cell(self.undetected_cell)?;
         Interval::BOUNDED_POSITIVE.check("min_clutter_intensity", self.min_clutter_intensity)?;
         Interval::PROBABILITY.check("survival_fov", self.survival_fov)?;
         Interval::BOUNDED_POSITIVE.check("noise_inflation", self.noise_inflation)?;
@@ -208,6 +222,8 @@ pub struct MpmbFilter<S: MeasurementModel<M, Z>, const M: usize, const Z: usize>
     pub cov: Matrix3<f64>,
     /// The Bernoullis of the map.
     pub bernoullis: Vec<GaussianBernoulli<M>>,
+    /// The intensity of the undetected landmarks.
+    pub undetected: Undetected,
     ws: Workspace<M, Z>,
     z: Vec<SVector<f64, Z>>,
 }
@@ -224,6 +240,7 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M,
             mean: models.initial_pose,
             cov: Matrix3::zeros(),
             bernoullis: Vec::new(),
+            undetected: Undetected::new(params.undetected, undetected_cell(params.undetected_cell, &model)),
             params,
             models: models.clone(),
             model,
@@ -273,10 +290,14 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M,
         });
         let Some(l_ru) = self.l_ru else {
             // R_U is not positive definite: no measurement can be used.
+            self.undetected.thin(&self.model, &self.mean);
             return report(self.bernoullis.len(), chol + 1);
         };
         chol += self.map_children(&l_u);
         self.births(&l_u, &l_ru);
+        // Step i along the predicted vehicle mean, after the births read lambda_u,k-1 (no
+        // particles: the weight factor has nothing to weigh).
+        self.undetected.thin(&self.model, &self.mean);
         // Step 5: the association problem, LBP marginals and the most likely association.
         let ws = &mut self.ws;
         let mut ok = ws.problem.reset(&ws.ln_nu_new).is_ok();
@@ -356,7 +377,7 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M,
 
     /// Step ii: the Bernoulli each measurement starts (cubature over `[s; z]`) and `ln nu_j`.
     fn births(&mut self, l_u: &Matrix3<f64>, l_ru: &SMatrix<f64, Z, Z>) {
-        let (model, ws, mu, s) = (&self.model, &mut self.ws, self.mean, &self.params);
+        let (model, ws, mu, s, undetected) = (&self.model, &mut self.ws, self.mean, &self.params, &self.undetected);
         ws.ln_nu_new.clear();
         ws.born.clear();
         let n = 3 + Z;
@@ -366,9 +387,8 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M,
             let input = InputPoints::new(n, zj, l_ru, &pose.y0, |z| model.inverse(&mu, z).0, sub);
             let mom = PairMoments::new(n, &pose, &input);
             let mean = pose.y0 + mom.dmean;
-            let e = model.detection_probability(&mu, &mean, &mom.cov)
-                * s.undetected_intensity
-                * model.birth_integral(&mu, zj);
+            let lambda = s.undetected_intensity * undetected.birth_multiplier(&mean, &mom.cov);
+            let e = model.detection_probability(&mu, &mean, &mom.cov) * lambda * model.birth_integral(&mu, zj);
             let nu = e + model.clutter_intensity(zj).max(s.min_clutter_intensity);
             ws.ln_nu_new.push(nu.ln());
             ws.born.push(GaussianBernoulli { r: (e / nu).clamp(0.0, 1.0), mean, cov: mom.cov });
@@ -562,7 +582,8 @@ impl FilterBuild for MpmbSlam {
         }
         params.validate()?;
         let model = range_bearing_model(&params.sensor_params(), models);
-        model.detection.validate().map_err(|e| ParamError::new("detection_pd", e))
+        model.detection.validate().map_err(|e| ParamError::new("detection_pd", e))?;
+        check_undetected(params.undetected, params.undetected_cell, &model)
     }
 
     fn build(params: Validated<Self>, models: &SlamModels) -> Self {

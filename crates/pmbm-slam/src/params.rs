@@ -6,8 +6,63 @@ use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::{ClutterIntensity, ClutterModel, DetectionModel, ParamError, RbpfParams, SlamModels};
 use serde::{Deserialize, Serialize};
 
-use crate::model::chi2_quantile;
+use crate::model::{MeasurementModel, chi2_quantile};
 use crate::pmbm::{PmbWeight, UpdateSettings};
+use crate::undetected::UndetectedModel;
+
+/// The default cell side of the thinned intensity's grid is the sensor's maximum range
+/// over this: 3.75 m on the PHD-SLAM 3.0 world (150 m), 0.075 m on the delta-GLMB world
+/// (3 m), so that one scan thins about the same number of cells (about 2500 for a half
+/// disc) whatever the sensor's scale.
+pub const CELLS_PER_RANGE: f64 = 40.0;
+
+/// The cell side of the thinned intensity's grid: `cell`, or the sensor's maximum range
+/// over [`CELLS_PER_RANGE`] (1 m for a model without a detection sector, which cannot thin).
+pub fn undetected_cell<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(cell: Option<f64>, model: &S) -> f64 {
+    cell.unwrap_or_else(|| model.detection_sector().map_or(1.0, |(fov, _)| fov.max_range / CELLS_PER_RANGE))
+}
+
+/// Most grid cells one scan may thin (the field of view's area over the cell area): a bound
+/// on the work of step i (about 10 ms per particle and scan at this count).
+pub const MAX_CELLS_PER_SCAN: f64 = 1e7;
+
+/// Checks `undetected_cell`.
+pub(crate) fn check_cell(cell: Option<f64>) -> Result<(), ParamError> {
+    Interval::closed(1e-3, 1e4).check_opt("undetected_cell", cell)
+}
+
+/// Refuses the thinned intensity for a model without a detection sector, or with cells so
+/// small that one scan would thin more than [`MAX_CELLS_PER_SCAN`].
+pub(crate) fn check_undetected<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
+    undetected: UndetectedModel,
+    cell: Option<f64>,
+    model: &S,
+) -> Result<(), ParamError> {
+    if undetected == UndetectedModel::Constant {
+        return Ok(());
+    }
+    if M < 2 {
+        return Err(ParamError::new("undetected", "the thinned intensity needs landmarks in two or more dimensions"));
+    }
+    let Some((fov, _)) = model.detection_sector() else {
+        return Err(ParamError::new(
+            "undetected",
+            "this sensor model has no detection sector to thin the undetected intensity with: use \"constant\"",
+        ));
+    };
+    let cell = undetected_cell(cell, model);
+    let cells = fov.area() / (cell * cell);
+    if cells.is_nan() || cells > MAX_CELLS_PER_SCAN {
+        return Err(ParamError::new(
+            "undetected_cell",
+            format!(
+                "{cell} m cells: one scan would thin {cells:.3e} cells (field of view {:.4e} m^2), more than {MAX_CELLS_PER_SCAN:e}",
+                fov.area()
+            ),
+        ));
+    }
+    Ok(())
+}
 
 /// `pmb-slam`'s particle weight.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -57,15 +112,27 @@ pub struct Params {
     pub lbp_tolerance: f64,
     /// Global hypotheses with a normalised weight below this are pruned (\[Kim2022\]: 1e-4).
     pub gh_prune: f64,
+    /// Murty's ranking of a prior global hypothesis's assignments stops at the first whose
+    /// weight is below `gh_prune` times the best of that hypothesis (our choice, default
+    /// `true`: such a hypothesis is below `gh_prune` after normalisation whatever the others,
+    /// so the reduction would prune it; only `ln chi` loses its mass). `false`: the whole
+    /// budget `ceil(B_max beta_a)` is ranked, as \[Kim2022\] does.
+    pub murty_prune: bool,
     /// Bernoullis (local hypotheses) with existence below this are non-existent
     /// (\[Kim2022\]: 1e-5).
     pub bernoulli_prune: f64,
     /// `T_EP`: the map estimate holds the landmarks with existence above this (\[Kim2022\]: 0.4).
     pub estimate_existence: f64,
-    /// Constant intensity `kappa_u` of the undetected landmarks (landmarks per m^2): 1.6e-4,
-    /// i.e. 160 landmarks per km^2 (the density of the PHD-SLAM 3.0 synthetic world: the
-    /// scenario models carry no landmark density).
+    /// Intensity `kappa_u` of the undetected landmarks before any scan (landmarks per m^2):
+    /// 1.6e-4, i.e. 160 landmarks per km^2 (the density of the PHD-SLAM 3.0 synthetic world:
+    /// the scenario models carry no landmark density).
     pub undetected_intensity: f64,
+    /// `"thinned"` (default: \[Kim2022\] Appendix A step i, the standard PMBM update; see
+    /// [`crate::undetected`]) or `"constant"` (\[Kim2022\] Section V's shortcut).
+    pub undetected: UndetectedModel,
+    /// Cell side of the thinned intensity's grid (m); by default the sensor's maximum range
+    /// over [`CELLS_PER_RANGE`].
+    pub undetected_cell: Option<f64>,
     /// Clutter intensity units: `"measurement"` (default: `rate / (max_range 2 half_angle)`,
     /// the density the likelihood ratios `nu_i(z) / kappa(z)` need) or `"cartesian"`
     /// (`rate / FOV area`, about 75 times smaller on the PHD-SLAM 3.0 world).
@@ -97,9 +164,12 @@ impl Default for Params {
             lbp_max_sweeps: DEFAULT_LBP_MAX_SWEEPS,
             lbp_tolerance: DEFAULT_LBP_TOLERANCE,
             gh_prune: 1e-4,
+            murty_prune: true,
             bernoulli_prune: 1e-5,
             estimate_existence: 0.4,
             undetected_intensity: 1.6e-4,
+            undetected: UndetectedModel::Thinned,
+            undetected_cell: None,
             clutter_intensity: ClutterIntensity::Measurement,
             clutter_rate: None,
             missed_detection: MissedDetection::Fov,
@@ -126,9 +196,19 @@ impl Params {
         Interval::OPEN_UNIT.check("bernoulli_prune", self.bernoulli_prune)?;
         Interval::OPEN_UNIT.check("estimate_existence", self.estimate_existence)?;
         Interval::BOUNDED_NON_NEGATIVE.check("undetected_intensity", self.undetected_intensity)?;
+        check_cell(self.undetected_cell)?;
         Interval::NON_NEGATIVE.up_to(ClutterModel::MAX_RATE).check_opt("clutter_rate", self.clutter_rate)?;
         Interval::PROBABILITY.check("survival_fov", self.survival_fov)?;
         Interval::BOUNDED_POSITIVE.check("min_clutter_intensity", self.min_clutter_intensity)
+    }
+
+    /// Refuses the thinned intensity for a model without a detection sector, or with cells so
+    /// small that one scan would thin more than [`MAX_CELLS_PER_SCAN`] of them.
+    pub fn check_undetected<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
+        &self,
+        model: &S,
+    ) -> Result<(), ParamError> {
+        check_undetected(self.undetected, self.undetected_cell, model)
     }
 
     /// The clutter intensity `kappa` the filter assumes on `models`.
@@ -159,6 +239,7 @@ impl Params {
             lbp: LbpOptions { tolerance: self.lbp_tolerance, max_sweeps: self.lbp_max_sweeps },
             survival: self.survival_fov,
             missed_in_fov: self.missed_detection == MissedDetection::Fov,
+            murty_cut: self.murty_prune.then(|| -self.gh_prune.ln()),
         }
     }
 

@@ -8,19 +8,21 @@
 //! as rows of absolute local-hypothesis indices, one per track with more than one local
 //! hypothesis (a track with one takes it in every global hypothesis, so it needs no column;
 //! most tracks are such, every global hypothesis agreeing on them). The undetected landmarks
-//! are a Poisson point process of constant intensity `kappa_u` (not stored: \[Kim2022\] sets
-//! `p_D ~ 0` in step i, so it never changes).
+//! are a Poisson point process ([`Undetected`]): thinned by each scan on a grid (step i of
+//! Appendix A, applied by the filter after the update), or of constant intensity `kappa_u`
+//! (\[Kim2022\] Section V's shortcut). The updates here read it at the births (step ii).
 
 use nalgebra::{SMatrix, SVector};
 use rfslam_assign::tomb::{GaussianBernoulli, tomb_merge, tomb_new_track};
 use rfslam_assign::{
-    AssignError, Assignment, AssociationProblem, BestAssociation, LbpOptions, LbpSolver, Murty, MurtyOptions,
+    AssignError, Assignment, AssociationProblem, BestAssociation, ComponentMurty, LbpOptions, LbpSolver, MurtyOptions,
 };
 use rfslam_core::Pose;
 use rfslam_core::gaussian::symmetrise;
 use rfslam_core::rbpf::log_sum_exp;
 
 use crate::model::MeasurementModel;
+use crate::undetected::Undetected;
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
@@ -43,6 +45,8 @@ pub struct PmbmDensity<const M: usize> {
     pub gh_hyp: Vec<u32>,
     /// Normalised log weights `ln beta` of the global hypotheses, heaviest first.
     pub gh_log_w: Vec<f64>,
+    /// The intensity of the undetected landmarks (the Poisson part): constant by default.
+    pub undetected: Undetected,
 }
 
 impl<const M: usize> Clone for PmbmDensity<M> {
@@ -59,18 +63,26 @@ impl<const M: usize> Clone for PmbmDensity<M> {
         self.branching.clone_from(&src.branching);
         self.gh_hyp.clone_from(&src.gh_hyp);
         self.gh_log_w.clone_from(&src.gh_log_w);
+        self.undetected.clone_from(&src.undetected);
     }
 }
 
 impl<const M: usize> PmbmDensity<M> {
-    /// An empty map: no track, one global hypothesis of weight one.
+    /// An empty map: no track, one global hypothesis of weight one, the constant undetected
+    /// intensity.
     pub fn new() -> Self {
+        Self::with_undetected(Undetected::Constant)
+    }
+
+    /// An empty map with the undetected intensity `undetected`.
+    pub fn with_undetected(undetected: Undetected) -> Self {
         PmbmDensity {
             hyps: Vec::new(),
             track_start: vec![0],
             branching: Vec::new(),
             gh_hyp: Vec::new(),
             gh_log_w: vec![0.0],
+            undetected,
         }
     }
 
@@ -109,6 +121,7 @@ impl<const M: usize> PmbmDensity<M> {
             branching: Vec::new(),
             gh_hyp: Vec::new(),
             gh_log_w: vec![0.0],
+            undetected: Undetected::Constant,
         }
     }
 
@@ -121,7 +134,8 @@ impl<const M: usize> PmbmDensity<M> {
 /// The settings of one update (validated by the filter's parameters).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UpdateSettings {
-    /// Constant intensity `kappa_u` of the undetected landmarks (per unit landmark volume).
+    /// Intensity `kappa_u` of the undetected landmarks before any scan (per unit landmark
+    /// volume; for ever with the constant model).
     pub undetected_intensity: f64,
     /// Floor of the clutter intensity, so that `nu_j = e_j + kappa` stays positive.
     pub min_clutter_intensity: f64,
@@ -140,6 +154,11 @@ pub struct UpdateSettings {
     /// Missed detections with `p_D` of the field of view for every local hypothesis
     /// (`true`), or only for those that gate a measurement (`false`, \[Kim2022\] Section V).
     pub missed_in_fov: bool,
+    /// Murty's ranking of a sub-problem stops at the first assignment whose cost exceeds the
+    /// best by more than this (`-ln gh_prune`: a new global hypothesis that far below the
+    /// best of its own prior hypothesis is below `gh_prune` whatever the others, and the
+    /// reduction prunes it); `None`: the whole budget `ceil(B_max beta_a)` is ranked.
+    pub murty_cut: Option<f64>,
 }
 
 /// How a PMB particle is weighted (\[Kim2022\] Proposition 2 or eq. 47).
@@ -195,6 +214,7 @@ pub struct Workspace<const M: usize> {
     /// Prior tracks (PMBM): with a local hypothesis of `ln nu(empty) != 0`, and with one
     /// that gates a measurement.
     ln_miss_tracks: Vec<usize>,
+    ln_miss_branching: Vec<usize>,
     gating: Vec<usize>,
     /// Per prior track: its column among the prior map's branching tracks (`u32::MAX`: none).
     prior_slot: Vec<u32>,
@@ -210,9 +230,20 @@ pub struct Workspace<const M: usize> {
     group_key: Vec<u32>,
     group_tracks: Vec<usize>,
     group_key_start: Vec<usize>,
+    /// Per group, the comparison key (see [`group_subproblems`]), delimited by
+    /// `group_bkey_start`; the prior columns of the branching gating tracks.
+    group_bkey: Vec<u32>,
+    group_bkey_start: Vec<usize>,
+    gating_cols: Vec<u32>,
     group_budget: Vec<usize>,
+    /// Murty budget `ceil(B_max beta_a)` of each prior global hypothesis.
+    budget: Vec<usize>,
     group_state: Vec<GroupState>,
     group_asg: Vec<Vec<Assignment>>,
+    /// Per group, the (column, local hypothesis) entries of each ranked assignment,
+    /// delimited by `group_write_end`.
+    group_writes: Vec<Vec<(u32, u32)>>,
+    group_write_end: Vec<Vec<usize>>,
     /// A new global-hypothesis row with the columns every row shares.
     template: Vec<u32>,
     /// Columns (in the new rows) of the tracks that branch in the reduced map.
@@ -220,11 +251,13 @@ pub struct Workspace<const M: usize> {
     /// New global-hypothesis row of the all-missed assignment of one prior hypothesis.
     base_row: Vec<u32>,
     cost: Vec<f64>,
-    murty: Murty,
+    murty: ComponentMurty,
     lbp: LbpSolver,
     best: BestAssociation,
     /// Reduction scratch.
     order: Vec<usize>,
+    sort_keys: Vec<(u64, u32)>,
+    canon_cols: Vec<usize>,
     row_hash: Vec<u64>,
     referenced: Vec<u32>,
     canon: Vec<u32>,
@@ -327,7 +360,9 @@ fn children<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     ws.r_new.clear();
     for zj in z {
         let (mean, cov) = model.birth(x, zj);
-        let e = model.detection_probability(x, &mean, &cov) * s.undetected_intensity * model.birth_integral(x, zj);
+        // lambda_u,k-1 around the new landmark (`kappa_u` exactly for the constant intensity).
+        let lambda = s.undetected_intensity * map.undetected.birth_multiplier(&mean, &cov);
+        let e = model.detection_probability(x, &mean, &cov) * lambda * model.birth_integral(x, zj);
         let nu = e + model.clutter_intensity(zj).max(s.min_clutter_intensity);
         let r = (e / nu).clamp(0.0, 1.0);
         ws.ln_nu_new.push(nu.ln());
@@ -363,7 +398,7 @@ pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     let n_old = map.tracks();
     let n_new = n_old + z.len();
     let nb = map.branching.len();
-    classify_tracks(map, ws);
+    classify_tracks(map, s, ws);
     group_subproblems(map, s, ws);
     // The all-missed row (every measurement a new track, "exists") on the new branching
     // tracks, where it is the same for every prior global hypothesis; the prior branching
@@ -375,10 +410,20 @@ pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     let nm = ws.multi.len();
     ws.gh_hyp.clear();
     ws.gh_log_w.clear();
+    // `sum_i ln nu_i(empty)` over the tracks with one local hypothesis, the same in every
+    // global hypothesis; the branching ones are added per hypothesis.
+    let ln_miss_fixed: f64 = ws
+        .ln_miss_tracks
+        .iter()
+        .filter(|&&t| ws.prior_slot[t] == u32::MAX)
+        .map(|&t| ws.ln_miss[map.track_start[t]])
+        .sum();
+    ws.ln_miss_branching.clear();
+    ws.ln_miss_branching.extend(ws.ln_miss_tracks.iter().filter(|&&t| ws.prior_slot[t] != u32::MAX));
     for a in 0..map.hypotheses() {
         let prow = &map.gh_hyp[a * nb..(a + 1) * nb];
         let g = ws.group_of[a] as usize;
-        if ws.problem.reset(&ws.ln_nu_new).is_err() || !solve_group(g, ws) {
+        if !solve_group(g, n_old, s, ws) {
             out.association_errors += 1;
             continue;
         }
@@ -387,29 +432,23 @@ pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
             k => prow[k as usize] as usize,
         };
         // `sum_i ln nu_i(empty)`: the tracks left out have `ln nu(empty) = 0` exactly.
-        let base: f64 = map.gh_log_w[a] + ws.ln_miss_tracks.iter().map(|&t| ws.ln_miss[hyp_of(t)]).sum::<f64>();
-        let budget = (s.max_global_hypotheses as f64 * map.gh_log_w[a].exp()).ceil().max(1.0) as usize;
+        let base: f64 =
+            map.gh_log_w[a] + ln_miss_fixed + ws.ln_miss_branching.iter().map(|&t| ws.ln_miss[hyp_of(t)]).sum::<f64>();
+        let budget = ws.budget[a];
         ws.base_row.clear();
         ws.base_row.extend_from_slice(&ws.template);
         for (&t, &h) in map.branching.iter().zip(prow) {
             ws.base_row[ws.slot[t] as usize] = ws.miss_child[h as usize];
         }
-        let rows = &ws.group_tracks[ws.group_key_start[g]..ws.group_key_start[g + 1]];
-        let keys = &ws.group_key[ws.group_key_start[g]..ws.group_key_start[g + 1]];
-        for asg in ws.group_asg[g].iter().take(budget) {
+        let writes = &ws.group_writes[g];
+        let mut from = 0;
+        for (asg, &to) in ws.group_asg[g].iter().zip(&ws.group_write_end[g]).take(budget) {
             let start = ws.gh_hyp.len();
             ws.gh_hyp.extend_from_slice(&ws.base_row);
-            for (j, c) in asg.col_for_row.iter().enumerate() {
-                let Some(c) = *c else { continue };
-                if c < rows.len() {
-                    // A track that gates a measurement and a new track both branch.
-                    let h = keys[c] as usize;
-                    let det = &ws.det[ws.det_start[h]..ws.det_start[h + 1]];
-                    let child = det.iter().find(|d| d.j == j).expect("assigned pairs are gated").child;
-                    ws.gh_hyp[start + ws.slot[rows[c]] as usize] = child;
-                    ws.gh_hyp[start + ws.slot[n_old + j] as usize] = ws.track_start[n_old + j] as u32;
-                }
+            for &(k, h) in &writes[from..to] {
+                ws.gh_hyp[start + k as usize] = h;
             }
+            from = to;
             ws.gh_log_w.push(base - asg.cost);
         }
     }
@@ -431,9 +470,9 @@ pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
 /// hypothesis of `ln nu(empty) != 0`; `gating`, those with a local hypothesis that gates a
 /// measurement; `prior_slot`, the column of a branching track in the prior rows. New arena:
 /// `multi`, the tracks with more than one local hypothesis (prior branching tracks, tracks
-/// that gate a measurement, the measurements' new tracks), and `slot`, their columns in the
-/// new rows.
-fn classify_tracks<const M: usize>(map: &PmbmDensity<M>, ws: &mut Workspace<M>) {
+/// that gate a measurement, the measurements' new tracks but those the reduction deletes),
+/// and `slot`, their columns in the new rows.
+fn classify_tracks<const M: usize>(map: &PmbmDensity<M>, s: &UpdateSettings, ws: &mut Workspace<M>) {
     ws.ln_miss_tracks.clear();
     ws.gating.clear();
     for t in 0..map.tracks() {
@@ -451,10 +490,15 @@ fn classify_tracks<const M: usize>(map: &PmbmDensity<M>, ws: &mut Workspace<M>) 
         ws.prior_slot[t] = k as u32;
     }
     let n_new = ws.track_start.len() - 1;
+    let n_old = map.tracks();
     ws.multi.clear();
     ws.slot.clear();
     for t in 0..n_new {
-        if ws.track_start[t + 1] - ws.track_start[t] > 1 {
+        // A new track whose "exists" hypothesis is below `bernoulli_prune` (a measurement
+        // where the undetected intensity is thinned out) has both its local hypotheses
+        // non-existent after the reduction, which deletes it: it needs no column.
+        let dead_new = t >= n_old && ws.r_new[t - n_old] < s.bernoulli_prune;
+        if ws.track_start[t + 1] - ws.track_start[t] > 1 && !dead_new {
             ws.slot.push(ws.multi.len() as u32);
             ws.multi.push(t);
         } else {
@@ -477,35 +521,51 @@ fn group_subproblems<const M: usize>(map: &PmbmDensity<M>, s: &UpdateSettings, w
     ws.group_key_start.clear();
     ws.group_key_start.push(0);
     ws.group_budget.clear();
+    ws.budget.clear();
+    // Global hypotheses differ only on the prior branching tracks: the key compared is the
+    // local hypothesis of each branching gating track when it gates (`u32::MAX` when it
+    // does not), which fixes the whole sequence (every other gating track has one local
+    // hypothesis, the same in each global hypothesis).
+    ws.gating_cols.clear();
+    ws.gating_cols.extend(ws.gating.iter().map(|&t| ws.prior_slot[t]).filter(|&k| k != u32::MAX));
+    ws.group_bkey.clear();
+    ws.group_bkey_start.clear();
+    ws.group_bkey_start.push(0);
     for a in 0..map.hypotheses() {
         let prow = &map.gh_hyp[a * nb..(a + 1) * nb];
-        let key_start = ws.group_key.len();
-        for &t in &ws.gating {
-            let h = match ws.prior_slot[t] {
-                u32::MAX => map.track_start[t],
-                k => prow[k as usize] as usize,
-            };
-            if ws.det_start[h] != ws.det_start[h + 1] {
-                ws.group_key.push(h as u32);
-                ws.group_tracks.push(t);
-            }
+        let bkey_start = ws.group_bkey.len();
+        for &k in &ws.gating_cols {
+            let h = prow[k as usize] as usize;
+            ws.group_bkey.push(if ws.det_start[h] != ws.det_start[h + 1] { h as u32 } else { u32::MAX });
         }
-        let key = &ws.group_key[key_start..];
-        let hash = key.iter().fold(FNV_OFFSET, |h, &v| fnv_step(h, v));
-        let ks = &ws.group_key_start;
+        let bkey = &ws.group_bkey[bkey_start..];
+        let hash = bkey.iter().fold(FNV_OFFSET, |h, &v| fnv_step(h, v));
+        let bs = &ws.group_bkey_start;
         let found =
-            (0..ws.group_hash.len()).find(|&g| ws.group_hash[g] == hash && ws.group_key[ks[g]..ks[g + 1]] == *key);
-        let budget = (s.max_global_hypotheses as f64 * map.gh_log_w[a].exp()).ceil().max(1.0) as usize;
+            (0..ws.group_hash.len()).find(|&g| ws.group_hash[g] == hash && ws.group_bkey[bs[g]..bs[g + 1]] == *bkey);
+        let budget = murty_budget(s.max_global_hypotheses, map.gh_log_w[a]);
+        ws.budget.push(budget);
         let g = match found {
             Some(g) => {
-                ws.group_key.truncate(key_start);
-                ws.group_tracks.truncate(key_start);
+                ws.group_bkey.truncate(bkey_start);
                 ws.group_budget[g] = ws.group_budget[g].max(budget);
                 g
             }
             None => {
+                // A new sub-problem: its rows, the gating local hypotheses in track order.
+                for &t in &ws.gating {
+                    let h = match ws.prior_slot[t] {
+                        u32::MAX => map.track_start[t],
+                        k => prow[k as usize] as usize,
+                    };
+                    if ws.det_start[h] != ws.det_start[h + 1] {
+                        ws.group_key.push(h as u32);
+                        ws.group_tracks.push(t);
+                    }
+                }
                 ws.group_hash.push(hash);
                 ws.group_key_start.push(ws.group_key.len());
+                ws.group_bkey_start.push(ws.group_bkey.len());
                 ws.group_budget.push(budget);
                 ws.group_hash.len() - 1
             }
@@ -517,6 +577,8 @@ fn group_subproblems<const M: usize>(map: &PmbmDensity<M>, s: &UpdateSettings, w
     ws.group_state.resize(groups, GroupState::Unsolved);
     if ws.group_asg.len() < groups {
         ws.group_asg.resize_with(groups, Vec::new);
+        ws.group_writes.resize_with(groups, Vec::new);
+        ws.group_write_end.resize_with(groups, Vec::new);
     }
 }
 
@@ -529,11 +591,11 @@ enum GroupState {
 }
 
 /// Ranks group `g`'s sub-problem by Murty's algorithm for the group's budget, on its first
-/// use (`ws.problem` must have been reset to the new-track factors). Returns whether the
-/// group has its assignments (`false`: the association step refused the sub-problem).
-fn solve_group<const M: usize>(g: usize, ws: &mut Workspace<M>) -> bool {
+/// use. Returns whether the group has its assignments (`false`: the association step
+/// refused the sub-problem).
+fn solve_group<const M: usize>(g: usize, n_old: usize, s: &UpdateSettings, ws: &mut Workspace<M>) -> bool {
     if ws.group_state[g] == GroupState::Unsolved {
-        let mut failed = false;
+        let mut failed = ws.problem.reset(&ws.ln_nu_new).is_err();
         for &h in &ws.group_key[ws.group_key_start[g]..ws.group_key_start[g + 1]] {
             let h = h as usize;
             let gates = ws.det[ws.det_start[h]..ws.det_start[h + 1]].iter().map(|d| (d.j, d.ln_nu));
@@ -541,15 +603,57 @@ fn solve_group<const M: usize>(g: usize, ws: &mut Workspace<M>) -> bool {
         }
         let solved = match ws.problem.measurement_cost_matrix(std::mem::take(&mut ws.cost)) {
             Ok(cost) if !failed => {
-                let found = ws.murty.k_best(&cost, &MurtyOptions::best(ws.group_budget[g]), &mut ws.group_asg[g]);
+                let opts = MurtyOptions { max_log_ratio: s.murty_cut, ..MurtyOptions::best(ws.group_budget[g]) };
+                let found = ws.murty.k_best(&cost, &opts, &mut ws.group_asg[g]);
                 ws.cost = cost.into_data();
                 found.is_ok()
             }
             _ => false,
         };
         ws.group_state[g] = if solved { GroupState::Solved } else { GroupState::Failed };
+        if solved {
+            group_writes(g, n_old, ws);
+        }
     }
     ws.group_state[g] == GroupState::Solved
+}
+
+/// The entries each ranked assignment of group `g` writes into a new global-hypothesis row
+/// (the same for every prior hypothesis of the group): for a measurement `j` assigned to a
+/// gating track, the track's detected child and its new track's "not started" local
+/// hypothesis (the new track keeps "exists" in the base row otherwise).
+fn group_writes<const M: usize>(g: usize, n_old: usize, ws: &mut Workspace<M>) {
+    let rows = &ws.group_tracks[ws.group_key_start[g]..ws.group_key_start[g + 1]];
+    let keys = &ws.group_key[ws.group_key_start[g]..ws.group_key_start[g + 1]];
+    let writes = &mut ws.group_writes[g];
+    let ends = &mut ws.group_write_end[g];
+    writes.clear();
+    ends.clear();
+    for asg in &ws.group_asg[g] {
+        for (j, c) in asg.col_for_row.iter().enumerate() {
+            let Some(c) = *c else { continue };
+            if c < rows.len() {
+                // A track that gates a measurement and a new track both branch.
+                let h = keys[c] as usize;
+                let det = &ws.det[ws.det_start[h]..ws.det_start[h + 1]];
+                let child = det.iter().find(|d| d.j == j).expect("assigned pairs are gated").child;
+                writes.push((ws.slot[rows[c]], child));
+                if let Some(&k) = ws.slot.get(n_old + j).filter(|&&k| k != u32::MAX) {
+                    writes.push((k, ws.track_start[n_old + j] as u32));
+                }
+            }
+        }
+        ends.push(writes.len());
+    }
+}
+
+/// `ceil(B_max beta)` (at least 1) for `ln beta = ln_w`; without the exponential where
+/// `beta` is clearly at most `1 / B_max` (then the budget is 1).
+fn murty_budget(b_max: usize, ln_w: f64) -> usize {
+    if ln_w < -(b_max as f64).ln() - 1e-9 {
+        return 1;
+    }
+    (b_max as f64 * ln_w.exp()).ceil().max(1.0) as usize
 }
 
 const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
@@ -568,10 +672,18 @@ fn fnv_step(h: u64, v: u32) -> u64 {
 fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSettings, ws: &mut Workspace<M>) {
     let nm = ws.multi.len();
     let ln_prune = s.gh_prune.ln();
+    // Heaviest first (ties: lower index first), as packed integer keys.
+    ws.sort_keys.clear();
+    ws.sort_keys.extend(ws.gh_log_w.iter().enumerate().map(|(a, &w)| (descending_key(w), a as u32)));
+    if ws.sort_keys.len() > s.max_global_hypotheses {
+        // Only the B_max heaviest can be kept: partition them off before sorting.
+        ws.sort_keys.select_nth_unstable(s.max_global_hypotheses - 1);
+        ws.sort_keys.truncate(s.max_global_hypotheses);
+    }
+    ws.sort_keys.sort_unstable();
     ws.order.clear();
-    ws.order.extend(0..ws.gh_log_w.len());
+    ws.order.extend(ws.sort_keys.iter().map(|&(_, a)| a as usize));
     let w = &ws.gh_log_w;
-    ws.order.sort_by(|&a, &b| w[b].total_cmp(&w[a]).then(a.cmp(&b)));
     let keep =
         ws.order.iter().take(s.max_global_hypotheses).take_while(|&&a| a == ws.order[0] || w[a] >= ln_prune).count();
     ws.order.truncate(keep);
@@ -584,11 +696,21 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
         }
         ws.absent.push(h.r == 0.0);
     }
+    // Only a column whose track has two or more non-existent local hypotheses can change:
+    // with one, every row that takes it already holds the canonical index.
+    ws.canon_cols.clear();
+    for (k, &t) in ws.multi.iter().enumerate() {
+        if ws.absent[ws.track_start[t]..ws.track_start[t + 1]].iter().filter(|&&a| a).nth(1).is_some() {
+            ws.canon_cols.push(k);
+        }
+    }
     ws.canon.clear();
     ws.canon.resize(nm, u32::MAX);
     let mut changed = false;
     for &a in &ws.order {
-        for (k, h) in ws.gh_hyp[a * nm..(a + 1) * nm].iter_mut().enumerate() {
+        let row = &mut ws.gh_hyp[a * nm..(a + 1) * nm];
+        for &k in &ws.canon_cols {
+            let h = &mut row[k];
             if ws.absent[*h as usize] {
                 if ws.canon[k] == u32::MAX {
                     ws.canon[k] = *h;
@@ -611,7 +733,7 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
         ws.row_hash.resize(ws.gh_log_w.len(), 0);
         row_hashes(&ws.order, rows, &ws.multi, &ws.track_start[..n_new], &mut ws.row_hash);
         let hash = &ws.row_hash;
-        ws.order.sort_by(|&a, &b| hash[a].cmp(&hash[b]).then_with(|| row(a).cmp(row(b))).then(a.cmp(&b)));
+        ws.order.sort_unstable_by(|&a, &b| hash[a].cmp(&hash[b]).then_with(|| row(a).cmp(row(b))).then(a.cmp(&b)));
     }
     let mut k = 0;
     while k < ws.order.len() {
@@ -631,7 +753,7 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
     ws.order.clear();
     ws.order.extend(0..n_gh);
     let mw = &map.gh_log_w;
-    ws.order.sort_by(|&a, &b| mw[b].total_cmp(&mw[a]).then(a.cmp(&b)));
+    ws.order.sort_unstable_by(|&a, &b| mw[b].total_cmp(&mw[a]).then(a.cmp(&b)));
     let total = log_sum_exp(&map.gh_log_w);
     // Tracks that exist in some kept global hypothesis; referenced local hypotheses (a
     // track's only local hypothesis is referenced by every global hypothesis).
@@ -680,6 +802,14 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
         map.gh_hyp.extend(ws.kept_multi.iter().map(|&k| canon[g[k] as usize]));
         map.gh_log_w.push(weights[o] - total);
     }
+}
+
+/// A key whose ascending order is the descending [`f64::total_cmp`] order of `w`.
+#[inline]
+fn descending_key(w: f64) -> u64 {
+    let b = w.to_bits();
+    let ascending = if b >> 63 == 1 { !b } else { b | (1 << 63) };
+    !ascending
 }
 
 /// FNV-1a hash of each global hypothesis `a` in `order` over every track in track order

@@ -4,7 +4,7 @@
 use nalgebra::{Matrix2, Vector2};
 use pmbm_slam::model::{MeasurementModel, RangeBearingModel};
 use pmbm_slam::pmbm::{PmbWeight, PmbmDensity, UpdateSettings, Workspace, pmb_update, pmbm_update};
-use pmbm_slam::{MpmbParams, MpmbSlam, Params, PmbSlam, PmbmSlam};
+use pmbm_slam::{MpmbParams, MpmbSlam, Params, PmbSlam, PmbmSlam, Undetected};
 use rfslam_assign::tomb::GaussianBernoulli;
 use rfslam_assign::{AssociationProblem, LbpOptions, exact_association, for_each_association};
 use rfslam_core::gaussian::log_normal;
@@ -36,6 +36,7 @@ fn settings(undetected: f64, gate: f64) -> UpdateSettings {
         lbp: LbpOptions::default(),
         survival: 1.0,
         missed_in_fov: true,
+        murty_cut: None,
     }
 }
 
@@ -222,6 +223,7 @@ fn shared_subproblem_keeps_each_hypothesis_budget() {
         branching: vec![1],
         gh_hyp: vec![1, 2],
         gh_log_w: vec![0.7f64.ln(), 0.3f64.ln()],
+        undetected: Undetected::Constant,
     };
     let z = [RangeBearing::new(10.1, 0.10), RangeBearing::new(9.8, 0.08)];
     let p = problem(&m, &x, &[near], &z, 1e-3);
@@ -347,6 +349,7 @@ fn hypotheses_made_equal_by_bernoulli_pruning_are_merged() {
         branching: vec![1],
         gh_hyp: vec![1, 2],
         gh_log_w: vec![0.6f64.ln(), 0.4f64.ln()],
+        undetected: Undetected::Constant,
     };
     // Missed children: r = 0.3 * 0.1 / 0.73 = 0.041 and 0.2 * 0.1 / 0.82 = 0.024.
     let s = UpdateSettings { bernoulli_prune: 0.05, ..settings(0.0, 9.21) };
