@@ -250,7 +250,6 @@ pub struct Workspace<const M: usize> {
     kept_multi: Vec<usize>,
     /// New global-hypothesis row of the all-missed assignment of one prior hypothesis.
     base_row: Vec<u32>,
-    cost: Vec<f64>,
     murty: ComponentMurty,
     lbp: LbpSolver,
     best: BestAssociation,
@@ -601,15 +600,8 @@ fn solve_group<const M: usize>(g: usize, n_old: usize, s: &UpdateSettings, ws: &
             let gates = ws.det[ws.det_start[h]..ws.det_start[h + 1]].iter().map(|d| (d.j, d.ln_nu));
             failed |= ws.problem.push_track(ws.ln_miss[h], gates).is_err();
         }
-        let solved = match ws.problem.measurement_cost_matrix(std::mem::take(&mut ws.cost)) {
-            Ok(cost) if !failed => {
-                let opts = MurtyOptions { max_log_ratio: s.murty_cut, ..MurtyOptions::best(ws.group_budget[g]) };
-                let found = ws.murty.k_best(&cost, &opts, &mut ws.group_asg[g]);
-                ws.cost = cost.into_data();
-                found.is_ok()
-            }
-            _ => false,
-        };
+        let opts = MurtyOptions { max_log_ratio: s.murty_cut, ..MurtyOptions::best(ws.group_budget[g]) };
+        let solved = !failed && ws.murty.k_best_association(&ws.problem, &opts, &mut ws.group_asg[g]).is_ok();
         ws.group_state[g] = if solved { GroupState::Solved } else { GroupState::Failed };
         if solved {
             group_writes(g, n_old, ws);

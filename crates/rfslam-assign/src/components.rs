@@ -15,7 +15,7 @@ use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
 use crate::lap::NONE;
-use crate::{AssignError, Assignment, CostMatrix, Murty, MurtyOptions};
+use crate::{AssignError, Assignment, AssociationProblem, CostMatrix, Murty, MurtyOptions};
 
 /// A component's ranked assignments: per entry its cost and, per component row, the
 /// column (in the whole problem).
@@ -78,6 +78,11 @@ pub struct ComponentMurty {
     sub: Vec<f64>,
     sub_out: Vec<Assignment>,
     entries: Vec<(f64, usize)>,
+    /// The gating tracks of each measurement with their costs (association problems).
+    meas_start: Vec<usize>,
+    meas_pairs: Vec<(usize, f64)>,
+    /// Scratch: the next free slot of each group while filling.
+    fill: Vec<usize>,
     ranked: Vec<Ranked>,
     picks: Vec<u32>,
     heap: BinaryHeap<State>,
@@ -121,7 +126,109 @@ impl ComponentMurty {
                 return Err(e);
             }
         }
-        self.merge(cost, n_comp, opts, out);
+        self.merge(nr, n_comp, opts, out, |r, k| cost.get(r, k));
+        Ok(())
+    }
+
+    /// [`ComponentMurty::k_best`] of the measurement-oriented matrix of `problem`
+    /// ([`AssociationProblem::measurement_cost_matrix`]: `J x (I + J)`, measurement `j` to
+    /// track `i` at `-(ln psi_i(j) - ln psi_i(0))` when gated, or to its own new-track column
+    /// `I + j` at `-ln xi_j`) without building it: the components and their sub-matrices are
+    /// read off the gates. The same output, cost for cost, as `k_best` of that matrix.
+    pub fn k_best_association(
+        &mut self,
+        problem: &AssociationProblem,
+        opts: &MurtyOptions,
+        out: &mut Vec<Assignment>,
+    ) -> Result<(), AssignError> {
+        if let Some(r) = opts.max_log_ratio
+            && (r.is_nan() || r < 0.0)
+        {
+            out.clear();
+            return Err(AssignError::InvalidLogRatio(r));
+        }
+        let (n_meas, n_tracks) = (problem.measurements(), problem.tracks());
+        if n_meas == 0 || opts.max_count == 0 {
+            let cost = problem.measurement_cost_matrix(Vec::new())?;
+            return self.murty.k_best(&cost, opts, out);
+        }
+        // Two measurements are linked when a track gates both.
+        self.parent.clear();
+        self.parent.extend(0..n_meas);
+        for i in 0..n_tracks {
+            let (meas, _) = problem.gates(i);
+            if let Some((&first, rest)) = meas.split_first() {
+                for &j in rest {
+                    union(&mut self.parent, first, j);
+                }
+            }
+        }
+        self.group_rows(n_meas);
+        let n_comp = self.start.len() - 1;
+        if self.ranked.len() < n_comp {
+            self.ranked.resize_with(n_comp, Ranked::default);
+        }
+        // Each measurement's gating tracks, for the sub-matrices.
+        self.meas_start.clear();
+        self.meas_start.resize(n_meas + 1, 0);
+        for &j in problem.pair_meas() {
+            self.meas_start[j + 1] += 1;
+        }
+        for j in 0..n_meas {
+            self.meas_start[j + 1] += self.meas_start[j];
+        }
+        self.meas_pairs.clear();
+        self.meas_pairs.resize(problem.gated_pairs(), (0, 0.0));
+        self.fill.clear();
+        self.fill.extend_from_slice(&self.meas_start[..n_meas]);
+        for (i, &miss) in problem.ln_miss().iter().enumerate() {
+            let (meas, ln_det) = problem.gates(i);
+            for (&j, &l) in meas.iter().zip(ln_det) {
+                self.meas_pairs[self.fill[j]] = (i, -(l - miss));
+                self.fill[j] += 1;
+            }
+        }
+        let ln_xi = problem.ln_xi();
+        for c in 0..n_comp {
+            let (s, e) = (self.start[c], self.start[c + 1]);
+            self.cols.clear();
+            for &j in &self.rows[s..e] {
+                self.cols.extend(self.meas_pairs[self.meas_start[j]..self.meas_start[j + 1]].iter().map(|&(i, _)| i));
+                self.cols.push(n_tracks + j);
+            }
+            self.cols.sort_unstable();
+            self.cols.dedup();
+            self.sub.clear();
+            for &j in &self.rows[s..e] {
+                let pairs = &self.meas_pairs[self.meas_start[j]..self.meas_start[j + 1]];
+                self.sub.extend(self.cols.iter().map(|&k| {
+                    if k == n_tracks + j {
+                        -ln_xi[j]
+                    } else if k < n_tracks {
+                        pairs.iter().find(|&&(i, _)| i == k).map_or(f64::INFINITY, |&(_, x)| x)
+                    } else {
+                        f64::INFINITY
+                    }
+                }));
+            }
+            if let Err(e) = self.rank_sub(c, opts) {
+                out.clear();
+                return Err(e);
+            }
+        }
+        let (meas_start, meas_pairs) = (std::mem::take(&mut self.meas_start), std::mem::take(&mut self.meas_pairs));
+        self.merge(n_meas, n_comp, opts, out, |j, k| {
+            if k == n_tracks + j {
+                -ln_xi[j]
+            } else {
+                meas_pairs[meas_start[j]..meas_start[j + 1]]
+                    .iter()
+                    .find(|&&(i, _)| i == k)
+                    .map_or(f64::INFINITY, |&(_, x)| x)
+            }
+        });
+        self.meas_start = meas_start;
+        self.meas_pairs = meas_pairs;
         Ok(())
     }
 
@@ -140,18 +247,16 @@ impl ComponentMurty {
                 }
                 match self.col_row[c] {
                     NONE => self.col_row[c] = r,
-                    other => {
-                        let (a, b) = (root(&mut self.parent, r), root(&mut self.parent, other));
-                        if a != b {
-                            // The smaller root stays the root: components keep their first row.
-                            let (lo, hi) = if a < b { (a, b) } else { (b, a) };
-                            self.parent[hi] = lo;
-                        }
-                    }
+                    other => union(&mut self.parent, r, other),
                 }
             }
         }
-        // Components in order of their root (= first row); rows ascending within each.
+        self.group_rows(nr);
+    }
+
+    /// The components of the union-find `parent` over `nr` rows into `rows` / `start`: in
+    /// order of their root (their first row), rows ascending within each.
+    fn group_rows(&mut self, nr: usize) {
         self.comp_of.clear();
         self.comp_of.resize(nr, NONE);
         let mut n_comp = 0;
@@ -173,11 +278,12 @@ impl ComponentMurty {
         }
         self.rows.clear();
         self.rows.resize(nr, 0);
-        let mut fill: Vec<usize> = self.start[..n_comp].to_vec();
+        self.fill.clear();
+        self.fill.extend_from_slice(&self.start[..n_comp]);
         for r in 0..nr {
             let c = self.comp_of[root(&mut self.parent, r)];
-            self.rows[fill[c]] = r;
-            fill[c] += 1;
+            self.rows[self.fill[c]] = r;
+            self.fill[c] += 1;
         }
     }
 
@@ -185,13 +291,38 @@ impl ComponentMurty {
     /// its best) into `self.ranked[c]`.
     fn rank_component(&mut self, cost: &CostMatrix, c: usize, opts: &MurtyOptions) -> Result<(), AssignError> {
         let rows = &self.rows[self.start[c]..self.start[c + 1]];
+        // The component's columns, in ascending order, and its sub-matrix.
+        self.col_pos.clear();
+        self.col_pos.resize(cost.cols(), NONE);
+        self.cols.clear();
+        for &r in rows {
+            for (k, &x) in cost.row(r).iter().enumerate() {
+                if x != f64::INFINITY && self.col_pos[k] == NONE {
+                    self.col_pos[k] = 0;
+                    self.cols.push(k);
+                }
+            }
+        }
+        self.cols.sort_unstable();
+        self.sub.clear();
+        for &r in rows {
+            let row = cost.row(r);
+            self.sub.extend(self.cols.iter().map(|&k| row[k]));
+        }
+        self.rank_sub(c, opts)
+    }
+
+    /// Ranks component `c` from its sub-matrix `self.sub` (its rows by `self.cols`, the
+    /// columns in the whole problem, ascending) into `self.ranked[c]`: one row by sorting its
+    /// finite entries (cheapest first, then the lower column), more by [`Murty`].
+    fn rank_sub(&mut self, c: usize, opts: &MurtyOptions) -> Result<(), AssignError> {
+        let n_rows = self.start[c + 1] - self.start[c];
         let ranked = &mut self.ranked[c];
         ranked.costs.clear();
         ranked.cols.clear();
-        if let [r] = *rows {
-            // One row: its finite entries, cheapest first (then the lower column).
+        if n_rows == 1 {
             self.entries.clear();
-            self.entries.extend(cost.row(r).iter().enumerate().filter(|(_, x)| x.is_finite()).map(|(k, &x)| (x, k)));
+            self.entries.extend(self.sub.iter().zip(&self.cols).filter(|(x, _)| x.is_finite()).map(|(&x, &k)| (x, k)));
             if self.entries.is_empty() {
                 return Err(AssignError::Infeasible);
             }
@@ -206,29 +337,11 @@ impl ComponentMurty {
             }
             return Ok(());
         }
-        // The component's columns, in ascending order, and its sub-matrix.
-        self.col_pos.clear();
-        self.col_pos.resize(cost.cols(), NONE);
-        self.cols.clear();
-        for &r in rows {
-            for (k, &x) in cost.row(r).iter().enumerate() {
-                if x != f64::INFINITY && self.col_pos[k] == NONE {
-                    self.col_pos[k] = 0;
-                    self.cols.push(k);
-                }
-            }
-        }
-        self.cols.sort_unstable();
-        if rows.len() > self.cols.len() {
+        if n_rows > self.cols.len() {
             // Its rows cannot all be assigned, so no row assignment of the whole exists.
             return Err(AssignError::Infeasible);
         }
-        self.sub.clear();
-        for &r in rows {
-            let row = cost.row(r);
-            self.sub.extend(self.cols.iter().map(|&k| row[k]));
-        }
-        let sub = CostMatrix::new(rows.len(), self.cols.len(), std::mem::take(&mut self.sub))?;
+        let sub = CostMatrix::new(n_rows, self.cols.len(), std::mem::take(&mut self.sub))?;
         let solved = self.murty.k_best(&sub, opts, &mut self.sub_out);
         self.sub = sub.into_data();
         solved?;
@@ -242,7 +355,16 @@ impl ComponentMurty {
     }
 
     /// The best combinations of the components' ranked lists into `out`, cheapest first.
-    fn merge(&mut self, cost: &CostMatrix, n_comp: usize, opts: &MurtyOptions, out: &mut Vec<Assignment>) {
+    /// `value(row, col)` is the whole problem's entry, `n_rows` its rows: each output's cost
+    /// is the sum of its entries in row order, as [`Murty::k_best`] sums it.
+    fn merge(
+        &mut self,
+        n_rows: usize,
+        n_comp: usize,
+        opts: &MurtyOptions,
+        out: &mut Vec<Assignment>,
+        value: impl Fn(usize, usize) -> f64,
+    ) {
         self.heap.clear();
         self.picks.clear();
         self.picks.resize(n_comp, 0);
@@ -259,7 +381,7 @@ impl ComponentMurty {
             }
             let a = &mut out[n_out];
             a.col_for_row.clear();
-            a.col_for_row.resize(cost.rows(), None);
+            a.col_for_row.resize(n_rows, None);
             for (c, &p) in picks.iter().enumerate() {
                 let rows = &self.rows[self.start[c]..self.start[c + 1]];
                 let cols = &self.ranked[c].cols[p as usize * rows.len()..(p as usize + 1) * rows.len()];
@@ -267,7 +389,7 @@ impl ComponentMurty {
                     a.col_for_row[r] = Some(k);
                 }
             }
-            a.cost = cost.cost_of(&a.col_for_row);
+            a.cost = a.col_for_row.iter().enumerate().filter_map(|(r, k)| k.map(|k| value(r, k))).sum();
             if n_out == 0 {
                 best = a.cost;
             } else if opts.max_log_ratio.is_some_and(|m| a.cost - best > m) {
@@ -290,6 +412,16 @@ impl ComponentMurty {
             }
         }
         out.truncate(n_out);
+    }
+}
+
+/// Joins the sets of `a` and `b`; the smaller root stays the root, so a component's root is
+/// its first row.
+fn union(parent: &mut [usize], a: usize, b: usize) {
+    let (a, b) = (root(parent, a), root(parent, b));
+    if a != b {
+        let (lo, hi) = if a < b { (a, b) } else { (b, a) };
+        parent[hi] = lo;
     }
 }
 
@@ -356,6 +488,30 @@ mod tests {
         #[test]
         fn matches_brute_force_and_murty(m in arb_matrix(), k in 1usize..12) {
             check(&m, k, None);
+        }
+    }
+
+    /// The association form reads the same components and sub-matrices off the gates: its
+    /// output is that of `k_best` on the measurement-oriented matrix, bit for bit.
+    #[test]
+    fn association_problems_equal_their_matrix() {
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(5);
+        for case in 0..400 {
+            let (tracks, meas) = (case % 7, case % 6);
+            let p = crate::test_util::random_problem(&mut rng, tracks, meas, [0.1, 0.3, 0.6][case % 3]);
+            let m = p.measurement_cost_matrix(Vec::new()).unwrap();
+            for (k, ratio) in [(1, None), (3, None), (20, None), (20, Some(3.0))] {
+                let opts = MurtyOptions { max_count: k, max_log_ratio: ratio, max_ambiguous_rows: None };
+                let (mut a, mut b) = (Vec::new(), Vec::new());
+                let ra = ComponentMurty::new().k_best_association(&p, &opts, &mut a);
+                let rb = ComponentMurty::new().k_best(&m, &opts, &mut b);
+                assert_eq!(ra.is_ok(), rb.is_ok(), "case {case}");
+                assert_eq!(a.len(), b.len(), "case {case}");
+                for (x, y) in a.iter().zip(&b) {
+                    assert_eq!(x.cost.to_bits(), y.cost.to_bits(), "case {case}");
+                    assert_eq!(x.col_for_row, y.col_for_row, "case {case}");
+                }
+            }
         }
     }
 
