@@ -41,8 +41,11 @@
 //! detection starts a track of lower existence, and it is confirmed by the second) and
 //! clutter just inside reads a higher one. Elsewhere the grid is exact up to `f32`
 //! rounding: a cell wholly inside or outside every scan so far holds the exact product.
-//! Measured on the PHD-SLAM 3.0 world (`results/pmbm/report.md`), 1, 2 and 4 m cells gave
-//! the same maps within the run-to-run spread.
+//! Measured on the PHD-SLAM 3.0 world (`results/pmbm/report.md`, "The grid's resolution
+//! error"): with the default cell, 1.8 % of the detections start a track whose existence is
+//! off by more than 0.05 and 0.3 % fall on the other side of `T_EP = 0.4`; 1, 2 and 7.5 m
+//! cells gave the maps of the default within the run-to-run spread of 10 runs, the 1 m cell
+//! at 54 % more time per recursion.
 //!
 //! **New tracks** (step ii). `e_j = int p_D lambda_u,k-1(m) N(z_j; h(m, x), R) dm` takes
 //! the constant-intensity closed form (`p_D kappa_u int N(z_j; h(m, x), R) dm`) with
