@@ -7,10 +7,7 @@
 //! is [`crate::da::DaFastSlam`]; neither filter reads truth labels.
 
 use rfslam_core::params::{CountRange, Interval, MAX_PARAM};
-use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, ParamError, Pose, RbpfParams, Rng, Scan, SlamFilter, SlamModels, StepReport,
-    Validated,
-};
+use rfslam_core::{FilterBuild, ParamError, RbpfParams, SlamModels, Validated};
 use serde::{Deserialize, Serialize};
 
 use crate::da::{DaFastSlam, DaSettings};
@@ -132,53 +129,20 @@ impl FastSlam1Params {
     }
 }
 
-macro_rules! baseline {
-    ($ty:ident, $params:ty, $name:literal, $doc:literal) => {
-        #[doc = $doc]
-        #[derive(Debug, Clone)]
-        pub struct $ty(pub DaFastSlam);
-
-        impl $ty {
-            /// Registered name.
-            pub const NAME: &'static str = $name;
-        }
-
-        impl SlamFilter for $ty {
-            fn name(&self) -> &str {
-                $name
-            }
-
-            fn particles(&self) -> usize {
-                self.0.len()
-            }
-
-            fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
-                self.0.step(odometry, scan, rng)
-            }
-
-            fn estimate(&self) -> Estimate {
-                self.0.estimate()
-            }
-
-            fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
-                self.0.particle_poses(out);
-                true
-            }
-        }
-    };
-}
-
-baseline!(
-    FastSlam1,
-    FastSlam1Params,
-    "fastslam-1.0",
-    "`fastslam-1.0`: FastSLAM 1.0 with the most likely (gated, one-to-one) association per particle, new landmarks otherwise, and the existence filter of Leung, Inostroza, Adams, eqs. (29)-(32)."
+rfslam_core::filter_variant!(
+    /// `fastslam-1.0`: FastSLAM 1.0 with the most likely (gated, one-to-one) association per
+    /// particle, new landmarks otherwise, and the existence filter of Leung, Inostroza, Adams,
+    /// eqs. (29)-(32).
+    FastSlam1(DaFastSlam),
+    "fastslam-1.0"
 );
-baseline!(
-    MhFastSlam,
-    MhParams,
-    "mh-fastslam",
-    "`mh-fastslam`: multi-hypothesis FastSLAM (Nieto et al. 2003, as configured by Leung, Inostroza, Adams): at most `hypotheses` children per particle with its most likely associations, resampling to the nominal count when the population exceeds `max_population`, existence filter of eqs. (29)-(32)."
+rfslam_core::filter_variant!(
+    /// `mh-fastslam`: multi-hypothesis FastSLAM (Nieto et al. 2003, as configured by Leung,
+    /// Inostroza, Adams): at most `hypotheses` children per particle with its most likely
+    /// associations, resampling to the nominal count when the population exceeds
+    /// `max_population`, existence filter of eqs. (29)-(32).
+    MhFastSlam(DaFastSlam),
+    "mh-fastslam"
 );
 
 impl FilterBuild for FastSlam1 {

@@ -52,8 +52,8 @@ use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
 use rfslam_core::gaussian::{sample, symmetrise};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet, ResampleRule};
 use rfslam_core::{
-    ControlSegment, Estimate, MapPoint, Point2, Pose, RangeBearing, RangeBearingSensor, RbpfParams, Rng, Scan,
-    SlamModels, StepReport,
+    ControlSegment, Estimate, FilterEngine, MapPoint, Point2, Pose, RangeBearing, RangeBearingSensor, RbpfParams, Rng,
+    Scan, SlamModels, StepReport,
 };
 
 use crate::proposal::{Landmark, landmark_update};
@@ -169,6 +169,9 @@ pub struct DaFastSlam {
     set: ParticleSet<DaParticle>,
     /// The children of this step, built from the set's spares.
     next: Vec<DaParticle>,
+    /// For each child of the last step, the index of its parent among the particles before
+    /// it (MH: a parent has up to `hypotheses` children), so that ancestries compose.
+    child_parent: Vec<usize>,
     log_p0: f64,
     clutter_density: f64,
     // reusable buffers
@@ -200,6 +203,7 @@ impl DaFastSlam {
             nominal: n,
             set: ParticleSet::new(p0, n),
             next: Vec::new(),
+            child_parent: Vec::new(),
             log_p0,
             clutter_density,
             lin: Vec::new(),
@@ -404,6 +408,7 @@ impl DaFastSlam {
     /// One recursion (see the module docs).
     pub fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
         let mut failures = 0u32;
+        self.child_parent.clear();
         for parent in 0..self.set.len() {
             let p = &self.set.particles()[parent];
             let (x_bar, q) = self.settings.rbpf.predict(&self.models, &p.pose, odometry);
@@ -418,6 +423,7 @@ impl DaFastSlam {
                 }
             };
             failures += self.branch(parent, x, &scan.z);
+            self.child_parent.resize(self.next.len(), parent);
         }
         // The children replace their parents (whose allocations are reused).
         self.set.replace(&mut self.next);
@@ -446,9 +452,23 @@ impl DaFastSlam {
     }
 
     /// Every particle's pose and normalised log weight (see `SlamFilter::particle_poses`).
-    pub fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) {
+    pub fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+        self.set.poses_into(out, |p| p.pose);
+        true
+    }
+
+    /// Every particle's parent among the particles of the previous step (see
+    /// `SlamFilter::particle_parents`): the child it was resampled from, then that child's
+    /// parent. Before the first step, the identity.
+    pub fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
         out.clear();
-        out.extend(self.set.particles().iter().map(|p| (p.pose, p.log_w)));
+        let resampled = self.set.last_parents();
+        if self.child_parent.is_empty() {
+            out.extend_from_slice(resampled);
+        } else {
+            out.extend(resampled.iter().map(|&c| self.child_parent[c]));
+        }
+        true
     }
 
     /// The highest-weight particle's pose and its landmarks with `P_E > 0.5`.
@@ -461,6 +481,28 @@ impl DaFastSlam {
             .map(|l| MapPoint { position: l.mean, weight: l.existence() })
             .collect();
         Estimate { pose: p.pose, map }
+    }
+}
+
+impl FilterEngine for DaFastSlam {
+    fn particles(&self) -> usize {
+        self.len()
+    }
+
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
+        DaFastSlam::step(self, odometry, scan, rng)
+    }
+
+    fn estimate(&self) -> Estimate {
+        DaFastSlam::estimate(self)
+    }
+
+    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+        DaFastSlam::particle_poses(self, out)
+    }
+
+    fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
+        DaFastSlam::particle_parents(self, out)
     }
 }
 

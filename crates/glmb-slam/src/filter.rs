@@ -5,8 +5,8 @@ use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet, draw_transition};
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, Pose, RangeBearing, Rng, Scan, SlamFilter, SlamModels,
-    StepReport, Validated,
+    ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, ParamError, Pose, RangeBearing, Rng, Scan,
+    SlamModels, StepReport, Validated,
 };
 
 use crate::map::{
@@ -262,35 +262,34 @@ impl GlmbSlam {
     }
 }
 
+impl FilterEngine for GlmbSlam {
+    fn particles(&self) -> usize {
+        self.set.len()
+    }
+
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
+        self.step_impl(odometry, scan, rng)
+    }
+
+    fn estimate(&self) -> Estimate {
+        self.estimate_impl()
+    }
+
+    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+        self.set.poses_into(out, |p| p.pose);
+        true
+    }
+
+    fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
+        self.set.parents_into(out);
+        true
+    }
+}
+
+/// A registered variant of [`GlmbSlam`] and its [`FilterBuild`].
 macro_rules! variant_filter {
     ($(#[$doc:meta])* $ty:ident, $variant:expr, $name:literal) => {
-        $(#[$doc])*
-        #[derive(Debug, Clone)]
-        pub struct $ty(pub GlmbSlam);
-
-        impl $ty {
-            /// Registered name.
-            pub const NAME: &'static str = $name;
-
-        }
-
-        impl SlamFilter for $ty {
-            fn name(&self) -> &str {
-                Self::NAME
-            }
-
-            fn particles(&self) -> usize {
-                self.0.set.len()
-            }
-
-            fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
-                self.0.step_impl(odometry, scan, rng)
-            }
-
-            fn estimate(&self) -> Estimate {
-                self.0.estimate_impl()
-            }
-        }
+        rfslam_core::filter_variant!($(#[$doc])* $ty(GlmbSlam), $name);
 
         impl FilterBuild for $ty {
             type Params = Params;

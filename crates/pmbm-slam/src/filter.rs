@@ -4,7 +4,7 @@
 use nalgebra::{Matrix3, SVector};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet, draw_transition};
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, Point2, Pose, Rng, Scan, SlamFilter, SlamModels,
+    ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, ParamError, Point2, Pose, Rng, Scan, SlamModels,
     StepReport, Validated,
 };
 
@@ -223,15 +223,13 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> PmbmFilter<S, M,
 
     /// [`SlamFilter::particle_poses`]: every particle's pose and log weight.
     pub fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
-        out.clear();
-        out.extend(self.set.particles().iter().map(|p| (p.pose, p.log_w)));
+        self.set.poses_into(out, |p| p.pose);
         true
     }
 
     /// [`SlamFilter::particle_parents`]: the parent of each particle at the last resampling.
     pub fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-        out.clear();
-        out.extend_from_slice(self.set.last_parents());
+        self.set.parents_into(out);
         true
     }
 
@@ -262,42 +260,32 @@ pub fn range_bearing_model(params: &Params, models: &SlamModels) -> RangeBearing
     m
 }
 
+impl FilterEngine for RangeBearingPmbm {
+    fn particles(&self) -> usize {
+        self.set.len()
+    }
+
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
+        self.step_with(odometry, scan.z.iter().copied(), rng)
+    }
+
+    fn estimate(&self) -> Estimate {
+        self.estimate_with(|m| *m)
+    }
+
+    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+        PmbmFilter::particle_poses(self, out)
+    }
+
+    fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
+        PmbmFilter::particle_parents(self, out)
+    }
+}
+
+/// A registered variant of [`RangeBearingPmbm`] and its [`FilterBuild`].
 macro_rules! variant_filter {
     ($(#[$doc:meta])* $ty:ident, $variant:expr, $name:literal) => {
-        $(#[$doc])*
-        #[derive(Debug, Clone)]
-        pub struct $ty(pub RangeBearingPmbm);
-
-        impl $ty {
-            /// Registered name.
-            pub const NAME: &'static str = $name;
-        }
-
-        impl SlamFilter for $ty {
-            fn name(&self) -> &str {
-                Self::NAME
-            }
-
-            fn particles(&self) -> usize {
-                self.0.set.len()
-            }
-
-            fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
-                self.0.step_with(odometry, scan.z.iter().copied(), rng)
-            }
-
-            fn estimate(&self) -> Estimate {
-                self.0.estimate_with(|m| *m)
-            }
-
-            fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
-                self.0.particle_poses(out)
-            }
-
-            fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-                self.0.particle_parents(out)
-            }
-        }
+        rfslam_core::filter_variant!($(#[$doc])* $ty(RangeBearingPmbm), $name);
 
         impl FilterBuild for $ty {
             type Params = Params;

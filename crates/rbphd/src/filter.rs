@@ -250,14 +250,12 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
     }
 
     fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
-        out.clear();
-        out.extend(self.set.particles().iter().map(|p| (p.pose, p.log_w)));
+        self.set.poses_into(out, |p| p.pose);
         true
     }
 
     fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-        out.clear();
-        out.extend_from_slice(self.set.last_parents());
+        self.set.parents_into(out);
         true
     }
 

@@ -144,7 +144,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         (entry.build)(&ov.params, &models, args.particles).map_err(|e| usage(format!("filter `{filter}`: {e}")))?;
     if args.save_particles && !f.particle_poses(&mut Vec::new()) {
         return Err(usage(format!(
-            "--save-particles: filter `{filter}` does not expose its particles (the phd-* and rbphd-mf filters and the FastSLAM filters do)"
+            "--save-particles: filter `{filter}` has no particles to save (every particle filter has; dead-reckoning and mpmb-slam have none)"
         )));
     }
 

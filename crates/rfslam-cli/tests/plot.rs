@@ -130,8 +130,14 @@ fn save_steps_and_save_particles_write_one_row_per_scan_and_particle() {
     ok(tmp.path(), &[&fs[..], &["--save-particles", "--out", "fs"]].concat());
     let fs_parts = Csv::read(&tmp.join("fs/particles.csv"));
     assert_eq!(fs_parts.rows.len(), 2 * scans);
-    // FastSLAM 1.0 does not expose its parents: the column is empty.
-    assert!((0..fs_parts.rows.len()).all(|i| fs_parts.get(i, "parent").is_empty()));
+    // Its parents too (they were left empty before every filter wrapper delegated them).
+    assert!((0..fs_parts.rows.len()).all(|i| fs_parts.get(i, "parent").parse::<usize>().is_ok_and(|a| a < 2)));
+    // And the delta-GLMB filters (whose wrapper once dropped both).
+    let gl = ["run", "--scenario", "scen.toml", "--filter", "glmb-2.0", "--particles", "2"];
+    ok(tmp.path(), &[&gl[..], &["--save-particles", "--out", "gl"]].concat());
+    let gl_parts = Csv::read(&tmp.join("gl/particles.csv"));
+    assert_eq!(gl_parts.rows.len(), 2 * scans);
+    assert!((0..gl_parts.rows.len()).all(|i| gl_parts.get(i, "parent").parse::<usize>().is_ok_and(|a| a < 2)));
 }
 
 #[test]
@@ -169,7 +175,7 @@ fn save_particles_on_a_filter_without_particles_is_refused() {
     let tmp = TempDir::new("plot-save-refused");
     tmp.write("scen.toml", &scenario(20, 5, 0.95, 1.0));
     let args = ["run", "--scenario", "scen.toml", "--filter", "dead-reckoning", "--save-particles", "--out", "r"];
-    fails(tmp.path(), &args, 2, &["--save-particles", "dead-reckoning", "does not expose"]);
+    fails(tmp.path(), &args, 2, &["--save-particles", "dead-reckoning", "has no particles"]);
     assert!(!tmp.join("r").exists(), "nothing is written");
 }
 

@@ -72,6 +72,83 @@ pub trait SlamFilter: Send {
     }
 }
 
+/// The shared engine of a filter family (`glmb-1.0`, `glmb-2.0` and `lmb-slam` run one
+/// delta-GLMB engine in three variants): [`SlamFilter`] but the name, which each registered
+/// filter that [`filter_variant!`](crate::filter_variant) declares takes from its own. The
+/// particle methods have no default here, so that no variant drops them.
+pub trait FilterEngine: Send {
+    /// Number of particles (1 for engines that have none).
+    fn particles(&self) -> usize;
+
+    /// [`SlamFilter::step`].
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport;
+
+    /// [`SlamFilter::estimate`].
+    fn estimate(&self) -> Estimate;
+
+    /// [`SlamFilter::particle_poses`].
+    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool;
+
+    /// [`SlamFilter::particle_parents`].
+    fn particle_parents(&self, out: &mut Vec<usize>) -> bool;
+}
+
+/// Declares a registered filter as a newtype over a [`FilterEngine`]: the struct, its
+/// `NAME` and a [`SlamFilter`] implementation that delegates every method to the engine.
+/// The filter's [`FilterBuild`] (its parameters and how the variant is built) stays with
+/// the family.
+///
+/// ```ignore
+/// rfslam_core::filter_variant!(
+///     /// `glmb-1.0`: delta-GLMB-SLAM 1.0.
+///     Glmb1(GlmbSlam), "glmb-1.0"
+/// );
+/// ```
+#[macro_export]
+macro_rules! filter_variant {
+    ($(#[$doc:meta])* $ty:ident($engine:ty), $name:literal) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone)]
+        pub struct $ty(pub $engine);
+
+        impl $ty {
+            /// Registered name.
+            pub const NAME: &'static str = $name;
+        }
+
+        impl $crate::SlamFilter for $ty {
+            fn name(&self) -> &str {
+                Self::NAME
+            }
+
+            fn particles(&self) -> usize {
+                $crate::filter::FilterEngine::particles(&self.0)
+            }
+
+            fn step(
+                &mut self,
+                odometry: &[$crate::ControlSegment],
+                scan: &$crate::Scan,
+                rng: &mut $crate::Rng,
+            ) -> $crate::StepReport {
+                $crate::filter::FilterEngine::step(&mut self.0, odometry, scan, rng)
+            }
+
+            fn estimate(&self) -> $crate::Estimate {
+                $crate::filter::FilterEngine::estimate(&self.0)
+            }
+
+            fn particle_poses(&self, out: &mut Vec<($crate::Pose, f64)>) -> bool {
+                $crate::filter::FilterEngine::particle_poses(&self.0, out)
+            }
+
+            fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
+                $crate::filter::FilterEngine::particle_parents(&self.0, out)
+            }
+        }
+    };
+}
+
 /// Parameters that passed [`FilterBuild::validate`] for the filter `F` and a number of
 /// particles: the only form [`FilterBuild::build`] takes, so no filter is built from
 /// unchecked parameters. Only [`FilterBuild::validate`] makes one.

@@ -31,7 +31,7 @@ pub mod sensor;
 pub mod types;
 
 pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov, FovEdge, PlacedFov};
-pub use filter::{FilterBuild, SlamFilter, SlamModels, Validated};
+pub use filter::{FilterBuild, FilterEngine, SlamFilter, SlamModels, Validated};
 pub use motion::{AckermannModel, Motion, MotionModel, OdometryModel, VelocityModel};
 pub use params::{ParamError, RbpfParams};
 pub use rng::Rng;

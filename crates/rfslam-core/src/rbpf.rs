@@ -237,6 +237,20 @@ impl<P: LogWeighted + Clone + Default> ParticleSet<P> {
         &self.family
     }
 
+    /// Every particle's pose (read by `pose`) and log weight into `out`, cleared first: what
+    /// `SlamFilter::particle_poses` reports.
+    pub fn poses_into(&self, out: &mut Vec<(Pose, f64)>, pose: impl Fn(&P) -> Pose) {
+        out.clear();
+        out.extend(self.particles.iter().map(|p| (pose(p), p.log_weight())));
+    }
+
+    /// [`ParticleSet::last_parents`] into `out`, cleared first: what
+    /// `SlamFilter::particle_parents` reports.
+    pub fn parents_into(&self, out: &mut Vec<usize>) {
+        out.clear();
+        out.extend_from_slice(&self.family);
+    }
+
     /// The families of identical copies, in order, as slices of the particles: the copies
     /// of one parent after the last resampling, else one particle each.
     pub fn families_mut(&mut self) -> FamiliesMut<'_, P> {

@@ -7,7 +7,9 @@
 //! - (c) empty scans mean prediction only: the pose stays with dead reckoning, no map appears;
 //! - (d) bad parameters are rejected with an error naming the key;
 //! - (e) every non-baseline filter beats dead reckoning and the empty map when pD = 1, there
-//!   is no clutter and the landmarks are well separated.
+//!   is no clutter and the landmarks are well separated;
+//! - (f) every filter with particles reports their poses, normalised log weights and parents
+//!   at every step (`rfslam run --save-particles`, the ancestry metrics).
 
 use rfslam_core::angle::wrap;
 use rfslam_core::motion::propagate;
@@ -273,4 +275,57 @@ fn slam_filters_beat_dead_reckoning_and_the_empty_map_on_easy_data() {
             );
         }
     }
+}
+
+/// (f) Every filter with particles reports them: after every step `particle_poses` and
+/// `particle_parents` return `true` with one pose and one parent per particle, the log
+/// weights normalised, each parent an index among the previous step's particles, and some
+/// step that resampled gives a parent other than the particle's own index (so
+/// `rfslam run --save-particles` and the ancestry metrics work for every particle filter).
+#[test]
+fn particle_filters_report_poses_and_parents() {
+    let sc = scenario(60, 20, 0.8, 0.5, 0.95, 5.0);
+    let ds = dataset(&sc, 3);
+    let models = ds.models();
+    let mut checked = 0;
+    for entry in REGISTRY.iter().filter(|e| !e.baseline) {
+        if counts(entry, &models, &[3]).is_empty() {
+            continue; // no particles (mpmb-slam)
+        }
+        // Resampling at every step where the filter has the key, so that parents move.
+        let eager = toml::Table::from_iter([("resample_ess_fraction".to_string(), toml::Value::Float(0.99))]);
+        let params = if (entry.validate)(&eager, &models, 3).is_ok() { eager } else { toml::Table::new() };
+        let mut f = (entry.build)(&params, &models, 3)
+            .unwrap_or_else(|e| panic!("{} with 3 particles does not build: {e}", entry.name));
+        let (mut poses, mut parents) = (Vec::new(), Vec::new());
+        let mut before = f.particles();
+        let mut moved = false;
+        let mut resampled = 0;
+        run_filter(&ds, f.as_mut(), 1, &MetricsConfig::default(), &mut |r| {
+            let n = r.filter.particles();
+            assert!(r.filter.particle_poses(&mut poses), "{}: particle_poses refused", entry.name);
+            assert!(r.filter.particle_parents(&mut parents), "{}: particle_parents refused", entry.name);
+            assert_eq!(poses.len(), n, "{} step {}: one pose per particle", entry.name, r.k);
+            assert_eq!(parents.len(), n, "{} step {}: one parent per particle", entry.name, r.k);
+            let max = poses.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max);
+            let total = max + poses.iter().map(|p| (p.1 - max).exp()).sum::<f64>().ln();
+            assert!(total.abs() < 1e-9, "{} step {}: log weights sum to {total}, not 0", entry.name, r.k);
+            assert!(
+                parents.iter().all(|&a| a < before),
+                "{} step {}: a parent outside the {before} particles of the step before: {parents:?}",
+                entry.name,
+                r.k
+            );
+            moved |= parents.iter().enumerate().any(|(i, &a)| a != i);
+            resampled += usize::from(r.report.resampled);
+            before = n;
+        });
+        assert!(
+            moved,
+            "{}: no step gave a parent other than the particle's own index ({resampled} steps resampled)",
+            entry.name
+        );
+        checked += 1;
+    }
+    assert!(checked >= 12, "only {checked} particle filters checked");
 }
