@@ -221,13 +221,15 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> PmbmFilter<S, M,
         }
     }
 
-    /// [`SlamFilter::particle_poses`]: every particle's pose and log weight.
+    /// [`SlamFilter::particle_poses`](rfslam_core::SlamFilter::particle_poses): every
+    /// particle's pose and log weight.
     pub fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
         self.set.poses_into(out, |p| p.pose);
         true
     }
 
-    /// [`SlamFilter::particle_parents`]: the parent of each particle at the last resampling.
+    /// [`SlamFilter::particle_parents`](rfslam_core::SlamFilter::particle_parents): the
+    /// parent of each particle at the last resampling.
     pub fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
         self.set.parents_into(out);
         true

@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::HarnessError;
 use crate::memory::JobMemory;
 use crate::registry;
+use crate::runs::{JobKey, RunsLayout};
 use rfslam_data::locate::locate;
 
 pub use rfslam_eval::MetricsConfig;
@@ -70,10 +71,6 @@ pub struct ExperimentConfig {
     pub grid: BTreeMap<String, Vec<toml::Value>>,
 }
 
-/// The identity of a job as written in `runs.csv`: (grid values as TOML literals, filter
-/// label, particles, run). Same as [`crate::runs::RunRow::key`].
-pub type JobKey = (Vec<String>, String, usize, usize);
-
 impl ExperimentConfig {
     /// Grid keys in the order of the grid columns (sorted).
     pub fn grid_keys(&self) -> Vec<String> {
@@ -81,8 +78,8 @@ impl ExperimentConfig {
     }
 
     /// The columns of this experiment's `runs.csv`.
-    pub fn layout(&self) -> crate::runs::RunsLayout {
-        crate::runs::RunsLayout::new(&self.metrics, &self.grid_keys())
+    pub fn layout(&self) -> RunsLayout {
+        RunsLayout::new(&self.metrics, &self.grid_keys())
     }
 
     /// Number of grid points (1 without a grid): the product of the value counts.
@@ -697,19 +694,13 @@ impl Plan {
     }
 
     /// The columns of this plan's `runs.csv`.
-    pub fn layout(&self) -> crate::runs::RunsLayout {
+    pub fn layout(&self) -> RunsLayout {
         self.config.layout()
     }
 
     /// The identity of `job` as written in `runs.csv` (see [`ExperimentConfig::job_key`]).
     pub fn job_key(&self, job: &Job) -> JobKey {
         self.config.job_key(job)
-    }
-
-    /// The resolved experiment (scenario inlined, defaults filled, seeds listed), written next
-    /// to the outputs and used to check that a resumed sweep is the same experiment.
-    pub fn resolved(&self) -> crate::resolved::ResolvedExperiment {
-        crate::resolved::ResolvedExperiment::of(self)
     }
 }
 

@@ -203,6 +203,14 @@ pub(crate) fn first_difference(at: &str, a: &toml::Value, b: &toml::Value) -> Op
     }
 }
 
+impl Plan {
+    /// The resolved experiment (scenario inlined, defaults filled, seeds listed), written next
+    /// to the outputs and used to check that a resumed sweep is the same experiment.
+    pub fn resolved(&self) -> ResolvedExperiment {
+        ResolvedExperiment::of(self)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

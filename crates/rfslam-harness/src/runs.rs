@@ -9,7 +9,10 @@ use rfslam_eval::MetricsConfig;
 use rfslam_eval::metric::{Column, Kind, Values, columns};
 
 use crate::error::HarnessError;
-use crate::experiment::JobKey;
+
+/// The identity of a job as written in `runs.csv`: (grid values as TOML literals, filter
+/// label, particles, run). Same as [`RunRow::key`].
+pub type JobKey = (Vec<String>, String, usize, usize);
 
 pub use rfslam_eval::fmt_f;
 

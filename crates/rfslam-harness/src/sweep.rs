@@ -17,12 +17,13 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::error::HarnessError;
-use crate::experiment::{ExperimentConfig, Job, JobFilter, JobKey, Plan};
+use crate::experiment::{ExperimentConfig, Job, JobFilter, Plan};
 use crate::invocations::{self, Invocation, Tracker};
 use crate::lock::DirLock;
 use crate::registry;
 use crate::report::{PublishedTable, ReportInfo, render};
 use crate::resolved::{RESOLVED_FILE, ResolvedExperiment};
+use crate::runs::JobKey;
 use crate::runs::{RunRow, RunsAppender, read_job_rows, read_rows, write_rows};
 use crate::shard::{Shard, ShardRecord};
 use crate::summary::{summarise, write_summary};

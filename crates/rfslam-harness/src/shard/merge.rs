@@ -8,11 +8,11 @@ use super::assign::Shard;
 use super::record::ShardRecord;
 use super::{MERGED_FILE, PUBLISHED_COPY, RESOLVED_FILE, SHARD_FILE};
 use crate::error::HarnessError;
-use crate::experiment::JobKey;
 use crate::invocations::{self, Invocation};
 use crate::lock::DirLock;
 use crate::report::PublishedTable;
 use crate::resolved::ResolvedExperiment;
+use crate::runs::JobKey;
 use crate::runs::{GroupKey, RunRow, RunsLayout, fields_but_time, read_rows};
 use crate::sweep::{OutputContext, write_outputs};
 
