@@ -105,21 +105,13 @@ impl ComponentMurty {
         opts: &MurtyOptions,
         out: &mut Vec<Assignment>,
     ) -> Result<(), AssignError> {
-        if let Some(r) = opts.max_log_ratio
-            && (r.is_nan() || r < 0.0)
-        {
-            out.clear();
-            return Err(AssignError::InvalidLogRatio(r));
-        }
+        opts.check_ratio(out)?;
         let (nr, nc) = (cost.rows(), cost.cols());
         if nr > nc || nr == 0 || opts.max_count == 0 {
             return self.murty.k_best(cost, opts, out);
         }
         self.components(cost);
-        let n_comp = self.start.len() - 1;
-        if self.ranked.len() < n_comp {
-            self.ranked.resize_with(n_comp, Ranked::default);
-        }
+        let n_comp = self.component_count();
         for c in 0..n_comp {
             if let Err(e) = self.rank_component(cost, c, opts) {
                 out.clear();
@@ -141,12 +133,7 @@ impl ComponentMurty {
         opts: &MurtyOptions,
         out: &mut Vec<Assignment>,
     ) -> Result<(), AssignError> {
-        if let Some(r) = opts.max_log_ratio
-            && (r.is_nan() || r < 0.0)
-        {
-            out.clear();
-            return Err(AssignError::InvalidLogRatio(r));
-        }
+        opts.check_ratio(out)?;
         let (n_meas, n_tracks) = (problem.measurements(), problem.tracks());
         if n_meas == 0 || opts.max_count == 0 {
             let cost = problem.measurement_cost_matrix(Vec::new())?;
@@ -164,10 +151,7 @@ impl ComponentMurty {
             }
         }
         self.group_rows(n_meas);
-        let n_comp = self.start.len() - 1;
-        if self.ranked.len() < n_comp {
-            self.ranked.resize_with(n_comp, Ranked::default);
-        }
+        let n_comp = self.component_count();
         // Each measurement's gating tracks, for the sub-matrices.
         self.meas_start.clear();
         self.meas_start.resize(n_meas + 1, 0);
@@ -205,7 +189,7 @@ impl ComponentMurty {
                     if k == n_tracks + j {
                         -ln_xi[j]
                     } else if k < n_tracks {
-                        pairs.iter().find(|&&(i, _)| i == k).map_or(f64::INFINITY, |&(_, x)| x)
+                        gated_cost(pairs, k)
                     } else {
                         f64::INFINITY
                     }
@@ -218,18 +202,21 @@ impl ComponentMurty {
         }
         let (meas_start, meas_pairs) = (std::mem::take(&mut self.meas_start), std::mem::take(&mut self.meas_pairs));
         self.merge(n_meas, n_comp, opts, out, |j, k| {
-            if k == n_tracks + j {
-                -ln_xi[j]
-            } else {
-                meas_pairs[meas_start[j]..meas_start[j + 1]]
-                    .iter()
-                    .find(|&&(i, _)| i == k)
-                    .map_or(f64::INFINITY, |&(_, x)| x)
-            }
+            if k == n_tracks + j { -ln_xi[j] } else { gated_cost(&meas_pairs[meas_start[j]..meas_start[j + 1]], k) }
         });
         self.meas_start = meas_start;
         self.meas_pairs = meas_pairs;
         Ok(())
+    }
+
+    /// The number of components [`ComponentMurty::group_rows`] found, with a ranking slot
+    /// for each.
+    fn component_count(&mut self) -> usize {
+        let n_comp = self.start.len() - 1;
+        if self.ranked.len() < n_comp {
+            self.ranked.resize_with(n_comp, Ranked::default);
+        }
+        n_comp
     }
 
     /// The connected components of the rows (two rows are linked when a column is finite in
@@ -432,6 +419,12 @@ fn root(parent: &mut [usize], mut a: usize) -> usize {
         a = parent[a];
     }
     a
+}
+
+/// The cost of measurement `j` to track `k` among `j`'s gated `(track, cost)` pairs;
+/// infinite when `k` does not gate it.
+fn gated_cost(pairs: &[(usize, f64)], k: usize) -> f64 {
+    pairs.iter().find(|&&(i, _)| i == k).map_or(f64::INFINITY, |&(_, x)| x)
 }
 
 #[cfg(test)]

@@ -38,6 +38,18 @@ pub struct MurtyOptions {
 }
 
 impl MurtyOptions {
+    /// Checks the ratio (NaN or negative is an error); on an error `out` is emptied, as
+    /// every k-best solver leaves it.
+    pub(crate) fn check_ratio<T>(&self, out: &mut Vec<T>) -> Result<(), AssignError> {
+        match self.max_log_ratio {
+            Some(r) if r.is_nan() || r < 0.0 => {
+                out.clear();
+                Err(AssignError::InvalidLogRatio(r))
+            }
+            _ => Ok(()),
+        }
+    }
+
     /// The `max_count` best assignments with no likelihood-ratio stop.
     pub const fn best(max_count: usize) -> Self {
         Self { max_count, max_log_ratio: None, max_ambiguous_rows: None }
@@ -317,12 +329,7 @@ impl Murty {
         opts: &MurtyOptions,
         out: &mut Vec<Assignment>,
     ) -> Result<(), AssignError> {
-        if let Some(r) = opts.max_log_ratio
-            && (r.is_nan() || r < 0.0)
-        {
-            out.clear();
-            return Err(AssignError::InvalidLogRatio(r));
-        }
+        opts.check_ratio(out)?;
         self.stats = MurtyStats::default();
         self.nodes.clear();
         self.sols.clear();
