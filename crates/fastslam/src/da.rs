@@ -451,26 +451,6 @@ impl DaFastSlam {
         }
     }
 
-    /// Every particle's pose and normalised log weight (see `SlamFilter::particle_poses`).
-    pub fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
-        self.set.poses_into(out, |p| p.pose);
-        true
-    }
-
-    /// Every particle's parent among the particles of the previous step (see
-    /// `SlamFilter::particle_parents`): the child it was resampled from, then that child's
-    /// parent. Before the first step, the identity.
-    pub fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-        out.clear();
-        let resampled = self.set.last_parents();
-        if self.child_parent.is_empty() {
-            out.extend_from_slice(resampled);
-        } else {
-            out.extend(resampled.iter().map(|&c| self.child_parent[c]));
-        }
-        true
-    }
-
     /// The highest-weight particle's pose and its landmarks with `P_E > 0.5`.
     pub fn estimate(&self) -> Estimate {
         let p = self.set.best_particle();
@@ -498,11 +478,19 @@ impl FilterEngine for DaFastSlam {
     }
 
     fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
-        DaFastSlam::particle_poses(self, out)
+        self.set.poses_into(out, |p| p.pose);
+        true
     }
 
+    /// The parent among the particles of the previous step: the child a particle was
+    /// resampled from, then the particle that child branched from (MH: up to `hypotheses`
+    /// children each). Before the first step, the identity.
     fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-        DaFastSlam::particle_parents(self, out)
+        self.set.parents_into(out);
+        if !self.child_parent.is_empty() {
+            out.iter_mut().for_each(|c| *c = self.child_parent[*c]);
+        }
+        true
     }
 }
 
