@@ -16,7 +16,7 @@
 
 use std::path::Path;
 
-use pmbm_slam::model::MeasurementModel;
+use pmbm_slam::model::{InvertibleSensorModel, SensorModel};
 use pmbm_slam::params::CELLS_PER_RANGE;
 use pmbm_slam::{Params, RangeBearingModel, ThinnedGrid, Undetected};
 use rfslam_core::Pose;
@@ -82,9 +82,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let t = ds.truth_at(scan.t, 0.025).ok_or("a scan without its true pose")?;
         let x = Pose::new(t.position.x, t.position.y, t.heading.ok_or("a true pose without its heading")?);
         for (k, z) in scan.z.iter().enumerate() {
-            let (mean, cov) = model.birth(&x, z);
-            let pd = model.detection_probability(&x, &mean, &cov);
-            let rho = model.birth_integral(&x, z);
+            let (mean, cov) = model.birth(&x, z, ());
+            let pd = model.detection_probability(&x, &mean, &cov, ());
+            let rho = model.birth_integral(&x, z, ());
             let exact: f64 = poses.iter().map(|p| 1.0 - models.detection.pd(&models.fov, p, &mean)).product();
             let r = |mult: f64| {
                 let e = pd * params.undetected_intensity * mult * rho;

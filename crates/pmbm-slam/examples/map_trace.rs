@@ -23,7 +23,8 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use nalgebra::Vector2;
-use pmbm_slam::{MeasurementModel, MhPmbmParams, PmbmSlamMh};
+use pmbm_slam::model::SensorModel;
+use pmbm_slam::{MhPmbmParams, PmbmSlamMh};
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{ControlSegment, FilterBuild, SlamFilter};
 use rfslam_data::Dataset;
@@ -68,9 +69,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let t = ds.truth_at(scan.t, 0.025).map(|t| (p.pose.xy() - t.position).norm()).unwrap_or(f64::NAN);
         pos_err.push(t);
         for h in p.map.global(0).filter(|h| h.r > 0.0) {
-            let in_fov = model.detection_probability(&p.pose, &h.mean, &h.cov) > 0.0;
+            let in_fov = model.detection_probability(&p.pose, &h.mean, &h.cov, ()) > 0.0;
             let e = seen.entry(key(&h.mean)).or_insert_with(|| {
-                let z = model.predict(&p.pose, &h.mean);
+                let z = model.predict(&p.pose, &h.mean, ());
                 Seen { born: k, r_born: h.r, last: k, in_fov_after: 0, range: z[0], bearing_deg: z[1].to_degrees() }
             });
             if e.last + 1 < k {

@@ -1,5 +1,5 @@
 //! The Rao-Blackwellised particle filters `pmbm-slam` and `pmb-slam` over any
-//! [`MeasurementModel`], and their registration for the planar range-bearing sensor.
+//! [`InvertibleSensorModel`], and their registration for the planar range-bearing sensor.
 
 use nalgebra::{Matrix3, SVector};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet, draw_transition};
@@ -8,7 +8,7 @@ use rfslam_core::{
     StepReport, Validated,
 };
 
-use crate::model::{MeasurementModel, RangeBearingModel};
+use crate::model::{InvertibleSensorModel, RangeBearingModel};
 use crate::params::{Params, undetected_cell};
 use crate::pmbm::{PmbWeight, PmbmDensity, UpdateSettings, Workspace, pmb_update, pmbm_update};
 use crate::undetected::Undetected;
@@ -102,7 +102,7 @@ impl PoseDraw {
 /// A PMBM-family filter over the measurement model `S` (landmarks in `M`, measurements in
 /// `Z` dimensions).
 #[derive(Debug, Clone)]
-pub struct PmbmFilter<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> {
+pub struct PmbmFilter<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usize> {
     variant: Variant,
     params: Params,
     models: SlamModels,
@@ -114,7 +114,7 @@ pub struct PmbmFilter<S: MeasurementModel<M, Z>, const M: usize, const Z: usize>
     z: Vec<SVector<f64, Z>>,
 }
 
-impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> PmbmFilter<S, M, Z> {
+impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usize> PmbmFilter<S, M, Z> {
     /// `n` particles at the initial pose of `models` with empty maps; `model` is the sensor
     /// as the filter assumes it.
     pub fn new(variant: Variant, params: Params, models: &SlamModels, model: S, n: usize) -> Self {

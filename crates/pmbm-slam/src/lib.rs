@@ -11,7 +11,7 @@
 //!   normalised.
 //! - **Update at the pose `x_k`** (Appendix A): step ii, every measurement starts a track
 //!   with `e_j = p_D int lambda_u N(z_j; h(m, x_k), R) dm` (`= p_D kappa_u rho_j` for
-//!   range-bearing and the constant intensity, [`model::MeasurementModel::birth_integral`];
+//!   range-bearing and the constant intensity, [`model::InvertibleSensorModel::birth_integral`];
 //!   the thinned grid's intensity around the new landmark in place of `kappa_u` otherwise),
 //!   `nu_j = e_j + kappa(z_j)`, local
 //!   hypotheses "exists" `(e_j / nu_j, N(g^-1(z_j, x_k), J R J^T))` and "not started" `r = 0`;
@@ -61,7 +61,7 @@
 //!   a PMB updated by joint cubature, LBP and TOMB/P, the vehicle by one stacked update with
 //!   the most likely association.
 //!
-//! The filters reach the sensor only through [`model::MeasurementModel`] (prediction,
+//! The filters reach the sensor only through [`model::InvertibleSensorModel`] (prediction,
 //! Jacobians, residual, inverse, detection probability, field of view, clutter intensity,
 //! birth integral), implemented for the planar range-bearing sensor by
 //! [`model::RangeBearingModel`]. The clutter intensity is in measurement space by default
@@ -80,7 +80,7 @@ pub mod undetected;
 
 pub use filter::{DrawContext, Particle, PmbSlam, PmbmFilter, PmbmSlam, PoseDraw, RangeBearingPmbm, Variant};
 pub use mh::{MhPmbmParams, PmbmSlamMh};
-pub use model::{MeasurementModel, RangeBearingModel};
+pub use model::{InvertibleSensorModel, RangeBearingModel};
 pub use mpmb::{MpmbFilter, MpmbParams, MpmbSlam};
 pub use params::{MissedDetection, Params, WeightRule};
 pub use undetected::{ThinnedGrid, Undetected, UndetectedModel};

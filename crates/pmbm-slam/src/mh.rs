@@ -27,7 +27,7 @@ use rfslam_core::{
 use serde::{Deserialize, Serialize};
 
 use crate::filter::{PmbmFilter, PoseDraw, RangeBearingPmbm, Variant, range_bearing_model};
-use crate::model::MeasurementModel;
+use crate::model::SensorModel;
 use crate::params::Params;
 
 /// Parameters of `pmbm-slam-mh`: `pmbm-slam`'s, the importance density's, and its gate.
@@ -116,7 +116,7 @@ impl SlamFilter for PmbmSlamMh {
             let map = &ctx.particle.map;
             if map.hypotheses() > 0 {
                 for h in map.global(0).filter(|h| h.r > 0.0) {
-                    let pd = ctx.model.detection_probability(&ctx.predicted, &h.mean, &h.cov);
+                    let pd = ctx.model.detection_probability(&ctx.predicted, &h.mean, &h.cov, ());
                     if pd > 0.0 {
                         mh.detectable.push(mh.map.len());
                         mh.pd.push(pd);

@@ -41,7 +41,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::cubature::{InputPoints, PairMoments, PosePoints, lower_factor};
 use crate::filter::range_bearing_model;
-use crate::model::{MeasurementModel, RangeBearingModel, chi2_quantile};
+use crate::model::{InvertibleSensorModel, RangeBearingModel, chi2_quantile};
 use crate::params::{Params, check_cell, check_undetected, undetected_cell};
 use crate::undetected::{Undetected, UndetectedModel};
 
@@ -207,7 +207,7 @@ impl<const M: usize, const Z: usize> Default for Workspace<M, Z> {
 
 /// The marginalized PMB filter over the measurement model `S`.
 #[derive(Debug, Clone)]
-pub struct MpmbFilter<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> {
+pub struct MpmbFilter<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usize> {
     params: MpmbParams,
     models: SlamModels,
     model: S,
@@ -228,10 +228,10 @@ pub struct MpmbFilter<S: MeasurementModel<M, Z>, const M: usize, const Z: usize>
     z: Vec<SVector<f64, Z>>,
 }
 
-impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M, Z> {
+impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usize> MpmbFilter<S, M, Z> {
     /// The filter at the initial pose of `models` (`U = 0`) with an empty map.
     pub fn new(params: MpmbParams, models: &SlamModels, model: S) -> Self {
-        let r_u = model.noise() * params.noise_inflation;
+        let r_u = model.noise(()) * params.noise_inflation;
         MpmbFilter {
             gate: chi2_quantile(Z, params.gate_probability),
             lbp: LbpOptions { tolerance: params.lbp_tolerance, max_sweeps: params.lbp_max_sweeps },
@@ -332,7 +332,7 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M,
         let n = 3 + M;
         for b in &self.bernoullis {
             ws.det_start.push(ws.det.len());
-            let p = model.detection_probability(&mu, &b.mean, &b.cov);
+            let p = model.detection_probability(&mu, &b.mean, &b.cov, ());
             // Survival where the landmark is detectable (1: the static map of [Kim2022]).
             let r = if p > 0.0 { b.r * survival } else { b.r };
             let nu0 = 1.0 - r * p;
@@ -347,8 +347,8 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M,
                 continue;
             };
             let res = |a: &SVector<f64, Z>, b: &SVector<f64, Z>| model.residual(a, b);
-            let pose = PosePoints::new(n, &mu, l_u, |s| model.predict(s, &b.mean), res);
-            let input = InputPoints::new(n, &b.mean, &l_p, &pose.y0, |m| model.predict(&mu, m), res);
+            let pose = PosePoints::new(n, &mu, l_u, |s| model.predict(s, &b.mean, ()), res);
+            let input = InputPoints::new(n, &b.mean, &l_p, &pose.y0, |m| model.predict(&mu, m, ()), res);
             let mom = PairMoments::new(n, &pose, &input);
             let s_cov = symmetrise(&(mom.cov + self.r_u));
             let Some(ch) = s_cov.cholesky() else {
@@ -383,12 +383,12 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M,
         let n = 3 + Z;
         let sub = |a: &SVector<f64, M>, b: &SVector<f64, M>| a - b;
         for zj in &self.z {
-            let pose = PosePoints::new(n, &mu, l_u, |x| model.inverse(x, zj).0, sub);
-            let input = InputPoints::new(n, zj, l_ru, &pose.y0, |z| model.inverse(&mu, z).0, sub);
+            let pose = PosePoints::new(n, &mu, l_u, |x| model.inverse(x, zj, ()).m, sub);
+            let input = InputPoints::new(n, zj, l_ru, &pose.y0, |z| model.inverse(&mu, z, ()).m, sub);
             let mom = PairMoments::new(n, &pose, &input);
             let mean = pose.y0 + mom.dmean;
             let lambda = s.undetected_intensity * undetected.birth_multiplier(&mean, &mom.cov);
-            let e = model.detection_probability(&mu, &mean, &mom.cov) * lambda * model.birth_integral(&mu, zj);
+            let e = model.detection_probability(&mu, &mean, &mom.cov, ()) * lambda * model.birth_integral(&mu, zj, ());
             let nu = e + model.clutter_intensity(zj).max(s.min_clutter_intensity);
             ws.ln_nu_new.push(nu.ln());
             ws.born.push(GaussianBernoulli { r: (e / nu).clamp(0.0, 1.0), mean, cov: mom.cov });
@@ -425,8 +425,8 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M,
                 chol += 1;
                 SMatrix::zeros()
             });
-            let pose = PosePoints::new(n, &mu, l_u, |s| model.predict(s, &b.mean), res);
-            ws.input_pts.push(InputPoints::new(n, &b.mean, &l_p, &pose.y0, |m| model.predict(&mu, m), res));
+            let pose = PosePoints::new(n, &mu, l_u, |s| model.predict(s, &b.mean, ()), res);
+            ws.input_pts.push(InputPoints::new(n, &b.mean, &l_p, &pose.y0, |m| model.predict(&mu, m, ()), res));
             ws.pose_pts.push(pose);
         }
         // S (Zk x Zk) and [P_sz^T | innovation] (Zk x 4).
@@ -436,7 +436,7 @@ impl<S: MeasurementModel<M, Z>, const M: usize, const Z: usize> MpmbFilter<S, M,
             ws.rhs = DMatrix::zeros(d, 4);
             ws.sol = DMatrix::zeros(d, 4);
         }
-        let r = model.noise();
+        let r = model.noise(());
         for a in 0..k {
             let (pa, ia) = (&ws.pose_pts[a], &ws.input_pts[a]);
             let da = (pa.sum() + ia.sum) * w;

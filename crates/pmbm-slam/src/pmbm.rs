@@ -21,7 +21,7 @@ use rfslam_core::Pose;
 use rfslam_core::gaussian::symmetrise;
 use rfslam_core::rbpf::log_sum_exp;
 
-use crate::model::MeasurementModel;
+use crate::model::InvertibleSensorModel;
 use crate::undetected::Undetected;
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
@@ -271,7 +271,7 @@ pub struct Workspace<const M: usize> {
 /// inside the gate, `ln nu(z_j) = ln(r p N(z_j; h(m, x), H P H^T + R))`. Returns 1 if the
 /// innovation covariance failed Cholesky (no child then), else 0.
 #[allow(clippy::too_many_arguments)]
-fn detect<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
+fn detect<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Mark = ()>>(
     h: &LocalHypothesis<M>,
     r: f64,
     p: f64,
@@ -281,8 +281,8 @@ fn detect<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     s: &UpdateSettings,
     ws: &mut Workspace<M>,
 ) -> u32 {
-    let r_noise = model.noise();
-    let lin = model.linearise(x, &h.mean);
+    let r_noise = model.noise(());
+    let lin = model.linearise(x, &h.mean, ());
     let s_cov = symmetrise(&(lin.hm * h.cov * lin.hm.transpose() + r_noise));
     let Some(ch) = s_cov.cholesky() else {
         return 1;
@@ -315,7 +315,7 @@ fn detect<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
 /// fills the workspace's new arena (each prior local hypothesis followed by its missed
 /// child and its detected children, then the two local hypotheses of every measurement's
 /// new track) and the per-hypothesis factors. Returns the Cholesky failures.
-fn children<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
+fn children<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Mark = ()>>(
     map: &PmbmDensity<M>,
     x: &Pose,
     z: &[SVector<f64, Z>],
@@ -334,7 +334,7 @@ fn children<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
         ws.track_start.push(ws.hyps.len());
         for h in &map.hyps[map.track_start[t]..map.track_start[t + 1]] {
             ws.det_start.push(ws.det.len());
-            let p = if h.r > 0.0 { model.detection_probability(x, &h.mean, &h.cov) } else { 0.0 };
+            let p = if h.r > 0.0 { model.detection_probability(x, &h.mean, &h.cov, ()) } else { 0.0 };
             // Survival inside the field of view (1: the static map of [Kim2022]).
             let r = if p > 0.0 { h.r * s.survival } else { h.r };
             let miss = ws.hyps.len();
@@ -358,10 +358,10 @@ fn children<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
     ws.ln_nu_new.clear();
     ws.r_new.clear();
     for zj in z {
-        let (mean, cov) = model.birth(x, zj);
+        let (mean, cov) = model.birth(x, zj, ());
         // lambda_u,k-1 around the new landmark (`kappa_u` exactly for the constant intensity).
         let lambda = s.undetected_intensity * map.undetected.birth_multiplier(&mean, &cov);
-        let e = model.detection_probability(x, &mean, &cov) * lambda * model.birth_integral(x, zj);
+        let e = model.detection_probability(x, &mean, &cov, ()) * lambda * model.birth_integral(x, zj, ());
         let nu = e + model.clutter_intensity(zj).max(s.min_clutter_intensity);
         let r = (e / nu).clamp(0.0, 1.0);
         ws.ln_nu_new.push(nu.ln());
@@ -385,7 +385,7 @@ fn children<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
 /// matrix is ranked once, for the largest budget of the hypotheses that share it, and each
 /// of them takes its own budget's prefix of that ranking (Murty's enumeration does not
 /// depend on the budget before it stops, so the prefix is what its own call would return).
-pub fn pmbm_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
+pub fn pmbm_update<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Mark = ()>>(
     map: &mut PmbmDensity<M>,
     x: &Pose,
     z: &[SVector<f64, Z>],
@@ -845,7 +845,7 @@ fn log_add(a: f64, b: f64) -> f64 {
 /// (eqs. 48-51) back to one Bernoulli per track, tracks with `r < bernoulli_prune`
 /// deleted. `ln_chi` is `-F` (Proposition 2) or the most likely association's log weight
 /// (eq. 47). `map` must hold one global hypothesis (so one local hypothesis per track).
-pub fn pmb_update<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(
+pub fn pmb_update<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Mark = ()>>(
     map: &mut PmbmDensity<M>,
     x: &Pose,
     z: &[SVector<f64, Z>],

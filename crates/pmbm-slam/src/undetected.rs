@@ -64,7 +64,7 @@ use rfslam_core::detection::{PD_MAX, PlacedFov};
 use rfslam_core::{DetectionModel, Fov, FovEdge, Point2, Pose};
 use serde::{Deserialize, Serialize};
 
-use crate::model::MeasurementModel;
+use crate::model::InvertibleSensorModel;
 
 /// Which intensity of undetected landmarks a PMBM filter keeps (the key `undetected`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -737,7 +737,11 @@ impl Undetected {
     /// `int p_D lambda_u,k-1 / kappa_u` as the grid represents it, then thins (0 and nothing
     /// done for the constant intensity, or for a model without a detection sector, which
     /// validation refuses).
-    pub fn thin<const M: usize, const Z: usize, S: MeasurementModel<M, Z>>(&mut self, model: &S, x: &Pose) -> f64 {
+    pub fn thin<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Mark = ()>>(
+        &mut self,
+        model: &S,
+        x: &Pose,
+    ) -> f64 {
         match (self, model.detection_sector()) {
             (Undetected::Thinned(g), Some((fov, detection))) => g.thin_sector(x, &fov, &detection),
             _ => 0.0,

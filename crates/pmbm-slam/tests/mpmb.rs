@@ -3,9 +3,10 @@
 
 use nalgebra::{Matrix2, Matrix3, SMatrix, Vector2};
 use pmbm_slam::cubature::{InputPoints, PairMoments, PosePoints, lower_factor};
-use pmbm_slam::model::{MeasurementModel, Predicted};
+use pmbm_slam::model::{InvertibleSensorModel, Linearised, SensorModel};
 use pmbm_slam::{MpmbFilter, MpmbParams, MpmbSlam};
 use rfslam_assign::tomb::GaussianBernoulli;
+use rfslam_core::model::{Inverse, MeasurementComponent};
 use rfslam_core::{FilterBuild, Pose};
 use rfslam_sim::ScenarioData;
 
@@ -17,35 +18,46 @@ struct Linear {
     r: Matrix2<f64>,
 }
 
-impl MeasurementModel<2, 2> for Linear {
-    fn predict(&self, x: &Pose, m: &Vector2<f64>) -> Vector2<f64> {
+impl SensorModel<3, 2, 2> for Linear {
+    type Mark = ();
+    const NAME: &'static str = "linear";
+    fn components(&self) -> [MeasurementComponent; 2] {
+        [MeasurementComponent { name: "x", angle: false }, MeasurementComponent { name: "y", angle: false }]
+    }
+    fn predict(&self, x: &Pose, m: &Vector2<f64>, _: ()) -> Vector2<f64> {
         m - x.xy()
     }
-    fn linearise(&self, x: &Pose, m: &Vector2<f64>) -> Predicted<2, 2> {
-        Predicted { z: self.predict(x, m), hm: Matrix2::identity() }
+    fn linearise(&self, x: &Pose, m: &Vector2<f64>, _: ()) -> Linearised<3, 2, 2> {
+        let hx = SMatrix::<f64, 2, 3>::new(-1.0, 0.0, 0.0, 0.0, -1.0, 0.0);
+        Linearised { z: self.predict(x, m, ()), hx, hm: Matrix2::identity() }
     }
-    fn pose_jacobian(&self, _x: &Pose, _m: &Vector2<f64>) -> SMatrix<f64, 2, 3> {
-        SMatrix::<f64, 2, 3>::new(-1.0, 0.0, 0.0, 0.0, -1.0, 0.0)
-    }
-    fn residual(&self, z: &Vector2<f64>, z_hat: &Vector2<f64>) -> Vector2<f64> {
-        z - z_hat
-    }
-    fn noise(&self) -> Matrix2<f64> {
+    fn noise(&self, _: ()) -> Matrix2<f64> {
         self.r
     }
-    fn inverse(&self, x: &Pose, z: &Vector2<f64>) -> (Vector2<f64>, Matrix2<f64>) {
-        (z + x.xy(), Matrix2::identity())
-    }
-    fn detection_probability(&self, _x: &Pose, _m: &Vector2<f64>, _cov: &Matrix2<f64>) -> f64 {
+    fn detection_probability(&self, _x: &Pose, _m: &Vector2<f64>, _cov: &Matrix2<f64>, _: ()) -> f64 {
         PD
     }
-    fn in_fov(&self, _x: &Pose, _m: &Vector2<f64>) -> bool {
+    fn in_fov(&self, _x: &Pose, _m: &Vector2<f64>, _: ()) -> bool {
         true
     }
     fn clutter_intensity(&self, _z: &Vector2<f64>) -> f64 {
         1e-12
     }
-    fn birth_integral(&self, _x: &Pose, _z: &Vector2<f64>) -> f64 {
+    fn pd_true(&self, _x: &Pose, _m: &Vector2<f64>, _: ()) -> f64 {
+        PD
+    }
+    fn sample<R: rand::Rng + ?Sized>(&self, x: &Pose, m: &Vector2<f64>, _: (), _rng: &mut R) -> Vector2<f64> {
+        self.predict(x, m, ())
+    }
+    fn sample_clutter<R: rand::Rng + ?Sized>(&self, _x: &Pose, _rng: &mut R, _out: &mut Vec<Vector2<f64>>) {}
+}
+
+impl InvertibleSensorModel<3, 2, 2> for Linear {
+    fn inverse(&self, x: &Pose, z: &Vector2<f64>, _: ()) -> Inverse<3, 2, 2> {
+        let jx = SMatrix::<f64, 2, 3>::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0);
+        Inverse { m: z + x.xy(), jz: Matrix2::identity(), jx }
+    }
+    fn birth_integral(&self, _x: &Pose, _z: &Vector2<f64>, _: ()) -> f64 {
         1.0
     }
 }

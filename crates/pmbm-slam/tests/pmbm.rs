@@ -2,7 +2,7 @@
 //! integral against quadrature, parameter errors, and a short end-to-end run.
 
 use nalgebra::{Matrix2, Vector2};
-use pmbm_slam::model::{MeasurementModel, RangeBearingModel};
+use pmbm_slam::model::{InvertibleSensorModel, RangeBearingModel, SensorModel};
 use pmbm_slam::pmbm::{PmbWeight, PmbmDensity, UpdateSettings, Workspace, pmb_update, pmbm_update};
 use pmbm_slam::{MpmbParams, MpmbSlam, Params, PmbSlam, PmbmSlam, Undetected};
 use rfslam_assign::tomb::GaussianBernoulli;
@@ -19,9 +19,11 @@ fn model() -> RangeBearingModel {
     RangeBearingModel {
         sensor: RangeBearingSensor::default(),
         r: Matrix2::from_diagonal(&Vector2::new(0.3f64.powi(2), 2f64.to_radians().powi(2))),
+        sigma: [0.3, 2f64.to_radians()],
         fov: Fov::new(50.0, std::f64::consts::PI),
         detection: DetectionModel::Constant { pd: PD },
         kappa: KAPPA,
+        clutter: rfslam_core::ClutterModel { rate: 0.0, intensity: rfslam_core::ClutterIntensity::Cartesian },
     }
 }
 
@@ -74,7 +76,7 @@ fn one_bernoulli_one_measurement() {
     let m = model();
     let x = Pose::new(1.0, -2.0, 0.3);
     let b = bernoulli(0.6, 8.0, 3.0);
-    let z = [m.predict(&x, &b.mean) + Vector2::new(0.2, -0.01)];
+    let z = [m.predict(&x, &b.mean, ()) + Vector2::new(0.2, -0.01)];
     let missed = (1.0 - 0.6 * PD) * KAPPA;
     let detected = ln_nu(&m, &x, &b, &z[0]).exp();
     let ln_chi = (missed + detected).ln();
@@ -155,8 +157,8 @@ fn pmb_weight_and_cardinality_equal_pmbm_on_a_tree() {
     let x = Pose::new(2.0, 1.0, -0.4);
     let tracks = [bernoulli(0.8, 12.0, -3.0), bernoulli(0.4, 5.0, 6.0), bernoulli(0.95, -10.0, 0.0)];
     let z = [
-        m.predict(&x, &tracks[0].mean) + Vector2::new(0.3, 0.01),
-        m.predict(&x, &tracks[1].mean) + Vector2::new(-0.2, -0.02),
+        m.predict(&x, &tracks[0].mean, ()) + Vector2::new(0.3, 0.01),
+        m.predict(&x, &tracks[1].mean, ()) + Vector2::new(-0.2, -0.02),
         RangeBearing::new(30.0, 1.0),
     ];
     let s = settings(1e-3, 9.21);
@@ -252,18 +254,18 @@ fn birth_integral_matches_quadrature() {
     };
     let x = Pose::new(3.0, -1.0, 0.7);
     let z = RangeBearing::new(40.0, -0.4);
-    let (c, _) = m.inverse(&x, &z);
+    let c = m.inverse(&x, &z, ()).m;
     let h = 0.01;
     let n = 600; // +-6 m
     let mut total = 0.0;
     for a in -n..=n {
         for b in -n..=n {
             let p = c + Vector2::new(a as f64 * h, b as f64 * h);
-            let v = m.residual(&z, &m.predict(&x, &p));
+            let v = m.residual(&z, &m.predict(&x, &p, ()));
             total += log_normal(&v, &m.r).unwrap().exp() * h * h;
         }
     }
-    let closed = m.birth_integral(&x, &z);
+    let closed = m.birth_integral(&x, &z, ());
     assert!((total - closed).abs() < 1e-3 * closed, "{total} vs {closed}");
 }
 
@@ -409,7 +411,7 @@ fn expected_fov_edge_reaches_the_update() {
     let mut landmarks = Vec::new();
     for edge in [FovEdge::Hard, FovEdge::Expected] {
         let m = RangeBearingModel { fov: Fov { edge, ..Fov::new(50.0, std::f64::consts::FRAC_PI_2) }, ..model() };
-        let pd = m.detection_probability(&x, &b.mean, &b.cov);
+        let pd = m.detection_probability(&x, &b.mean, &b.cov, ());
         assert_eq!(pd, m.detection.pd_gaussian(&m.fov, &x, &b.mean, &b.cov));
         match edge {
             FovEdge::Hard => assert_eq!(pd, 0.0),

@@ -102,6 +102,7 @@ mod tests {
         SlamModels {
             motion: rfslam_core::Motion::Velocity,
             control_noise: Matrix3::from_diagonal(&nalgebra::Vector3::new(0.04, 1e-4, 0.0)),
+            sensor_kind: rfslam_core::SensorKind::RangeBearing,
             sensor: rfslam_core::RangeBearingSensor::default(),
             measurement_noise: Matrix2::new(1.0, 0.0, 0.0, 3e-4),
             fov: rfslam_core::Fov::new(100.0, std::f64::consts::FRAC_PI_2),

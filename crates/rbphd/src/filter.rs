@@ -352,6 +352,7 @@ mod tests {
         SlamModels {
             motion: Motion::Velocity,
             control_noise: Matrix3::zeros(),
+            sensor_kind: rfslam_core::SensorKind::RangeBearing,
             sensor: RangeBearingSensor::default(),
             measurement_noise: Matrix2::new(1.0, 0.0, 0.0, 3e-4),
             fov: Fov::new(100.0, std::f64::consts::FRAC_PI_2),

@@ -3,6 +3,7 @@
 use nalgebra::{Matrix2, Matrix3};
 
 use crate::detection::{ClutterModel, DetectionModel, Fov};
+use crate::model::SensorKind;
 use crate::motion::Motion;
 use crate::params::ParamError;
 use crate::sensor::RangeBearingSensor;
@@ -17,9 +18,16 @@ pub struct SlamModels {
     pub motion: Motion,
     /// Control noise covariance `Q_u` (3 x 3; zero rows and columns for unused inputs).
     pub control_noise: Matrix3<f64>,
-    /// Range-bearing sensor.
+    /// Which sensor the world declares: the range-bearing sensor (`z = [range, bearing]`) or
+    /// the relative-position sensor (`z = [x, y]` in the sensor frame). Filters reach it
+    /// through a [`crate::PlanarSensorModel`] built from these models; a filter written for
+    /// the range-bearing sensor alone is refused for any other.
+    pub sensor_kind: SensorKind,
+    /// The sensor's mounting (its offset in the body frame), and the range-bearing geometry
+    /// that filters not yet generic over the sensor use.
     pub sensor: RangeBearingSensor,
-    /// Measurement noise covariance `R = diag(sigma_r^2, sigma_phi^2)`.
+    /// Measurement noise covariance `R`: `diag(sigma_r^2, sigma_phi^2)` for the
+    /// range-bearing sensor, `diag(sigma_x^2, sigma_y^2)` for the relative-position one.
     pub measurement_noise: Matrix2<f64>,
     /// Sensor field of view.
     pub fov: Fov,
@@ -193,6 +201,11 @@ pub trait FilterBuild: SlamFilter + Sized + 'static {
     /// harness refuses data without them before running.
     const REQUIRES_TRUTH: bool = false;
 
+    /// The sensor the filter is built for: [`FilterBuild::validate`] refuses a world that
+    /// declares another (a filter generic over the sensor is registered once per sensor,
+    /// each instance naming its own). Default: the range-bearing sensor.
+    const SENSOR: SensorKind = SensorKind::RangeBearing;
+
     /// The filter's checks of ranges and consistency (with the scenario's models and the
     /// number of particles, which some checks need), in the words of [`crate::params`].
     fn check(params: &Self::Params, models: &SlamModels, particles: usize) -> Result<(), ParamError>;
@@ -200,6 +213,16 @@ pub trait FilterBuild: SlamFilter + Sized + 'static {
     /// [`FilterBuild::check`]s the parameters and returns them in the form
     /// [`FilterBuild::build`] takes.
     fn validate(params: Self::Params, models: &SlamModels, particles: usize) -> Result<Validated<Self>, ParamError> {
+        if models.sensor_kind != Self::SENSOR {
+            return Err(ParamError::new(
+                "sensor",
+                format!(
+                    "this filter runs on the {} sensor only; the world's sensor is {}",
+                    Self::SENSOR.name(),
+                    models.sensor_kind.name()
+                ),
+            ));
+        }
         Self::check(&params, models, particles)?;
         Ok(Validated { params, particles })
     }

@@ -4,6 +4,9 @@
 //! - [`motion`]: velocity (\[Kaltiokallio2024\] eq. 49), Ackermann (Victoria Park) and 2-D odometry
 //!   models with Jacobians wrt state and control;
 //! - [`sensor`]: the range-bearing sensor (eq. 50), its Jacobians and inverse;
+//! - [`model`]: the model seam: [`model::VehicleModel`] and [`model::SensorModel`] (const
+//!   generic dimensions, a landmark mark), the range-bearing and relative-position models
+//!   and the conformance checks every sensor model passes;
 //! - [`detection`]: field of view, detection probability, Poisson clutter;
 //! - [`gaussian`]: log densities and sampling by Cholesky, failures returned not unwrapped;
 //! - [`ipl`], [`joint_ipl`]: the IPL importance densities (partitioned, \[Kaltiokallio2024\]
@@ -23,6 +26,7 @@ pub mod filter;
 pub mod gaussian;
 pub mod ipl;
 pub mod joint_ipl;
+pub mod model;
 pub mod motion;
 pub mod params;
 pub mod rbpf;
@@ -32,6 +36,7 @@ pub mod types;
 
 pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov, FovEdge, PlacedFov};
 pub use filter::{FilterBuild, FilterEngine, SlamFilter, SlamModels, Validated};
+pub use model::{PlanarSensorModel, SensorKind, SensorModel, VehicleModel};
 pub use motion::{AckermannModel, Motion, MotionModel, OdometryModel, VelocityModel};
 pub use params::{ParamError, RbpfParams};
 pub use rng::Rng;

@@ -5,7 +5,7 @@
 use nalgebra::{Matrix2, Matrix3};
 use rfslam_core::params::Interval;
 use rfslam_core::{AckermannModel, ClutterIntensity, ClutterModel, DetectionModel, Fov, FovEdge, Motion, Pose};
-use rfslam_core::{RangeBearingSensor, SlamModels};
+use rfslam_core::{RangeBearingSensor, SensorKind, SlamModels};
 use serde::{Deserialize, Serialize};
 
 use crate::error::ConfigError;
@@ -268,18 +268,35 @@ impl MotionConfig {
     }
 }
 
-/// The `[sensor]` table: range-bearing sensor, field of view and measurement noise.
+/// The `[sensor]` table: the sensor model, its field of view and measurement noise.
+///
+/// `model = "range_bearing"` (the default, not written): `z = [range, bearing]`, noise
+/// `sigma_range` (m) and `sigma_bearing_deg`. `model = "relative_position"`: `z = [x, y]`,
+/// the landmark in the sensor frame (forward, left), noise `sigma_x` and `sigma_y` (m). The
+/// field of view (`max_range`, `half_angle_deg`, `min_range`, the edge keys) is the same
+/// sector around the pose for both.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SensorConfig {
+    /// The sensor model (`range_bearing` or `relative_position`).
+    #[serde(default, skip_serializing_if = "SensorKind::is_range_bearing")]
+    pub model: SensorKind,
     /// Maximum range (m).
     pub max_range: f64,
     /// Half of the FOV width (deg); 180 means all around.
     pub half_angle_deg: f64,
-    /// Range noise `sigma_r` (m).
-    pub sigma_range: f64,
-    /// Bearing noise `sigma_phi` (deg).
-    pub sigma_bearing_deg: f64,
+    /// Range noise `sigma_r` (m); range-bearing only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma_range: Option<f64>,
+    /// Bearing noise `sigma_phi` (deg); range-bearing only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma_bearing_deg: Option<f64>,
+    /// Forward noise (m) in the sensor frame; relative-position only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma_x: Option<f64>,
+    /// Leftward noise (m) in the sensor frame; relative-position only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma_y: Option<f64>,
     /// Sensor position in the body frame (m): forward, left. Default `[0, 0]`.
     #[serde(default)]
     pub offset: [f64; 2],
@@ -337,10 +354,23 @@ impl SensorConfig {
         Fov { max_range: self.max_range, half_angle: self.half_angle_deg.to_radians(), min_range: self.min_range, edge }
     }
 
-    /// `R = diag(sigma_r^2, sigma_phi^2)` (m^2, rad^2).
+    /// The measurement noise standard deviations in SI units, in the order of the
+    /// measurement components: `[sigma_r (m), sigma_phi (rad)]` or `[sigma_x, sigma_y]` (m).
+    /// A missing key (refused by validation) reads as 0.
+    pub fn sigmas(&self) -> [f64; 2] {
+        match self.model {
+            SensorKind::RangeBearing => {
+                [self.sigma_range.unwrap_or(0.0), self.sigma_bearing_deg.unwrap_or(0.0).to_radians()]
+            }
+            SensorKind::RelativePosition => [self.sigma_x.unwrap_or(0.0), self.sigma_y.unwrap_or(0.0)],
+        }
+    }
+
+    /// `R = diag(sigma_1^2, sigma_2^2)`: `diag(sigma_r^2, sigma_phi^2)` (m^2, rad^2) or
+    /// `diag(sigma_x^2, sigma_y^2)` (m^2).
     pub fn measurement_noise(&self) -> Matrix2<f64> {
-        let b = self.sigma_bearing_deg.to_radians();
-        Matrix2::new(self.sigma_range * self.sigma_range, 0.0, 0.0, b * b)
+        let [a, b] = self.sigmas();
+        Matrix2::new(a * a, 0.0, 0.0, b * b)
     }
 
     fn validate(&self) -> Result<(), ConfigError> {
@@ -348,8 +378,24 @@ impl SensorConfig {
         // Half of the FOV width.
         in_range("half_angle_deg", Interval::POSITIVE.up_to(180.0), self.half_angle_deg)?;
         let sigma = Interval::POSITIVE.up_to(limits::MAX_SIGMA);
-        in_range("sigma_range", sigma, self.sigma_range)?;
-        in_range("sigma_bearing_deg", sigma, self.sigma_bearing_deg)?;
+        let (own, other) = match self.model {
+            SensorKind::RangeBearing => (
+                [("sigma_range", self.sigma_range), ("sigma_bearing_deg", self.sigma_bearing_deg)],
+                [("sigma_x", self.sigma_x), ("sigma_y", self.sigma_y)],
+            ),
+            SensorKind::RelativePosition => (
+                [("sigma_x", self.sigma_x), ("sigma_y", self.sigma_y)],
+                [("sigma_range", self.sigma_range), ("sigma_bearing_deg", self.sigma_bearing_deg)],
+            ),
+        };
+        for (key, v) in own {
+            let v =
+                v.ok_or_else(|| ConfigError::new(key, format!("is required with model = \"{}\"", self.model.name())))?;
+            in_range(key, sigma, v)?;
+        }
+        if let Some((key, _)) = other.iter().find(|(_, v)| v.is_some()) {
+            return Err(ConfigError::new(*key, format!("is not a key of model = \"{}\"", self.model.name())));
+        }
         let length = Interval::magnitude(limits::MAX_VEHICLE_LENGTH);
         in_range("offset[0]", length, self.offset[0])?;
         in_range("offset[1]", length, self.offset[1])?;
@@ -436,10 +482,13 @@ impl ModelConfig {
         ModelConfig {
             motion: MotionConfig::Velocity { sigma_v: 0.8, sigma_omega_deg: 0.5 },
             sensor: SensorConfig {
+                model: SensorKind::RangeBearing,
                 max_range: 150.0,
                 half_angle_deg: 90.0,
-                sigma_range: 0.8,
-                sigma_bearing_deg: 0.3,
+                sigma_range: Some(0.8),
+                sigma_bearing_deg: Some(0.3),
+                sigma_x: None,
+                sigma_y: None,
                 offset: [0.0, 0.0],
                 min_range: 0.0,
                 edge: EdgeKind::Hard,
@@ -471,6 +520,7 @@ impl ModelConfig {
         SlamModels {
             motion: self.motion.motion(),
             control_noise: self.motion.control_noise(),
+            sensor_kind: self.sensor.model,
             sensor: RangeBearingSensor { offset: self.sensor.offset },
             measurement_noise: self.sensor.measurement_noise(),
             fov: self.sensor.fov(),
@@ -538,7 +588,7 @@ mod tests {
     #[test]
     fn validation_names_the_key() {
         let mut c = ModelConfig::phd_slam_synthetic();
-        c.sensor.sigma_range = 0.0;
+        c.sensor.sigma_range = Some(0.0);
         assert_eq!(c.validate().unwrap_err().to_string(), "sensor.sigma_range must be in (0, 1000000] (got 0)");
         let mut c = ModelConfig::phd_slam_synthetic();
         c.detection = DetectionModel::RangeLinear { pd0: 1.5 };
@@ -590,6 +640,42 @@ mod tests {
         assert_eq!(err("edge_band_deg = 0.0"), "sensor.edge_band_deg must be in (0, 90] (got 0)");
         let e = toml::from_str::<ModelConfig>(&with("edge = \"soft\"")).unwrap_err();
         assert!(e.message().contains("soft"), "{e}");
+    }
+
+    /// `model = "relative_position"` with `sigma_x`, `sigma_y`; each model's noise keys are
+    /// required with it and refused with the other; the default writes no `model` key.
+    #[test]
+    fn sensor_model_keys() {
+        let rp = tables().replace(
+            "sigma_range = 0.8\nsigma_bearing_deg = 0.3",
+            "model = \"relative_position\"\nsigma_x = 0.5\nsigma_y = 0.2",
+        );
+        let c: ModelConfig = toml::from_str(&rp).unwrap();
+        c.validate().unwrap();
+        assert_eq!(c.sensor.model, SensorKind::RelativePosition);
+        assert_eq!(c.sensor.measurement_noise(), Matrix2::new(0.25, 0.0, 0.0, 0.2 * 0.2));
+        let m = c.to_models(Pose::zeros());
+        assert_eq!(m.sensor_kind, SensorKind::RelativePosition);
+        assert!(toml::to_string(&c).unwrap().contains("model = \"relative_position\""));
+        let err = |text: &str| toml::from_str::<ModelConfig>(text).unwrap().validate().unwrap_err().to_string();
+        assert_eq!(
+            err(&rp.replace("sigma_y = 0.2", "")),
+            "sensor.sigma_y is required with model = \"relative_position\""
+        );
+        assert_eq!(
+            err(&rp.replace("sigma_y = 0.2", "sigma_y = 0.2\nsigma_range = 1.0")),
+            "sensor.sigma_range is not a key of model = \"relative_position\""
+        );
+        assert_eq!(
+            err(&tables().replace("sigma_range = 0.8", "sigma_x = 0.8")),
+            "sensor.sigma_range is required with model = \"range_bearing\""
+        );
+        assert_eq!(
+            err(&rp.replace("sigma_x = 0.5", "sigma_x = 0.0")),
+            "sensor.sigma_x must be in (0, 1000000] (got 0)"
+        );
+        let c: ModelConfig = toml::from_str(tables()).unwrap();
+        assert!(!toml::to_string(&c).unwrap().contains("model = \"range_bearing\""));
     }
 
     #[test]

@@ -6,7 +6,8 @@ use std::path::{Path, PathBuf};
 
 use rfslam_core::angle::wrap;
 use rfslam_core::{
-    Control, ControlSegment, DetectionModel, Motion, Point2, Pose, RangeBearing, Scan, SlamModels, TRUTH_UNKNOWN,
+    Control, ControlSegment, DetectionModel, Motion, Point2, Pose, RangeBearing, Scan, SensorKind, SlamModels,
+    TRUTH_UNKNOWN,
 };
 use serde::{Deserialize, Serialize};
 
@@ -22,7 +23,8 @@ pub mod files {
     pub const META: &str = "dataset.toml";
     /// `scan,t`.
     pub const SCANS: &str = "scans.csv";
-    /// `scan,range,bearing,truth`.
+    /// `scan` and the sensor model's measurement columns (`range,bearing` or `x,y`), then
+    /// `truth`.
     pub const MEASUREMENTS: &str = "measurements.csv";
     /// `t` and the control columns of the motion model.
     pub const ODOMETRY: &str = "odometry.csv";
@@ -220,7 +222,8 @@ impl Dataset {
         let landmarks = optional(dir.join(files::LANDMARKS), read_landmarks)?;
         let mut scans = read_scans(&dir.join(files::SCANS), meta.initial_t)?;
         let ids: Option<HashSet<i64>> = landmarks.as_ref().map(|l| l.iter().map(|l| l.id).collect());
-        read_measurements(&dir.join(files::MEASUREMENTS), &mut scans, ids.as_ref())?;
+        let sensor = meta.models.sensor.model;
+        read_measurements(&dir.join(files::MEASUREMENTS), sensor, &mut scans, ids.as_ref())?;
         let odometry = read_odometry(&dir.join(files::ODOMETRY), &meta.models.motion.motion())?;
         let groundtruth = optional(dir.join(files::GROUNDTRUTH), read_groundtruth)?;
         Ok(Dataset { meta, scans, odometry, groundtruth, landmarks })
@@ -241,8 +244,9 @@ impl Dataset {
         w.finish()?;
 
         let labelled = self.scans.iter().any(|s| s.truth.is_some());
-        let header = if labelled { "scan,range,bearing,truth" } else { "scan,range,bearing" };
-        let mut w = CsvOut::create(&dir.join(files::MEASUREMENTS), header)?;
+        let [c1, c2] = self.meta.models.sensor.model.columns();
+        let header = if labelled { format!("scan,{c1},{c2},truth") } else { format!("scan,{c1},{c2}") };
+        let mut w = CsvOut::create(&dir.join(files::MEASUREMENTS), &header)?;
         for (k, s) in self.scans.iter().enumerate() {
             if let Some(t) = &s.truth
                 && t.len() != s.z.len()
@@ -437,8 +441,14 @@ fn read_scans(path: &Path, initial_t: f64) -> Result<Vec<Scan>, DataError> {
     Ok(scans)
 }
 
-fn read_measurements(path: &Path, scans: &mut [Scan], ids: Option<&HashSet<i64>>) -> Result<(), DataError> {
-    let mut r = CsvRows::open(path, &["scan", "range", "bearing"], &["truth"])?;
+fn read_measurements(
+    path: &Path,
+    sensor: SensorKind,
+    scans: &mut [Scan],
+    ids: Option<&HashSet<i64>>,
+) -> Result<(), DataError> {
+    let [c1, c2] = sensor.columns();
+    let mut r = CsvRows::open(path, &["scan", c1, c2], &["truth"])?;
     let n = scans.len();
     let mut current: Option<usize> = None;
     let (mut any_labelled, mut any_unlabelled) = (false, false);
@@ -453,8 +463,16 @@ fn read_measurements(path: &Path, scans: &mut [Scan], ids: Option<&HashSet<i64>>
                 r.err(0, format!("scan index {k} after scan {}: rows must be in scan order", current.unwrap_or(0)))
             );
         }
-        let range = r.bounded_f64(1, limits::MAX_COORDINATE, "m")?;
-        let z = RangeBearing::new(range, wrap(r.bounded_f64(2, limits::MAX_ANGLE, "rad")?));
+        let z = match sensor {
+            SensorKind::RangeBearing => {
+                let range = r.bounded_f64(1, limits::MAX_COORDINATE, "m")?;
+                RangeBearing::new(range, wrap(r.bounded_f64(2, limits::MAX_ANGLE, "rad")?))
+            }
+            SensorKind::RelativePosition => RangeBearing::new(
+                r.bounded_f64(1, limits::MAX_COORDINATE, "m")?,
+                r.bounded_f64(2, limits::MAX_COORDINATE, "m")?,
+            ),
+        };
         let label = r.opt_i64(3)?;
         if let Some(id) = label {
             if id < -1 {

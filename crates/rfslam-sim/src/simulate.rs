@@ -4,9 +4,9 @@
 
 use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
-use rfslam_core::angle::wrap;
+use rfslam_core::model::{RangeBearingModel, RelativePositionModel};
 use rfslam_core::rng::{purpose, stream};
-use rfslam_core::{RangeBearing, RangeBearingSensor, Rng, Scan};
+use rfslam_core::{PlanarSensorModel, RangeBearing, Rng, Scan, SensorKind};
 
 use rfslam_data::{DataError, Dataset, DatasetMeta, ModelConfig, OdometryRow, TruthPose};
 
@@ -57,47 +57,19 @@ pub fn simulate(world: &World, models: &ModelConfig, run_seed: u64) -> Result<Da
             world.controls.len()
         )));
     }
-    let mut rng = stream(&[run_seed, purpose::SCENARIO]);
-    let sigma = models.motion.sigmas();
-    let inputs = motion.control_columns().len();
     // The sensor as it is: the hard edge whatever the filters' `[sensor] edge` (a model of
-    // the filters'); the minimum range applies.
-    let fov = models.sensor.fov().hard();
-    let sensor = RangeBearingSensor { offset: models.sensor.offset };
-    let (sr, sb) = (models.sensor.sigma_range, models.sensor.sigma_bearing_deg.to_radians());
-    let clutter = models.clutter.model();
-
-    let steps = world.poses.len();
-    let mut odometry = Vec::with_capacity(steps.saturating_sub(1));
-    let mut scans = Vec::with_capacity(steps);
-    for k in 0..steps {
-        if k > 0 {
-            let (tc, u) = world.controls[k - 1];
-            let mut noisy = u;
-            for (j, s) in sigma.iter().enumerate().take(inputs) {
-                let n: f64 = StandardNormal.sample(&mut rng);
-                noisy[j] += s * n;
-            }
-            odometry.push(OdometryRow { t: tc, u: noisy });
+    // the filters'); the minimum range applies (`pd_true`, `sample_clutter`).
+    let slam = models.to_models(x0);
+    let kappa = slam.clutter.intensity(&slam.fov);
+    let scans_odometry = match models.sensor.model {
+        SensorKind::RangeBearing => draw(world, models, &RangeBearingModel::new(&slam, kappa), run_seed),
+        SensorKind::RelativePosition => {
+            let sensor = RelativePositionModel::from_models(&slam, kappa)
+                .map_err(|e| DataError::Mismatch(format!("sensor: {e}")))?;
+            draw(world, models, &sensor, run_seed)
         }
-
-        let (t, x) = world.poses[k];
-        let mut z: Vec<RangeBearing> = Vec::new();
-        let mut labels: Vec<i64> = Vec::new();
-        for lm in &world.landmarks {
-            let pd = models.detection.pd(&fov, &x, &lm.position);
-            if pd > 0.0 && rng.random::<f64>() < pd {
-                let g = sensor.predict(&x, &lm.position);
-                let (nr, nb): (f64, f64) = (StandardNormal.sample(&mut rng), StandardNormal.sample(&mut rng));
-                z.push(RangeBearing::new(g[0] + sr * nr, wrap(g[1] + sb * nb)));
-                labels.push(lm.id);
-            }
-        }
-        clutter.sample(&fov, &mut rng, &mut z);
-        labels.resize(z.len(), -1);
-        shuffle_scan(&mut z, &mut labels, &mut rng);
-        scans.push(Scan { t, z, truth: Some(labels) });
-    }
+    };
+    let (scans, odometry) = scans_odometry;
     let groundtruth =
         world.poses.iter().map(|&(t, x)| TruthPose { t, position: x.xy(), heading: Some(x.z) }).collect::<Vec<_>>();
     Ok(Dataset {
@@ -118,6 +90,51 @@ pub fn simulate(world: &World, models: &ModelConfig, run_seed: u64) -> Result<Da
     })
 }
 
+/// The odometry and the scans of [`simulate`], drawn with `sensor` (the draws in the order
+/// [`simulate`] documents).
+fn draw<S: PlanarSensorModel>(
+    world: &World,
+    models: &ModelConfig,
+    sensor: &S,
+    run_seed: u64,
+) -> (Vec<Scan>, Vec<OdometryRow>) {
+    let motion = models.motion.motion();
+    let mut rng = stream(&[run_seed, purpose::SCENARIO]);
+    let sigma = models.motion.sigmas();
+    let inputs = motion.control_columns().len();
+
+    let steps = world.poses.len();
+    let mut odometry = Vec::with_capacity(steps.saturating_sub(1));
+    let mut scans = Vec::with_capacity(steps);
+    for k in 0..steps {
+        if k > 0 {
+            let (tc, u) = world.controls[k - 1];
+            let mut noisy = u;
+            for (j, s) in sigma.iter().enumerate().take(inputs) {
+                let n: f64 = StandardNormal.sample(&mut rng);
+                noisy[j] += s * n;
+            }
+            odometry.push(OdometryRow { t: tc, u: noisy });
+        }
+
+        let (t, x) = world.poses[k];
+        let mut z: Vec<RangeBearing> = Vec::new();
+        let mut labels: Vec<i64> = Vec::new();
+        for lm in &world.landmarks {
+            let pd = sensor.pd_true(&x, &lm.position, ());
+            if pd > 0.0 && rng.random::<f64>() < pd {
+                z.push(sensor.sample(&x, &lm.position, (), &mut rng));
+                labels.push(lm.id);
+            }
+        }
+        sensor.sample_clutter(&x, &mut rng, &mut z);
+        labels.resize(z.len(), -1);
+        shuffle_scan(&mut z, &mut labels, &mut rng);
+        scans.push(Scan { t, z, truth: Some(labels) });
+    }
+    (scans, odometry)
+}
+
 /// Shuffles a scan's measurements and their truth labels together (Fisher-Yates with the
 /// draws of `rng`), so that the order of the measurements tells nothing.
 pub(crate) fn shuffle_scan(z: &mut [RangeBearing], labels: &mut [i64], rng: &mut Rng) {
@@ -131,6 +148,7 @@ pub(crate) fn shuffle_scan(z: &mut [RangeBearing], labels: &mut [i64], rng: &mut
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Vector2;
     use rfslam_data::testutil::TempDir;
     use rfslam_data::{MotionConfig, ProceduralParams};
     use std::f64::consts::FRAC_PI_2;
@@ -194,12 +212,12 @@ mod tests {
         let w = small_world();
         let mut m = ModelConfig::phd_slam_synthetic();
         m.motion = MotionConfig::Velocity { sigma_v: 0.0, sigma_omega_deg: 0.0 };
-        m.sensor.sigma_range = 1e-300;
-        m.sensor.sigma_bearing_deg = 1e-300;
+        m.sensor.sigma_range = Some(1e-300);
+        m.sensor.sigma_bearing_deg = Some(1e-300);
         m.detection = rfslam_core::DetectionModel::Constant { pd: 1.0 };
         m.clutter.rate = 0.0;
         let d = simulate(&w, &m, 5).unwrap();
-        let sensor = RangeBearingSensor::default();
+        let sensor = rfslam_core::RangeBearingSensor::default();
         let fov = m.sensor.fov();
         let mut out_of_order = 0;
         for (k, s) in d.scans.iter().enumerate() {
@@ -227,6 +245,51 @@ mod tests {
             let truth = d.truth_at(d.scans[k].t, 1e-9).unwrap();
             assert!((x.xy() - truth.position).norm() < 1e-9, "scan {k}");
         }
+    }
+
+    /// The relative-position sensor: each detection is the landmark in the sensor frame
+    /// plus noise of the declared sigmas, clutter falls in the field of view, and the data
+    /// set's `measurements.csv` has the columns `scan,x,y,truth` and reads back unchanged.
+    #[test]
+    fn relative_position_sensor_draws_and_round_trips() {
+        let w = small_world();
+        let mut m = ModelConfig::phd_slam_synthetic();
+        m.sensor.model = SensorKind::RelativePosition;
+        (m.sensor.sigma_range, m.sensor.sigma_bearing_deg) = (None, None);
+        (m.sensor.sigma_x, m.sensor.sigma_y) = (Some(0.5), Some(0.2));
+        m.sensor.offset = [0.3, 0.1];
+        let d = simulate(&w, &m, 5).unwrap();
+        let sensor = rfslam_core::model::RelativePositionSensor { offset: [0.3, 0.1] };
+        let (mut n, mut sum, mut sq) = (0.0, Vector2::zeros(), Vector2::<f64>::zeros());
+        let (mut clutter, mut clutter_in_view) = (0, 0);
+        let fov = m.sensor.fov();
+        for (k, s) in d.scans.iter().enumerate() {
+            let x = w.poses[k].1;
+            for (z, id) in s.z.iter().zip(s.truth.as_ref().unwrap()) {
+                if *id < 0 {
+                    let (sn, c) = x[2].sin_cos();
+                    let q = z + Vector2::new(0.3, 0.1);
+                    let p = rfslam_core::Point2::new(x[0] + c * q.x - sn * q.y, x[1] + sn * q.x + c * q.y);
+                    clutter += 1;
+                    clutter_in_view += usize::from(fov.contains(&x, &p));
+                    continue;
+                }
+                let lm = w.landmarks.iter().find(|l| l.id == *id).unwrap();
+                let e = z - sensor.predict(&x, &lm.position);
+                n += 1.0;
+                sum += e;
+                sq += e.component_mul(&e);
+            }
+        }
+        let (mean, var) = (sum / n, sq / n);
+        assert!(n > 1000.0 && mean.norm() < 0.05, "{n} detections, mean error {mean}");
+        assert!((var.x.sqrt() - 0.5).abs() < 0.03 && (var.y.sqrt() - 0.2).abs() < 0.015, "{var}");
+        assert!(clutter > 100 && clutter_in_view == clutter, "{clutter_in_view} of {clutter} clutter in view");
+        let tmp = TempDir::new("sim-rp");
+        d.write(tmp.path()).unwrap();
+        let text = std::fs::read_to_string(tmp.path().join("measurements.csv")).unwrap();
+        assert!(text.starts_with("scan,x,y,truth\n"), "{}", &text[..40]);
+        assert_eq!(rfslam_data::Dataset::read(tmp.path()).unwrap(), d);
     }
 
     #[test]

@@ -418,8 +418,11 @@ mod tests {
             sensor: SensorConfig {
                 max_range: 50.0,
                 half_angle_deg: 85.0,
-                sigma_range: 1.0,
-                sigma_bearing_deg: 1.0,
+                model: rfslam_core::SensorKind::RangeBearing,
+                sigma_range: Some(1.0),
+                sigma_bearing_deg: Some(1.0),
+                sigma_x: None,
+                sigma_y: None,
                 offset: [0.0, 0.0],
                 min_range: 0.0,
                 edge: EdgeKind::Hard,

@@ -1,0 +1,489 @@
+//! The model seam: what a filter knows about the vehicle, the landmarks and the sensor, as
+//! types.
+//!
+//! - [`VehicleModel`]: a state of `X` components (position, heading, and any extra such as
+//!   a clock bias, [`StateComponent`]) driven by a control of `U` inputs, with the
+//!   prediction and its Jacobians;
+//! - [`SensorModel`] (and [`InvertibleSensorModel`] where a measurement fixes its landmark):
+//!   landmarks of `M` dimensions with a mark (the landmark type,
+//!   [`SensorModel::Mark`]; `()` in a world of one type) measured in `Z` dimensions from a
+//!   vehicle state of `X`: the prediction `h(x, m, mark)` and its Jacobians, the residual
+//!   with the angular components wrapped, the inverse for births, the detection probability
+//!   with the field of view and its edge treatment, the clutter intensity, and the draws of
+//!   the simulator;
+//! - [`RangeBearingModel`]: the planar range-bearing sensor (\[Kaltiokallio2024\] eq. 50);
+//! - [`RelativePositionModel`]: a landmark's position in the vehicle frame (stereo rigs,
+//!   lidar feature extractors);
+//! - [`conformance`]: the checks every sensor model must pass (Jacobians against central
+//!   differences, the inverse against the prediction, residual wrapping, draws).
+//!
+//! The dimensions are const generics, so every vector and matrix is a fixed-size nalgebra
+//! type: a filter generic over a model allocates nothing and dispatches nothing dynamically
+//! inside its per-landmark and per-measurement loops.
+
+pub mod conformance;
+mod range_bearing;
+mod relative_position;
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::angle::wrap;
+use crate::detection::{DetectionModel, Fov};
+use crate::filter::SlamModels;
+use crate::gaussian::symmetrise;
+use crate::motion::{Motion, MotionModel};
+use crate::params::ParamError;
+
+pub use range_bearing::RangeBearingModel;
+pub use relative_position::{RelativePositionModel, RelativePositionSensor};
+
+/// One component of a vehicle state: what it means, so that metrics report an error per
+/// component and angles are wrapped where they are subtracted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum StateComponent {
+    /// A position coordinate along a world axis (0 = x, 1 = y, 2 = z), m.
+    Position(u8),
+    /// The heading, rad (wrapped to `[-pi, pi)`).
+    Heading,
+    /// A receiver clock bias, expressed in metres (range units).
+    ClockBias,
+}
+
+impl StateComponent {
+    /// The name used in files and reports (`x`, `y`, `z`, `heading`, `clock_bias`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            StateComponent::Position(0) => "x",
+            StateComponent::Position(1) => "y",
+            StateComponent::Position(_) => "z",
+            StateComponent::Heading => "heading",
+            StateComponent::ClockBias => "clock_bias",
+        }
+    }
+
+    /// Whether differences of this component are wrapped to `[-pi, pi)`.
+    pub fn is_angle(&self) -> bool {
+        matches!(self, StateComponent::Heading)
+    }
+}
+
+/// `a - b` componentwise, the angular components (`angular[i]`) wrapped to `[-pi, pi)`.
+#[inline]
+pub fn wrapped_difference<const N: usize>(
+    a: &SVector<f64, N>,
+    b: &SVector<f64, N>,
+    angular: &[bool; N],
+) -> SVector<f64, N> {
+    let mut d = a - b;
+    for i in 0..N {
+        if angular[i] {
+            d[i] = wrap(d[i]);
+        }
+    }
+    d
+}
+
+/// A vehicle (motion) model: a state of `X` components driven by a control of `U` inputs,
+/// `x_k = f(x_{k-1}, u_k)` over `dt` seconds. Control noise enters through the control
+/// (\[Kaltiokallio2024\] Section VI-A): one segment adds `F_u Q_u F_u^T` to `F P F^T`.
+pub trait VehicleModel<const X: usize, const U: usize> {
+    /// What each state component is (position coordinates, heading, clock bias, ...).
+    fn components(&self) -> [StateComponent; X];
+
+    /// The number of meaningful control inputs (at most `U`; unused inputs have zero columns
+    /// in `F_u`).
+    fn control_dim(&self) -> usize;
+
+    /// `f(x, u)` over `dt` seconds (angles wrapped), with `F = df/dx` and `F_u = df/du`.
+    fn transition(
+        &self,
+        x: &SVector<f64, X>,
+        u: &SVector<f64, U>,
+        dt: f64,
+    ) -> (SVector<f64, X>, SMatrix<f64, X, X>, SMatrix<f64, X, U>);
+
+    /// `a - b` with the angular components wrapped.
+    fn state_difference(&self, a: &SVector<f64, X>, b: &SVector<f64, X>) -> SVector<f64, X> {
+        let c = self.components();
+        wrapped_difference(a, b, &std::array::from_fn(|i| c[i].is_angle()))
+    }
+}
+
+/// The planar motion models of rfslam: state `[x, y, heading]`, control `Vector3` (velocity,
+/// Ackermann or 2-D odometry, [`Motion`]).
+impl VehicleModel<3, 3> for Motion {
+    fn components(&self) -> [StateComponent; 3] {
+        [StateComponent::Position(0), StateComponent::Position(1), StateComponent::Heading]
+    }
+
+    fn control_dim(&self) -> usize {
+        MotionModel::control_dim(self)
+    }
+
+    #[inline]
+    fn transition(
+        &self,
+        x: &SVector<f64, 3>,
+        u: &SVector<f64, 3>,
+        dt: f64,
+    ) -> (SVector<f64, 3>, SMatrix<f64, 3, 3>, SMatrix<f64, 3, 3>) {
+        self.predict_with_jacobians(x, u, dt)
+    }
+}
+
+/// One component of a measurement: its name (the column of `measurements.csv`) and whether
+/// it is an angle (wrapped at every subtraction).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MeasurementComponent {
+    /// Column name (`range`, `bearing`, `x`, ...).
+    pub name: &'static str,
+    /// Whether it is an angle, rad.
+    pub angle: bool,
+}
+
+/// The prediction `h(x, m, mark)` with its Jacobians `H_x = dh/dx` and `H_m = dh/dm`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Linearised<const X: usize, const M: usize, const Z: usize> {
+    /// `h(x, m, mark)`, angles wrapped.
+    pub z: SVector<f64, Z>,
+    /// `H_x` (`Z x X`).
+    pub hx: SMatrix<f64, Z, X>,
+    /// `H_m` (`Z x M`).
+    pub hm: SMatrix<f64, Z, M>,
+}
+
+/// The inverse `m = h^-1(z, x)` with its Jacobians `J_z = dm/dz` and `J_x = dm/dx`: a
+/// landmark started by `z` has the Gaussian `N(m, J_z R J_z^T)` at a known pose
+/// (`+ J_x P_x J_x^T` for an uncertain one).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Inverse<const X: usize, const M: usize, const Z: usize> {
+    /// `h^-1(z, x)`.
+    pub m: SVector<f64, M>,
+    /// `J_z` (`M x Z`).
+    pub jz: SMatrix<f64, M, Z>,
+    /// `J_x` (`M x X`).
+    pub jx: SMatrix<f64, M, X>,
+}
+
+/// A sensor model: landmarks of `M` dimensions measured in `Z` dimensions from a vehicle
+/// state of `X` components.
+///
+/// Everything a filter needs from a sensor and nothing about any filter. The detection
+/// probability, the field of view and the clutter intensity are the *filters'* model of the
+/// sensor (the edge treatment of [`crate::FovEdge`] included); the simulator draws with
+/// [`SensorModel::sample`], [`SensorModel::pd_true`] and [`SensorModel::sample_clutter`],
+/// which are the sensor as it is.
+pub trait SensorModel<const X: usize, const M: usize, const Z: usize>:
+    std::fmt::Debug + Clone + Send + Sync + 'static
+{
+    /// The landmark type (a mark carried through maps, estimates and metrics); `()` in a
+    /// world whose landmarks are all of one type.
+    type Mark: Copy + std::fmt::Debug + Default + PartialEq + Send + Sync + 'static;
+
+    /// The model's name as a data set or scenario writes it (`range_bearing`).
+    const NAME: &'static str;
+
+    /// The measurement components, in order (the columns of `measurements.csv`).
+    fn components(&self) -> [MeasurementComponent; Z];
+
+    /// `h(x, m, mark)` (angles wrapped).
+    fn predict(&self, x: &SVector<f64, X>, m: &SVector<f64, M>, mark: Self::Mark) -> SVector<f64, Z>;
+
+    /// `h(x, m, mark)` with `H_x` and `H_m`.
+    fn linearise(&self, x: &SVector<f64, X>, m: &SVector<f64, M>, mark: Self::Mark) -> Linearised<X, M, Z>;
+
+    /// `z - z_hat` with the angular components wrapped to `[-pi, pi)`.
+    #[inline]
+    fn residual(&self, z: &SVector<f64, Z>, z_hat: &SVector<f64, Z>) -> SVector<f64, Z> {
+        let c = self.components();
+        wrapped_difference(z, z_hat, &std::array::from_fn(|i| c[i].angle))
+    }
+
+    /// The measurement noise covariance `R` of a landmark of type `mark`.
+    fn noise(&self, mark: Self::Mark) -> SMatrix<f64, Z, Z>;
+
+    /// Whether a landmark of type `mark` at `m` is inside the field of view of `x`.
+    fn in_fov(&self, x: &SVector<f64, X>, m: &SVector<f64, M>, mark: Self::Mark) -> bool;
+
+    /// The filters' `p_D` of a landmark with density `N(m, P)` seen from `x`, with the
+    /// model's treatment of the field-of-view edge (zero outside for the hard edge).
+    fn detection_probability(
+        &self,
+        x: &SVector<f64, X>,
+        m: &SVector<f64, M>,
+        cov: &SMatrix<f64, M, M>,
+        mark: Self::Mark,
+    ) -> f64;
+
+    /// The clutter intensity `kappa(z)` the filters use, per unit of measurement space.
+    fn clutter_intensity(&self, z: &SVector<f64, Z>) -> f64;
+
+    /// The sensor as it is (the simulator): the probability that a landmark at `m` is
+    /// detected from `x`, with the hard edge whatever the filters' edge treatment.
+    fn pd_true(&self, x: &SVector<f64, X>, m: &SVector<f64, M>, mark: Self::Mark) -> f64;
+
+    /// Draws a measurement of a landmark at `m` from `x`: `h(x, m, mark)` plus noise of
+    /// covariance `R`.
+    fn sample<R: rand::Rng + ?Sized>(
+        &self,
+        x: &SVector<f64, X>,
+        m: &SVector<f64, M>,
+        mark: Self::Mark,
+        rng: &mut R,
+    ) -> SVector<f64, Z>;
+
+    /// Draws one scan's clutter seen from `x` (a Poisson count, then the measurements),
+    /// appended to `out`.
+    fn sample_clutter<R: rand::Rng + ?Sized>(&self, x: &SVector<f64, X>, rng: &mut R, out: &mut Vec<SVector<f64, Z>>);
+
+    /// The planar sector field of view and the detection model, over the first two state
+    /// and landmark coordinates, for filters that keep a grid over it (the thinned undetected
+    /// intensity of the PMBM family); `None` (the default) when the model has no such sector.
+    fn detection_sector(&self) -> Option<(Fov, DetectionModel)> {
+        None
+    }
+}
+
+/// A sensor model with an inverse: a measurement fixes the landmark that made it, so
+/// filters can start landmarks from measurements (every birth of rfslam's filters). A
+/// sensor without one (bearing-only) implements [`SensorModel`] alone, and the filters that
+/// need births are not built for it.
+pub trait InvertibleSensorModel<const X: usize, const M: usize, const Z: usize>: SensorModel<X, M, Z> {
+    /// The landmark of type `mark` seen at `z` from `x`, with its Jacobians.
+    fn inverse(&self, x: &SVector<f64, X>, z: &SVector<f64, Z>, mark: Self::Mark) -> Inverse<X, M, Z>;
+
+    /// The Gaussian of a landmark of type `mark` started by `z` at a known pose,
+    /// `N(h^-1(z, x), J_z R J_z^T)`.
+    fn birth(
+        &self,
+        x: &SVector<f64, X>,
+        z: &SVector<f64, Z>,
+        mark: Self::Mark,
+    ) -> (SVector<f64, M>, SMatrix<f64, M, M>) {
+        let inv = self.inverse(x, z, mark);
+        (inv.m, symmetrise(&(inv.jz * self.noise(mark) * inv.jz.transpose())))
+    }
+
+    /// `int N(z; h(x, m), R) dm` over the landmark space, `1 / |det H_m|` at the inverse:
+    /// the new-track weight of a constant undetected intensity `kappa_u` is `p_D kappa_u`
+    /// times this.
+    fn birth_integral(&self, x: &SVector<f64, X>, z: &SVector<f64, Z>, mark: Self::Mark) -> f64;
+}
+
+/// A sensor model of the planar worlds (pose `[x, y, heading]`, point landmarks `[x, y]`, one
+/// landmark type), built from the scenario's [`SlamModels`]: what the filters generic over a
+/// planar sensor take.
+pub trait PlanarSensorModel: InvertibleSensorModel<3, 2, 2, Mark = ()> {
+    /// The sensor this model reads from [`SlamModels`].
+    const KIND: SensorKind;
+
+    /// The model of `models` (mounting, noise, field of view, detection) with the filters'
+    /// clutter intensity `kappa`; an error naming the key `sensor` when `models` declares
+    /// another sensor.
+    fn from_models(models: &SlamModels, kappa: f64) -> Result<Self, ParamError>;
+}
+
+/// Which sensor a planar world declares (`[sensor] model` of a scenario or data set).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SensorKind {
+    /// [`RangeBearingModel`]: `z = [range, bearing]`.
+    #[default]
+    RangeBearing,
+    /// [`RelativePositionModel`]: `z = [x, y]` in the sensor frame.
+    RelativePosition,
+}
+
+impl SensorKind {
+    /// Whether this is the range-bearing sensor (the default, not written in files).
+    pub fn is_range_bearing(&self) -> bool {
+        *self == SensorKind::RangeBearing
+    }
+
+    /// The name as files write it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            SensorKind::RangeBearing => "range_bearing",
+            SensorKind::RelativePosition => "relative_position",
+        }
+    }
+
+    /// The measurement columns of `measurements.csv` after `scan`.
+    pub fn columns(&self) -> [&'static str; 2] {
+        match self {
+            SensorKind::RangeBearing => ["range", "bearing"],
+            SensorKind::RelativePosition => ["x", "y"],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::conformance::check_invertible_sensor_model;
+    use super::*;
+    use crate::detection::{ClutterIntensity, ClutterModel, FovEdge};
+    use crate::sensor::RangeBearingSensor;
+    use crate::{Point2, Pose};
+    use nalgebra::{Matrix2, Vector2};
+    use std::f64::consts::{FRAC_PI_2, PI};
+
+    fn fov(half_angle: f64, edge: FovEdge) -> Fov {
+        Fov { max_range: 60.0, half_angle, min_range: 0.5, edge }
+    }
+
+    fn range_bearing(half_angle: f64, edge: FovEdge) -> RangeBearingModel {
+        RangeBearingModel {
+            sensor: RangeBearingSensor { offset: [0.4, -0.2] },
+            r: Matrix2::new(0.64, 0.0, 0.0, 0.3f64.to_radians().powi(2)),
+            sigma: [0.8, 0.3f64.to_radians()],
+            fov: fov(half_angle, edge),
+            detection: DetectionModel::Constant { pd: 0.9 },
+            kappa: 1e-3,
+            clutter: ClutterModel { rate: 5.0, intensity: ClutterIntensity::Cartesian },
+        }
+    }
+
+    fn relative_position(half_angle: f64, edge: FovEdge) -> RelativePositionModel {
+        RelativePositionModel {
+            sensor: RelativePositionSensor { offset: [0.4, -0.2] },
+            r: Matrix2::new(0.09, 0.02, 0.02, 0.04),
+            fov: fov(half_angle, edge),
+            detection: DetectionModel::RangeLinear { pd0: 0.9 },
+            kappa: 1e-3,
+            clutter: ClutterModel { rate: 5.0, intensity: ClutterIntensity::Cartesian },
+        }
+    }
+
+    /// Poses and landmarks in view of a sensor looking ahead (half angle 90 deg), and, all
+    /// around, landmarks behind the vehicle (bearings near +-pi, where the wrap matters).
+    fn cases(all_around: bool) -> Vec<(Pose, Point2, ())> {
+        let ahead = [
+            (Pose::new(0.0, 0.0, 0.0), Point2::new(10.0, 3.0)),
+            (Pose::new(3.0, -2.0, 3.1), Point2::new(-20.0, -1.0)),
+            (Pose::new(-5.0, 7.0, -1.2), Point2::new(-1.0, -20.0)),
+        ];
+        let behind = [
+            (Pose::new(0.0, 0.0, 0.0), Point2::new(-12.0, 0.01)),
+            (Pose::new(1.0, 1.0, PI - 1e-3), Point2::new(9.0, 1.02)),
+        ];
+        let pick: &[(Pose, Point2)] = if all_around { &behind } else { &ahead };
+        pick.iter().map(|&(x, m)| (x, m, ())).collect()
+    }
+
+    /// The conformance suite over both planar sensor models, ahead and all around, with
+    /// every edge treatment.
+    #[test]
+    fn planar_sensor_models_conform() {
+        let edges = [FovEdge::Hard, FovEdge::Expected, FovEdge::Taper { band_range: 2.0, band_angle: 0.1 }];
+        for edge in edges {
+            for (half, all) in [(FRAC_PI_2, false), (PI, true)] {
+                check_invertible_sensor_model(&range_bearing(half, edge), &cases(all)).unwrap();
+                check_invertible_sensor_model(&relative_position(half, edge), &cases(all)).unwrap();
+            }
+        }
+    }
+
+    /// The checks fail where a model is wrong: a sign error in a Jacobian column, an
+    /// unwrapped bearing residual, an inverse that is off.
+    #[test]
+    fn conformance_catches_broken_models() {
+        #[derive(Debug, Clone)]
+        struct Broken(RangeBearingModel, u8);
+        impl SensorModel<3, 2, 2> for Broken {
+            type Mark = ();
+            const NAME: &'static str = "broken";
+            fn components(&self) -> [MeasurementComponent; 2] {
+                self.0.components()
+            }
+            fn predict(&self, x: &Pose, m: &Point2, _: ()) -> Vector2<f64> {
+                self.0.predict(x, m, ())
+            }
+            fn linearise(&self, x: &Pose, m: &Point2, _: ()) -> Linearised<3, 2, 2> {
+                let mut l = self.0.linearise(x, m, ());
+                if self.1 == 0 {
+                    l.hx[(1, 2)] = -l.hx[(1, 2)];
+                }
+                l
+            }
+            fn residual(&self, z: &Vector2<f64>, z_hat: &Vector2<f64>) -> Vector2<f64> {
+                if self.1 == 1 { z - z_hat } else { self.0.residual(z, z_hat) }
+            }
+            fn noise(&self, _: ()) -> Matrix2<f64> {
+                self.0.r
+            }
+            fn in_fov(&self, x: &Pose, m: &Point2, _: ()) -> bool {
+                self.0.in_fov(x, m, ())
+            }
+            fn detection_probability(&self, x: &Pose, m: &Point2, c: &Matrix2<f64>, _: ()) -> f64 {
+                self.0.detection_probability(x, m, c, ())
+            }
+            fn clutter_intensity(&self, z: &Vector2<f64>) -> f64 {
+                self.0.clutter_intensity(z)
+            }
+            fn pd_true(&self, x: &Pose, m: &Point2, _: ()) -> f64 {
+                self.0.pd_true(x, m, ())
+            }
+            fn sample<R: rand::Rng + ?Sized>(&self, x: &Pose, m: &Point2, _: (), rng: &mut R) -> Vector2<f64> {
+                self.0.sample(x, m, (), rng)
+            }
+            fn sample_clutter<R: rand::Rng + ?Sized>(&self, x: &Pose, rng: &mut R, out: &mut Vec<Vector2<f64>>) {
+                self.0.sample_clutter(x, rng, out)
+            }
+        }
+        impl InvertibleSensorModel<3, 2, 2> for Broken {
+            fn inverse(&self, x: &Pose, z: &Vector2<f64>, _: ()) -> Inverse<3, 2, 2> {
+                let mut i = self.0.inverse(x, z, ());
+                if self.1 == 2 {
+                    i.m.x += 1e-3;
+                }
+                i
+            }
+            fn birth_integral(&self, x: &Pose, z: &Vector2<f64>, _: ()) -> f64 {
+                self.0.birth_integral(x, z, ())
+            }
+        }
+        let base = range_bearing(FRAC_PI_2, FovEdge::Hard);
+        let err = |k| check_invertible_sensor_model(&Broken(base, k), &cases(false)).unwrap_err();
+        assert!(err(0).contains("H_x column 2"), "{}", err(0));
+        assert!(err(1).contains("not wrapped") || err(1).contains("bearing"), "{}", err(1));
+        assert!(err(2).contains("inverse(predict(m))"), "{}", err(2));
+    }
+
+    /// Values by hand: a vehicle at (1, 2) heading +y sees (1, 5) 3 m straight ahead;
+    /// with the sensor 0.5 m forward, 2.5 m ahead; the inverse returns the landmark.
+    #[test]
+    fn relative_position_by_hand() {
+        let s = RelativePositionSensor { offset: [0.5, 0.0] };
+        let x = Pose::new(1.0, 2.0, FRAC_PI_2);
+        let z = s.predict(&x, &Point2::new(1.0, 5.0));
+        assert!((z - Vector2::new(2.5, 0.0)).norm() < 1e-12, "{z}");
+        let z = s.predict(&x, &Point2::new(-1.0, 2.0));
+        assert!((z - Vector2::new(-0.5, 2.0)).norm() < 1e-12, "{z}");
+        let (m, _, _) = s.inverse(&x, &Vector2::new(-0.5, 2.0));
+        assert!((m - Point2::new(-1.0, 2.0)).norm() < 1e-12);
+    }
+
+    /// The range-bearing model is the sensor of eq. (50) unchanged: the same prediction,
+    /// Jacobians and inverse bit for bit, and the noise draws the simulator always made.
+    #[test]
+    fn range_bearing_model_is_the_sensor() {
+        let m = range_bearing(FRAC_PI_2, FovEdge::Hard);
+        let (x, lm) = (Pose::new(3.0, -2.0, 3.1), Point2::new(-20.0, -1.0));
+        let lin = m.sensor.linearise(&x, &lm);
+        assert_eq!(m.linearise(&x, &lm, ()), Linearised { z: lin.z, hx: lin.hx, hm: lin.hm });
+        let (inv, jz, jx) = m.sensor.inverse_with_jacobians(&x, &lin.z);
+        assert_eq!(m.inverse(&x, &lin.z, ()), Inverse { m: inv, jz, jx });
+        // sqrt(s * s) == s for binary floating point: the sigmas are the config's.
+        for s in [0.8f64, 0.3f64.to_radians(), 1.0, 0.05, 1.0f64.to_radians()] {
+            assert_eq!((s * s).sqrt(), s);
+        }
+    }
+
+    #[test]
+    fn vehicle_model_wraps_the_heading_difference() {
+        let v = Motion::Velocity;
+        let d = v.state_difference(&Pose::new(1.0, 0.0, PI - 0.1), &Pose::new(0.0, 0.0, -PI + 0.1));
+        assert!((d - Pose::new(1.0, 0.0, -0.2)).norm() < 1e-12);
+        assert_eq!(VehicleModel::<3, 3>::components(&v).map(|c| c.name()), ["x", "y", "heading"]);
+    }
+}

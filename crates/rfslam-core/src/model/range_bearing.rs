@@ -1,0 +1,152 @@
+//! The planar range-bearing sensor as a [`SensorModel`].
+
+use nalgebra::{Matrix2, SVector, Vector2};
+use rand_distr::{Distribution, StandardNormal};
+
+use super::{
+    Inverse, InvertibleSensorModel, Linearised, MeasurementComponent, PlanarSensorModel, SensorKind, SensorModel,
+};
+use crate::angle::wrap;
+use crate::detection::{ClutterModel, DetectionModel, Fov};
+use crate::filter::SlamModels;
+use crate::params::ParamError;
+use crate::sensor::RangeBearingSensor;
+use crate::{Point2, Pose, RangeBearing};
+
+/// The planar range-bearing sensor of \[Kaltiokallio2024\] eq. (50) (its mounting offset
+/// included) with its noise, field of view, detection model and a uniform clutter
+/// intensity: `z = [range, bearing]`, the bearing an angle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RangeBearingModel {
+    /// The sensor geometry.
+    pub sensor: RangeBearingSensor,
+    /// `R = diag(sigma_r^2, sigma_phi^2)`.
+    pub r: Matrix2<f64>,
+    /// The noise standard deviations `[sigma_r, sigma_phi]` (the square roots of `R`'s
+    /// diagonal; the simulator draws with them).
+    pub sigma: [f64; 2],
+    /// Field of view, with the filters' edge treatment.
+    pub fov: Fov,
+    /// Detection probability model.
+    pub detection: DetectionModel,
+    /// The filters' clutter intensity `kappa` (uniform), in the units they were given.
+    pub kappa: f64,
+    /// The clutter the simulator draws (uniform in range and bearing over the field of view).
+    pub clutter: ClutterModel,
+}
+
+impl RangeBearingModel {
+    /// The model of `models` with clutter intensity `kappa`, whatever sensor `models`
+    /// declares (for filters written for this sensor only; [`PlanarSensorModel::from_models`]
+    /// checks the declaration).
+    pub fn new(models: &SlamModels, kappa: f64) -> Self {
+        let r = models.measurement_noise;
+        RangeBearingModel {
+            sensor: models.sensor,
+            r,
+            sigma: [r[(0, 0)].sqrt(), r[(1, 1)].sqrt()],
+            fov: models.fov,
+            detection: models.detection,
+            kappa,
+            clutter: models.clutter,
+        }
+    }
+}
+
+impl SensorModel<3, 2, 2> for RangeBearingModel {
+    type Mark = ();
+    const NAME: &'static str = "range_bearing";
+
+    fn components(&self) -> [MeasurementComponent; 2] {
+        [MeasurementComponent { name: "range", angle: false }, MeasurementComponent { name: "bearing", angle: true }]
+    }
+
+    #[inline]
+    fn predict(&self, x: &Pose, m: &Point2, _: ()) -> RangeBearing {
+        self.sensor.predict(x, m)
+    }
+
+    #[inline]
+    fn linearise(&self, x: &Pose, m: &Point2, _: ()) -> Linearised<3, 2, 2> {
+        let lin = self.sensor.linearise(x, m);
+        Linearised { z: lin.z, hx: lin.hx, hm: lin.hm }
+    }
+
+    #[inline]
+    fn residual(&self, z: &RangeBearing, z_hat: &RangeBearing) -> Vector2<f64> {
+        RangeBearingSensor::residual(z, z_hat)
+    }
+
+    #[inline]
+    fn noise(&self, _: ()) -> Matrix2<f64> {
+        self.r
+    }
+
+    #[inline]
+    fn in_fov(&self, x: &Pose, m: &Point2, _: ()) -> bool {
+        self.fov.contains(x, m)
+    }
+
+    /// The scenario's [`crate::FovEdge`]: `p_D` at the mean for the hard edge and the taper,
+    /// its expectation under `N(m, P)` for `expected`.
+    #[inline]
+    fn detection_probability(&self, x: &Pose, m: &Point2, cov: &Matrix2<f64>, _: ()) -> f64 {
+        self.detection.pd_gaussian(&self.fov, x, m, cov)
+    }
+
+    #[inline]
+    fn clutter_intensity(&self, _z: &RangeBearing) -> f64 {
+        self.kappa
+    }
+
+    #[inline]
+    fn pd_true(&self, x: &Pose, m: &Point2, _: ()) -> f64 {
+        self.detection.pd(&self.fov.hard(), x, m)
+    }
+
+    /// `[r + sigma_r n_1, wrap(phi + sigma_phi n_2)]`, the two standard normals drawn in
+    /// that order.
+    fn sample<R: rand::Rng + ?Sized>(&self, x: &Pose, m: &Point2, _: (), rng: &mut R) -> RangeBearing {
+        let g = self.sensor.predict(x, m);
+        let (nr, nb): (f64, f64) = (StandardNormal.sample(rng), StandardNormal.sample(rng));
+        RangeBearing::new(g[0] + self.sigma[0] * nr, wrap(g[1] + self.sigma[1] * nb))
+    }
+
+    /// [`ClutterModel::sample`]: range and bearing uniform over the field of view.
+    fn sample_clutter<R: rand::Rng + ?Sized>(&self, _x: &Pose, rng: &mut R, out: &mut Vec<SVector<f64, 2>>) {
+        self.clutter.sample(&self.fov.hard(), rng, out);
+    }
+
+    fn detection_sector(&self) -> Option<(Fov, DetectionModel)> {
+        Some((self.fov, self.detection))
+    }
+}
+
+impl InvertibleSensorModel<3, 2, 2> for RangeBearingModel {
+    #[inline]
+    fn inverse(&self, x: &Pose, z: &RangeBearing, _: ()) -> Inverse<3, 2, 2> {
+        let (m, jz, jx) = self.sensor.inverse_with_jacobians(x, z);
+        Inverse { m, jz, jx }
+    }
+
+    /// With `m = s + rho [cos(theta + psi), sin(theta + psi)]`, `dm = rho d rho d psi`, so the
+    /// integral is `E[rho]` under `N(z; ., R)` = the measured range (the mass at `rho < 0`
+    /// and the wrap of the bearing neglected: `sigma_r << r`).
+    #[inline]
+    fn birth_integral(&self, _x: &Pose, z: &RangeBearing, _: ()) -> f64 {
+        z[0].max(0.0)
+    }
+}
+
+impl PlanarSensorModel for RangeBearingModel {
+    const KIND: SensorKind = SensorKind::RangeBearing;
+
+    fn from_models(models: &SlamModels, kappa: f64) -> Result<Self, ParamError> {
+        match models.sensor_kind {
+            SensorKind::RangeBearing => Ok(RangeBearingModel::new(models, kappa)),
+            other => {
+                Err(ParamError::new("sensor", format!("the range_bearing model cannot read a {} sensor", other.name())))
+            }
+        }
+    }
+}
