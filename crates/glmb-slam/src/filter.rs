@@ -89,7 +89,8 @@ impl GlmbSlam {
     /// A filter with `n` particles at the initial pose with empty maps (through
     /// [`FilterBuild::build`] of a variant: validated).
     fn new(variant: Variant, params: Params, models: &SlamModels, n: usize) -> Self {
-        let log_kappa = models.clutter.intensity(&models.fov).max(params.min_clutter_intensity).ln();
+        let log_kappa =
+            models.clutter.intensity(&models.fov, models.sensor_kind).max(params.min_clutter_intensity).ln();
         let p0 = Particle { pose: models.initial_pose, ..Default::default() };
         GlmbSlam {
             variant,

@@ -256,7 +256,7 @@ mod tests {
             map,
             detectable: det,
             pd,
-            log_clutter: m.clutter.intensity(&m.fov).ln(),
+            log_clutter: m.clutter.intensity(&m.fov, m.sensor_kind).ln(),
             gate: 41.4465,
         }
     }

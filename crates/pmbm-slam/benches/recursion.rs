@@ -11,15 +11,15 @@ use rfslam_bench::{bench_recursion as bench_filter, benchmark_dataset};
 fn recursion(c: &mut Criterion) {
     let ds = benchmark_dataset();
     for n in [1, 10] {
-        bench_filter::<PmbmSlam>(c, PmbmSlam::NAME, &ds, n);
+        bench_filter::<PmbmSlam>(c, <PmbmSlam>::NAME, &ds, n);
     }
     for n in [1, 10, 100] {
-        bench_filter::<PmbSlam>(c, PmbSlam::NAME, &ds, n);
+        bench_filter::<PmbSlam>(c, <PmbSlam>::NAME, &ds, n);
     }
     for n in [1, 10] {
         bench_filter::<PmbmSlamMh>(c, PmbmSlamMh::NAME, &ds, n);
     }
-    bench_filter::<MpmbSlam>(c, MpmbSlam::NAME, &ds, 1);
+    bench_filter::<MpmbSlam>(c, <MpmbSlam>::NAME, &ds, 1);
 }
 
 criterion_group! {

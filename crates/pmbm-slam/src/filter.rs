@@ -12,6 +12,7 @@ use crate::model::{InvertibleSensorModel, RangeBearingModel};
 use crate::params::{Params, undetected_cell};
 use crate::pmbm::{PmbWeight, PmbmDensity, UpdateSettings, Workspace, pmb_update, pmbm_update};
 use crate::undetected::Undetected;
+use rfslam_core::{PlanarSensorModel, SensorKind};
 
 /// Which filter of the family.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -255,14 +256,23 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
 /// The family on the planar range-bearing sensor of a scenario.
 pub type RangeBearingPmbm = PmbmFilter<RangeBearingModel, 2, 2>;
 
-/// The range-bearing model a filter with `params` assumes on `models`.
+/// The planar sensor model `S` a filter with `params` assumes on `models`: the scenario's
+/// sensor with the filter's clutter intensity and detection model (`detection_pd`).
+pub fn sensor_model<S: PlanarSensorModel>(params: &Params, models: &SlamModels) -> S {
+    let mut assumed = models.clone();
+    assumed.detection = params.detection(models);
+    S::from_models(&assumed, params.clutter_intensity(models))
+}
+
+/// The range-bearing model a filter with `params` assumes on `models` (whatever sensor the
+/// scenario declares: for the variants written for this sensor alone).
 pub fn range_bearing_model(params: &Params, models: &SlamModels) -> RangeBearingModel {
     let mut m = RangeBearingModel::new(models, params.clutter_intensity(models));
     m.detection = params.detection(models);
     m
 }
 
-impl FilterEngine for RangeBearingPmbm {
+impl<S: PlanarSensorModel> FilterEngine for PmbmFilter<S, 2, 2> {
     fn particles(&self) -> usize {
         self.set.len()
     }
@@ -284,24 +294,29 @@ impl FilterEngine for RangeBearingPmbm {
     }
 }
 
-/// A registered variant of [`RangeBearingPmbm`] and its [`FilterBuild`].
+/// A registered variant of [`PmbmFilter`], generic over the planar sensor model, and its
+/// [`FilterBuild`].
 macro_rules! variant_filter {
     ($(#[$doc:meta])* $ty:ident, $variant:expr, $name:literal) => {
-        rfslam_core::filter_variant!($(#[$doc])* $ty(RangeBearingPmbm), $name);
+        rfslam_core::filter_variant!($(#[$doc])* $ty<S>(PmbmFilter<S, 2, 2>), $name);
 
-        impl FilterBuild for $ty {
+        impl<S: PlanarSensorModel> FilterBuild for $ty<S> {
             type Params = Params;
+
+            fn serves(sensor: SensorKind) -> bool {
+                sensor == S::KIND
+            }
 
             fn check(params: &Params, models: &SlamModels, particles: usize) -> Result<(), ParamError> {
                 params.validate(particles)?;
-                let model = range_bearing_model(params, models);
-                model.detection.validate().map_err(|e| ParamError::new("detection_pd", e))?;
+                let model = sensor_model::<S>(params, models);
+                params.detection(models).validate().map_err(|e| ParamError::new("detection_pd", e))?;
                 params.check_undetected(&model)
             }
 
             fn build(params: Validated<Self>, models: &SlamModels) -> Self {
                 let (params, particles) = params.into_parts();
-                let model = range_bearing_model(&params, models);
+                let model = sensor_model::<S>(&params, models);
                 $ty(PmbmFilter::new($variant, params, models, model, particles))
             }
         }

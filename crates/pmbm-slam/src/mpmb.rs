@@ -40,10 +40,11 @@ use rfslam_core::{
 use serde::{Deserialize, Serialize};
 
 use crate::cubature::{InputPoints, PairMoments, PosePoints, lower_factor};
-use crate::filter::range_bearing_model;
+use crate::filter::sensor_model;
 use crate::model::{InvertibleSensorModel, RangeBearingModel, chi2_quantile};
 use crate::params::{Params, check_cell, check_undetected, undetected_cell};
 use crate::undetected::{Undetected, UndetectedModel};
+use rfslam_core::{PlanarSensorModel, SensorKind};
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
@@ -545,17 +546,17 @@ fn report(components: usize, cholesky_failures: u32) -> StepReport {
     StepReport { components, cholesky_failures, ..StepReport::plain(1) }
 }
 
-/// `mpmb-slam`: marginalized PMB-SLAM (\[Kim2022\] Section IV-D) on the planar range-bearing
-/// sensor of a scenario.
+/// `mpmb-slam`: marginalized PMB-SLAM (\[Kim2022\] Section IV-D) on a planar sensor of a
+/// scenario (the range-bearing one by default).
 #[derive(Debug, Clone)]
-pub struct MpmbSlam(pub MpmbFilter<RangeBearingModel, 2, 2>);
+pub struct MpmbSlam<S: PlanarSensorModel = RangeBearingModel>(pub MpmbFilter<S, 2, 2>);
 
-impl MpmbSlam {
+impl<S: PlanarSensorModel> MpmbSlam<S> {
     /// Registered name.
     pub const NAME: &'static str = "mpmb-slam";
 }
 
-impl SlamFilter for MpmbSlam {
+impl<S: PlanarSensorModel> SlamFilter for MpmbSlam<S> {
     fn name(&self) -> &str {
         Self::NAME
     }
@@ -573,22 +574,26 @@ impl SlamFilter for MpmbSlam {
     }
 }
 
-impl FilterBuild for MpmbSlam {
+impl<S: PlanarSensorModel> FilterBuild for MpmbSlam<S> {
     type Params = MpmbParams;
+
+    fn serves(sensor: SensorKind) -> bool {
+        sensor == S::KIND
+    }
 
     fn check(params: &MpmbParams, models: &SlamModels, particles: usize) -> Result<(), ParamError> {
         if particles != 1 {
             return Err(ParamError::new("particles", "mpmb-slam has no particles (one Gaussian vehicle): use 1"));
         }
         params.validate()?;
-        let model = range_bearing_model(&params.sensor_params(), models);
-        model.detection.validate().map_err(|e| ParamError::new("detection_pd", e))?;
+        let model = sensor_model::<S>(&params.sensor_params(), models);
+        params.sensor_params().detection(models).validate().map_err(|e| ParamError::new("detection_pd", e))?;
         check_undetected(params.undetected, params.undetected_cell, &model)
     }
 
     fn build(params: Validated<Self>, models: &SlamModels) -> Self {
         let (params, _) = params.into_parts();
-        let model = range_bearing_model(&params.sensor_params(), models);
+        let model = sensor_model::<S>(&params.sensor_params(), models);
         MpmbSlam(MpmbFilter::new(params, models, model))
     }
 }

@@ -118,9 +118,10 @@ fn maps_hold_every_landmark_once_when_single_detections_are_not_reported() {
     // mpmb-slam: T_EP also picks the Bernoullis that update the vehicle (Section IV-D), so
     // the threshold is the filter's parameter, not only a filter on its estimate.
     let mut f =
-        MpmbSlam::try_build(MpmbParams { estimate_existence: T_EP, ..MpmbParams::default() }, &ds.models(), 1).unwrap();
+        <MpmbSlam>::try_build(MpmbParams { estimate_existence: T_EP, ..MpmbParams::default() }, &ds.models(), 1)
+            .unwrap();
     let [s] = score(&ds, &mut f, [T_EP]);
-    let mut f = MpmbSlam::try_build(MpmbParams::default(), &ds.models(), 1).unwrap();
+    let mut f = <MpmbSlam>::try_build(MpmbParams::default(), &ds.models(), 1).unwrap();
     let [paper] = score(&ds, &mut f, [0.4]);
     check("mpmb-slam", [s, paper]);
 }

@@ -35,7 +35,7 @@ fn poses(f: &dyn SlamFilter) -> Vec<(Pose, f64)> {
 fn transition_on_an_empty_map_then_the_importance_density() {
     let ds = dataset(40);
     let models = ds.models();
-    let mut a = PmbmSlam::try_build(Params::default(), &models, 8).unwrap();
+    let mut a = <PmbmSlam>::try_build(Params::default(), &models, 8).unwrap();
     let mut b = PmbmSlamMh::try_build(MhPmbmParams::default(), &models, 8).unwrap();
     let (mut ra, mut rb) = (Rng::seed_from_u64(5), Rng::seed_from_u64(5));
     let mut seg: Vec<ControlSegment> = Vec::new();
@@ -67,7 +67,7 @@ fn localises_at_least_as_well_as_pmbm_slam() {
     let metrics = MetricsConfig::default();
     let mut dr = dead_reckoning::DeadReckoning::try_build(Default::default(), &ds.models(), 1).unwrap();
     let o_dr = run_filter(&ds, &mut dr, 1, &metrics, &mut |_| {});
-    let mut pmbm = PmbmSlam::try_build(Params::default(), &ds.models(), 10).unwrap();
+    let mut pmbm = <PmbmSlam>::try_build(Params::default(), &ds.models(), 10).unwrap();
     let o_pmbm = run_filter(&ds, &mut pmbm, 1, &metrics, &mut |_| {});
     let mut mh = PmbmSlamMh::try_build(MhPmbmParams::default(), &ds.models(), 10).unwrap();
     let o_mh = run_filter(&ds, &mut mh, 1, &metrics, &mut |_| {});

@@ -200,8 +200,8 @@ fn bad_parameters_name_the_key() {
     for (key, set) in cases {
         let mut p = MpmbParams::default();
         set(&mut p);
-        assert_eq!(MpmbSlam::validate(p, &models, 1).unwrap_err().key, key);
+        assert_eq!(<MpmbSlam>::validate(p, &models, 1).unwrap_err().key, key);
     }
-    assert!(MpmbSlam::validate(MpmbParams::default(), &models, 1).is_ok());
-    assert_eq!(MpmbSlam::validate(MpmbParams::default(), &models, 3).unwrap_err().key, "particles");
+    assert!(<MpmbSlam>::validate(MpmbParams::default(), &models, 1).is_ok());
+    assert_eq!(<MpmbSlam>::validate(MpmbParams::default(), &models, 3).unwrap_err().key, "particles");
 }

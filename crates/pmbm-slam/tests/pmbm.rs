@@ -290,10 +290,10 @@ fn bad_parameters_name_the_key() {
     for (key, set) in cases {
         let mut p = Params::default();
         set(&mut p);
-        assert_eq!(PmbmSlam::validate(p.clone(), &models, 5).unwrap_err().key, key);
-        assert_eq!(PmbSlam::validate(p, &models, 5).unwrap_err().key, key);
+        assert_eq!(<PmbmSlam>::validate(p.clone(), &models, 5).unwrap_err().key, key);
+        assert_eq!(<PmbSlam>::validate(p, &models, 5).unwrap_err().key, key);
     }
-    assert!(PmbmSlam::validate(Params::default(), &models, 5).is_ok());
+    assert!(<PmbmSlam>::validate(Params::default(), &models, 5).is_ok());
 }
 
 /// The three filters on a small procedural world (pD 0.95, clutter 1 per scan, control noise
@@ -316,9 +316,9 @@ fn short_run_end_to_end() {
     let mut dr = dead_reckoning::DeadReckoning::try_build(Default::default(), &ds.models(), 1).unwrap();
     let o_dr = run_filter(&ds, &mut dr, 1, &metrics, &mut |_| {});
     let filters: [(&str, Box<dyn rfslam_core::SlamFilter>); 3] = [
-        ("pmbm-slam", Box::new(PmbmSlam::try_build(Params::default(), &ds.models(), 10).unwrap())),
-        ("pmb-slam", Box::new(PmbSlam::try_build(Params::default(), &ds.models(), 10).unwrap())),
-        ("mpmb-slam", Box::new(MpmbSlam::try_build(MpmbParams::default(), &ds.models(), 1).unwrap())),
+        ("pmbm-slam", Box::new(<PmbmSlam>::try_build(Params::default(), &ds.models(), 10).unwrap())),
+        ("pmb-slam", Box::new(<PmbSlam>::try_build(Params::default(), &ds.models(), 10).unwrap())),
+        ("mpmb-slam", Box::new(<MpmbSlam>::try_build(MpmbParams::default(), &ds.models(), 1).unwrap())),
     ];
     for (name, mut f) in filters {
         let o = run_filter(&ds, f.as_mut(), 1, &metrics, &mut |_| {});

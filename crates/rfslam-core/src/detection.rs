@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 use nalgebra::{Matrix2, Vector2};
 
 use crate::angle::wrap;
+use crate::types::SensorKind;
 use crate::{Point2, Pose, RangeBearing};
 
 /// Largest detection probability used, so that `ln(1 - p_D)` stays finite (our
@@ -352,7 +353,8 @@ impl DetectionModel {
 /// How the filters express the clutter intensity `c(z)`. The clutter of \[Kaltiokallio2024\] is
 /// uniform in range and bearing, so as a density in measurement space it is
 /// `lambda_c / (max_range * 2 half_angle)`; the two choices change every `pD eta N / c` ratio,
-/// the births and the association ranking.
+/// the births and the association ranking. For the relative-position sensor, whose
+/// measurement space is Cartesian, both are `lambda_c / area of the FOV`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum ClutterIntensity {
@@ -360,7 +362,9 @@ pub enum ClutterIntensity {
     /// published tables (about 75x smaller than the measurement-space density).
     #[default]
     Cartesian,
-    /// `lambda_c / (max_range * 2 half_angle)` ((m rad)^-1): the density in measurement space.
+    /// `lambda_c` over the volume of the measurement space the FOV covers
+    /// ([`SensorKind::measurement_volume`]): `lambda_c / (max_range * 2 half_angle)`
+    /// ((m rad)^-1) for range and bearing, the Cartesian density for a relative position.
     Measurement,
 }
 
@@ -379,11 +383,12 @@ impl ClutterModel {
     /// measurements a simulated scan can hold.
     pub const MAX_RATE: f64 = 1e3;
 
-    /// The clutter intensity `c(z)` the filters use (uniform over the FOV).
-    pub fn intensity(&self, fov: &Fov) -> f64 {
+    /// The clutter intensity `c(z)` the filters use (uniform over the FOV) for a sensor of
+    /// kind `sensor`.
+    pub fn intensity(&self, fov: &Fov, sensor: SensorKind) -> f64 {
         match self.intensity {
             ClutterIntensity::Cartesian => self.rate / fov.area(),
-            ClutterIntensity::Measurement => self.rate / fov.measurement_volume(),
+            ClutterIntensity::Measurement => self.rate / sensor.measurement_volume(fov),
         }
     }
 

@@ -112,8 +112,35 @@ pub trait FilterEngine: Send {
 ///     Glmb1(GlmbSlam), "glmb-1.0"
 /// );
 /// ```
+///
+/// A family generic over the planar sensor declares its variants generic too, the sensor
+/// model defaulting to the range-bearing one:
+///
+/// ```ignore
+/// rfslam_core::filter_variant!(
+///     /// `pmbm-slam`: PMBM-SLAM.
+///     PmbmSlam<S>(PmbmFilter<S, 2, 2>), "pmbm-slam"
+/// );
+/// ```
 #[macro_export]
 macro_rules! filter_variant {
+    ($(#[$doc:meta])* $ty:ident<S>($engine:ty), $name:literal) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone)]
+        pub struct $ty<S: $crate::PlanarSensorModel = $crate::model::RangeBearingModel>(pub $engine);
+
+        impl<S: $crate::PlanarSensorModel> $ty<S> {
+            /// Registered name.
+            pub const NAME: &'static str = $name;
+        }
+
+        impl<S: $crate::PlanarSensorModel> $crate::SlamFilter for $ty<S>
+        where
+            $engine: $crate::filter::FilterEngine,
+        {
+            $crate::filter_variant!(@delegate);
+        }
+    };
     ($(#[$doc:meta])* $ty:ident($engine:ty), $name:literal) => {
         $(#[$doc])*
         #[derive(Debug, Clone)]
@@ -125,34 +152,37 @@ macro_rules! filter_variant {
         }
 
         impl $crate::SlamFilter for $ty {
-            fn name(&self) -> &str {
-                Self::NAME
-            }
+            $crate::filter_variant!(@delegate);
+        }
+    };
+    (@delegate) => {
+        fn name(&self) -> &str {
+            Self::NAME
+        }
 
-            fn particles(&self) -> usize {
-                $crate::filter::FilterEngine::particles(&self.0)
-            }
+        fn particles(&self) -> usize {
+            $crate::filter::FilterEngine::particles(&self.0)
+        }
 
-            fn step(
-                &mut self,
-                odometry: &[$crate::ControlSegment],
-                scan: &$crate::Scan,
-                rng: &mut $crate::Rng,
-            ) -> $crate::StepReport {
-                $crate::filter::FilterEngine::step(&mut self.0, odometry, scan, rng)
-            }
+        fn step(
+            &mut self,
+            odometry: &[$crate::ControlSegment],
+            scan: &$crate::Scan,
+            rng: &mut $crate::Rng,
+        ) -> $crate::StepReport {
+            $crate::filter::FilterEngine::step(&mut self.0, odometry, scan, rng)
+        }
 
-            fn estimate(&self) -> $crate::Estimate {
-                $crate::filter::FilterEngine::estimate(&self.0)
-            }
+        fn estimate(&self) -> $crate::Estimate {
+            $crate::filter::FilterEngine::estimate(&self.0)
+        }
 
-            fn particle_poses(&self, out: &mut Vec<($crate::Pose, f64)>) -> bool {
-                $crate::filter::FilterEngine::particle_poses(&self.0, out)
-            }
+        fn particle_poses(&self, out: &mut Vec<($crate::Pose, f64)>) -> bool {
+            $crate::filter::FilterEngine::particle_poses(&self.0, out)
+        }
 
-            fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-                $crate::filter::FilterEngine::particle_parents(&self.0, out)
-            }
+        fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
+            $crate::filter::FilterEngine::particle_parents(&self.0, out)
         }
     };
 }
@@ -201,10 +231,13 @@ pub trait FilterBuild: SlamFilter + Sized + 'static {
     /// harness refuses data without them before running.
     const REQUIRES_TRUTH: bool = false;
 
-    /// The sensor the filter is built for: [`FilterBuild::validate`] refuses a world that
-    /// declares another (a filter generic over the sensor is registered once per sensor,
-    /// each instance naming its own). Default: the range-bearing sensor.
-    const SENSOR: SensorKind = SensorKind::RangeBearing;
+    /// Whether the filter can run on a world with this sensor: [`FilterBuild::validate`]
+    /// refuses a world it cannot serve. A filter generic over the sensor is built once per
+    /// sensor, each instance serving its model's ([`crate::PlanarSensorModel::KIND`]); one
+    /// that reads no measurement serves all. Default: the range-bearing sensor only.
+    fn serves(sensor: SensorKind) -> bool {
+        sensor == SensorKind::RangeBearing
+    }
 
     /// The filter's checks of ranges and consistency (with the scenario's models and the
     /// number of particles, which some checks need), in the words of [`crate::params`].
@@ -213,14 +246,10 @@ pub trait FilterBuild: SlamFilter + Sized + 'static {
     /// [`FilterBuild::check`]s the parameters and returns them in the form
     /// [`FilterBuild::build`] takes.
     fn validate(params: Self::Params, models: &SlamModels, particles: usize) -> Result<Validated<Self>, ParamError> {
-        if models.sensor_kind != Self::SENSOR {
+        if !Self::serves(models.sensor_kind) {
             return Err(ParamError::new(
                 "sensor",
-                format!(
-                    "this filter runs on the {} sensor only; the world's sensor is {}",
-                    Self::SENSOR.name(),
-                    models.sensor_kind.name()
-                ),
+                format!("this filter is not implemented for the world's {} sensor", models.sensor_kind.name()),
             ));
         }
         Self::check(&params, models, particles)?;

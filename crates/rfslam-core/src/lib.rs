@@ -36,12 +36,12 @@ pub mod types;
 
 pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov, FovEdge, PlacedFov};
 pub use filter::{FilterBuild, FilterEngine, SlamFilter, SlamModels, Validated};
-pub use model::{PlanarSensorModel, SensorKind, SensorModel, VehicleModel};
+pub use model::{PlanarSensorModel, SensorModel, VehicleModel};
 pub use motion::{AckermannModel, Motion, MotionModel, OdometryModel, VelocityModel};
 pub use params::{ParamError, RbpfParams};
 pub use rng::Rng;
 pub use sensor::RangeBearingSensor;
-pub use types::{Control, ControlSegment, Estimate, MapPoint, Scan, StepReport, TRUTH_UNKNOWN};
+pub use types::{Control, ControlSegment, Estimate, MapPoint, Scan, SensorKind, StepReport, TRUTH_UNKNOWN};
 
 /// Robot pose `x = [px, py, theta]` (m, m, rad), heading wrapped to `[-pi, pi)`.
 pub type Pose = nalgebra::Vector3<f64>;

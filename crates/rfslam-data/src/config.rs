@@ -564,7 +564,7 @@ mod tests {
         assert!((m.fov.half_angle - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
         // Cartesian intensity by default: rate over the half-disc area.
         let expect = 5.0 / (0.5 * std::f64::consts::PI * 150.0 * 150.0);
-        assert!((m.clutter.intensity(&m.fov) - expect).abs() < 1e-15);
+        assert!((m.clutter.intensity(&m.fov, m.sensor_kind) - expect).abs() < 1e-15);
     }
 
     #[test]

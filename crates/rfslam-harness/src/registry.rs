@@ -1,7 +1,8 @@
 //! The filter registry: name -> typed parameters -> filter. Adding a filter is one line in
 //! [`REGISTRY`] (and one dependency in this crate's Cargo.toml).
 
-use rfslam_core::{FilterBuild, ParamError, SlamFilter, SlamModels};
+use rfslam_core::model::{RangeBearingModel, RelativePositionModel};
+use rfslam_core::{FilterBuild, ParamError, SensorKind, SlamFilter, SlamModels};
 
 /// Builds a boxed filter from a parameter table, the scenario's models and a particle count.
 pub type BuildFn = fn(&toml::Table, &SlamModels, usize) -> Result<Box<dyn SlamFilter>, ParamError>;
@@ -111,6 +112,28 @@ macro_rules! entry {
     };
 }
 
+/// An entry for a filter generic over the planar sensor model (`$ty<S>`): validated and
+/// built with the model of the sensor the scenario declares.
+macro_rules! planar_entry {
+    ($name:literal, $($ty:ident)::+, $summary:literal) => {
+        FilterEntry {
+            name: $name,
+            summary: $summary,
+            baseline: false,
+            requires_truth: <$($ty)::+<RangeBearingModel> as FilterBuild>::REQUIRES_TRUTH,
+            validate: |t, m, n| match m.sensor_kind {
+                SensorKind::RangeBearing => validate_with::<$($ty)::+<RangeBearingModel>>(t, m, n),
+                SensorKind::RelativePosition => validate_with::<$($ty)::+<RelativePositionModel>>(t, m, n),
+            },
+            build: |t, m, n| match m.sensor_kind {
+                SensorKind::RangeBearing => build_with::<$($ty)::+<RangeBearingModel>>(t, m, n),
+                SensorKind::RelativePosition => build_with::<$($ty)::+<RelativePositionModel>>(t, m, n),
+            },
+            defaults: defaults_with::<$($ty)::+<RangeBearingModel>>,
+        }
+    };
+}
+
 /// Every filter the harness can run.
 pub static REGISTRY: &[FilterEntry] = &[
     entry!(
@@ -179,7 +202,7 @@ pub static REGISTRY: &[FilterEntry] = &[
         glmb_slam::LmbSlam,
         "LMB-SLAM (Deusch et al. 2015): LMB map per particle, Gibbs update then LMB collapse, existence pruning 0.019"
     ),
-    entry!(
+    planar_entry!(
         "pmbm-slam",
         pmbm_slam::PmbmSlam,
         "PMBM-SLAM (Kim et al. 2022): PMBM map per particle, Murty k-best global hypotheses (B_max 200), transition density as proposal"
@@ -189,12 +212,12 @@ pub static REGISTRY: &[FilterEntry] = &[
         pmbm_slam::PmbmSlamMh,
         "our variant: PMBM-SLAM with PHD-SLAM 3.0's multi-hypotheses importance density (Murty + partitioned IPL) on each particle's heaviest global hypothesis"
     ),
-    entry!(
+    planar_entry!(
         "pmb-slam",
         pmbm_slam::PmbSlam,
         "PMB-SLAM (Kim et al. 2022): PMB map per particle, LBP marginals and TOMB/P, Bethe free-energy particle weight"
     ),
-    entry!(
+    planar_entry!(
         "mpmb-slam",
         pmbm_slam::MpmbSlam,
         "Marginalized PMB-SLAM (Kim et al. 2022): no particles, CKF vehicle, LBP + TOMB/P map, stacked update with the most likely association"

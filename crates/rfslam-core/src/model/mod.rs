@@ -32,8 +32,8 @@ use crate::detection::{DetectionModel, Fov};
 use crate::filter::SlamModels;
 use crate::gaussian::symmetrise;
 use crate::motion::{Motion, MotionModel};
-use crate::params::ParamError;
 
+pub use crate::types::SensorKind;
 pub use range_bearing::RangeBearingModel;
 pub use relative_position::{RelativePositionModel, RelativePositionSensor};
 
@@ -278,43 +278,10 @@ pub trait PlanarSensorModel: InvertibleSensorModel<3, 2, 2, Mark = ()> {
     const KIND: SensorKind;
 
     /// The model of `models` (mounting, noise, field of view, detection) with the filters'
-    /// clutter intensity `kappa`; an error naming the key `sensor` when `models` declares
-    /// another sensor.
-    fn from_models(models: &SlamModels, kappa: f64) -> Result<Self, ParamError>;
-}
-
-/// Which sensor a planar world declares (`[sensor] model` of a scenario or data set).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SensorKind {
-    /// [`RangeBearingModel`]: `z = [range, bearing]`.
-    #[default]
-    RangeBearing,
-    /// [`RelativePositionModel`]: `z = [x, y]` in the sensor frame.
-    RelativePosition,
-}
-
-impl SensorKind {
-    /// Whether this is the range-bearing sensor (the default, not written in files).
-    pub fn is_range_bearing(&self) -> bool {
-        *self == SensorKind::RangeBearing
-    }
-
-    /// The name as files write it.
-    pub fn name(&self) -> &'static str {
-        match self {
-            SensorKind::RangeBearing => "range_bearing",
-            SensorKind::RelativePosition => "relative_position",
-        }
-    }
-
-    /// The measurement columns of `measurements.csv` after `scan`.
-    pub fn columns(&self) -> [&'static str; 2] {
-        match self {
-            SensorKind::RangeBearing => ["range", "bearing"],
-            SensorKind::RelativePosition => ["x", "y"],
-        }
-    }
+    /// clutter intensity `kappa`. It reads `models` as this sensor's whatever sensor they
+    /// declare: the filters check [`SlamModels::sensor_kind`] against [`Self::KIND`] when they
+    /// are validated ([`crate::FilterBuild::serves`]).
+    fn from_models(models: &SlamModels, kappa: f64) -> Self;
 }
 
 #[cfg(test)]

@@ -9,7 +9,6 @@ use super::{
 use crate::angle::wrap;
 use crate::detection::{ClutterModel, DetectionModel, Fov};
 use crate::filter::SlamModels;
-use crate::params::ParamError;
 use crate::sensor::RangeBearingSensor;
 use crate::{Point2, Pose, RangeBearing};
 
@@ -36,9 +35,7 @@ pub struct RangeBearingModel {
 }
 
 impl RangeBearingModel {
-    /// The model of `models` with clutter intensity `kappa`, whatever sensor `models`
-    /// declares (for filters written for this sensor only; [`PlanarSensorModel::from_models`]
-    /// checks the declaration).
+    /// The model of `models` with clutter intensity `kappa` ([`PlanarSensorModel::from_models`]).
     pub fn new(models: &SlamModels, kappa: f64) -> Self {
         let r = models.measurement_noise;
         RangeBearingModel {
@@ -141,12 +138,7 @@ impl InvertibleSensorModel<3, 2, 2> for RangeBearingModel {
 impl PlanarSensorModel for RangeBearingModel {
     const KIND: SensorKind = SensorKind::RangeBearing;
 
-    fn from_models(models: &SlamModels, kappa: f64) -> Result<Self, ParamError> {
-        match models.sensor_kind {
-            SensorKind::RangeBearing => Ok(RangeBearingModel::new(models, kappa)),
-            other => {
-                Err(ParamError::new("sensor", format!("the range_bearing model cannot read a {} sensor", other.name())))
-            }
-        }
+    fn from_models(models: &SlamModels, kappa: f64) -> Self {
+        RangeBearingModel::new(models, kappa)
     }
 }

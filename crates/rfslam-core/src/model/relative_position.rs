@@ -11,7 +11,6 @@ use super::{
 };
 use crate::detection::{ClutterModel, DetectionModel, Fov};
 use crate::filter::SlamModels;
-use crate::params::ParamError;
 use crate::{Point2, Pose};
 
 /// `h(x, m) = R(theta)^T (m - p) - o`: the landmark in the sensor frame (forward, left), the
@@ -176,20 +175,14 @@ impl InvertibleSensorModel<3, 2, 2> for RelativePositionModel {
 impl PlanarSensorModel for RelativePositionModel {
     const KIND: SensorKind = SensorKind::RelativePosition;
 
-    fn from_models(models: &SlamModels, kappa: f64) -> Result<Self, ParamError> {
-        match models.sensor_kind {
-            SensorKind::RelativePosition => Ok(RelativePositionModel {
-                sensor: RelativePositionSensor { offset: models.sensor.offset },
-                r: models.measurement_noise,
-                fov: models.fov,
-                detection: models.detection,
-                kappa,
-                clutter: models.clutter,
-            }),
-            other => Err(ParamError::new(
-                "sensor",
-                format!("the relative_position model cannot read a {} sensor", other.name()),
-            )),
+    fn from_models(models: &SlamModels, kappa: f64) -> Self {
+        RelativePositionModel {
+            sensor: RelativePositionSensor { offset: models.sensor.offset },
+            r: models.measurement_noise,
+            fov: models.fov,
+            detection: models.detection,
+            kappa,
+            clutter: models.clutter,
         }
     }
 }
