@@ -44,6 +44,11 @@ impl SlamFilter for DeadReckoning {
 impl FilterBuild for DeadReckoning {
     type Params = Params;
 
+    /// Odometry only: any sensor (its measurements are never read).
+    fn serves(_sensor: rfslam_core::SensorKind) -> bool {
+        true
+    }
+
     fn check(_params: &Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
         if particles != 1 {
             return Err(ParamError::new("particles", "dead-reckoning has no particles: use 1"));

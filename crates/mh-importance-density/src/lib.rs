@@ -400,6 +400,8 @@ impl<S: PoseSlr> MhProposal<S> {
 impl Proposal for MhProposal {
     const NAME: &'static str = "phd-3.0";
     type Params = MhParams;
+    /// Written for the range-bearing sensor (its Jacobians and sigma points).
+    type Sensor = rfslam_core::model::RangeBearingModel;
 
     fn validate(p: &MhParams) -> Result<(), ParamError> {
         Self::validate_params(p)
@@ -445,8 +447,10 @@ mod tests {
         let z0 = sensor.predict(&x_bar, &map.mean[0]);
         let z1 = sensor.predict(&x_bar, &map.mean[1]) + RangeBearing::new(1.0, 0.002);
         let z = [z1, RangeBearing::new(60.0, 0.0), z0]; // order must not matter
+        let rb = rfslam_core::model::RangeBearingModel::new(&m, 0.0);
         let ctx = ProposalContext {
             models: &m,
+            sensor: &rb,
             z: &z,
             prior_pose: x_bar,
             predicted: x_bar,
@@ -496,8 +500,10 @@ mod tests {
         let map = GmMap::default();
         let q = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.5, 0.5, 1e-4));
         let z = [RangeBearing::new(10.0, 0.1)];
+        let rb = rfslam_core::model::RangeBearingModel::new(&m, 0.0);
         let ctx = ProposalContext {
             models: &m,
+            sensor: &rb,
             z: &z,
             prior_pose: Pose::zeros(),
             predicted: Pose::new(1.0, 0.0, 0.0),

@@ -7,34 +7,50 @@
 //! variant).
 
 use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, sample_transition};
-use rfslam_core::{ParamError, Rng, SlamModels};
+use rfslam_core::model::RangeBearingModel;
+use rfslam_core::{ParamError, PlanarSensorModel, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
+use std::marker::PhantomData;
 
 /// The bootstrap proposal has no parameters of its own.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TransitionParams {}
 
-/// The transition density as importance density (eq. 26).
-#[derive(Debug, Clone, Default)]
-pub struct TransitionProposal;
+/// The transition density as importance density (eq. 26), on the planar sensor model `S`
+/// (it reads no measurement; the filter's update does).
+#[derive(Debug, Clone)]
+pub struct TransitionProposal<S = RangeBearingModel>(PhantomData<S>);
 
-impl Proposal for TransitionProposal {
+impl<S> Default for TransitionProposal<S> {
+    fn default() -> Self {
+        TransitionProposal(PhantomData)
+    }
+}
+
+impl<S: PlanarSensorModel> Proposal for TransitionProposal<S> {
     const NAME: &'static str = "phd-1.0";
     type Params = TransitionParams;
+    type Sensor = S;
 
     fn validate(_: &TransitionParams) -> Result<(), ParamError> {
         Ok(())
     }
 
     fn new(_: &TransitionParams, _: &SlamModels) -> Self {
-        TransitionProposal
+        TransitionProposal::default()
     }
 
-    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+    fn propose(
+        &mut self,
+        ctx: &ProposalContext<S>,
+        n: usize,
+        rng: &mut Rng,
+        out: &mut Vec<PoseSample>,
+    ) -> ProposalStats {
         sample_transition(ctx, n, rng, out)
     }
 }
 
-/// PHD-SLAM 1.0.
-pub type PhdSlam1 = RbPhd<TransitionProposal>;
+/// PHD-SLAM 1.0 on the planar sensor model `S`.
+pub type PhdSlam1<S = RangeBearingModel> = RbPhd<TransitionProposal<S>>;

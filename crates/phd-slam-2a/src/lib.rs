@@ -313,6 +313,8 @@ where
 impl Proposal for Gao2021Proposal {
     const NAME: &'static str = "phd-2.0a";
     type Params = Gao2021Params;
+    /// Written for the range-bearing sensor (its Jacobians and sigma points).
+    type Sensor = rfslam_core::model::RangeBearingModel;
 
     fn validate(_: &Gao2021Params) -> Result<(), ParamError> {
         Ok(())
@@ -433,6 +435,8 @@ mod tests {
     ) -> ProposalContext<'a> {
         ProposalContext {
             models: m,
+            // Leaked: a test helper returns a context borrowing it.
+            sensor: Box::leak(Box::new(rfslam_core::model::RangeBearingModel::new(m, 0.0))),
             z,
             prior_pose: x_bar,
             predicted: x_bar,

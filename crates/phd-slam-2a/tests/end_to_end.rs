@@ -32,7 +32,7 @@ fn tracks_better_than_dead_reckoning() {
         let o1 = run(&ds, Gao2021Params::default(), 1, seed);
         let o10 = run(&ds, Gao2021Params::default(), 10, seed);
         let om = run(&ds, Gao2021Params { use_mean: true, ..Default::default() }, 1, seed);
-        let mut f1 = phd_slam_1::PhdSlam1::try_build(Default::default(), &ds.models(), 1).unwrap();
+        let mut f1 = <phd_slam_1::PhdSlam1>::try_build(Default::default(), &ds.models(), 1).unwrap();
         let b1 = run_filter(&ds, &mut f1, seed, &MetricsConfig::default(), &mut |_| {});
         sum_2a += o1["pos_rmse_m"];
         sum_1 += b1["pos_rmse_m"];

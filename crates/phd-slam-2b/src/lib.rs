@@ -102,6 +102,8 @@ impl JointProposal {
 impl Proposal for JointProposal {
     const NAME: &'static str = "phd-2.0b";
     type Params = JointParams;
+    /// Written for the range-bearing sensor (its Jacobians and sigma points).
+    type Sensor = rfslam_core::model::RangeBearingModel;
 
     fn validate(p: &JointParams) -> Result<(), ParamError> {
         CountRange::ITERATIONS.check("ipl_iterations", p.ipl_iterations)?;
@@ -249,6 +251,8 @@ mod tests {
     ) -> ProposalContext<'a> {
         ProposalContext {
             models: m,
+            // Leaked: a test helper returns a context borrowing it.
+            sensor: Box::leak(Box::new(rfslam_core::model::RangeBearingModel::new(m, 0.0))),
             z,
             prior_pose: x_bar,
             predicted: x_bar,

@@ -259,6 +259,8 @@ impl SpProposal {
 impl Proposal for SpProposal {
     const NAME: &'static str = "phd-3.0-sp";
     type Params = SpParams;
+    /// Written for the range-bearing sensor (its Jacobians and sigma points).
+    type Sensor = rfslam_core::model::RangeBearingModel;
 
     fn validate(p: &SpParams) -> Result<(), ParamError> {
         MhProposal::<SigmaPointSlr>::validate_params(&p.mh)?;

@@ -129,6 +129,7 @@ impl SlamFilter for PmbmSlamMh {
             }
             let pctx = ProposalContext {
                 models: ctx.models,
+                sensor: ctx.model,
                 z: ctx.z,
                 prior_pose: ctx.particle.pose,
                 predicted: ctx.predicted,

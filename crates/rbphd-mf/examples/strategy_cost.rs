@@ -43,7 +43,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             params.common.rbpf.resample_ess = Some(6.25);
             params.common.estimate_threshold = Some(0.5);
             params.proposal.strategy = strategies[s];
-            let mut f = RbPhdMf::try_build(params, &models, 25)?;
+            let mut f = <RbPhdMf>::try_build(params, &models, 25)?;
             let mut rng = rfslam_core::rng::stream(&[run, 99]);
             let t0 = Instant::now();
             for (i, scan) in ds.scans.iter().enumerate() {

@@ -20,8 +20,10 @@
 //! multi-feature settings `mf_*`; `weighting` must be left out (or agree with `strategy`).
 
 use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, Weighting, sample_transition};
-use rfslam_core::{ParamError, Rng, SlamModels};
+use rfslam_core::model::RangeBearingModel;
+use rfslam_core::{ParamError, PlanarSensorModel, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
+use std::marker::PhantomData;
 
 /// The weighting strategy of \[LeungInostrozaAdams\] (Section III).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -55,27 +57,41 @@ pub struct MfParams {
     pub strategy: Strategy,
 }
 
-/// The transition density as importance density (\[LeungInostrozaAdams\] eq. 9).
-#[derive(Debug, Clone, Default)]
-pub struct BootstrapProposal;
+/// The transition density as importance density (\[LeungInostrozaAdams\] eq. 9), on the
+/// planar sensor model `S`.
+#[derive(Debug, Clone)]
+pub struct BootstrapProposal<S = RangeBearingModel>(PhantomData<S>);
 
-impl Proposal for BootstrapProposal {
+impl<S> Default for BootstrapProposal<S> {
+    fn default() -> Self {
+        BootstrapProposal(PhantomData)
+    }
+}
+
+impl<S: PlanarSensorModel> Proposal for BootstrapProposal<S> {
     const NAME: &'static str = "rbphd-mf";
     /// \[LeungInostrozaAdams\] Section IV-B: "the means of all the Gaussians that have a weight
     /// higher than 0.5", each weight "rounded to the nearest integer" features.
     const ESTIMATE_THRESHOLD: Option<f64> = Some(0.5);
     const ESTIMATE_ROUNDING: bool = true;
     type Params = MfParams;
+    type Sensor = S;
 
     fn validate(_: &MfParams) -> Result<(), ParamError> {
         Ok(())
     }
 
     fn new(_: &MfParams, _: &SlamModels) -> Self {
-        BootstrapProposal
+        BootstrapProposal::default()
     }
 
-    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+    fn propose(
+        &mut self,
+        ctx: &ProposalContext<S>,
+        n: usize,
+        rng: &mut Rng,
+        out: &mut Vec<PoseSample>,
+    ) -> ProposalStats {
         sample_transition(ctx, n, rng, out)
     }
 
@@ -84,8 +100,9 @@ impl Proposal for BootstrapProposal {
     }
 }
 
-/// `rbphd-mf`: the bootstrap RB-PHD filter weighted by the strategy of `strategy`.
-pub type RbPhdMf = RbPhd<BootstrapProposal>;
+/// `rbphd-mf`: the bootstrap RB-PHD filter weighted by the strategy of `strategy`, on the
+/// planar sensor model `S`.
+pub type RbPhdMf<S = RangeBearingModel> = RbPhd<BootstrapProposal<S>>;
 
 #[cfg(test)]
 mod tests {
@@ -119,19 +136,19 @@ mod tests {
         let m = models();
         let default = params("").unwrap();
         assert_eq!(default.proposal.strategy, Strategy::Multi);
-        assert_eq!(BootstrapProposal::weighting(&default.proposal), Some(Weighting::Multi));
+        assert_eq!(<BootstrapProposal>::weighting(&default.proposal), Some(Weighting::Multi));
         for (s, w) in [("empty", Weighting::Empty), ("single", Weighting::Single), ("multi", Weighting::Multi)] {
             let p = params(&format!("strategy = \"{s}\"\nresample_ess = 6.25")).unwrap();
             assert_eq!(p.proposal.strategy.weighting(), w);
-            assert_eq!(RbPhdMf::check(&p, &m, 25), Ok(()));
+            assert_eq!(<RbPhdMf>::check(&p, &m, 25), Ok(()));
             let agree = params(&format!("strategy = \"{s}\"\nweighting = \"{s}\"")).unwrap();
-            assert_eq!(RbPhdMf::check(&agree, &m, 25), Ok(()));
+            assert_eq!(<RbPhdMf>::check(&agree, &m, 25), Ok(()));
         }
         let clash = params("strategy = \"single\"\nweighting = \"multi\"").unwrap();
-        assert_eq!(RbPhdMf::check(&clash, &m, 25).unwrap_err().key, "weighting");
+        assert_eq!(<RbPhdMf>::check(&clash, &m, 25).unwrap_err().key, "weighting");
         assert!(params("strategy = \"double\"").unwrap_err().contains("double"));
         let bad = params("mf_max_features = 0").unwrap();
-        assert_eq!(RbPhdMf::check(&bad, &m, 25).unwrap_err().key, "mf_max_features");
+        assert_eq!(<RbPhdMf>::check(&bad, &m, 25).unwrap_err().key, "mf_max_features");
     }
 
     /// The filter runs ten steps past one landmark with each strategy and maps it.
@@ -142,7 +159,7 @@ mod tests {
         let m = models();
         let odo = [ControlSegment { dt: 1.0, u: rfslam_core::Control::new(1.0, 0.0, 0.0) }];
         for s in ["empty", "single", "multi"] {
-            let mut f = RbPhdMf::try_build(params(&format!("strategy = \"{s}\"")).unwrap(), &m, 5).unwrap();
+            let mut f = <RbPhdMf>::try_build(params(&format!("strategy = \"{s}\"")).unwrap(), &m, 5).unwrap();
             let mut rng = Rng::seed_from_u64(1);
             for k in 0..10 {
                 let landmark = nalgebra::Vector2::new(30.0, 5.0);

@@ -31,7 +31,7 @@ fn simple_world(seed: u64) -> Dataset {
 /// `(false, missed, landmark RMS, pose RMSE)` of the final map with `params` (TOML) and 30
 /// particles; GOSPA with c = 5 m (landmarks are at least 5 m apart: a duplicate is false).
 fn map_figures(params: &str, ds: &Dataset, seed: u64) -> (f64, f64, f64, f64) {
-    let mut f = RbPhdMf::try_build(toml::from_str(params).unwrap(), &ds.models(), 30).unwrap();
+    let mut f = <RbPhdMf>::try_build(toml::from_str(params).unwrap(), &ds.models(), 30).unwrap();
     let o: JobOutcome =
         run_filter(ds, &mut f, seed, &MetricsConfig { gospa_c: 5.0, ..MetricsConfig::default() }, &mut |_| {});
     let matched = (o.final_estimate.map.len() as f64 - o["gospa_false"]).max(1.0);

@@ -2,7 +2,7 @@
 //! that condition on ranked associations (PHD-SLAM 2.0b uses the best one, 3.0 the Gamma
 //! best).
 
-use rfslam_core::RangeBearingSensor;
+use rfslam_core::PlanarSensorModel;
 use rfslam_core::gaussian::symmetrise;
 use serde::{Deserialize, Serialize};
 
@@ -58,22 +58,27 @@ impl CostMatrixBuffers {
     /// `S_i = G_m P_i G_m^T + G_x Q G_x^T + R`; a pair is allowed when its squared
     /// Mahalanobis distance is within the gate. Returns the number of `S_i` that failed
     /// Cholesky (their rows can only be missed).
-    pub fn fill(&mut self, ctx: &ProposalContext, missed: MissedCost) -> u32 {
+    pub fn fill<S: PlanarSensorModel>(&mut self, ctx: &ProposalContext<S>, missed: MissedCost) -> u32 {
         self.fill_with(ctx, missed, true)
     }
 
     /// [`CostMatrixBuffers::fill`], with the predicted pose covariance term `G_x Q G_x^T`
     /// left out of `S_i` when `pose_uncertainty` is false (the innovation covariance of a
     /// landmark update at a known pose).
-    pub fn fill_with(&mut self, ctx: &ProposalContext, missed: MissedCost, pose_uncertainty: bool) -> u32 {
-        let (sensor, r, x_bar) = (&ctx.models.sensor, ctx.models.measurement_noise, ctx.predicted);
+    pub fn fill_with<S: PlanarSensorModel>(
+        &mut self,
+        ctx: &ProposalContext<S>,
+        missed: MissedCost,
+        pose_uncertainty: bool,
+    ) -> u32 {
+        let (sensor, r, x_bar) = (ctx.sensor, ctx.sensor.noise(()), ctx.predicted);
         let q = if pose_uncertainty { ctx.q } else { nalgebra::Matrix3::zeros() };
         let mut failures = 0;
         self.detection.clear();
         self.missed.clear();
         for (row, &i) in ctx.detectable.iter().enumerate() {
             let (mi, pi, lw, pd) = (ctx.map.mean[i], ctx.map.cov[i], ctx.map.log_w[i], ctx.pd[row]);
-            let lin = sensor.linearise(&x_bar, &mi);
+            let lin = sensor.linearise(&x_bar, &mi, ());
             let s = symmetrise(&(lin.hm * pi * lin.hm.transpose() + lin.hx * q * lin.hx.transpose() + r));
             let ch = s.cholesky();
             if ch.is_none() {
@@ -83,7 +88,7 @@ impl CostMatrixBuffers {
             for zj in ctx.z {
                 let cost = match (&ch, log_det) {
                     (Some(c), Some(ld)) => {
-                        let nu = RangeBearingSensor::residual(zj, &lin.z);
+                        let nu = sensor.residual(zj, &lin.z);
                         let maha = nu.dot(&c.solve(&nu));
                         if maha <= ctx.gate {
                             -(pd.ln() + lw - ctx.log_clutter - 0.5 * (2.0 * LN_2PI + ld + maha))

@@ -3,8 +3,8 @@
 use nalgebra::Matrix2;
 use rfslam_core::rbpf::{LogWeighted, ParticleSet};
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, Fov, MapPoint, ParamError, Point2, Pose, RangeBearing, Rng, Scan,
-    SlamFilter, SlamModels, StepReport, Validated,
+    ControlSegment, Estimate, FilterBuild, Fov, InvertibleSensorModel, MapPoint, ParamError, PlanarSensorModel, Point2,
+    Pose, RangeBearing, Rng, Scan, SensorKind, SensorModel, SlamFilter, SlamModels, StepReport, Validated,
 };
 
 use crate::gm::{GmMap, ReduceScratch, ReduceSettings, UpdateScratch, UpdateSettings, phd_update, reduce};
@@ -33,6 +33,8 @@ pub struct Particle {
 pub struct RbPhd<P: Proposal> {
     params: RbPhdParams,
     models: SlamModels,
+    /// The sensor model, built from the filter's models.
+    sensor: P::Sensor,
     proposal: P,
     /// The particles, their families of identical copies, normalisation and resampling.
     set: ParticleSet<Particle>,
@@ -63,7 +65,8 @@ impl<P: Proposal> RbPhd<P> {
         let models = &params.filter_models(models);
         // A zero clutter rate makes c(z) = 0; keep ln c finite so unexplained measurements
         // do not produce NaN weights.
-        let log_clutter = models.clutter.intensity(&models.fov, models.sensor_kind).max(1e-300).ln();
+        let kappa = models.clutter.intensity(&models.fov, models.sensor_kind);
+        let log_clutter = kappa.max(1e-300).ln();
         let mf = params.multi_feature();
         let fov_active = models.fov.enlarged(params.fov_buffer_range, params.fov_buffer_deg.to_radians());
         let estimate_threshold = params.estimate_threshold(models, P::ESTIMATE_THRESHOLD);
@@ -72,6 +75,7 @@ impl<P: Proposal> RbPhd<P> {
         RbPhd {
             params,
             models: models.clone(),
+            sensor: P::Sensor::from_models(models, kappa),
             proposal,
             set: ParticleSet::new(p0, n),
             log_clutter,
@@ -100,10 +104,11 @@ impl<P: Proposal> RbPhd<P> {
 
     /// Births (eq. 19): each `z` of `Z^B_{k-1}` becomes a component placed with the pose at
     /// k-1 through the inverse sensor model, covariance `J_z R J_z^T`, weight `birth_weight`.
-    fn add_births(models: &SlamModels, ln_birth: f64, p: &mut Particle) {
+    fn add_births(sensor: &P::Sensor, ln_birth: f64, p: &mut Particle) {
+        let r = sensor.noise(());
         for z in &p.birth {
-            let (m, jz, _) = models.sensor.inverse_with_jacobians(&p.pose, z);
-            p.map.push(ln_birth, m, jz * models.measurement_noise * jz.transpose());
+            let inv = sensor.inverse(&p.pose, z, ());
+            p.map.push(ln_birth, inv.m, inv.jz * r * inv.jz.transpose());
         }
         p.birth.clear();
     }
@@ -122,7 +127,7 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
     }
 
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
-        let models = &self.models;
+        let (models, sensor) = (&self.models, &self.sensor);
         let ln_birth = self.params.birth_weight.ln();
         let upd_settings = UpdateSettings {
             gate: self.params.gate,
@@ -136,7 +141,7 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
 
         for family in self.set.families_mut() {
             for p in family.iter_mut() {
-                Self::add_births(models, ln_birth, p);
+                Self::add_births(sensor, ln_birth, p);
             }
             // Prediction and the active set, shared by the identical copies of the family.
             let rep = &family[0];
@@ -160,6 +165,7 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
             }
             let ctx = ProposalContext {
                 models,
+                sensor,
                 z: &scan.z,
                 prior_pose: rep.pose,
                 predicted: x_bar,
@@ -190,8 +196,7 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                     &self.active,
                     &pose,
                     &scan.z,
-                    &models.sensor,
-                    &models.measurement_noise,
+                    sensor,
                     |m, p| models.detection.pd_gaussian_at(&placed, m, p),
                     &upd_settings,
                     &mut self.upd,
@@ -209,8 +214,7 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                             updated: &self.updated,
                             pose: &pose,
                             z: &scan.z,
-                            sensor: &models.sensor,
-                            r: &models.measurement_noise,
+                            sensor,
                             log_clutter: self.log_clutter,
                             clutter_rate: models.clutter.rate,
                         };
@@ -277,6 +281,10 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
 impl<P: Proposal> FilterBuild for RbPhd<P> {
     type Params = PhdParams<P::Params>;
 
+    fn serves(sensor: SensorKind) -> bool {
+        sensor == <P::Sensor as PlanarSensorModel>::KIND
+    }
+
     fn check(params: &Self::Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
         params.common.validate(particles)?;
         P::validate(&params.proposal)?;
@@ -328,6 +336,7 @@ mod tests {
         const ESTIMATE_THRESHOLD: Option<f64> = if ROUND { Some(0.5) } else { None };
         const ESTIMATE_ROUNDING: bool = ROUND;
         type Params = ();
+        type Sensor = rfslam_core::model::RangeBearingModel;
 
         fn validate(_: &()) -> Result<(), ParamError> {
             Ok(())

@@ -6,7 +6,7 @@
 use nalgebra::{Matrix2, Vector2};
 use rfslam_core::gaussian::{mahalanobis_and_log_det, symmetrise};
 use rfslam_core::rbpf::log_sum_exp;
-use rfslam_core::{Point2, Pose, RangeBearing, RangeBearingSensor};
+use rfslam_core::{PlanarSensorModel, Point2, Pose, RangeBearing};
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
@@ -140,19 +140,19 @@ pub struct UpdateOutcome {
 /// `scratch.gated[j]` tells whether measurement j gated with any component (those that did
 /// not form the birth set `Z^B` of the next step).
 #[allow(clippy::too_many_arguments)]
-pub fn phd_update(
+pub fn phd_update<S: PlanarSensorModel>(
     map: &GmMap,
     active: &[usize],
     x: &Pose,
     z: &[RangeBearing],
-    sensor: &RangeBearingSensor,
-    r: &Matrix2<f64>,
+    sensor: &S,
     pd: impl Fn(&Point2, &Matrix2<f64>) -> f64,
     settings: &UpdateSettings,
     scratch: &mut UpdateScratch,
     out: &mut GmMap,
 ) -> UpdateOutcome {
     out.clear();
+    let r = &sensor.noise(());
     let nz = z.len();
     let s = scratch;
     s.rows.clear();
@@ -175,7 +175,7 @@ pub fn phd_update(
         }
         let lw = map.log_w[i];
         pd_mass += p_d * lw.exp();
-        let lin = sensor.linearise(x, &m);
+        let lin = sensor.linearise(x, &m, ());
         let p = map.cov[i];
         let sm = symmetrise(&(lin.hm * p * lin.hm.transpose() + r));
         let Some(ch) = sm.cholesky() else {
@@ -198,7 +198,7 @@ pub fn phd_update(
         s.log_pd.push(p_d.ln());
         let base = p_d.ln() + lw - 0.5 * (2.0 * LN_2PI + log_det);
         for (j, zj) in z.iter().enumerate() {
-            let nu = RangeBearingSensor::residual(zj, &lin.z);
+            let nu = sensor.residual(zj, &lin.z);
             let maha = (nu.transpose() * s_inv * nu)[(0, 0)];
             let la = if maha <= settings.gate {
                 s.gated[j] = true;
@@ -240,7 +240,7 @@ pub fn phd_update(
             if la == f64::NEG_INFINITY {
                 continue;
             }
-            let nu = RangeBearingSensor::residual(zj, &s.zhat[row]);
+            let nu = sensor.residual(zj, &s.zhat[row]);
             out.push(la - s.log_d[j], map.mean[i] + s.gain[row] * nu, s.p_upd[row]);
         }
     }
@@ -354,6 +354,7 @@ pub fn log_intensity_at(map: &GmMap, m: &Point2) -> f64 {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+    use rfslam_core::RangeBearingSensor;
 
     fn one_landmark() -> GmMap {
         let mut m = GmMap::default();
@@ -377,7 +378,17 @@ mod tests {
         let (mut scratch, mut out) = (UpdateScratch::default(), GmMap::default());
         let sensor = RangeBearingSensor::default();
         let update = |exact: bool, scratch: &mut UpdateScratch, out: &mut GmMap| {
-            phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_, _| 0.9, &settings(exact), scratch, out)
+            phd_update(
+                &map,
+                &[0],
+                &Pose::zeros(),
+                &z,
+                &crate::with_noise(&sensor, &r),
+                |_, _| 0.9,
+                &settings(exact),
+                scratch,
+                out,
+            )
         };
         let o = update(false, &mut scratch, &mut out);
         let n = 1.0 / (2.0 * std::f64::consts::PI * (1.01f64 * 0.0101).sqrt());
@@ -414,8 +425,17 @@ mod tests {
         let sensor = RangeBearingSensor::default();
         let pd = |m: &Point2, _: &Matrix2<f64>| if m.x >= 0.0 { 0.8 } else { 0.0 };
         let (mut scratch, mut out) = (UpdateScratch::default(), GmMap::default());
-        let o =
-            phd_update(&map, &[0, 1, 2], &Pose::zeros(), &[], &sensor, &r, pd, &settings(true), &mut scratch, &mut out);
+        let o = phd_update(
+            &map,
+            &[0, 1, 2],
+            &Pose::zeros(),
+            &[],
+            &crate::with_noise(&sensor, &r),
+            pd,
+            &settings(true),
+            &mut scratch,
+            &mut out,
+        );
         assert_relative_eq!(o.log_likelihood, -(0.8 * 1.0 + 0.8 * 0.3), epsilon = 1e-12);
         assert_relative_eq!(out.mass(), 0.2 * 1.3 + 0.5, epsilon = 1e-12);
 
@@ -424,8 +444,17 @@ mod tests {
             sensor.predict(&Pose::zeros(), &Point2::new(0.5, 19.0)),
             RangeBearing::new(3.0, 0.0),
         ];
-        let o =
-            phd_update(&map, &[0, 1, 2], &Pose::zeros(), &z, &sensor, &r, pd, &settings(false), &mut scratch, &mut out);
+        let o = phd_update(
+            &map,
+            &[0, 1, 2],
+            &Pose::zeros(),
+            &z,
+            &crate::with_noise(&sensor, &r),
+            pd,
+            &settings(false),
+            &mut scratch,
+            &mut out,
+        );
         // detected mass per measurement is (D_j - c) / D_j = 1 - exp(ln c - ln D_j)
         let ln_c = 0.01f64.ln();
         let detected: f64 = scratch.log_d.iter().map(|ld| 1.0 - (ln_c - ld).exp()).sum();
@@ -443,7 +472,17 @@ mod tests {
         let r = Matrix2::new(0.01, 0.0, 0.0, 1e-4);
         let z = [RangeBearing::new(10.0, rfslam_core::angle::wrap(std::f64::consts::PI + 0.002))];
         let (mut scratch, mut out) = (UpdateScratch::default(), GmMap::default());
-        phd_update(&map, &[0], &Pose::zeros(), &z, &sensor, &r, |_, _| 0.9, &settings(false), &mut scratch, &mut out);
+        phd_update(
+            &map,
+            &[0],
+            &Pose::zeros(),
+            &z,
+            &crate::with_noise(&sensor, &r),
+            |_, _| 0.9,
+            &settings(false),
+            &mut scratch,
+            &mut out,
+        );
         assert_eq!(out.len(), 2, "the measurement gates across the +-pi cut");
         assert!(out.mean[1].y < 0.01, "moved towards the measurement (bearing pi + 0.002 is below the x axis)");
     }

@@ -20,3 +20,21 @@ pub use gm::GmMap;
 pub use params::{PhdParams, RbPhdParams};
 pub use proposal::{PoseSample, Proposal, ProposalContext, ProposalStats, sample_transition};
 pub use weighting::{MfTerms, MultiFeatureSettings, Weighting};
+
+/// The range-bearing model of `sensor` with noise `r` (the rest unused by the GM-PHD code),
+/// for the unit tests.
+#[cfg(test)]
+pub(crate) fn with_noise(
+    sensor: &rfslam_core::RangeBearingSensor,
+    r: &nalgebra::Matrix2<f64>,
+) -> rfslam_core::model::RangeBearingModel {
+    rfslam_core::model::RangeBearingModel {
+        sensor: *sensor,
+        r: *r,
+        sigma: [r[(0, 0)].sqrt(), r[(1, 1)].sqrt()],
+        fov: rfslam_core::Fov::new(1e9, std::f64::consts::PI),
+        detection: rfslam_core::DetectionModel::Constant { pd: 0.9 },
+        kappa: 0.0,
+        clutter: rfslam_core::ClutterModel { rate: 0.0, intensity: rfslam_core::ClutterIntensity::Cartesian },
+    }
+}

@@ -1,17 +1,21 @@
 //! The importance density of a PHD-SLAM variant (\[Kaltiokallio2024\] eq. 23) behind one trait.
 
 use nalgebra::Matrix3;
-use rfslam_core::{ParamError, Pose, RangeBearing, Rng, SlamModels};
+use rfslam_core::model::RangeBearingModel;
+use rfslam_core::{ParamError, PlanarSensorModel, Pose, RangeBearing, Rng, SlamModels};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
 use crate::gm::GmMap;
 use crate::weighting::Weighting;
 
-/// What a proposal sees for one particle (or one group of identical copies).
-pub struct ProposalContext<'a> {
+/// What a proposal sees for one particle (or one group of identical copies), on the planar
+/// sensor model `S`.
+pub struct ProposalContext<'a, S: PlanarSensorModel = RangeBearingModel> {
     /// The scenario's models.
     pub models: &'a SlamModels,
+    /// The sensor model (built from `models`).
+    pub sensor: &'a S,
     /// The scan `Z_k`.
     pub z: &'a [RangeBearing],
     /// The particle's pose `x_{k-1}`.
@@ -64,6 +68,8 @@ pub trait Proposal: Send + Sized + 'static {
     const ESTIMATE_ROUNDING: bool = false;
     /// The proposal's own parameters (`deny_unknown_fields`; defaults = the paper's).
     type Params: Serialize + DeserializeOwned + Default + Clone + Send;
+    /// The planar sensor model the proposal (and so the filter) is built for.
+    type Sensor: PlanarSensorModel;
 
     /// Checks the proposal's parameters.
     fn validate(params: &Self::Params) -> Result<(), ParamError>;
@@ -73,7 +79,13 @@ pub trait Proposal: Send + Sized + 'static {
 
     /// Computes the importance density for `ctx` once and draws `n` poses into `out`
     /// (cleared first).
-    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats;
+    fn propose(
+        &mut self,
+        ctx: &ProposalContext<Self::Sensor>,
+        n: usize,
+        rng: &mut Rng,
+        out: &mut Vec<PoseSample>,
+    ) -> ProposalStats;
 
     /// For proposals that condition on an association: the map component (index into
     /// `ctx.map`) each measurement was associated with in `component` of the last
@@ -97,7 +109,12 @@ pub trait Proposal: Send + Sized + 'static {
 /// bootstrap proposal of PHD-SLAM 1.0 and of the multi-feature filter, and the fallback of
 /// proposals that find nothing to condition on. A `Q` that fails Cholesky keeps the
 /// predicted pose and is counted.
-pub fn sample_transition(ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+pub fn sample_transition<S: PlanarSensorModel>(
+    ctx: &ProposalContext<S>,
+    n: usize,
+    rng: &mut Rng,
+    out: &mut Vec<PoseSample>,
+) -> ProposalStats {
     out.clear();
     let mut stats = ProposalStats { components: 1, cholesky_failures: 0 };
     for _ in 0..n {

@@ -48,8 +48,9 @@
 
 use nalgebra::Matrix2;
 use rfslam_core::gaussian::mahalanobis_and_log_det;
+use rfslam_core::model::RangeBearingModel;
 use rfslam_core::params::{CountRange, Interval};
-use rfslam_core::{ParamError, Point2, Pose, RangeBearing, RangeBearingSensor};
+use rfslam_core::{ParamError, PlanarSensorModel, Point2, Pose, RangeBearing};
 use serde::{Deserialize, Serialize};
 
 use crate::gm::GmMap;
@@ -124,7 +125,7 @@ impl MultiFeatureSettings {
 }
 
 /// What the strategy sees of one particle after its GM-PHD update.
-pub struct StrategyInput<'a> {
+pub struct StrategyInput<'a, S: PlanarSensorModel = RangeBearingModel> {
     /// The predicted map `v_k^-` (all components; only `active` ones are used).
     pub predicted: &'a GmMap,
     /// Components of `predicted` that were updated.
@@ -135,10 +136,8 @@ pub struct StrategyInput<'a> {
     pub pose: &'a Pose,
     /// The scan `Z_k`.
     pub z: &'a [RangeBearing],
-    /// The sensor.
-    pub sensor: &'a RangeBearingSensor,
-    /// Measurement noise `R`.
-    pub r: &'a Matrix2<f64>,
+    /// The sensor model (its noise `R` included).
+    pub sensor: &'a S,
     /// `ln c` (clutter intensity, uniform).
     pub log_clutter: f64,
     /// `N_c`, the mean number of clutter measurements per scan (eq. 21).
@@ -208,9 +207,9 @@ fn find(parent: &mut [usize], mut a: usize) -> usize {
 /// update computes itself; passed here it is treated as [`Weighting::Empty`]). `pd(m, P)` is
 /// `pD(m | x_k)` of a feature with mean `m` and covariance `P` (zero outside the field of
 /// view with the hard edge).
-pub fn strategy_log_weight(
+pub fn strategy_log_weight<S: PlanarSensorModel>(
     weighting: Weighting,
-    input: &StrategyInput,
+    input: &StrategyInput<S>,
     pd: impl Fn(&Point2, &Matrix2<f64>) -> f64,
     mf: &MultiFeatureSettings,
     s: &mut StrategyScratch,
@@ -287,12 +286,13 @@ pub fn strategy_log_weight(
     }
 
     // Point-feature likelihoods p(z | m, x) = N(z; h(m, x), R).
-    let Some((_, log_det_r)) = mahalanobis_and_log_det(&nalgebra::Vector2::zeros(), input.r) else {
+    let r = input.sensor.noise(());
+    let Some((_, log_det_r)) = mahalanobis_and_log_det(&nalgebra::Vector2::zeros(), &r) else {
         out.cholesky_failures += 1;
         out.log_weight = base;
         return out;
     };
-    let r_inv = input.r.try_inverse().unwrap_or_else(Matrix2::zeros);
+    let r_inv = r.try_inverse().unwrap_or_else(Matrix2::zeros);
     let log_peak = -0.5 * (2.0 * LN_2PI + log_det_r);
     let nz = input.z.len();
 
@@ -300,10 +300,10 @@ pub fn strategy_log_weight(
         // Eq. (23) divided by c^|Z| e^{-N_c}: (1 - pD) + pD sum_z p(z | m, x) / c.
         let f = s.features[0];
         let p_d = s.feature_pd[0];
-        let h = input.sensor.predict(input.pose, &input.updated.mean[f]);
+        let h = input.sensor.predict(input.pose, &input.updated.mean[f], ());
         let mut acc = (1.0 - p_d).ln();
         for zj in input.z {
-            let nu = RangeBearingSensor::residual(zj, &h);
+            let nu = input.sensor.residual(zj, &h);
             let maha = (nu.transpose() * r_inv * nu)[(0, 0)];
             acc = log_add(acc, p_d.ln() + log_peak - 0.5 * maha - input.log_clutter);
         }
@@ -316,8 +316,8 @@ pub fn strategy_log_weight(
 }
 
 /// `ln [p(Z | M, x) / (c^|Z| e^{-N_c})]` of the multi-feature strategy (module docs).
-fn multi_likelihood(
-    input: &StrategyInput,
+fn multi_likelihood<S: PlanarSensorModel>(
+    input: &StrategyInput<S>,
     mf: &MultiFeatureSettings,
     r_inv: &Matrix2<f64>,
     log_peak: f64,
@@ -338,9 +338,9 @@ fn multi_likelihood(
         s.start.push(s.edges.len());
         let m = input.updated.mean[s.features[fi]];
         let ln_pd = s.feature_pd[fi].ln();
-        let h = input.sensor.predict(input.pose, &m);
+        let h = input.sensor.predict(input.pose, &m, ());
         for (j, zj) in input.z.iter().enumerate() {
-            let nu = RangeBearingSensor::residual(zj, &h);
+            let nu = input.sensor.residual(zj, &h);
             let maha = (nu.transpose() * r_inv * nu)[(0, 0)];
             if maha <= gate {
                 s.edges.push((j, ln_pd + log_peak - 0.5 * maha - input.log_clutter));
@@ -443,6 +443,7 @@ mod tests {
     use crate::gm::{UpdateScratch, UpdateSettings, phd_update};
     use approx::assert_relative_eq;
     use nalgebra::Vector2;
+    use rfslam_core::RangeBearingSensor;
 
     const PD: f64 = 0.9;
     const C: f64 = 0.01;
@@ -490,7 +491,17 @@ mod tests {
         let r = Matrix2::new(0.25, 0.0, 0.0, 4e-4);
         let (mut scratch, mut updated) = (UpdateScratch::default(), GmMap::default());
         let settings = UpdateSettings { gate: 1e9, log_clutter: C.ln(), exact_pd_term: false };
-        phd_update(&predicted, &[0, 1], &x, &z, &sensor, &r, |_, _| PD, &settings, &mut scratch, &mut updated);
+        phd_update(
+            &predicted,
+            &[0, 1],
+            &x,
+            &z,
+            &crate::with_noise(&sensor, &r),
+            |_, _| PD,
+            &settings,
+            &mut scratch,
+            &mut updated,
+        );
         let log_d = (0..z.len()).map(|j| scratch_log_d(&scratch, j)).collect();
         Case { predicted, updated, z, r, log_d }
     }
@@ -507,8 +518,7 @@ mod tests {
             updated: &case.updated,
             pose: &Pose::zeros(),
             z: &case.z,
-            sensor: &sensor,
-            r: &case.r,
+            sensor: &crate::with_noise(&sensor, &case.r),
             log_clutter: C.ln(),
             clutter_rate: NC,
         };
@@ -608,8 +618,7 @@ mod tests {
             updated: &updated,
             pose: &Pose::zeros(),
             z: &z,
-            sensor: &sensor,
-            r: &r,
+            sensor: &crate::with_noise(&sensor, &r),
             log_clutter: C.ln(),
             clutter_rate: NC,
         };
@@ -642,8 +651,7 @@ mod tests {
             &[0],
             &Pose::zeros(),
             &[],
-            &sensor,
-            &r,
+            &crate::with_noise(&sensor, &r),
             |_, _| PD,
             &settings,
             &mut scratch,
@@ -657,8 +665,7 @@ mod tests {
                 updated: &updated,
                 pose: &Pose::zeros(),
                 z: &[],
-                sensor: &sensor,
-                r: &r,
+                sensor: &crate::with_noise(&sensor, &r),
                 log_clutter: C.ln(),
                 clutter_rate: NC,
             };
@@ -680,8 +687,7 @@ mod tests {
             updated: &case.updated,
             pose: &Pose::zeros(),
             z: &case.z,
-            sensor: &sensor,
-            r: &case.r,
+            sensor: &crate::with_noise(&sensor, &case.r),
             log_clutter: C.ln(),
             clutter_rate: NC,
         };

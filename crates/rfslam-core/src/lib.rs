@@ -36,7 +36,7 @@ pub mod types;
 
 pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov, FovEdge, PlacedFov};
 pub use filter::{FilterBuild, FilterEngine, SlamFilter, SlamModels, Validated};
-pub use model::{PlanarSensorModel, SensorModel, VehicleModel};
+pub use model::{InvertibleSensorModel, PlanarSensorModel, SensorModel, VehicleModel};
 pub use motion::{AckermannModel, Motion, MotionModel, OdometryModel, VelocityModel};
 pub use params::{ParamError, RbpfParams};
 pub use rng::Rng;

@@ -142,7 +142,7 @@ pub static REGISTRY: &[FilterEntry] = &[
         "odometry only, no map: the baseline every SLAM filter must beat",
         true
     ),
-    entry!(
+    planar_entry!(
         "phd-1.0",
         phd_slam_1::PhdSlam1,
         "PHD-SLAM 1.0 (Mullane et al. 2011): RB-PHD SLAM, transition density as proposal"
@@ -167,7 +167,7 @@ pub static REGISTRY: &[FilterEntry] = &[
         phd_slam_3sp::PhdSlam3Sp,
         "PHD-SLAM 3.0 with sigma points (cubature rule by default) in Algorithm 1's statistical linear regression (eq. 42)"
     ),
-    entry!(
+    planar_entry!(
         "rbphd-mf",
         rbphd_mf::RbPhdMf,
         "RB-PHD SLAM (Leung, Inostroza, Adams): bootstrap proposal, empty-set / single-feature / multi-feature particle weighting (`strategy`)"
