@@ -71,7 +71,14 @@ pub fn oid_proposal<S: Linearise>(
     settings: &IplSettings,
 ) -> IplResult {
     debug_assert_eq!(known.len(), z.len());
-    ipl_update(x_bar, q, z, |k, x_pi| linearised(sensor, r, x_pi, &landmarks[known[k]]), settings)
+    ipl_update(
+        x_bar,
+        q,
+        z,
+        |k, x_pi| linearised(sensor, r, x_pi, &landmarks[known[k]]),
+        RangeBearingSensor::residual,
+        settings,
+    )
 }
 
 /// `ln prod_k N(z_k; mu^z_k, Sigma^zz_k)`: the pose prior `N(x_bar, Q)` conditioned on the

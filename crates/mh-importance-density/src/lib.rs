@@ -29,10 +29,12 @@ use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
 use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
 use rfslam_core::ipl::{IplSettings, Linearised, ipl_update_slr, pose_diff};
+use rfslam_core::model::RangeBearingModel;
 use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::rbpf::log_sum_exp;
-use rfslam_core::{ParamError, Point2, Pose, RangeBearing, RangeBearingSensor, Rng, SlamModels};
+use rfslam_core::{ParamError, PlanarSensorModel, Point2, Pose, RangeBearing, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
+use std::marker::PhantomData;
 
 /// Parameters of the multi-hypotheses importance density (defaults: \[Kaltiokallio2024\] Section
 /// VI).
@@ -74,11 +76,9 @@ pub trait PoseSlr: Clone + Send + 'static {
     /// Eq. (42) for the landmark `N(m, p)` under the linearisation density
     /// `pi = N(m_pi, p_pi)`, as `(mu~^z, B, Omega)` (see [`rfslam_core::ipl::ipl_update_slr`]);
     /// `None` if it cannot be formed (a covariance failed Cholesky).
-    #[allow(clippy::too_many_arguments)]
-    fn linearise(
+    fn linearise<Sn: PlanarSensorModel>(
         &self,
-        sensor: &RangeBearingSensor,
-        r: &Matrix2<f64>,
+        sensor: &Sn,
         m_pi: &Pose,
         p_pi: &Matrix3<f64>,
         m: &Point2,
@@ -88,10 +88,9 @@ pub trait PoseSlr: Clone + Send + 'static {
     /// The detected factor of eq. (44), `ln N(z; mu^z, S)` for the landmark `N(m, p)` and
     /// the component `N(mean, cov)`; `None` if `S` fails Cholesky.
     #[allow(clippy::too_many_arguments)]
-    fn log_likelihood(
+    fn log_likelihood<Sn: PlanarSensorModel>(
         &self,
-        sensor: &RangeBearingSensor,
-        r: &Matrix2<f64>,
+        sensor: &Sn,
         mean: &Pose,
         cov: &Matrix3<f64>,
         m: &Point2,
@@ -107,32 +106,31 @@ pub trait PoseSlr: Clone + Send + 'static {
 pub struct TaylorSlr;
 
 impl PoseSlr for TaylorSlr {
-    fn linearise(
+    fn linearise<Sn: PlanarSensorModel>(
         &self,
-        sensor: &RangeBearingSensor,
-        r: &Matrix2<f64>,
+        sensor: &Sn,
         m_pi: &Pose,
         _p_pi: &Matrix3<f64>,
         m: &Point2,
         p: &Matrix2<f64>,
     ) -> Option<Linearised> {
-        let lin = sensor.linearise(m_pi, m);
-        Some((lin.z, lin.hx, lin.hm * p * lin.hm.transpose() + r))
+        let lin = sensor.linearise(m_pi, m, ());
+        Some((lin.z, lin.hx, lin.hm * p * lin.hm.transpose() + sensor.noise(())))
     }
 
-    fn log_likelihood(
+    fn log_likelihood<Sn: PlanarSensorModel>(
         &self,
-        sensor: &RangeBearingSensor,
-        r: &Matrix2<f64>,
+        sensor: &Sn,
         mean: &Pose,
         cov: &Matrix3<f64>,
         m: &Point2,
         p: &Matrix2<f64>,
         z: &RangeBearing,
     ) -> Option<f64> {
-        let lin = sensor.linearise(mean, m);
+        let lin = sensor.linearise(mean, m, ());
+        let r = sensor.noise(());
         let s = symmetrise(&(lin.hx * cov * lin.hx.transpose() + lin.hm * p * lin.hm.transpose() + r));
-        let nu = RangeBearingSensor::residual(z, &lin.z);
+        let nu = sensor.residual(z, &lin.z);
         log_normal(&nu, &s)
     }
 }
@@ -150,9 +148,11 @@ struct Component {
 }
 
 /// The multi-hypotheses importance density of \[Kaltiokallio2024\] Section V, with the statistical
-/// linear regression `S` (default: the paper's Taylor expansion).
+/// linear regression `S` (default: the paper's Taylor expansion), on the planar sensor model
+/// `Sn` (default: range-bearing).
 #[derive(Clone)]
-pub struct MhProposal<S: PoseSlr = TaylorSlr> {
+pub struct MhProposal<S: PoseSlr = TaylorSlr, Sn: PlanarSensorModel = RangeBearingModel> {
+    sensor: PhantomData<Sn>,
     params: MhParams,
     slr: S,
     murty: Murty,
@@ -170,7 +170,7 @@ pub struct MhProposal<S: PoseSlr = TaylorSlr> {
     terms: Vec<f64>,
 }
 
-impl<S: PoseSlr> MhProposal<S> {
+impl<S: PoseSlr, Sn: PlanarSensorModel> MhProposal<S, Sn> {
     /// The mixture of the last [`Proposal::propose`] call, in Murty's order (the all-missed
     /// component last): for each component its association (measurement index per
     /// detectable component, `None` = missed), mean, covariance and normalised log weight.
@@ -194,7 +194,7 @@ impl<S: PoseSlr> MhProposal<S> {
     }
 }
 
-impl<S: PoseSlr> MhProposal<S> {
+impl<S: PoseSlr, Sn: PlanarSensorModel> MhProposal<S, Sn> {
     /// Checks the parameters (errors name the key).
     pub fn validate_params(p: &MhParams) -> Result<(), ParamError> {
         CountRange::HYPOTHESES.check("max_assignments", p.max_assignments)?;
@@ -206,6 +206,7 @@ impl<S: PoseSlr> MhProposal<S> {
     /// The importance density with parameters `params` and the SLR `slr`.
     pub fn with_slr(params: &MhParams, slr: S) -> Self {
         MhProposal {
+            sensor: PhantomData,
             params: params.clone(),
             slr,
             murty: Murty::new(),
@@ -225,14 +226,12 @@ impl<S: PoseSlr> MhProposal<S> {
     /// [`Proposal::propose`]: Algorithm 2 steps 2-9 for one particle (or group of copies).
     pub fn propose_mh(
         &mut self,
-        ctx: &ProposalContext,
+        ctx: &ProposalContext<Sn>,
         n: usize,
         rng: &mut Rng,
         out: &mut Vec<PoseSample>,
     ) -> ProposalStats {
-        let models = ctx.models;
-        let r = models.measurement_noise;
-        let sensor = &models.sensor;
+        let sensor = ctx.sensor;
         let (x_bar, q) = (ctx.predicted, ctx.q);
         let nz = ctx.z.len();
         let mut stats = ProposalStats::default();
@@ -289,8 +288,9 @@ impl<S: PoseSlr> MhProposal<S> {
                 &self.pairs_z,
                 |k, m_pi, p_pi| {
                     let i = rows[pairs_row[k]];
-                    slr.linearise(sensor, &r, m_pi, p_pi, &ctx.map.mean[i], &ctx.map.cov[i])
+                    slr.linearise(sensor, m_pi, p_pi, &ctx.map.mean[i], &ctx.map.cov[i])
                 },
+                |a, b| sensor.residual(a, b),
                 &ipl,
             );
             if res.lost_definiteness {
@@ -305,7 +305,7 @@ impl<S: PoseSlr> MhProposal<S> {
                     None => log_w += self.log_missed(pd, lw),
                     Some(j) => {
                         let (m_i, p_i) = (&ctx.map.mean[i], &ctx.map.cov[i]);
-                        match self.slr.log_likelihood(sensor, &r, &res.mean, &res.cov, m_i, p_i, &ctx.z[*j]) {
+                        match self.slr.log_likelihood(sensor, &res.mean, &res.cov, m_i, p_i, &ctx.z[*j]) {
                             Some(l) => log_w += pd.ln() + lw - ctx.log_clutter + l,
                             None => {
                                 stats.cholesky_failures += 1;
@@ -397,11 +397,10 @@ impl<S: PoseSlr> MhProposal<S> {
     }
 }
 
-impl Proposal for MhProposal {
+impl<Sn: PlanarSensorModel> Proposal for MhProposal<TaylorSlr, Sn> {
     const NAME: &'static str = "phd-3.0";
     type Params = MhParams;
-    /// Written for the range-bearing sensor (its Jacobians and sigma points).
-    type Sensor = rfslam_core::model::RangeBearingModel;
+    type Sensor = Sn;
 
     fn validate(p: &MhParams) -> Result<(), ParamError> {
         Self::validate_params(p)
@@ -411,7 +410,13 @@ impl Proposal for MhProposal {
         Self::with_slr(params, TaylorSlr)
     }
 
-    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+    fn propose(
+        &mut self,
+        ctx: &ProposalContext<Sn>,
+        n: usize,
+        rng: &mut Rng,
+        out: &mut Vec<PoseSample>,
+    ) -> ProposalStats {
         self.propose_mh(ctx, n, rng, out)
     }
 

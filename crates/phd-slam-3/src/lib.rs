@@ -8,6 +8,7 @@
 
 pub use mh_importance_density::{MhParams, MhProposal, MissedCost, PoseSlr, TaylorSlr};
 use rbphd::RbPhd;
+use rfslam_core::model::RangeBearingModel;
 
-/// PHD-SLAM 3.0.
-pub type PhdSlam3 = RbPhd<MhProposal>;
+/// PHD-SLAM 3.0 on the planar sensor model `S` (default: range-bearing).
+pub type PhdSlam3<S = RangeBearingModel> = RbPhd<MhProposal<TaylorSlr, S>>;

@@ -59,8 +59,9 @@ use nalgebra::{Matrix2, Matrix2x3, Matrix3, Matrix5, SMatrix, Vector5};
 use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
 use rfslam_core::gaussian::{log_normal, symmetrise};
 use rfslam_core::ipl::Linearised;
+use rfslam_core::model::RangeBearingModel;
 use rfslam_core::params::{Interval, MAX_PARAM};
-use rfslam_core::{ParamError, Point2, Pose, RangeBearing, RangeBearingSensor, Rng, SlamModels};
+use rfslam_core::{ParamError, PlanarSensorModel, Point2, Pose, RangeBearing, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
 
 pub use sigma::{Moments, SigmaRule, sigma_moments};
@@ -170,27 +171,25 @@ impl Default for SigmaPointSlr {
     }
 }
 
-/// Bearing index of a [`RangeBearing`].
-const BEARING: Option<usize> = Some(1);
-
 impl SigmaPointSlr {
     /// The SLR of `g(m, x)` for `x ~ N(mean, cov)` and the landmark `N(m, p)`: `E[g]`,
     /// `Sigma~^zz` of eq. (42b) including `R`, and `Sigma~^zx` of eq. (42c) (2 x 3).
     /// `None` if a covariance fails Cholesky.
-    #[allow(clippy::too_many_arguments)]
-    pub fn moments(
+    pub fn moments<Sn: PlanarSensorModel>(
         &self,
-        sensor: &RangeBearingSensor,
-        r: &Matrix2<f64>,
+        sensor: &Sn,
         mean: &Pose,
         cov: &Matrix3<f64>,
         m: &Point2,
         p: &Matrix2<f64>,
     ) -> Option<(RangeBearing, Matrix2<f64>, Matrix2x3<f64>)> {
+        let r = sensor.noise(());
+        // The measurement's angular component, averaged on the circle.
+        let angle = sensor.components().iter().position(|c| c.angle);
         match self.space {
             SlrSpace::Pose => {
-                let mo = sigma_moments::<3, 2, _>(mean, cov, &self.rule, BEARING, |x| {
-                    let lin = sensor.linearise(x, m);
+                let mo = sigma_moments::<3, 2, _>(mean, cov, &self.rule, angle, |x| {
+                    let lin = sensor.linearise(x, m, ());
                     (lin.z, lin.hm * p * lin.hm.transpose())
                 })?;
                 Some((mo.mean, mo.cov + mo.extra + r, mo.cross))
@@ -200,9 +199,9 @@ impl SigmaPointSlr {
                 let mut c = Matrix5::zeros();
                 c.fixed_view_mut::<3, 3>(0, 0).copy_from(cov);
                 c.fixed_view_mut::<2, 2>(3, 3).copy_from(p);
-                let mo = sigma_moments::<5, 2, _>(&v, &c, &self.rule, BEARING, |v| {
+                let mo = sigma_moments::<5, 2, _>(&v, &c, &self.rule, angle, |v| {
                     let x = Pose::new(v[0], v[1], v[2]);
-                    (sensor.predict(&x, &Point2::new(v[3], v[4])), SMatrix::zeros())
+                    (sensor.predict(&x, &Point2::new(v[3], v[4]), ()), SMatrix::zeros())
                 })?;
                 Some((mo.mean, mo.cov + r, mo.cross.fixed_view::<2, 3>(0, 0).into_owned()))
             }
@@ -213,57 +212,55 @@ impl SigmaPointSlr {
 impl PoseSlr for SigmaPointSlr {
     /// Eq. (42) by sigma points of `pi = N(m_pi, p_pi)`, returned as `(mu~^z, B, Omega)`
     /// with `B = Sigma~^zx (Sigma~^xx)^-1` (43a) and `Omega = Sigma~^zz - B Sigma~^xx B^T`.
-    fn linearise(
+    fn linearise<Sn: PlanarSensorModel>(
         &self,
-        sensor: &RangeBearingSensor,
-        r: &Matrix2<f64>,
+        sensor: &Sn,
         m_pi: &Pose,
         p_pi: &Matrix3<f64>,
         m: &Point2,
         p: &Matrix2<f64>,
     ) -> Option<Linearised> {
-        let (mu_z, s_zz, s_zx) = self.moments(sensor, r, m_pi, p_pi, m, p)?;
+        let (mu_z, s_zz, s_zx) = self.moments(sensor, m_pi, p_pi, m, p)?;
         let b = p_pi.cholesky()?.solve(&s_zx.transpose()).transpose();
         let omega = symmetrise(&(s_zz - b * p_pi * b.transpose()));
         Some((mu_z, b, omega))
     }
 
     /// Eq. (44)'s detected factor with the SLR moments at the component `N(mean, cov)`.
-    fn log_likelihood(
+    fn log_likelihood<Sn: PlanarSensorModel>(
         &self,
-        sensor: &RangeBearingSensor,
-        r: &Matrix2<f64>,
+        sensor: &Sn,
         mean: &Pose,
         cov: &Matrix3<f64>,
         m: &Point2,
         p: &Matrix2<f64>,
         z: &RangeBearing,
     ) -> Option<f64> {
-        let (mu_z, s_zz, _) = self.moments(sensor, r, mean, cov, m, p)?;
-        let nu = RangeBearingSensor::residual(z, &mu_z);
+        let (mu_z, s_zz, _) = self.moments(sensor, mean, cov, m, p)?;
+        let nu = sensor.residual(z, &mu_z);
         log_normal(&nu, &s_zz)
     }
 }
 
-/// The importance density of `phd-3.0-sp`: phd-3.0's [`MhProposal`] with [`SigmaPointSlr`].
+/// The importance density of `phd-3.0-sp`: phd-3.0's [`MhProposal`] with [`SigmaPointSlr`],
+/// on the planar sensor model `S`.
 #[derive(Clone)]
-pub struct SpProposal(MhProposal<SigmaPointSlr>);
+pub struct SpProposal<S: PlanarSensorModel = RangeBearingModel>(MhProposal<SigmaPointSlr, S>);
 
-impl SpProposal {
+impl<S: PlanarSensorModel> SpProposal<S> {
     /// The underlying multi-hypotheses proposal (its [`MhProposal::mixture`]).
-    pub fn inner(&self) -> &MhProposal<SigmaPointSlr> {
+    pub fn inner(&self) -> &MhProposal<SigmaPointSlr, S> {
         &self.0
     }
 }
 
-impl Proposal for SpProposal {
+impl<S: PlanarSensorModel> Proposal for SpProposal<S> {
     const NAME: &'static str = "phd-3.0-sp";
     type Params = SpParams;
-    /// Written for the range-bearing sensor (its Jacobians and sigma points).
-    type Sensor = rfslam_core::model::RangeBearingModel;
+    type Sensor = S;
 
     fn validate(p: &SpParams) -> Result<(), ParamError> {
-        MhProposal::<SigmaPointSlr>::validate_params(&p.mh)?;
+        MhProposal::<SigmaPointSlr, S>::validate_params(&p.mh)?;
         p.sigma.validate()
     }
 
@@ -271,7 +268,13 @@ impl Proposal for SpProposal {
         SpProposal(MhProposal::with_slr(&p.mh, SigmaPointSlr { rule: p.sigma.rule(), space: p.sigma.slr_space }))
     }
 
-    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+    fn propose(
+        &mut self,
+        ctx: &ProposalContext<S>,
+        n: usize,
+        rng: &mut Rng,
+        out: &mut Vec<PoseSample>,
+    ) -> ProposalStats {
         self.0.propose_mh(ctx, n, rng, out)
     }
 
@@ -280,8 +283,9 @@ impl Proposal for SpProposal {
     }
 }
 
-/// PHD-SLAM 3.0 with the sigma-point SLR: registered as `phd-3.0-sp`.
-pub type PhdSlam3Sp = RbPhd<SpProposal>;
+/// PHD-SLAM 3.0 with the sigma-point SLR on the planar sensor model `S`: registered as
+/// `phd-3.0-sp`.
+pub type PhdSlam3Sp<S = RangeBearingModel> = RbPhd<SpProposal<S>>;
 
 #[cfg(test)]
 mod tests {
@@ -289,7 +293,13 @@ mod tests {
     use approx::assert_relative_eq;
     use mh_importance_density::TaylorSlr;
     use nalgebra::Vector2;
+    use rfslam_core::RangeBearingSensor;
     use rfslam_core::ipl::{IplSettings, ipl_update, ipl_update_slr};
+
+    /// The range-bearing model of the PHD-SLAM synthetic experiment (its `R`).
+    fn model() -> RangeBearingModel {
+        RangeBearingModel::new(&rfslam_eval::fixtures::phd_slam_synthetic_models(), 0.0)
+    }
 
     /// `R` of the PHD-SLAM synthetic experiment.
     fn r() -> Matrix2<f64> {
@@ -307,7 +317,14 @@ mod tests {
         let q = Matrix3::new(0.5, 0.1, 0.0, 0.1, 0.4, 0.02, 0.0, 0.02, 0.05);
         let z = [RangeBearing::new(0.9, -1.3), RangeBearing::new(1.4, -0.9)];
         let omega = c * pm * c.transpose() + r();
-        let taylor = ipl_update(&x_bar, &q, &z, |_, x| (a * x + c * lm, a, omega), &IplSettings::default());
+        let taylor = ipl_update(
+            &x_bar,
+            &q,
+            &z,
+            |_, x| (a * x + c * lm, a, omega),
+            RangeBearingSensor::residual,
+            &IplSettings::default(),
+        );
         for rule in [SigmaRule::CUBATURE, SigmaRule { alpha: 0.5, beta: 2.0, kappa: 1.0 }] {
             let sp = ipl_update_slr(
                 &x_bar,
@@ -321,6 +338,7 @@ mod tests {
                     assert_relative_eq!(b, a, epsilon = 1e-10);
                     Some((mo.mean, b, symmetrise(&(mo.cov + mo.extra + r() - b * p_pi * b.transpose()))))
                 },
+                RangeBearingSensor::residual,
                 &IplSettings::default(),
             );
             assert_relative_eq!(sp.mean, taylor.mean, epsilon = 1e-10);
@@ -339,16 +357,16 @@ mod tests {
         let p_pi = Matrix3::from_diagonal(&nalgebra::Vector3::new(1e-4, 2e-4, 1e-8));
         let m = Point2::new(600.0, 520.0);
         let pm = Matrix2::identity() * 1e-3;
-        let (tz, tb, to) = TaylorSlr.linearise(&sensor, &r(), &x, &p_pi, &m, &pm).unwrap();
+        let (tz, tb, to) = TaylorSlr.linearise(&model(), &x, &p_pi, &m, &pm).unwrap();
         let z = sensor.predict(&x, &m) + RangeBearing::new(0.5, 1e-3);
-        let tl = TaylorSlr.log_likelihood(&sensor, &r(), &x, &p_pi, &m, &pm, &z).unwrap();
+        let tl = TaylorSlr.log_likelihood(&model(), &x, &p_pi, &m, &pm, &z).unwrap();
         for space in [SlrSpace::Pose, SlrSpace::Joint] {
             let slr = SigmaPointSlr { space, ..Default::default() };
-            let (sz, sb, so) = slr.linearise(&sensor, &r(), &x, &p_pi, &m, &pm).unwrap();
+            let (sz, sb, so) = slr.linearise(&model(), &x, &p_pi, &m, &pm).unwrap();
             assert_relative_eq!(sz, tz, max_relative = 1e-6);
             assert_relative_eq!(sb, tb, max_relative = 1e-4, epsilon = 1e-9);
             assert_relative_eq!(so, to, max_relative = 1e-4, epsilon = 1e-12);
-            let sl = slr.log_likelihood(&sensor, &r(), &x, &p_pi, &m, &pm, &z).unwrap();
+            let sl = slr.log_likelihood(&model(), &x, &p_pi, &m, &pm, &z).unwrap();
             assert_relative_eq!(sl, tl, max_relative = 1e-4);
         }
     }
@@ -359,24 +377,23 @@ mod tests {
     /// be near 0 with a variance of about pi^2.
     #[test]
     fn bearing_is_wrapped_across_pi() {
-        let sensor = RangeBearingSensor::default();
         let x = Pose::new(0.0, 0.0, 0.0);
         let p_pi = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.01, 0.01, 3f64.to_radians().powi(2)));
         let m = Point2::new(-40.0, 1e-3);
         let pm = Matrix2::identity() * 0.05;
-        let (tz, tb, to) = TaylorSlr.linearise(&sensor, &r(), &x, &p_pi, &m, &pm).unwrap();
+        let (tz, tb, to) = TaylorSlr.linearise(&model(), &x, &p_pi, &m, &pm).unwrap();
         for space in [SlrSpace::Pose, SlrSpace::Joint] {
             let slr = SigmaPointSlr { space, ..Default::default() };
-            let (sz, sb, so) = slr.linearise(&sensor, &r(), &x, &p_pi, &m, &pm).unwrap();
+            let (sz, sb, so) = slr.linearise(&model(), &x, &p_pi, &m, &pm).unwrap();
             assert!(rfslam_core::angle::diff(sz[1], tz[1]).abs() < 1e-3, "{sz:?} vs {tz:?}");
             assert!(sz[1].abs() > 3.1, "mean bearing {} should be near +-pi", sz[1]);
             assert_relative_eq!(sb, tb, max_relative = 1e-2, epsilon = 1e-4);
             assert_relative_eq!(so, to, max_relative = 1e-2, epsilon = 1e-9);
-            let (_, s_zz, _) = slr.moments(&sensor, &r(), &x, &p_pi, &m, &pm).unwrap();
+            let (_, s_zz, _) = slr.moments(&model(), &x, &p_pi, &m, &pm).unwrap();
             assert!(s_zz[(1, 1)] < 0.01, "bearing variance {}", s_zz[(1, 1)]);
             // A measurement on the other side of the cut is a small innovation.
             let z = RangeBearing::new(40.0, -std::f64::consts::PI + 0.01);
-            let l = slr.log_likelihood(&sensor, &r(), &x, &p_pi, &m, &pm, &z).unwrap();
+            let l = slr.log_likelihood(&model(), &x, &p_pi, &m, &pm, &z).unwrap();
             assert!(l > -10.0, "log-likelihood {l}");
         }
     }
@@ -384,17 +401,17 @@ mod tests {
     /// A linearisation density that fails Cholesky is reported (`None`), not unwrapped.
     #[test]
     fn cholesky_failure_is_none() {
-        let sensor = RangeBearingSensor::default();
         let bad = Matrix3::new(1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0);
         let slr = SigmaPointSlr::default();
         let (x, m, pm) = (Pose::zeros(), Point2::new(10.0, 0.0), Matrix2::identity());
-        assert!(slr.linearise(&sensor, &r(), &x, &bad, &m, &pm).is_none());
-        assert!(slr.log_likelihood(&sensor, &r(), &x, &bad, &m, &pm, &RangeBearing::new(10.0, 0.0)).is_none());
+        assert!(slr.linearise(&model(), &x, &bad, &m, &pm).is_none());
+        assert!(slr.log_likelihood(&model(), &x, &bad, &m, &pm, &RangeBearing::new(10.0, 0.0)).is_none());
         let res = ipl_update_slr(
             &x,
             &bad,
             &[RangeBearing::new(10.0, 0.0)],
-            |_, m_pi, p_pi| slr.linearise(&sensor, &r(), m_pi, p_pi, &m, &pm),
+            |_, m_pi, p_pi| slr.linearise(&model(), m_pi, p_pi, &m, &pm),
+            RangeBearingSensor::residual,
             &IplSettings::default(),
         );
         assert!(res.lost_definiteness);
@@ -419,7 +436,7 @@ mod tests {
             "{unknown}"
         );
         assert!(toml::from_str::<SpParams>("slr_space = \"both\"").is_err());
-        let bad = |s: &str| SpProposal::validate(&toml::from_str::<SpParams>(s).unwrap()).unwrap_err().key;
+        let bad = |s: &str| <SpProposal>::validate(&toml::from_str::<SpParams>(s).unwrap()).unwrap_err().key;
         assert_eq!(bad("sigma_alpha = 0.0"), "sigma_alpha");
         // alpha^2 (n + kappa) underflowed to 0 and the error blamed sigma_kappa.
         assert_eq!(bad("sigma_alpha = 1e-300"), "sigma_alpha");
@@ -431,7 +448,7 @@ mod tests {
         assert_eq!(bad("sigma_beta = -1e308"), "sigma_beta");
         assert_eq!(bad("ipl_iterations = 0"), "ipl_iterations");
         assert!(
-            SpProposal::validate(&toml::from_str::<SpParams>("slr_space = \"pose\"\nsigma_kappa = -2.5").unwrap())
+            <SpProposal>::validate(&toml::from_str::<SpParams>("slr_space = \"pose\"\nsigma_kappa = -2.5").unwrap())
                 .is_ok()
         );
     }

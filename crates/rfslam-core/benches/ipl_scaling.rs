@@ -70,6 +70,7 @@ fn bench_scaling(c: &mut Criterion) {
                         let l = sensor.linearise(x, &pr.m[a]);
                         (l.z, l.hx, l.hm * pr.p[a] * l.hm.transpose() + pr.r)
                     },
+                    rfslam_core::RangeBearingSensor::residual,
                     &IplSettings::default(),
                 )
             })
@@ -101,6 +102,7 @@ fn bench_scaling(c: &mut Criterion) {
                 let l = sensor.linearise(x, &pr.m[a]);
                 (l.z, l.hx, l.hm * pr.p[a] * l.hm.transpose() + pr.r)
             },
+            rfslam_core::RangeBearingSensor::residual,
             &IplSettings::default(),
         );
         let j = joint.update(

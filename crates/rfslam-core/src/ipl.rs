@@ -12,11 +12,11 @@
 //! cannot be the 3x2 cross-covariance: a typo, our reading). Cost O(M) per iteration with
 //! fixed-size 3x3 / 2x2 algebra only.
 
-use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
+use crate::Pose;
 use crate::angle::{diff, wrap};
 use crate::gaussian::symmetrise;
-use crate::{Pose, RangeBearing};
 
 /// Settings of [`ipl_update`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -46,9 +46,10 @@ pub struct IplResult {
     pub lost_definiteness: bool,
 }
 
-/// The linearised sensor for one associated landmark at a linearisation point:
+/// The linearised sensor for one associated landmark at a linearisation point, for a
+/// measurement of `Z` components (2 for the planar sensors):
 /// `(z_hat = g(m_i, x_pi), A = G_x, Omega = G_m P_i G_m^T + R)`.
-pub type Linearised = (RangeBearing, Matrix2x3<f64>, Matrix2<f64>);
+pub type Linearised<const Z: usize = 2> = (SVector<f64, Z>, SMatrix<f64, Z, 3>, SMatrix<f64, Z, Z>);
 
 /// `x - y` with the heading wrapped.
 #[inline]
@@ -71,18 +72,22 @@ pub fn kl_divergence(m0: &Pose, p0: &Matrix3<f64>, m1: &Pose, p1: &Matrix3<f64>)
 /// Algorithm 1 for one mixture component: the prior `N(x_bar, q)` conditioned on the
 /// measurements `z[0..n]` of its associated landmarks, `linearise(k, x_pi)` giving the
 /// linearised sensor of association `k` at the linearisation point. With `n = 0` the result
-/// is the prior. This is the first-order Taylor SLR; [`ipl_update_slr`] takes any SLR.
-pub fn ipl_update<F>(
+/// is the prior. `residual(z, z_hat)` is the sensor's (angles wrapped,
+/// [`crate::SensorModel::residual`]). This is the first-order Taylor SLR; [`ipl_update_slr`]
+/// takes any SLR.
+pub fn ipl_update<const Z: usize, F, D>(
     x_bar: &Pose,
     q: &Matrix3<f64>,
-    z: &[RangeBearing],
+    z: &[SVector<f64, Z>],
     mut linearise: F,
+    residual: D,
     settings: &IplSettings,
 ) -> IplResult
 where
-    F: FnMut(usize, &Pose) -> Linearised,
+    F: FnMut(usize, &Pose) -> Linearised<Z>,
+    D: Fn(&SVector<f64, Z>, &SVector<f64, Z>) -> SVector<f64, Z>,
 {
-    ipl_update_slr(x_bar, q, z, |k, m_pi, _| Some(linearise(k, m_pi)), settings)
+    ipl_update_slr(x_bar, q, z, |k, m_pi, _| Some(linearise(k, m_pi)), residual, settings)
 }
 
 /// Algorithm 1 with a general statistical linear regression: `slr(k, m_pi, p_pi)` returns,
@@ -93,16 +98,19 @@ where
 /// `Sigma^zz = B P_s B^T + Omega`. The Taylor SLR is `(g(m_pi), G_x, G_m P G_m^T + R)`; a
 /// sigma-point SLR evaluates the expectations of (42) with sigma points of `pi`. `None`
 /// (e.g. a covariance that failed Cholesky) stops the iteration as a loss of definiteness,
-/// keeping the last accepted iterate.
-pub fn ipl_update_slr<F>(
+/// keeping the last accepted iterate. `residual(z, mu^z)` is the sensor's residual (angles
+/// wrapped).
+pub fn ipl_update_slr<const Z: usize, F, D>(
     x_bar: &Pose,
     q: &Matrix3<f64>,
-    z: &[RangeBearing],
+    z: &[SVector<f64, Z>],
     mut slr: F,
+    residual: D,
     settings: &IplSettings,
 ) -> IplResult
 where
-    F: FnMut(usize, &Pose, &Matrix3<f64>) -> Option<Linearised>,
+    F: FnMut(usize, &Pose, &Matrix3<f64>) -> Option<Linearised<Z>>,
+    D: Fn(&SVector<f64, Z>, &SVector<f64, Z>) -> SVector<f64, Z>,
 {
     let (mut m_pi, mut p_pi) = (*x_bar, *q);
     let mut accepted = 0;
@@ -119,7 +127,7 @@ where
                 break;
             };
             let mu_z = z_hat + a * pose_diff(&m_s, &m_pi);
-            let nu = RangeBearing::new(zk[0] - mu_z[0], wrap(zk[1] - mu_z[1]));
+            let nu = residual(zk, &mu_z);
             let s = symmetrise(&(a * p_s * a.transpose() + omega));
             let Some(ch) = s.cholesky() else {
                 ok = false;
@@ -155,7 +163,9 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::RangeBearing;
     use approx::assert_relative_eq;
+    use nalgebra::{Matrix2, Matrix2x3};
 
     /// A linear sensor `z = A x + B m + e`: IPL's first iterate is the closed-form Kalman
     /// posterior with noise `B P B^T + R`, and the second has KL = 0 so the loop stops.
@@ -178,6 +188,7 @@ mod tests {
                 // z_hat at the linearisation point x: A x + B m
                 (a * _x + b * m, a, omega)
             },
+            crate::sensor::RangeBearingSensor::residual,
             &IplSettings::default(),
         );
         let s = a * q * a.transpose() + omega;
@@ -216,6 +227,7 @@ mod tests {
                     let l = sensor.linearise(x, &marks[k]);
                     (l.z, l.hx, l.hm * p_m * l.hm.transpose() + r)
                 },
+                crate::sensor::RangeBearingSensor::residual,
                 &settings,
             )
         };
@@ -234,7 +246,14 @@ mod tests {
     #[test]
     fn no_measurements_is_the_prior() {
         let q = Matrix3::identity() * 0.3;
-        let r = ipl_update(&Pose::new(1.0, 2.0, 3.0), &q, &[], |_, _| unreachable!(), &IplSettings::default());
+        let r = ipl_update(
+            &Pose::new(1.0, 2.0, 3.0),
+            &q,
+            &[],
+            |_, _| unreachable!(),
+            crate::sensor::RangeBearingSensor::residual,
+            &IplSettings::default(),
+        );
         assert_eq!(r.mean, Pose::new(1.0, 2.0, 3.0));
         assert_eq!(r.cov, q);
     }

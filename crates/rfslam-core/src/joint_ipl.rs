@@ -396,6 +396,7 @@ mod tests {
                     let (ax, bm) = linear(a);
                     (ax * x + bm * m_bar[a], ax, bm * p_m[a] * bm.transpose() + r)
                 },
+                crate::sensor::RangeBearingSensor::residual,
                 &IplSettings::default(),
             );
             assert_relative_eq!(res.mean, part.mean, epsilon = 1e-10);
@@ -485,6 +486,7 @@ mod tests {
                 let l = sensor.linearise(x, &m_bar[a]);
                 (l.z, l.hx, l.hm * p_m[a] * l.hm.transpose() + r)
             },
+            crate::sensor::RangeBearingSensor::residual,
             &IplSettings::default(),
         );
         assert!(!fresh.lost_definiteness);

@@ -157,12 +157,12 @@ pub static REGISTRY: &[FilterEntry] = &[
         phd_slam_2b::PhdSlam2b,
         "PHD-SLAM 2.0b (Kaltiokallio et al. 2022): joint pose-and-map IPL importance density on the best association"
     ),
-    entry!(
+    planar_entry!(
         "phd-3.0",
         phd_slam_3::PhdSlam3,
         "PHD-SLAM 3.0 (Kaltiokallio et al. 2024): multi-hypotheses importance density (Murty + partitioned IPL)"
     ),
-    entry!(
+    planar_entry!(
         "phd-3.0-sp",
         phd_slam_3sp::PhdSlam3Sp,
         "PHD-SLAM 3.0 with sigma points (cubature rule by default) in Algorithm 1's statistical linear regression (eq. 42)"
