@@ -35,7 +35,7 @@ const SENSORS: [SensorKind; 2] = [SensorKind::RangeBearing, SensorKind::Relative
 const RANGE_BEARING_ONLY: &[&str] = &[
     "phd-2.0a",
     "phd-2.0b",
-    "fastslam-2.0",
+    "fastslam-2.0-oracle",
     "fastslam-1.0",
     "mh-fastslam",
     "glmb-1.0",
