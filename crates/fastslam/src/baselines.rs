@@ -7,7 +7,7 @@
 //! is [`crate::da::DaFastSlam`]; neither filter reads truth labels.
 
 use rfslam_core::params::{CountRange, Interval, MAX_PARAM};
-use rfslam_core::{FilterBuild, ParamError, RbpfParams, SlamModels, Validated};
+use rfslam_core::{FilterBuild, ParamError, PlanarSensorModel, RbpfParams, SensorKind, SlamModels, Validated};
 use serde::{Deserialize, Serialize};
 
 use crate::da::{DaFastSlam, DaSettings};
@@ -133,7 +133,7 @@ rfslam_core::filter_variant!(
     /// `fastslam-1.0`: FastSLAM 1.0 with the most likely (gated, one-to-one) association per
     /// particle, new landmarks otherwise, and the existence filter of Leung, Inostroza, Adams,
     /// eqs. (29)-(32).
-    FastSlam1(DaFastSlam),
+    FastSlam1<S>(DaFastSlam<S>),
     "fastslam-1.0"
 );
 rfslam_core::filter_variant!(
@@ -141,12 +141,16 @@ rfslam_core::filter_variant!(
     /// Inostroza, Adams): at most `hypotheses` children per particle with its most likely
     /// associations, resampling to the nominal count when the population exceeds
     /// `max_population`, existence filter of eqs. (29)-(32).
-    MhFastSlam(DaFastSlam),
+    MhFastSlam<S>(DaFastSlam<S>),
     "mh-fastslam"
 );
 
-impl FilterBuild for FastSlam1 {
+impl<S: PlanarSensorModel> FilterBuild for FastSlam1<S> {
     type Params = FastSlam1Params;
+
+    fn serves(sensor: SensorKind) -> bool {
+        sensor == S::KIND
+    }
 
     fn check(params: &FastSlam1Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
         params.validate(particles)
@@ -158,8 +162,12 @@ impl FilterBuild for FastSlam1 {
     }
 }
 
-impl FilterBuild for MhFastSlam {
+impl<S: PlanarSensorModel> FilterBuild for MhFastSlam<S> {
     type Params = MhParams;
+
+    fn serves(sensor: SensorKind) -> bool {
+        sensor == S::KIND
+    }
 
     fn check(params: &MhParams, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
         params.base.validate(particles)?;

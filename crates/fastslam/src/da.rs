@@ -50,9 +50,10 @@
 use nalgebra::Matrix2;
 use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
 use rfslam_core::gaussian::{sample, symmetrise};
+use rfslam_core::model::RangeBearingModel;
 use rfslam_core::rbpf::{LogWeighted, ParticleSet, ResampleRule};
 use rfslam_core::{
-    ControlSegment, Estimate, FilterEngine, MapPoint, Point2, Pose, RangeBearing, RangeBearingSensor, RbpfParams, Rng,
+    ControlSegment, Estimate, FilterEngine, MapPoint, PlanarSensorModel, Point2, Pose, RangeBearing, RbpfParams, Rng,
     Scan, SlamModels, StepReport,
 };
 
@@ -160,10 +161,12 @@ struct Lin {
 
 /// FastSLAM 1.0 / MH-FastSLAM with the existence filter (module docs).
 #[derive(Debug, Clone)]
-pub struct DaFastSlam {
+pub struct DaFastSlam<S: PlanarSensorModel = RangeBearingModel> {
     name: &'static str,
     settings: DaSettings,
     models: SlamModels,
+    /// The sensor model, built from `models`.
+    sensor: S,
     nominal: usize,
     /// The population: normalisation, resampling to the nominal count, spare particles.
     set: ParticleSet<DaParticle>,
@@ -184,7 +187,7 @@ pub struct DaFastSlam {
     fresh: Vec<DaLandmark>,
 }
 
-impl DaFastSlam {
+impl<S: PlanarSensorModel> DaFastSlam<S> {
     /// A filter named `name` with `n` particles at the initial pose, empty maps (the
     /// settings as [`crate::FastSlam1Params::validate`] checked them).
     pub(crate) fn new(name: &'static str, settings: DaSettings, models: &SlamModels, n: usize) -> Self {
@@ -193,13 +196,14 @@ impl DaFastSlam {
         let log_p0 = settings
             .new_landmark_log_likelihood
             .unwrap_or_else(|| -0.5 * settings.gate - LN_2PI - 0.5 * r2.determinant().max(1e-300).ln());
-        let volume = models.fov.measurement_volume();
+        let volume = models.sensor_kind.measurement_volume(&models.fov);
         let clutter_density = if volume > 0.0 { models.clutter.rate / volume } else { 0.0 };
         let p0 = DaParticle { pose: models.initial_pose, ..Default::default() };
         DaFastSlam {
             name,
             settings,
             models: models.clone(),
+            sensor: S::from_models(models, models.clutter.intensity(&models.fov, models.sensor_kind)),
             nominal: n,
             set: ParticleSet::new(p0, n),
             next: Vec::new(),
@@ -244,8 +248,8 @@ impl DaFastSlam {
 
     /// Appends the children of `parent` at pose `x` to `self.next`; returns the failures.
     fn branch(&mut self, parent: usize, x: Pose, z: &[RangeBearing]) -> u32 {
-        let models = &self.models;
-        let r = models.measurement_noise;
+        let (models, sensor) = (&self.models, &self.sensor);
+        let r = sensor.noise(());
         let mut failures = 0u32;
         let p = &self.set.particles()[parent];
         let nl = p.landmarks.len();
@@ -258,7 +262,7 @@ impl DaFastSlam {
                 self.lin.push(None);
                 continue;
             }
-            let l = models.sensor.linearise(&x, &lm.mean);
+            let l = sensor.linearise(&x, &lm.mean, ());
             let s = symmetrise(&(l.hm * lm.cov * l.hm.transpose() + r));
             let Some(ch) = s.cholesky() else {
                 failures += 1;
@@ -281,7 +285,7 @@ impl DaFastSlam {
         for (i, l) in self.lin.iter().enumerate() {
             if let Some(l) = l
                 && z.iter().any(|zj| {
-                    let nu = RangeBearingSensor::residual(zj, &l.zhat);
+                    let nu = self.sensor.residual(zj, &l.zhat);
                     (nu.transpose() * l.s_inv * nu)[(0, 0)] <= self.settings.gate
                 })
             {
@@ -295,7 +299,7 @@ impl DaFastSlam {
             for &i in &self.cand {
                 let c = match &self.lin[i] {
                     Some(l) => {
-                        let nu = RangeBearingSensor::residual(zj, &l.zhat);
+                        let nu = self.sensor.residual(zj, &l.zhat);
                         let maha = (nu.transpose() * l.s_inv * nu)[(0, 0)];
                         if maha <= self.settings.gate { -(l.log_norm - 0.5 * maha) } else { f64::INFINITY }
                     }
@@ -367,7 +371,7 @@ impl DaFastSlam {
                         let i = self.cand[c];
                         let lm = &mut child.landmarks[i];
                         let mut ekf = Landmark { id: 0, mean: lm.mean, cov: lm.cov };
-                        if landmark_update(&models.sensor, &r, &x, &mut ekf, zj).is_some() {
+                        if landmark_update(sensor, &r, &x, &mut ekf, zj).is_some() {
                             lm.mean = ekf.mean;
                             lm.cov = ekf.cov;
                         } else {
@@ -377,8 +381,8 @@ impl DaFastSlam {
                         child.associations.push(Some(lm.mean));
                     }
                     _ => {
-                        let (mean, jz, _) = models.sensor.inverse_with_jacobians(&x, zj);
-                        let cov = symmetrise(&(jz * r * jz.transpose()));
+                        let inv = sensor.inverse(&x, zj, ());
+                        let (mean, cov) = (inv.m, symmetrise(&(inv.jz * r * inv.jz.transpose())));
                         self.fresh.push(DaLandmark { mean, cov, log_odds: (pe / (1.0 - pe)).ln() });
                         child.associations.push(None);
                     }
@@ -404,7 +408,7 @@ impl DaFastSlam {
     }
 }
 
-impl DaFastSlam {
+impl<S: PlanarSensorModel> DaFastSlam<S> {
     /// One recursion (see the module docs).
     pub fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
         let mut failures = 0u32;
@@ -464,7 +468,7 @@ impl DaFastSlam {
     }
 }
 
-impl FilterEngine for DaFastSlam {
+impl<S: PlanarSensorModel> FilterEngine for DaFastSlam<S> {
     fn particles(&self) -> usize {
         self.len()
     }
@@ -500,6 +504,7 @@ mod tests {
     use approx::assert_relative_eq;
     use nalgebra::Matrix3;
     use rand::SeedableRng;
+    use rfslam_core::RangeBearingSensor;
     use rfslam_core::{ClutterIntensity, ClutterModel, DetectionModel, Fov, Motion};
 
     fn models() -> SlamModels {
@@ -555,7 +560,7 @@ mod tests {
     #[test]
     fn mh_branches_into_one_child_per_feasible_association() {
         let m = models();
-        let mut f = DaFastSlam::new("mh-fastslam", mh(4, 125), &m, 1);
+        let mut f = <DaFastSlam>::new("mh-fastslam", mh(4, 125), &m, 1);
         f.set.particles_mut()[0].landmarks = vec![landmark(20.0, 0.6, 3.0), landmark(20.0, -0.6, 3.0)];
         let z = RangeBearing::new(20.2, 0.004);
         let mut rng = Rng::seed_from_u64(1);
@@ -606,7 +611,7 @@ mod tests {
         let m = models();
         let z = RangeBearing::new(20.2, 0.004);
         let run = |cut: Option<f64>| {
-            let mut f = DaFastSlam::new("mh-fastslam", DaSettings { hypothesis_log_cut: cut, ..mh(4, 125) }, &m, 1);
+            let mut f = <DaFastSlam>::new("mh-fastslam", DaSettings { hypothesis_log_cut: cut, ..mh(4, 125) }, &m, 1);
             f.set.particles_mut()[0].landmarks = vec![landmark(20.0, 0.6, 3.0), landmark(20.0, -0.6, 3.0)];
             f.step(&[], &Scan { t: 1.0, z: vec![z], truth: None }, &mut Rng::seed_from_u64(1));
             let mut lw: Vec<f64> = f.set.particles().iter().map(|p| p.log_w).collect();
@@ -630,7 +635,7 @@ mod tests {
     #[test]
     fn mh_population_cap_resamples_to_nominal() {
         let m = models();
-        let mut f = DaFastSlam::new("mh-fastslam", mh(4, 125), &m, 25);
+        let mut f = <DaFastSlam>::new("mh-fastslam", mh(4, 125), &m, 25);
         for p in f.set.particles_mut() {
             p.landmarks = vec![landmark(20.0, 0.6, 3.0), landmark(20.0, -0.6, 3.0)];
         }
@@ -664,7 +669,7 @@ mod tests {
         let scan =
             Scan { t: 1.0, z: grid.iter().map(|l| m.sensor.predict(&Pose::zeros(), &l.mean)).collect(), truth: None };
         let bounded = DaSettings { max_ambiguous_measurements: Some(64), ..mh(4, 125) };
-        let mut f = DaFastSlam::new("mh-fastslam", bounded, &m, 3);
+        let mut f = <DaFastSlam>::new("mh-fastslam", bounded, &m, 3);
         for p in f.set.particles_mut() {
             p.landmarks = grid.clone();
         }
@@ -680,7 +685,7 @@ mod tests {
         eprintln!("440 ambiguous measurements, 3 particles: {:?}", started.elapsed());
 
         // A small scan below the bound still branches into the 4 best associations.
-        let mut f = DaFastSlam::new("mh-fastslam", bounded, &m, 1);
+        let mut f = <DaFastSlam>::new("mh-fastslam", bounded, &m, 1);
         f.set.particles_mut()[0].landmarks = vec![landmark(20.0, 0.6, 3.0), landmark(20.0, -0.6, 3.0)];
         let small =
             Scan { t: 1.0, z: vec![RangeBearing::new(20.0, 0.03), RangeBearing::new(20.0, -0.03)], truth: None };
@@ -695,7 +700,7 @@ mod tests {
     fn fastslam1_maps_and_deletes_by_existence() {
         let m = models();
         let settings = DaSettings { hypotheses: 1, max_population: None, ..mh(1, 1) };
-        let mut f = DaFastSlam::new("fastslam-1.0", settings, &m, 3);
+        let mut f = <DaFastSlam>::new("fastslam-1.0", settings, &m, 3);
         let mut rng = Rng::seed_from_u64(3);
         let lm = Point2::new(15.0, 2.0);
         let zl = m.sensor.predict(&Pose::zeros(), &lm);
@@ -721,7 +726,7 @@ mod tests {
         let zl = m.sensor.predict(&Pose::zeros(), &lm);
         for pf in [0.1, 0.3] {
             let settings = DaSettings { hypotheses: 1, max_population: None, false_alarm: Some(pf), ..mh(1, 1) };
-            let mut f = DaFastSlam::new("fastslam-1.0", settings, &m, 1);
+            let mut f = <DaFastSlam>::new("fastslam-1.0", settings, &m, 1);
             let mut rng = Rng::seed_from_u64(3);
             for t in [1.0, 2.0] {
                 f.step(&[], &Scan { t, z: vec![zl], truth: None }, &mut rng);

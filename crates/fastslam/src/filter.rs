@@ -2,10 +2,11 @@
 
 use rfslam_core::gaussian::symmetrise;
 use rfslam_core::ipl::IplSettings;
+use rfslam_core::model::RangeBearingModel;
 use rfslam_core::rbpf::{LogWeighted, ParticleSet};
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, Pose, RangeBearing, Rng, Scan, SlamFilter, SlamModels,
-    StepReport, Validated,
+    ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, PlanarSensorModel, Pose, RangeBearing, Rng, Scan,
+    SensorKind, SlamFilter, SlamModels, StepReport, Validated,
 };
 
 use crate::params::{Params, WeightMode};
@@ -33,9 +34,11 @@ impl Particle {
 /// `fastslam-2.0-oracle`: FastSLAM 2.0 given the true associations, with the IPL
 /// approximation of the optimal importance density (the Oracle RBPF of \[Kaltiokallio2024\]).
 #[derive(Debug, Clone)]
-pub struct OracleFastSlam2 {
+pub struct OracleFastSlam2<S: PlanarSensorModel = RangeBearingModel> {
     params: Params,
     models: SlamModels,
+    /// The sensor model, built from `models`.
+    sensor: S,
     ipl: IplSettings,
     /// The particles, their families of identical copies, normalisation and resampling.
     set: ParticleSet<Particle>,
@@ -51,7 +54,7 @@ pub struct OracleFastSlam2 {
     fresh: Vec<(usize, i64)>,
 }
 
-impl OracleFastSlam2 {
+impl<S: PlanarSensorModel> OracleFastSlam2<S> {
     /// Registered name.
     pub const NAME: &'static str = "fastslam-2.0-oracle";
 
@@ -62,6 +65,7 @@ impl OracleFastSlam2 {
         OracleFastSlam2 {
             params,
             models: models.clone(),
+            sensor: S::from_models(models, models.clutter.intensity(&models.fov, models.sensor_kind)),
             ipl,
             set: ParticleSet::new(p0, n),
             unlabelled_scans: 0,
@@ -107,7 +111,7 @@ impl OracleFastSlam2 {
     }
 }
 
-impl SlamFilter for OracleFastSlam2 {
+impl<S: PlanarSensorModel> SlamFilter for OracleFastSlam2<S> {
     fn name(&self) -> &str {
         Self::NAME
     }
@@ -118,8 +122,8 @@ impl SlamFilter for OracleFastSlam2 {
 
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
         let labelled = self.collect_labelled(scan);
-        let models = &self.models;
-        let r = models.measurement_noise;
+        let (models, sensor) = (&self.models, &self.sensor);
+        let r = sensor.noise(());
         let importance = self.params.weight == WeightMode::Importance;
         let mut chol = 0u32;
         let mut families = 0usize;
@@ -141,27 +145,19 @@ impl SlamFilter for OracleFastSlam2 {
                     None => self.fresh.push((j, id)),
                 }
             }
-            let res =
-                oid_proposal(&models.sensor, &r, &x_bar, &q, &rep.landmarks, &self.known, &self.known_z, &self.ipl);
+            let res = oid_proposal(sensor, &r, &x_bar, &q, &rep.landmarks, &self.known, &self.known_z, &self.ipl);
             if res.lost_definiteness {
                 chol += 1;
             }
             let family_ll = match self.params.weight {
                 WeightMode::Importance => 0.0,
-                WeightMode::Predictive => sequential_predictive(
-                    &models.sensor,
-                    &r,
-                    &x_bar,
-                    &q,
-                    &res.mean,
-                    &rep.landmarks,
-                    &self.known,
-                    &self.known_z,
-                )
-                .unwrap_or_else(|| {
-                    chol += 1;
-                    0.0
-                }),
+                WeightMode::Predictive => {
+                    sequential_predictive(sensor, &r, &x_bar, &q, &res.mean, &rep.landmarks, &self.known, &self.known_z)
+                        .unwrap_or_else(|| {
+                            chol += 1;
+                            0.0
+                        })
+                }
             };
             let sampler = ProposalSampler::new(&res.mean, &res.cov, &x_bar, &q);
 
@@ -174,7 +170,7 @@ impl SlamFilter for OracleFastSlam2 {
                 p.pose = x;
                 let mut lw = if importance { corr } else { family_ll };
                 for (&i, z) in self.known.iter().zip(&self.known_z) {
-                    match landmark_update(&models.sensor, &r, &x, &mut p.landmarks[i], z) {
+                    match landmark_update(sensor, &r, &x, &mut p.landmarks[i], z) {
                         Some(ll) if importance => lw += ll,
                         Some(_) => {}
                         None => chol += 1,
@@ -189,14 +185,14 @@ impl SlamFilter for OracleFastSlam2 {
                     let z = scan.z[j];
                     match p.landmarks.binary_search_by_key(&id, |l| l.id) {
                         Err(pos) => {
-                            let (mean, jz, _) = models.sensor.inverse_with_jacobians(&x, &z);
-                            let cov = symmetrise(&(jz * r * jz.transpose()));
+                            let inv = sensor.inverse(&x, &z, ());
+                            let (mean, cov) = (inv.m, symmetrise(&(inv.jz * r * inv.jz.transpose())));
                             p.landmarks.insert(pos, Landmark { id, mean, cov });
                         }
                         // The same new landmark measured twice in one scan: update with the
                         // second measurement (no weight term either).
                         Ok(i) => {
-                            if landmark_update(&models.sensor, &r, &x, &mut p.landmarks[i], &z).is_none() {
+                            if landmark_update(sensor, &r, &x, &mut p.landmarks[i], &z).is_none() {
                                 chol += 1;
                             }
                         }
@@ -246,9 +242,13 @@ impl SlamFilter for OracleFastSlam2 {
     }
 }
 
-impl FilterBuild for OracleFastSlam2 {
+impl<S: PlanarSensorModel> FilterBuild for OracleFastSlam2<S> {
     type Params = Params;
     const REQUIRES_TRUTH: bool = crate::requires_truth_labels();
+
+    fn serves(sensor: SensorKind) -> bool {
+        sensor == S::KIND
+    }
 
     fn check(params: &Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
         params.validate(particles)

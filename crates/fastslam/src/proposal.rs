@@ -16,24 +16,16 @@ use rand_distr::{Distribution, StandardNormal};
 use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, symmetrise};
 use rfslam_core::ipl::{IplResult, IplSettings, Linearised, ipl_update, pose_diff};
-use rfslam_core::sensor::Linearisation;
-use rfslam_core::{Point2, Pose, RangeBearing, RangeBearingSensor};
+use rfslam_core::{Point2, Pose, RangeBearing, SensorModel};
+
+/// The sensor models the FastSLAM helpers take: planar pose, point landmarks, two-component
+/// measurements, one landmark type (the filters' [`rfslam_core::PlanarSensorModel`]; tests
+/// plug in a linear model).
+pub trait PlanarSensor: SensorModel<3, 2, 2, Mark = ()> {}
+
+impl<S: SensorModel<3, 2, 2, Mark = ()>> PlanarSensor for S {}
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
-
-/// A measurement model `z = h(m, x) + e` that can be linearised at a (pose, landmark) pair.
-/// The filter uses [`RangeBearingSensor`]; tests plug in a linear model.
-pub trait Linearise {
-    /// `h(m, x)` with `G_x = dh/dx` and `G_m = dh/dm`.
-    fn linearise(&self, x: &Pose, m: &Point2) -> Linearisation;
-}
-
-impl Linearise for RangeBearingSensor {
-    #[inline]
-    fn linearise(&self, x: &Pose, m: &Point2) -> Linearisation {
-        RangeBearingSensor::linearise(self, x, m)
-    }
-}
 
 /// One landmark EKF of a particle, identified by the landmark id of the truth labels.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -50,8 +42,8 @@ pub struct Landmark {
 /// `(h(m, x), G_x, Omega = G_m P G_m^T + R)` (statistical linear regression by a first-order Taylor
 /// expansion, \[GarciaFernandez2015\], the landmark uncertainty folded into the noise).
 #[inline]
-fn linearised<S: Linearise>(sensor: &S, r: &Matrix2<f64>, x: &Pose, lm: &Landmark) -> Linearised {
-    let lin = sensor.linearise(x, &lm.mean);
+fn linearised<S: PlanarSensor>(sensor: &S, r: &Matrix2<f64>, x: &Pose, lm: &Landmark) -> Linearised {
+    let lin = sensor.linearise(x, &lm.mean, ());
     (lin.z, lin.hx, lin.hm * lm.cov * lin.hm.transpose() + r)
 }
 
@@ -60,7 +52,7 @@ fn linearised<S: Linearise>(sensor: &S, r: &Matrix2<f64>, x: &Pose, lm: &Landmar
 /// association `z[k] <-> landmarks[known[k]]`, in the order given. With no measurement the
 /// result is the prior `N(x_bar, Q)`.
 #[allow(clippy::too_many_arguments)]
-pub fn oid_proposal<S: Linearise>(
+pub fn oid_proposal<S: PlanarSensor>(
     sensor: &S,
     r: &Matrix2<f64>,
     x_bar: &Pose,
@@ -76,7 +68,7 @@ pub fn oid_proposal<S: Linearise>(
         q,
         z,
         |k, x_pi| linearised(sensor, r, x_pi, &landmarks[known[k]]),
-        RangeBearingSensor::residual,
+        |a, b| sensor.residual(a, b),
         settings,
     )
 }
@@ -86,7 +78,7 @@ pub fn oid_proposal<S: Linearise>(
 /// of Algorithm 1 at its result: \[Kaltiokallio2024\] eqs. 43b-c), summing the log predictive
 /// densities. `None` if an innovation covariance is not positive definite.
 #[allow(clippy::too_many_arguments)]
-pub fn sequential_predictive<S: Linearise>(
+pub fn sequential_predictive<S: PlanarSensor>(
     sensor: &S,
     r: &Matrix2<f64>,
     x_bar: &Pose,
@@ -101,7 +93,7 @@ pub fn sequential_predictive<S: Linearise>(
     for (zk, &i) in z.iter().zip(known) {
         let (z_hat, a, omega) = linearised(sensor, r, lin_point, &landmarks[i]);
         let mu_z = z_hat + a * pose_diff(&m_s, lin_point);
-        let nu = RangeBearingSensor::residual(zk, &mu_z);
+        let nu = sensor.residual(zk, &mu_z);
         let s = symmetrise(&(a * p_s * a.transpose() + omega));
         let ch = s.cholesky()?;
         total += log_normal_chol(&nu, &ch)?;
@@ -127,18 +119,18 @@ fn log_normal_chol(r: &nalgebra::Vector2<f64>, ch: &Cholesky<f64, nalgebra::U2>)
 /// landmark *before* the update (the FastSLAM 2.0 measurement term), or `None` (landmark
 /// untouched) if the innovation covariance is not positive definite.
 #[inline]
-pub fn landmark_update<S: Linearise>(
+pub fn landmark_update<S: PlanarSensor>(
     sensor: &S,
     r: &Matrix2<f64>,
     x: &Pose,
     lm: &mut Landmark,
     z: &RangeBearing,
 ) -> Option<f64> {
-    let lin = sensor.linearise(x, &lm.mean);
+    let lin = sensor.linearise(x, &lm.mean, ());
     let ph = lm.cov * lin.hm.transpose();
     let s = symmetrise(&(lin.hm * ph + r));
     let ch = s.cholesky()?;
-    let nu = RangeBearingSensor::residual(z, &lin.z);
+    let nu = sensor.residual(z, &lin.z);
     let ll = log_normal_chol(&nu, &ch)?;
     let gain = ch.solve(&ph.transpose()).transpose();
     let ikh = Matrix2::identity() - gain * lin.hm;
@@ -215,18 +207,47 @@ mod tests {
     use approx::assert_relative_eq;
     use nalgebra::{Matrix2x3, Vector2};
     use rand::SeedableRng;
+    use rfslam_core::model::{Linearised, MeasurementComponent};
 
-    /// `z = A x + B m + e`: a linear sensor (values kept well inside `(-pi, pi)` so that the
-    /// bearing wrap is the identity).
+    /// `z = A x + B m + e`: a linear sensor, no angle, everywhere in view (only `h`, its
+    /// Jacobians and the residual are used here).
+    #[derive(Debug, Clone)]
     struct LinearSensor {
         a: Matrix2x3<f64>,
         b: Matrix2<f64>,
     }
 
-    impl Linearise for LinearSensor {
-        fn linearise(&self, x: &Pose, m: &Point2) -> Linearisation {
-            Linearisation { z: self.a * x + self.b * m, hx: self.a, hm: self.b }
+    impl SensorModel<3, 2, 2> for LinearSensor {
+        type Mark = ();
+        const NAME: &'static str = "linear";
+        fn components(&self) -> [MeasurementComponent; 2] {
+            [MeasurementComponent { name: "u", angle: false }, MeasurementComponent { name: "v", angle: false }]
         }
+        fn predict(&self, x: &Pose, m: &Point2, _: ()) -> Vector2<f64> {
+            self.a * x + self.b * m
+        }
+        fn linearise(&self, x: &Pose, m: &Point2, _: ()) -> Linearised<3, 2, 2> {
+            Linearised { z: self.predict(x, m, ()), hx: self.a, hm: self.b }
+        }
+        fn noise(&self, _: ()) -> Matrix2<f64> {
+            Matrix2::new(0.04, 0.0, 0.0, 1e-4)
+        }
+        fn in_fov(&self, _: &Pose, _: &Point2, _: ()) -> bool {
+            true
+        }
+        fn detection_probability(&self, _: &Pose, _: &Point2, _: &Matrix2<f64>, _: ()) -> f64 {
+            1.0
+        }
+        fn clutter_intensity(&self, _: &Vector2<f64>) -> f64 {
+            0.0
+        }
+        fn pd_true(&self, _: &Pose, _: &Point2, _: ()) -> f64 {
+            1.0
+        }
+        fn sample<R: rand::Rng + ?Sized>(&self, x: &Pose, m: &Point2, _: (), _: &mut R) -> Vector2<f64> {
+            self.predict(x, m, ())
+        }
+        fn sample_clutter<R: rand::Rng + ?Sized>(&self, _: &Pose, _: &mut R, _: &mut Vec<Vector2<f64>>) {}
     }
 
     fn setup() -> (LinearSensor, Matrix2<f64>, Pose, Matrix3<f64>, Landmark, RangeBearing) {
@@ -337,13 +358,15 @@ mod tests {
     /// at the given pose, and the wrapped bearing residual is used across +-pi.
     #[test]
     fn range_bearing_update_wraps_the_bearing() {
-        let sensor = RangeBearingSensor::default();
-        let r = Matrix2::new(0.64, 0.0, 0.0, 0.3f64.to_radians().powi(2));
+        let mut models = rfslam_eval::fixtures::phd_slam_synthetic_models();
+        models.measurement_noise = Matrix2::new(0.64, 0.0, 0.0, 0.3f64.to_radians().powi(2));
+        let sensor = rfslam_core::model::RangeBearingModel::new(&models, 0.0);
+        let r = sensor.r;
         let x = Pose::new(0.0, 0.0, 0.0);
         // Landmark straight behind: predicted bearing -pi; measured just below +pi.
         let mut lm = Landmark { id: 0, mean: Point2::new(-20.0, 0.0), cov: Matrix2::identity() * 0.5 };
         let z = RangeBearing::new(20.5, std::f64::consts::PI - 0.002);
-        let lin = sensor.linearise(&x, &lm.mean);
+        let lin = sensor.linearise(&x, &lm.mean, ());
         let s = lin.hm * lm.cov * lin.hm.transpose() + r;
         let nu = Vector2::new(z[0] - lin.z[0], wrap(z[1] - lin.z[1]));
         assert!(nu[1].abs() < 0.01);

@@ -28,7 +28,7 @@ fn oracle_tracks_and_maps_with_one_and_ten_particles() {
         let dr = dead_reckoning_rmse(&ds);
         let seen = seen_landmarks(&ds);
         for n in [1, 10] {
-            let mut f = OracleFastSlam2::try_build(Params::default(), &ds.models(), n).unwrap();
+            let mut f = <OracleFastSlam2>::try_build(Params::default(), &ds.models(), n).unwrap();
             let o = run_filter(&ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {});
             assert_eq!(o["steps"] as usize, 500);
             assert_eq!(o["cholesky_failures"] as usize, 0);

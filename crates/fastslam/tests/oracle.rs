@@ -41,7 +41,7 @@ const L1: Point2 = Point2::new(40.0, -12.0);
 
 /// A filter after one step that saw landmarks 0 and 1 and one clutter measurement.
 fn after_first_step(n: usize) -> (OracleFastSlam2, Rng) {
-    let mut f = OracleFastSlam2::try_build(Params::default(), &models(), n).unwrap();
+    let mut f = <OracleFastSlam2>::try_build(Params::default(), &models(), n).unwrap();
     let mut rng = Rng::seed_from_u64(5);
     let x1 = Pose::new(1.0, 0.0, 0.0);
     let s = scan(1.0, vec![meas(&x1, &L0), RangeBearing::new(60.0, 0.3), meas(&x1, &L1)], Some(vec![0, -1, 1]));
@@ -123,7 +123,7 @@ fn scan_without_labels_is_prediction_only() {
 /// A brand-new landmark seen twice in one scan is created once and updated once.
 #[test]
 fn duplicate_first_sighting_creates_one_landmark() {
-    let mut f = OracleFastSlam2::try_build(Params::default(), &models(), 1).unwrap();
+    let mut f = <OracleFastSlam2>::try_build(Params::default(), &models(), 1).unwrap();
     let mut rng = Rng::seed_from_u64(1);
     let x1 = Pose::new(1.0, 0.0, 0.0);
     let z = meas(&x1, &L0);
@@ -143,7 +143,7 @@ fn small_dataset(seed: u64) -> rfslam_data::Dataset {
 }
 
 fn run(ds: &rfslam_data::Dataset, params: &Params, n: usize, seed: u64) -> Vec<Vec<u64>> {
-    let mut f = OracleFastSlam2::try_build(params.clone(), &ds.models(), n).unwrap();
+    let mut f = <OracleFastSlam2>::try_build(params.clone(), &ds.models(), n).unwrap();
     let mut out = Vec::new();
     run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |r| out.push(bits(r.estimate)));
     out
@@ -169,9 +169,9 @@ fn same_seed_same_output() {
 #[test]
 fn parameters_are_checked() {
     let m = models();
-    assert!(OracleFastSlam2::check(&Params::default(), &m, 1).is_ok());
-    assert_eq!(OracleFastSlam2::check(&Params::default(), &m, 0).unwrap_err().key, "particles");
-    let bad = |p: Params| OracleFastSlam2::check(&p, &m, 3).unwrap_err().key;
+    assert!(<OracleFastSlam2>::check(&Params::default(), &m, 1).is_ok());
+    assert_eq!(<OracleFastSlam2>::check(&Params::default(), &m, 0).unwrap_err().key, "particles");
+    let bad = |p: Params| <OracleFastSlam2>::check(&p, &m, 3).unwrap_err().key;
     assert_eq!(bad(Params { ipl_iterations: 0, ..Params::default() }), "ipl_iterations");
     assert_eq!(bad(Params { ipl_kl_threshold: -1.0, ..Params::default() }), "ipl_kl_threshold");
     assert_eq!(bad(Params { rbpf: RbpfParams::with_fraction(1.5), ..Params::default() }), "resample_ess_fraction");
@@ -182,7 +182,7 @@ fn parameters_are_checked() {
         }),
         "q_jitter"
     );
-    let f = OracleFastSlam2::try_build(Params::default(), &m, 3).unwrap();
+    let f = <OracleFastSlam2>::try_build(Params::default(), &m, 3).unwrap();
     assert_eq!(f.name(), "fastslam-2.0-oracle");
     assert_eq!(SlamFilter::particles(&f), 3);
     assert_eq!(f.estimate().pose, m.initial_pose);
@@ -196,7 +196,7 @@ fn copies_share_the_proposal_but_draw_their_own_poses() {
     let ds = small_dataset(4);
     let n = 10;
     let params = Params { rbpf: RbpfParams::with_fraction(0.6), ..Params::default() };
-    let mut f = OracleFastSlam2::try_build(params, &ds.models(), n).unwrap();
+    let mut f = <OracleFastSlam2>::try_build(params, &ds.models(), n).unwrap();
     let mut rng = Rng::seed_from_u64(9);
     let mut segments = Vec::new();
     let (mut families_before, mut checked) = (None, 0);
@@ -233,7 +233,7 @@ fn copies_share_the_proposal_but_draw_their_own_poses() {
 fn mh_counts_are_bounded() {
     use fastslam::{MAX_CHILDREN, MhFastSlam, MhParams};
     let m = models();
-    let key = |p: MhParams| MhFastSlam::check(&p, &m, 25).err().map(|e| e.key);
+    let key = |p: MhParams| <MhFastSlam>::check(&p, &m, 25).err().map(|e| e.key);
     assert_eq!(key(MhParams::default()), None);
     assert_eq!(key(MhParams { hypotheses: 0, ..MhParams::default() }).as_deref(), Some("hypotheses"));
     assert_eq!(key(MhParams { hypotheses: 1001, ..MhParams::default() }).as_deref(), Some("hypotheses"));
@@ -246,7 +246,7 @@ fn mh_counts_are_bounded() {
     );
     let at = |h: usize| MhParams { hypotheses: h, max_population: 100_000, ..MhParams::default() };
     assert_eq!(key(at(MAX_CHILDREN / 100_000)), None);
-    let e = MhFastSlam::check(&at(MAX_CHILDREN / 100_000 + 1), &m, 25).unwrap_err();
+    let e = <MhFastSlam>::check(&at(MAX_CHILDREN / 100_000 + 1), &m, 25).unwrap_err();
     assert_eq!(e.key, "hypotheses");
     assert!(e.message.contains("children per step"), "{e}");
 }

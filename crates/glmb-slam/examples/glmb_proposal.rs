@@ -44,7 +44,7 @@ fn main() {
     let mut rng = stream(&[seed, purpose::FILTER, n as u64]);
     let op = fastslam::Params::default();
     let ipl = IplSettings { max_iterations: op.ipl_iterations, kl_threshold: op.ipl_kl_threshold };
-    let mut o = fastslam::OracleFastSlam2::try_build(op, &models, n).unwrap();
+    let mut o = <fastslam::OracleFastSlam2>::try_build(op, &models, n).unwrap();
     let mut orng = stream(&[seed, purpose::FILTER, n as u64 + 1000]);
     let gt = ds.groundtruth.as_ref().unwrap();
     let mut segs: Vec<ControlSegment> = Vec::new();
@@ -68,7 +68,16 @@ fn main() {
                 }
             }
         }
-        let res = oid_proposal(&models.sensor, &models.measurement_noise, &x_bar, &q, &p0.landmarks, &known, &kz, &ipl);
+        let res = oid_proposal(
+            &rfslam_core::model::RangeBearingModel::new(&models, 0.0),
+            &models.measurement_noise,
+            &x_bar,
+            &q,
+            &p0.landmarks,
+            &known,
+            &kz,
+            &ipl,
+        );
         let (orh, orp) = ratios(&res.cov, &q);
         o.step(&segs, scan, &mut orng);
         g.step_impl(&segs, scan, &mut rng);

@@ -172,17 +172,17 @@ pub static REGISTRY: &[FilterEntry] = &[
         rbphd_mf::RbPhdMf,
         "RB-PHD SLAM (Leung, Inostroza, Adams): bootstrap proposal, empty-set / single-feature / multi-feature particle weighting (`strategy`)"
     ),
-    entry!(
+    planar_entry!(
         "fastslam-2.0-oracle",
         fastslam::OracleFastSlam2,
         "oracle RBPF of Kaltiokallio et al. 2024: FastSLAM 2.0 with the true associations and the IPL importance density"
     ),
-    entry!(
+    planar_entry!(
         "fastslam-1.0",
         fastslam::FastSlam1,
         "FastSLAM 1.0: most likely gated association per particle, new landmarks otherwise, existence filter (Leung et al. eqs. 29-32)"
     ),
-    entry!(
+    planar_entry!(
         "mh-fastslam",
         fastslam::MhFastSlam,
         "MH-FastSLAM (Nieto et al. 2003, as in Leung et al.): up to 4 association hypotheses per particle, resampling above 125, existence filter"
