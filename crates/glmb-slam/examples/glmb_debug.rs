@@ -27,9 +27,9 @@ fn main() {
     let params = glmb_slam::Params::default();
     let m = ds.models();
     let mut f = match filter.as_str() {
-        "glmb-1.0" => glmb_slam::Glmb1::try_build(params, &m, n).map(|f| f.0),
-        "glmb-2.0" => glmb_slam::Glmb2::try_build(params, &m, n).map(|f| f.0),
-        _ => glmb_slam::LmbSlam::try_build(params, &m, n).map(|f| f.0),
+        "glmb-1.0" => <glmb_slam::Glmb1>::try_build(params, &m, n).map(|f| f.0),
+        "glmb-2.0" => <glmb_slam::Glmb2>::try_build(params, &m, n).map(|f| f.0),
+        _ => <glmb_slam::LmbSlam>::try_build(params, &m, n).map(|f| f.0),
     }
     .unwrap();
     let mut rng = stream(&[seed, purpose::FILTER, n as u64]);

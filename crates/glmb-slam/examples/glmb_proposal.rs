@@ -40,7 +40,7 @@ fn main() {
     let ds = sc.build_dataset(None, seed).unwrap();
     let models = ds.models();
     let params = glmb_slam::Params { survival_fov: ps, ..Default::default() };
-    let mut g = glmb_slam::Glmb2::try_build(params, &models, n).unwrap().0;
+    let mut g = <glmb_slam::Glmb2>::try_build(params, &models, n).unwrap().0;
     let mut rng = stream(&[seed, purpose::FILTER, n as u64]);
     let op = fastslam::Params::default();
     let ipl = IplSettings { max_iterations: op.ipl_iterations, kl_threshold: op.ipl_kl_threshold };

@@ -3,10 +3,11 @@
 use nalgebra::Matrix3;
 use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
+use rfslam_core::model::RangeBearingModel;
 use rfslam_core::rbpf::{LogWeighted, ParticleSet, draw_transition};
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, ParamError, Pose, RangeBearing, Rng, Scan,
-    SlamModels, StepReport, Validated,
+    ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, ParamError, PlanarSensorModel, Pose, RangeBearing,
+    Rng, Scan, SensorKind, SlamModels, StepReport, Validated,
 };
 
 use crate::map::{
@@ -71,10 +72,12 @@ pub struct ProposalTrace {
 
 /// The filter shared by the three variants.
 #[derive(Debug, Clone)]
-pub struct GlmbSlam {
+pub struct GlmbSlam<S: PlanarSensorModel = RangeBearingModel> {
     variant: Variant,
     params: Params,
     models: SlamModels,
+    /// The sensor model, built from `models`.
+    sensor: S,
     log_kappa: f64,
     /// The particles (every one its own family: each draws its own proposal), normalisation
     /// and resampling.
@@ -85,7 +88,7 @@ pub struct GlmbSlam {
     trace: Vec<ProposalTrace>,
 }
 
-impl GlmbSlam {
+impl<S: PlanarSensorModel> GlmbSlam<S> {
     /// A filter with `n` particles at the initial pose with empty maps (through
     /// [`FilterBuild::build`] of a variant: validated).
     fn new(variant: Variant, params: Params, models: &SlamModels, n: usize) -> Self {
@@ -96,6 +99,7 @@ impl GlmbSlam {
             variant,
             params,
             models: models.clone(),
+            sensor: S::from_models(models, log_kappa.exp()),
             log_kappa,
             set: ParticleSet::new(p0, n),
             step: 0,
@@ -124,11 +128,11 @@ impl GlmbSlam {
     /// One recursion (what `SlamFilter::step` of the three variants calls).
     pub fn step_impl(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
         self.step += 1;
-        let models = &self.models;
+        let (models, sensor) = (&self.models, &self.sensor);
         let p = &self.params;
         let um = UpdateModels {
-            sensor: &models.sensor,
-            r: models.measurement_noise,
+            sensor,
+            r: sensor.noise(()),
             fov: models.fov,
             detection: models.detection,
             log_kappa: self.log_kappa,
@@ -145,8 +149,8 @@ impl GlmbSlam {
             // Adaptive birth from the previous scan at the previous pose (eq. 27).
             ws.births.clear();
             for (j, zj) in self.prev_z.iter().enumerate() {
-                let (mean, jz, _) = models.sensor.inverse_with_jacobians(&part.pose, zj);
-                let cov = symmetrise(&(jz * models.measurement_noise * jz.transpose()));
+                let inv = sensor.inverse(&part.pose, zj, ());
+                let (mean, cov) = (inv.m, symmetrise(&(inv.jz * um.r * inv.jz.transpose())));
                 let explained = part.ru.get(j).is_some_and(|&r| r >= p.explained_threshold);
                 let rb = if explained { p.birth_existing } else { p.birth_new };
                 if rb > 0.0 {
@@ -263,7 +267,7 @@ impl GlmbSlam {
     }
 }
 
-impl FilterEngine for GlmbSlam {
+impl<S: PlanarSensorModel> FilterEngine for GlmbSlam<S> {
     fn particles(&self) -> usize {
         self.set.len()
     }
@@ -290,10 +294,14 @@ impl FilterEngine for GlmbSlam {
 /// A registered variant of [`GlmbSlam`] and its [`FilterBuild`].
 macro_rules! variant_filter {
     ($(#[$doc:meta])* $ty:ident, $variant:expr, $name:literal) => {
-        rfslam_core::filter_variant!($(#[$doc])* $ty(GlmbSlam), $name);
+        rfslam_core::filter_variant!($(#[$doc])* $ty<S>(GlmbSlam<S>), $name);
 
-        impl FilterBuild for $ty {
+        impl<S: PlanarSensorModel> FilterBuild for $ty<S> {
             type Params = Params;
+
+            fn serves(sensor: SensorKind) -> bool {
+                sensor == S::KIND
+            }
 
             fn check(params: &Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
                 params.validate(particles)

@@ -15,10 +15,11 @@
 use nalgebra::{Matrix2, Matrix3, Matrix3x2};
 use rand::Rng;
 use rfslam_assign::gibbs::{DEAD, GibbsSampler, GibbsTable, MISSED};
+use rfslam_core::PlanarSensorModel;
 use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::symmetrise;
+use rfslam_core::model::RangeBearingModel;
 use rfslam_core::rbpf::log_sum_exp;
-use rfslam_core::sensor::RangeBearingSensor;
 use rfslam_core::{DetectionModel, Fov, Point2, Pose, RangeBearing};
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
@@ -107,9 +108,9 @@ pub struct LmbMap {
 
 /// The scan-level models of an update.
 #[derive(Debug, Clone, Copy)]
-pub struct UpdateModels<'a> {
-    /// Sensor.
-    pub sensor: &'a RangeBearingSensor,
+pub struct UpdateModels<'a, S: PlanarSensorModel = RangeBearingModel> {
+    /// Sensor model.
+    pub sensor: &'a S,
     /// Measurement noise `R`.
     pub r: Matrix2<f64>,
     /// Field of view.
@@ -189,8 +190,8 @@ pub struct Workspace {
 /// (`S = H_x Q H_x^T + H_m P H_m^T + R`) and no update. Appends to `liks`;
 /// returns `false` if `S` failed Cholesky (then nothing is appended).
 #[allow(clippy::too_many_arguments)]
-fn likelihoods(
-    m: &UpdateModels,
+fn likelihoods<S: PlanarSensorModel>(
+    m: &UpdateModels<S>,
     x: &Pose,
     mean: &Point2,
     cov: &Matrix2<f64>,
@@ -198,7 +199,7 @@ fn likelihoods(
     z: &[RangeBearing],
     liks: &mut Vec<Lik>,
 ) -> bool {
-    let lin = m.sensor.linearise(x, mean);
+    let lin = m.sensor.linearise(x, mean, ());
     let ph = cov * lin.hm.transpose();
     let mut s = lin.hm * ph + m.r;
     if let Some(q) = pose_cov {
@@ -211,7 +212,7 @@ fn likelihoods(
     let ikh = Matrix2::identity() - gain * lin.hm;
     let mut upd_cov = None;
     for (j, zj) in z.iter().enumerate() {
-        let nu = RangeBearingSensor::residual(zj, &lin.z);
+        let nu = m.sensor.residual(zj, &lin.z);
         let Some(y) = l.solve_lower_triangular(&nu) else { continue };
         let maha = y.norm_squared();
         if maha.is_nan() || maha > m.gate {
@@ -233,9 +234,9 @@ fn likelihoods(
 impl Workspace {
     /// Builds the sampler rows at pose `x`: the given tracks inside the FOV (with existence
     /// `r` from `log_r`), then every birth. Returns the Cholesky failures.
-    fn build_rows(
+    fn build_rows<S: PlanarSensorModel>(
         &mut self,
-        m: &UpdateModels,
+        m: &UpdateModels<S>,
         x: &Pose,
         tracks: &[Track],
         log_r: Option<&[f64]>,
@@ -322,11 +323,11 @@ pub struct GlmbSettings {
 /// then weights below `prune` are removed (the heaviest is always kept), at most
 /// `max_hypotheses` are kept, and the weights are renormalised. `ws.ru` receives `r_U(z_j)`.
 /// If no child is possible the map is left as it was and `-inf` is returned.
-pub fn glmb_update<R: Rng + ?Sized>(
+pub fn glmb_update<S: PlanarSensorModel, R: Rng + ?Sized>(
     map: &mut GlmbMap,
     x: &Pose,
     z: &[RangeBearing],
-    m: &UpdateModels,
+    m: &UpdateModels<S>,
     s: &GlmbSettings,
     ws: &mut Workspace,
     rng: &mut R,
@@ -522,11 +523,11 @@ fn log_sum_exp_iter(it: impl Iterator<Item = f64> + Clone) -> f64 {
 /// `r < prune` are removed. Returns `ln Delta w` and the Cholesky failures; `ws.ru`
 /// receives `r_U(z_j)`.
 #[allow(clippy::too_many_arguments)]
-pub fn lmb_update<R: Rng + ?Sized>(
+pub fn lmb_update<S: PlanarSensorModel, R: Rng + ?Sized>(
     map: &mut LmbMap,
     x: &Pose,
     z: &[RangeBearing],
-    m: &UpdateModels,
+    m: &UpdateModels<S>,
     sweeps: usize,
     prune: f64,
     ws: &mut Workspace,
@@ -637,12 +638,12 @@ pub fn collapse(parts: impl Iterator<Item = (f64, Point2, Matrix2<f64>)> + Clone
 /// eq. (33), `integral g(Z | M, x) p(M) q(x | x_{k-1}, u) dM dx`, relative to the all-clutter
 /// likelihood (as `ln Delta w` of [`glmb_update`]).
 #[allow(clippy::too_many_arguments)]
-pub fn optimal_proposal<R: Rng + ?Sized>(
+pub fn optimal_proposal<S: PlanarSensorModel, R: Rng + ?Sized>(
     map: &GlmbMap,
     x_bar: &Pose,
     q: &Matrix3<f64>,
     z: &[RangeBearing],
-    m: &UpdateModels,
+    m: &UpdateModels<S>,
     n_hyp: usize,
     sweeps: usize,
     ws: &mut Workspace,
@@ -718,14 +719,20 @@ fn log_add(a: f64, b: f64) -> f64 {
 /// One EKF update of the pose `(mu, sig)` by measurement `z` of landmark `t`, the landmark
 /// uncertainty entering as noise `H_m P H_m^T + R` (Joseph form). `false` on a Cholesky
 /// failure (the pose is left unchanged).
-fn pose_ekf(m: &UpdateModels, mu: &mut Pose, sig: &mut Matrix3<f64>, t: &Track, z: &RangeBearing) -> bool {
-    let lin = m.sensor.linearise(mu, &t.mean);
+fn pose_ekf<S: PlanarSensorModel>(
+    m: &UpdateModels<S>,
+    mu: &mut Pose,
+    sig: &mut Matrix3<f64>,
+    t: &Track,
+    z: &RangeBearing,
+) -> bool {
+    let lin = m.sensor.linearise(mu, &t.mean, ());
     let noise = lin.hm * t.cov * lin.hm.transpose() + m.r;
     let ph: Matrix3x2<f64> = *sig * lin.hx.transpose();
     let s = symmetrise(&(lin.hx * ph + noise));
     let Some(ch) = s.cholesky() else { return false };
     let gain: Matrix3x2<f64> = ch.solve(&ph.transpose()).transpose();
-    let nu = RangeBearingSensor::residual(z, &lin.z);
+    let nu = m.sensor.residual(z, &lin.z);
     let dx = gain * nu;
     *mu = Pose::new(mu[0] + dx[0], mu[1] + dx[1], wrap(mu[2] + dx[2]));
     let ikh = Matrix3::identity() - gain * lin.hx;

@@ -7,6 +7,7 @@ use glmb_slam::map::{
 use nalgebra::Matrix2;
 use rand::SeedableRng;
 use rfslam_core::gaussian::log_normal;
+use rfslam_core::model::RangeBearingModel;
 use rfslam_core::sensor::RangeBearingSensor;
 use rfslam_core::{DetectionModel, Fov, Point2, Pose, RangeBearing};
 use rfslam_sim::ScenarioData;
@@ -14,10 +15,24 @@ use rfslam_sim::ScenarioData;
 const PD: f64 = 0.7;
 const KAPPA: f64 = 0.3;
 
-fn models(sensor: &RangeBearingSensor, survival: f64) -> UpdateModels<'_> {
+/// The range-bearing model of the tests (only its geometry and `R` are read by the updates).
+fn sensor() -> RangeBearingModel {
+    let r = Matrix2::from_diagonal(&nalgebra::Vector2::new(0.05f64.powi(2), 0.5f64.to_radians().powi(2)));
+    RangeBearingModel {
+        sensor: RangeBearingSensor::default(),
+        r,
+        sigma: [0.05, 0.5f64.to_radians()],
+        fov: Fov::new(3.0, std::f64::consts::PI),
+        detection: DetectionModel::Constant { pd: PD },
+        kappa: KAPPA,
+        clutter: rfslam_core::ClutterModel { rate: 0.0, intensity: rfslam_core::ClutterIntensity::Cartesian },
+    }
+}
+
+fn models(sensor: &RangeBearingModel, survival: f64) -> UpdateModels<'_> {
     UpdateModels {
         sensor,
-        r: Matrix2::from_diagonal(&nalgebra::Vector2::new(0.05f64.powi(2), 0.5f64.to_radians().powi(2))),
+        r: sensor.r,
         fov: Fov::new(3.0, std::f64::consts::PI),
         detection: DetectionModel::Constant { pd: PD },
         log_kappa: KAPPA.ln(),
@@ -32,7 +47,7 @@ fn track() -> Track {
 
 /// `q_j = N(z_j; h(m, x), H_m P H_m^T + R)` by hand.
 fn q(m: &UpdateModels, x: &Pose, t: &Track, z: &RangeBearing) -> f64 {
-    let lin = m.sensor.linearise(x, &t.mean);
+    let lin = m.sensor.sensor.linearise(x, &t.mean);
     let s = lin.hm * t.cov * lin.hm.transpose() + m.r;
     log_normal(&RangeBearingSensor::residual(z, &lin.z), &s).unwrap().exp()
 }
@@ -46,8 +61,8 @@ fn scan() -> Vec<RangeBearing> {
 /// hypothesis weights are those of the Bernoulli filter.
 #[test]
 fn one_landmark_update_matches_closed_form() {
-    let sensor = RangeBearingSensor::default();
-    let m = models(&sensor, 1.0);
+    let rb = sensor();
+    let m = models(&rb, 1.0);
     let x = Pose::new(0.0, 0.0, 0.0);
     let z = scan();
     let t = track();
@@ -84,8 +99,8 @@ fn one_landmark_update_matches_closed_form() {
 /// of that denominator.
 #[test]
 fn birth_cardinality_matches_closed_form() {
-    let sensor = RangeBearingSensor::default();
-    let m = models(&sensor, 0.95);
+    let rb = sensor();
+    let m = models(&rb, 0.95);
     let x = Pose::new(0.0, 0.0, 0.0);
     let z = vec![RangeBearing::new(1.56, 0.26)];
     let t = track();
@@ -107,8 +122,8 @@ fn birth_cardinality_matches_closed_form() {
 /// The LMB update of one track: `r' = r p_S ((1 - p_D) + p_D sum q / kappa) / Delta w`.
 #[test]
 fn lmb_update_matches_bernoulli_filter() {
-    let sensor = RangeBearingSensor::default();
-    let m = models(&sensor, 0.95);
+    let rb = sensor();
+    let m = models(&rb, 0.95);
     let x = Pose::new(0.0, 0.0, 0.0);
     let z = scan();
     let t = track();
@@ -153,9 +168,10 @@ fn lmb_collapse_preserves_existence_and_moments() {
 fn proposal_weight_is_the_pose_marginal_likelihood() {
     use glmb_slam::map::optimal_proposal;
     use nalgebra::Matrix3;
-    let sensor = RangeBearingSensor::default();
+    let rb = sensor();
+    let sensor = rb.sensor;
     let ps = 0.95;
-    let m = models(&sensor, ps);
+    let m = models(&rb, ps);
     let x_bar = Pose::new(0.05, -0.02, 0.01);
     let q = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.02f64.powi(2), 0.03f64.powi(2), 0.01f64.powi(2)));
     let z = scan();
@@ -195,9 +211,9 @@ fn short_run_end_to_end() {
     let mut dr = dead_reckoning::DeadReckoning::try_build(Default::default(), &ds.models(), 1).unwrap();
     let o_dr = run_filter(&ds, &mut dr, 1, &metrics, &mut |_| {});
     let filters: [(&str, Box<dyn rfslam_core::SlamFilter>); 3] = [
-        ("glmb-1.0", Box::new(glmb_slam::Glmb1::try_build(Default::default(), &ds.models(), 5).unwrap())),
-        ("glmb-2.0", Box::new(glmb_slam::Glmb2::try_build(Default::default(), &ds.models(), 5).unwrap())),
-        ("lmb-slam", Box::new(glmb_slam::LmbSlam::try_build(Default::default(), &ds.models(), 5).unwrap())),
+        ("glmb-1.0", Box::new(<glmb_slam::Glmb1>::try_build(Default::default(), &ds.models(), 5).unwrap())),
+        ("glmb-2.0", Box::new(<glmb_slam::Glmb2>::try_build(Default::default(), &ds.models(), 5).unwrap())),
+        ("lmb-slam", Box::new(<glmb_slam::LmbSlam>::try_build(Default::default(), &ds.models(), 5).unwrap())),
     ];
     for (name, mut f) in filters {
         let mut landmarks = 0;
@@ -221,9 +237,10 @@ fn short_run_end_to_end() {
 fn proposal_matches_the_moment_matched_mixture() {
     use glmb_slam::map::optimal_proposal;
     use nalgebra::{Matrix3, Vector3};
-    let sensor = RangeBearingSensor::default();
+    let rb = sensor();
+    let sensor = rb.sensor;
     let ps = 0.95;
-    let m = models(&sensor, ps);
+    let m = models(&rb, ps);
     let x_bar = Pose::new(0.05, -0.02, 0.01);
     let q = Matrix3::from_diagonal(&Vector3::new(0.02f64.powi(2), 0.03f64.powi(2), 0.01f64.powi(2)));
     let z = scan();
@@ -275,8 +292,9 @@ fn proposal_matches_the_moment_matched_mixture() {
 fn proposal_wraps_bearings_at_the_seam() {
     use glmb_slam::map::optimal_proposal;
     use nalgebra::{Matrix3, Vector3};
-    let sensor = RangeBearingSensor::default();
-    let m = models(&sensor, 1.0);
+    let rb = sensor();
+    let sensor = rb.sensor;
+    let m = models(&rb, 1.0);
     let x_bar = Pose::new(0.0, 0.0, 0.0);
     let q = Matrix3::from_diagonal(&Vector3::new(0.02f64.powi(2), 0.02f64.powi(2), 0.005f64.powi(2)));
     let t = Track { label: 3, mean: Point2::new(-1.5, 0.002), cov: Matrix2::identity() * 1e-4 };
