@@ -17,7 +17,7 @@ fn recursion(c: &mut Criterion) {
         bench_filter::<PmbSlam>(c, <PmbSlam>::NAME, &ds, n);
     }
     for n in [1, 10] {
-        bench_filter::<PmbmSlamMh>(c, PmbmSlamMh::NAME, &ds, n);
+        bench_filter::<PmbmSlamMh>(c, <PmbmSlamMh>::NAME, &ds, n);
     }
     bench_filter::<MpmbSlam>(c, <MpmbSlam>::NAME, &ds, 1);
 }

@@ -56,7 +56,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let ds = Dataset::read(Path::new(dir))?;
     let truth: Vec<Vector2<f64>> =
         ds.landmarks.as_ref().ok_or("the data set has no landmarks.csv")?.iter().map(|l| l.position).collect();
-    let mut f = PmbmSlamMh::try_build(params, &ds.models(), 1)?;
+    let mut f = <PmbmSlamMh>::try_build(params, &ds.models(), 1)?;
     let mut rng = stream(&[seed, purpose::FILTER, 1]);
     let mut seg: Vec<ControlSegment> = Vec::new();
     let mut seen: HashMap<(u64, u64), Seen> = HashMap::new();

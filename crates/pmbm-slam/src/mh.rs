@@ -14,9 +14,9 @@
 //! transition density directly (the mixture would be that density alone, with a zero
 //! correction), so its random stream is `pmbm-slam`'s.
 //!
-//! The density is range-bearing specific (2-D landmarks), so the variant exists for the
-//! range-bearing instance only: it is a pose hook ([`PmbmFilter::step_with_proposal`])
-//! on the generic filter, which keeps the transition density for every other model.
+//! The density is written for planar worlds (2-D landmarks, two-component measurements), so
+//! the variant is generic over the planar sensor models ([`rfslam_core::PlanarSensorModel`]):
+//! it is a pose hook ([`PmbmFilter::step_with_proposal`]) on the generic filter.
 
 use mh_importance_density::{MhParams, MhProposal, TaylorSlr};
 use rbphd::{GmMap, PoseSample, ProposalContext};
@@ -26,9 +26,10 @@ use rfslam_core::{
 };
 use serde::{Deserialize, Serialize};
 
-use crate::filter::{PmbmFilter, PoseDraw, RangeBearingPmbm, Variant, range_bearing_model};
-use crate::model::SensorModel;
+use crate::filter::{PmbmFilter, PoseDraw, Variant, sensor_model};
+use crate::model::RangeBearingModel;
 use crate::params::Params;
+use rfslam_core::{PlanarSensorModel, SensorKind};
 
 /// Parameters of `pmbm-slam-mh`: `pmbm-slam`'s, the importance density's, and its gate.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -66,8 +67,8 @@ impl MhPmbmParams {
 
 /// The per-particle importance density and its buffers.
 #[derive(Clone)]
-struct MhDraw {
-    proposal: MhProposal,
+struct MhDraw<S: PlanarSensorModel> {
+    proposal: MhProposal<TaylorSlr, S>,
     gate: f64,
     map: GmMap,
     detectable: Vec<usize>,
@@ -75,7 +76,7 @@ struct MhDraw {
     samples: Vec<PoseSample>,
 }
 
-impl std::fmt::Debug for MhDraw {
+impl<S: PlanarSensorModel> std::fmt::Debug for MhDraw<S> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("MhDraw").field("gate", &self.gate).finish_non_exhaustive()
     }
@@ -85,19 +86,20 @@ impl std::fmt::Debug for MhDraw {
 /// 3.0's multi-hypotheses importance density on each particle's heaviest global hypothesis
 /// (our variant; see the module docs).
 #[derive(Debug, Clone)]
-pub struct PmbmSlamMh {
-    /// The PMBM filter on the range-bearing sensor.
-    pub filter: RangeBearingPmbm,
-    mh: MhDraw,
-    min_clutter_intensity: f64,
+pub struct PmbmSlamMh<S: PlanarSensorModel = RangeBearingModel> {
+    /// The PMBM filter on the planar sensor model `S`.
+    pub filter: PmbmFilter<S, 2, 2>,
+    mh: MhDraw<S>,
+    /// `ln max(kappa, min_clutter_intensity)`, the importance density's clutter term.
+    log_clutter: f64,
 }
 
-impl PmbmSlamMh {
+impl<S: PlanarSensorModel> PmbmSlamMh<S> {
     /// Registered name.
     pub const NAME: &'static str = "pmbm-slam-mh";
 }
 
-impl SlamFilter for PmbmSlamMh {
+impl<S: PlanarSensorModel> SlamFilter for PmbmSlamMh<S> {
     fn name(&self) -> &str {
         Self::NAME
     }
@@ -108,7 +110,7 @@ impl SlamFilter for PmbmSlamMh {
 
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
         let mh = &mut self.mh;
-        let kappa_floor = self.min_clutter_intensity;
+        let log_clutter = self.log_clutter;
         self.filter.step_with_proposal(odometry, scan.z.iter().copied(), rng, |ctx, rng| {
             mh.map.clear();
             mh.detectable.clear();
@@ -137,7 +139,7 @@ impl SlamFilter for PmbmSlamMh {
                 map: &mh.map,
                 detectable: &mh.detectable,
                 pd: &mh.pd,
-                log_clutter: ctx.model.kappa.max(kappa_floor).ln(),
+                log_clutter,
                 gate: mh.gate,
             };
             let stats = mh.proposal.propose_mh(&pctx, 1, rng, &mut mh.samples);
@@ -164,19 +166,23 @@ impl SlamFilter for PmbmSlamMh {
     }
 }
 
-impl FilterBuild for PmbmSlamMh {
+impl<S: PlanarSensorModel> FilterBuild for PmbmSlamMh<S> {
     type Params = MhPmbmParams;
+
+    fn serves(sensor: SensorKind) -> bool {
+        sensor == S::KIND
+    }
 
     fn check(params: &MhPmbmParams, models: &SlamModels, particles: usize) -> Result<(), ParamError> {
         params.validate(particles)?;
-        let model = range_bearing_model(&params.pmbm, models);
-        model.detection.validate().map_err(|e| ParamError::new("detection_pd", e))?;
+        let model = sensor_model::<S>(&params.pmbm, models);
+        params.pmbm.detection(models).validate().map_err(|e| ParamError::new("detection_pd", e))?;
         params.pmbm.check_undetected(&model)
     }
 
     fn build(params: Validated<Self>, models: &SlamModels) -> Self {
         let (params, particles) = params.into_parts();
-        let model = range_bearing_model(&params.pmbm, models);
+        let model = sensor_model::<S>(&params.pmbm, models);
         let mh = MhDraw {
             proposal: MhProposal::with_slr(&params.proposal, TaylorSlr),
             gate: params.proposal_gate,
@@ -185,11 +191,7 @@ impl FilterBuild for PmbmSlamMh {
             pd: Vec::new(),
             samples: Vec::new(),
         };
-        let min_clutter_intensity = params.pmbm.min_clutter_intensity;
-        PmbmSlamMh {
-            filter: PmbmFilter::new(Variant::Pmbm, params.pmbm, models, model, particles),
-            mh,
-            min_clutter_intensity,
-        }
+        let log_clutter = params.pmbm.clutter_intensity(models).max(params.pmbm.min_clutter_intensity).ln();
+        PmbmSlamMh { filter: PmbmFilter::new(Variant::Pmbm, params.pmbm, models, model, particles), mh, log_clutter }
     }
 }

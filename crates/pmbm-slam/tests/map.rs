@@ -112,7 +112,7 @@ fn maps_hold_every_landmark_once_when_single_detections_are_not_reported() {
     // pmbm-slam-mh with 10 particles (with one, the pose error of the single trajectory
     // exceeds the gate at times and a re-observed landmark starts a second track); T_EP
     // only selects its estimate, so one run gives both maps.
-    let mut f = PmbmSlamMh::try_build(MhPmbmParams::default(), &ds.models(), 10).unwrap();
+    let mut f = <PmbmSlamMh>::try_build(MhPmbmParams::default(), &ds.models(), 10).unwrap();
     check("pmbm-slam-mh", score(&ds, &mut f, [T_EP, 0.4]));
 
     // mpmb-slam: T_EP also picks the Bernoullis that update the vehicle (Section IV-D), so

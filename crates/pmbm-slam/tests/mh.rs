@@ -36,7 +36,7 @@ fn transition_on_an_empty_map_then_the_importance_density() {
     let ds = dataset(40);
     let models = ds.models();
     let mut a = <PmbmSlam>::try_build(Params::default(), &models, 8).unwrap();
-    let mut b = PmbmSlamMh::try_build(MhPmbmParams::default(), &models, 8).unwrap();
+    let mut b = <PmbmSlamMh>::try_build(MhPmbmParams::default(), &models, 8).unwrap();
     let (mut ra, mut rb) = (Rng::seed_from_u64(5), Rng::seed_from_u64(5));
     let mut seg: Vec<ControlSegment> = Vec::new();
     ds.segments_for_scan(0, &mut seg);
@@ -69,7 +69,7 @@ fn localises_at_least_as_well_as_pmbm_slam() {
     let o_dr = run_filter(&ds, &mut dr, 1, &metrics, &mut |_| {});
     let mut pmbm = <PmbmSlam>::try_build(Params::default(), &ds.models(), 10).unwrap();
     let o_pmbm = run_filter(&ds, &mut pmbm, 1, &metrics, &mut |_| {});
-    let mut mh = PmbmSlamMh::try_build(MhPmbmParams::default(), &ds.models(), 10).unwrap();
+    let mut mh = <PmbmSlamMh>::try_build(MhPmbmParams::default(), &ds.models(), 10).unwrap();
     let o_mh = run_filter(&ds, &mut mh, 1, &metrics, &mut |_| {});
     println!(
         "pos RMSE / GOSPA: pmbm-slam-mh {:.3} m / {:.2} m, pmbm-slam {:.3} m / {:.2} m, dead reckoning {:.3} m / {:.2} m",
@@ -103,9 +103,9 @@ fn bad_parameters_name_the_key() {
     for (key, set) in cases {
         let mut p = MhPmbmParams::default();
         set(&mut p);
-        assert_eq!(PmbmSlamMh::validate(p, &models, 5).unwrap_err().key, key);
+        assert_eq!(<PmbmSlamMh>::validate(p, &models, 5).unwrap_err().key, key);
     }
-    assert!(PmbmSlamMh::validate(MhPmbmParams::default(), &models, 5).is_ok());
+    assert!(<PmbmSlamMh>::validate(MhPmbmParams::default(), &models, 5).is_ok());
     // The flat table: both parts' keys are read, an unknown one is named.
     let t: toml::Table = toml::from_str("max_assignments = 7\ngh_prune = 0.01\nproposal_gate = 20.0").unwrap();
     let p: MhPmbmParams = rfslam_core::params::from_table(&t).unwrap();

@@ -207,7 +207,7 @@ pub static REGISTRY: &[FilterEntry] = &[
         pmbm_slam::PmbmSlam,
         "PMBM-SLAM (Kim et al. 2022): PMBM map per particle, Murty k-best global hypotheses (B_max 200), transition density as proposal"
     ),
-    entry!(
+    planar_entry!(
         "pmbm-slam-mh",
         pmbm_slam::PmbmSlamMh,
         "our variant: PMBM-SLAM with PHD-SLAM 3.0's multi-hypotheses importance density (Murty + partitioned IPL) on each particle's heaviest global hypothesis"

@@ -32,7 +32,7 @@ const SENSORS: [SensorKind; 2] = [SensorKind::RangeBearing, SensorKind::Relative
 
 /// The filters not yet generic over the sensor model: they run on the range-bearing sensor
 /// only and refuse any other when validated.
-const RANGE_BEARING_ONLY: &[&str] = &["phd-2.0a", "phd-2.0b", "pmbm-slam-mh"];
+const RANGE_BEARING_ONLY: &[&str] = &["phd-2.0a", "phd-2.0b"];
 
 /// A procedural scenario in a 300 m square with the given control noise, detection
 /// probability and clutter rate (the PHD-SLAM 3.0 synthetic sensor otherwise: 150 m,
