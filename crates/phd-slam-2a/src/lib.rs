@@ -79,8 +79,10 @@ use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
 use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
 use rfslam_core::ipl::pose_diff;
-use rfslam_core::{ParamError, Pose, RangeBearingSensor, Rng, SlamModels};
+use rfslam_core::model::RangeBearingModel;
+use rfslam_core::{ParamError, PlanarSensorModel, Pose, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
+use std::marker::PhantomData;
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
@@ -149,7 +151,8 @@ struct Pair {
 
 /// The PHD-SLAM 2.0a importance density (see the crate documentation).
 #[derive(Debug, Clone)]
-pub struct Gao2021Proposal {
+pub struct Gao2021Proposal<S: PlanarSensorModel = RangeBearingModel> {
+    sensor: PhantomData<S>,
     params: Gao2021Params,
     // reusable buffers
     row_cov: Vec<Matrix3<f64>>,
@@ -165,7 +168,7 @@ pub struct Gao2021Proposal {
     fell_back: bool,
 }
 
-impl Gao2021Proposal {
+impl<S: PlanarSensorModel> Gao2021Proposal<S> {
     /// The mixture of the last call: the prior first, then one term per gated pair (in the
     /// order of the detectable components, then of the measurements).
     pub fn mixture(&self) -> impl Iterator<Item = MixtureTerm> + '_ {
@@ -192,15 +195,15 @@ impl Gao2021Proposal {
 
     /// Steps 1-2 of the crate documentation: the gated pairs, their conditional means,
     /// `Σ_i` per detectable component and `ln β_ij`.
-    fn collect_pairs(&mut self, ctx: &ProposalContext, stats: &mut ProposalStats) {
-        let sensor = &ctx.models.sensor;
-        let r = ctx.models.measurement_noise;
+    fn collect_pairs(&mut self, ctx: &ProposalContext<S>, stats: &mut ProposalStats) {
+        let sensor = ctx.sensor;
+        let r = sensor.noise(());
         let (x_bar, q) = (ctx.predicted, ctx.q);
         self.pairs.clear();
         self.row_cov.clear();
         for (row, &i) in ctx.detectable.iter().enumerate() {
             let (m, p, log_eta, pd) = (ctx.map.mean[i], ctx.map.cov[i], ctx.map.log_w[i], ctx.pd[row]);
-            let lin = sensor.linearise(&x_bar, &m);
+            let lin = sensor.linearise(&x_bar, &m, ());
             let omega = lin.hm * p * lin.hm.transpose() + r;
             let s = symmetrise(&(lin.hx * q * lin.hx.transpose() + omega));
             let Some(ch) = s.cholesky() else {
@@ -216,7 +219,7 @@ impl Gao2021Proposal {
             let log_det = 2.0 * (l[(0, 0)].ln() + l[(1, 1)].ln());
             let base = pd.ln() + log_eta - ctx.log_clutter - 0.5 * (2.0 * LN_2PI + log_det);
             for (j, zj) in ctx.z.iter().enumerate() {
-                let nu = RangeBearingSensor::residual(zj, &lin.z);
+                let nu = sensor.residual(zj, &lin.z);
                 let maha = nu.dot(&ch.solve(&nu));
                 // Outside the gate, or NaN.
                 if maha.is_nan() || maha > ctx.gate {
@@ -310,11 +313,10 @@ where
     Some((mean, symmetrise(&cov)))
 }
 
-impl Proposal for Gao2021Proposal {
+impl<S: PlanarSensorModel> Proposal for Gao2021Proposal<S> {
     const NAME: &'static str = "phd-2.0a";
     type Params = Gao2021Params;
-    /// Written for the range-bearing sensor (its Jacobians and sigma points).
-    type Sensor = rfslam_core::model::RangeBearingModel;
+    type Sensor = S;
 
     fn validate(_: &Gao2021Params) -> Result<(), ParamError> {
         Ok(())
@@ -322,6 +324,7 @@ impl Proposal for Gao2021Proposal {
 
     fn new(params: &Gao2021Params, _models: &SlamModels) -> Self {
         Gao2021Proposal {
+            sensor: PhantomData,
             params: params.clone(),
             row_cov: Vec::new(),
             pairs: Vec::new(),
@@ -336,7 +339,13 @@ impl Proposal for Gao2021Proposal {
         }
     }
 
-    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+    fn propose(
+        &mut self,
+        ctx: &ProposalContext<S>,
+        n: usize,
+        rng: &mut Rng,
+        out: &mut Vec<PoseSample>,
+    ) -> ProposalStats {
         out.clear();
         let mut stats = ProposalStats::default();
         let (x_bar, q) = (ctx.predicted, ctx.q);
@@ -401,7 +410,7 @@ impl Proposal for Gao2021Proposal {
 }
 
 /// PHD-SLAM 2.0a.
-pub type PhdSlam2a = RbPhd<Gao2021Proposal>;
+pub type PhdSlam2a<S = RangeBearingModel> = RbPhd<Gao2021Proposal<S>>;
 
 #[cfg(test)]
 mod tests {
@@ -409,6 +418,7 @@ mod tests {
     use nalgebra::{Matrix2, Matrix2x3};
     use rand::SeedableRng;
     use rbphd::GmMap;
+    use rfslam_core::RangeBearingSensor;
     use rfslam_core::{Point2, RangeBearing};
     use std::f64::consts::PI;
 
@@ -450,7 +460,7 @@ mod tests {
     }
 
     fn proposal(use_mean: bool, norm: PairNormalisation) -> Gao2021Proposal {
-        Gao2021Proposal::new(&Gao2021Params { use_mean, pair_normalisation: norm }, &models())
+        <Gao2021Proposal>::new(&Gao2021Params { use_mean, pair_normalisation: norm }, &models())
     }
 
     /// Jacobians of the sensor by central differences (independent of `linearise`).

@@ -13,7 +13,7 @@ use rfslam_sim::ScenarioData;
 
 fn run(ds: &Dataset, params: Gao2021Params, n: usize, seed: u64) -> JobOutcome {
     let params = PhdParams { proposal: params, ..Default::default() };
-    let mut f = PhdSlam2a::try_build(params, &ds.models(), n).unwrap();
+    let mut f = <PhdSlam2a>::try_build(params, &ds.models(), n).unwrap();
     run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {})
 }
 

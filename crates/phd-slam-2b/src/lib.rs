@@ -28,9 +28,11 @@ use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample};
 use rfslam_core::ipl::pose_diff;
 use rfslam_core::joint_ipl::{JointIpl, JointIplSettings, KlOn};
+use rfslam_core::model::RangeBearingModel;
 use rfslam_core::params::{CountRange, Interval};
-use rfslam_core::{ParamError, Point2, Pose, RangeBearing, Rng, SlamModels};
+use rfslam_core::{ParamError, PlanarSensorModel, Point2, Pose, RangeBearing, Rng, SlamModels};
 use serde::{Deserialize, Serialize};
+use std::marker::PhantomData;
 
 /// Parameters of the joint importance density (defaults: \[Kaltiokallio2024\] Section VI, shared
 /// with 3.0).
@@ -72,7 +74,8 @@ impl Default for JointParams {
 
 /// The joint pose-and-map IPL importance density on the best association.
 #[derive(Clone)]
-pub struct JointProposal {
+pub struct JointProposal<S: PlanarSensorModel = RangeBearingModel> {
+    sensor: PhantomData<S>,
     params: JointParams,
     murty: Murty,
     ranked: Vec<Assignment>,
@@ -91,7 +94,7 @@ pub struct JointProposal {
     cov: Matrix3<f64>,
 }
 
-impl JointProposal {
+impl<S: PlanarSensorModel> JointProposal<S> {
     /// The best association of the last call (measurement index per detectable component,
     /// `None` = missed) and the pose proposal `N(mean, cov)`.
     pub fn last(&self) -> (&[Option<usize>], &Pose, &Matrix3<f64>) {
@@ -99,11 +102,10 @@ impl JointProposal {
     }
 }
 
-impl Proposal for JointProposal {
+impl<S: PlanarSensorModel> Proposal for JointProposal<S> {
     const NAME: &'static str = "phd-2.0b";
     type Params = JointParams;
-    /// Written for the range-bearing sensor (its Jacobians and sigma points).
-    type Sensor = rfslam_core::model::RangeBearingModel;
+    type Sensor = S;
 
     fn validate(p: &JointParams) -> Result<(), ParamError> {
         CountRange::ITERATIONS.check("ipl_iterations", p.ipl_iterations)?;
@@ -112,6 +114,7 @@ impl Proposal for JointProposal {
 
     fn new(params: &JointParams, _models: &SlamModels) -> Self {
         JointProposal {
+            sensor: PhantomData,
             params: params.clone(),
             murty: Murty::new(),
             ranked: Vec::new(),
@@ -128,7 +131,13 @@ impl Proposal for JointProposal {
         }
     }
 
-    fn propose(&mut self, ctx: &ProposalContext, n: usize, rng: &mut Rng, out: &mut Vec<PoseSample>) -> ProposalStats {
+    fn propose(
+        &mut self,
+        ctx: &ProposalContext<S>,
+        n: usize,
+        rng: &mut Rng,
+        out: &mut Vec<PoseSample>,
+    ) -> ProposalStats {
         let (x_bar, q) = (ctx.predicted, ctx.q);
         let nz = ctx.z.len();
         let mut stats = ProposalStats { components: 1, cholesky_failures: 0 };
@@ -178,18 +187,19 @@ impl Proposal for JointProposal {
             kl_threshold: self.params.ipl_kl_threshold,
             kl_on: self.params.ipl_kl_on,
         };
-        let sensor = &ctx.models.sensor;
+        let sensor = ctx.sensor;
         let res = self.ipl.update(
             &x_bar,
             &q,
             &self.m_bar,
             &self.p_m,
             &self.z,
-            &ctx.models.measurement_noise,
+            &sensor.noise(()),
             |_, x, mm| {
-                let l = sensor.linearise(x, mm);
+                let l = sensor.linearise(x, mm, ());
                 (l.z, l.hx, l.hm)
             },
+            |a, b| sensor.residual(a, b),
             &settings,
         );
         if res.lost_definiteness {
@@ -228,7 +238,7 @@ impl Proposal for JointProposal {
 }
 
 /// PHD-SLAM 2.0b.
-pub type PhdSlam2b = RbPhd<JointProposal>;
+pub type PhdSlam2b<S = RangeBearingModel> = RbPhd<JointProposal<S>>;
 
 #[cfg(test)]
 mod tests {
@@ -275,7 +285,7 @@ mod tests {
         let x_bar = Pose::new(1.0, 0.0, 0.2);
         let z = [RangeBearing::new(10.0, 0.1)];
         let c = ctx(&m, &map, &z, &[], &[], x_bar, q);
-        let mut p = JointProposal::new(&JointParams::default(), &m);
+        let mut p = <JointProposal>::new(&JointParams::default(), &m);
         let mut out = Vec::new();
         let stats = p.propose(&c, 3, &mut Rng::seed_from_u64(2), &mut out);
         assert_eq!(stats.components, 1);
@@ -307,7 +317,7 @@ mod tests {
         map.push(0.0, lm, Matrix2::identity() * 0.01);
         let z = [RangeBearing::new(80.0, -0.9), sensor.predict(&truth, &lm)];
         let c = ctx(&m, &map, &z, &[0], &[0.95], x_bar, q);
-        let mut p = JointProposal::new(&JointParams::default(), &m);
+        let mut p = <JointProposal>::new(&JointParams::default(), &m);
         let mut out = Vec::new();
         let stats = p.propose(&c, 50, &mut Rng::seed_from_u64(5), &mut out);
         assert_eq!(stats.cholesky_failures, 0);
@@ -324,6 +334,7 @@ mod tests {
                 let l = sensor.linearise(x, mm);
                 (l.z, l.hx, l.hm)
             },
+            rfslam_core::RangeBearingSensor::residual,
             &JointIplSettings::default(),
         );
         assert_relative_eq!(*mean, expected.mean, epsilon = 1e-12);
@@ -360,7 +371,7 @@ mod tests {
             map.push(0.0, second, Matrix2::identity() * 0.01);
             let x_bar = Pose::new(0.0, 1.0, 0.0);
             let c = ctx(&m, &map, &z, &[0, 1], &[0.95, 0.95], x_bar, q);
-            let mut p = JointProposal::new(&JointParams::default(), &m);
+            let mut p = <JointProposal>::new(&JointParams::default(), &m);
             let mut out = Vec::new();
             p.propose(&c, 1, &mut Rng::seed_from_u64(1), &mut out);
             let (phi, mean, _) = p.last();
@@ -377,12 +388,12 @@ mod tests {
         map.push(0.0, b, Matrix2::identity() * 0.01);
         let x_bar = Pose::new(0.0, 0.0, 0.0);
         let c = ctx(&m, &map, &z, &[0, 1], &[0.95, 0.95], x_bar, q);
-        let mut p = JointProposal::new(&JointParams::default(), &m);
+        let mut p = <JointProposal>::new(&JointParams::default(), &m);
         let mut out = Vec::new();
         p.propose(&c, 1, &mut Rng::seed_from_u64(1), &mut out);
         let forced = [z[1], z[0]];
         let c = ctx(&m, &map, &forced, &[0, 1], &[0.95, 0.95], x_bar, q);
-        let mut p2 = JointProposal::new(&JointParams::default(), &m);
+        let mut p2 = <JointProposal>::new(&JointParams::default(), &m);
         p2.propose(&c, 1, &mut Rng::seed_from_u64(1), &mut out);
         let (phi2, mean2, _) = p2.last();
         assert_eq!(phi2, &[Some(1), Some(0)], "the association follows the measurements");
@@ -391,8 +402,8 @@ mod tests {
 
     #[test]
     fn bad_params_rejected() {
-        assert!(JointProposal::validate(&JointParams { ipl_iterations: 0, ..Default::default() }).is_err());
-        assert!(JointProposal::validate(&JointParams { ipl_kl_threshold: f64::NAN, ..Default::default() }).is_err());
-        assert!(JointProposal::validate(&JointParams::default()).is_ok());
+        assert!(<JointProposal>::validate(&JointParams { ipl_iterations: 0, ..Default::default() }).is_err());
+        assert!(<JointProposal>::validate(&JointParams { ipl_kl_threshold: f64::NAN, ..Default::default() }).is_err());
+        assert!(<JointProposal>::validate(&JointParams::default()).is_ok());
     }
 }

@@ -89,6 +89,7 @@ fn bench_scaling(c: &mut Criterion) {
                         let l = sensor.linearise(x, mm);
                         (l.z, l.hx, l.hm)
                     },
+                    rfslam_core::RangeBearingSensor::residual,
                     &JointIplSettings::default(),
                 )
             })
@@ -116,6 +117,7 @@ fn bench_scaling(c: &mut Criterion) {
                 let l = sensor.linearise(x, mm);
                 (l.z, l.hx, l.hm)
             },
+            rfslam_core::RangeBearingSensor::residual,
             &JointIplSettings::default(),
         );
         eprintln!("M = {m}: iterations partitioned {}, joint {}", part.iterations, j.iterations);

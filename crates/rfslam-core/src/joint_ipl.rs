@@ -170,10 +170,11 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 impl JointIpl {
     /// The joint IPL for the prior `N(x_bar, q)` of the pose and `N(m_bar[a], p_m[a])` of the
     /// landmark associated with `z[a]`; `linearise(a, x, m)` is the sensor linearised at a
-    /// pose and landmark. Returns the pose marginal of the last accepted iterate (the prior
-    /// when `z` is empty).
+    /// pose and landmark, `residual(z, z_hat)` the sensor's residual (angles wrapped,
+    /// [`crate::SensorModel::residual`]). Returns the pose marginal of the last accepted
+    /// iterate (the prior when `z` is empty).
     #[allow(clippy::too_many_arguments)]
-    pub fn update<F>(
+    pub fn update<F, D>(
         &mut self,
         x_bar: &Pose,
         q: &Matrix3<f64>,
@@ -182,10 +183,12 @@ impl JointIpl {
         z: &[RangeBearing],
         r: &Matrix2<f64>,
         mut linearise: F,
+        residual: D,
         settings: &JointIplSettings,
     ) -> IplResult
     where
         F: FnMut(usize, &Pose, &Point2) -> JointLinearised,
+        D: Fn(&RangeBearing, &RangeBearing) -> RangeBearing,
     {
         let m = z.len();
         assert!(m_bar.len() == m && p_m.len() == m, "one prior landmark per measurement");
@@ -221,7 +224,7 @@ impl JointIpl {
         let mut lost = false;
 
         for l in 1..=settings.max_iterations.max(1) {
-            // Linearise at pi_{l-1}; residuals z ⊖ (z_hat + A (y_0 - y_pi)), bearings wrapped.
+            // Linearise at pi_{l-1}; residuals z ⊖ (z_hat + A (y_0 - y_pi)), angles wrapped.
             let x_pi = Pose::new(self.y_pi[0], self.y_pi[1], self.y_pi[2]);
             let dx = Pose::new(self.y0[0] - x_pi[0], self.y0[1] - x_pi[1], diff(self.y0[2], x_pi[2]));
             for (a, za) in z.iter().enumerate() {
@@ -230,8 +233,9 @@ impl JointIpl {
                 let (z_hat, hx, hm) = linearise(a, &x_pi, &m_pi);
                 let dm = Point2::new(self.y0[o] - m_pi[0], self.y0[o + 1] - m_pi[1]);
                 let pred = z_hat + hx * dx + hm * dm;
-                self.res[2 * a] = za[0] - pred[0];
-                self.res[2 * a + 1] = wrap(za[1] - pred[1]);
+                let nu = residual(za, &pred);
+                self.res[2 * a] = nu[0];
+                self.res[2 * a + 1] = nu[1];
                 self.lin[a] = (z_hat, hx, hm);
             }
             // W = (P_0 A^T)^T: block row a is [G_x Q | 0 .. G_m P_a .. 0] (P_0 block diagonal);
@@ -386,6 +390,7 @@ mod tests {
                     let (ax, bm) = linear(a);
                     (ax * x + bm * mm, ax, bm)
                 },
+                crate::sensor::RangeBearingSensor::residual,
                 &JointIplSettings::default(),
             );
             let part = ipl_update(
@@ -416,6 +421,7 @@ mod tests {
                     let (ax, bm) = linear(a);
                     (ax * x + bm * mm, ax, bm)
                 },
+                crate::sensor::RangeBearingSensor::residual,
                 &s,
             );
             assert_relative_eq!(res2.mean, res.mean, epsilon = 1e-12);
@@ -452,6 +458,7 @@ mod tests {
             &[z],
             &r,
             |_, x, m| (a * x + b * m, a, b),
+            crate::sensor::RangeBearingSensor::residual,
             &JointIplSettings::default(),
         );
         assert_relative_eq!(res.mean, Pose::new(y[0], y[1], y[2]), epsilon = 1e-12);
@@ -477,7 +484,17 @@ mod tests {
             (l.z, l.hx, l.hm)
         };
         let settings = JointIplSettings::default();
-        let fresh = JointIpl::default().update(&x_bar, &q, &m_bar, &p_m, &z, &r, lin, &settings);
+        let fresh = JointIpl::default().update(
+            &x_bar,
+            &q,
+            &m_bar,
+            &p_m,
+            &z,
+            &r,
+            lin,
+            crate::sensor::RangeBearingSensor::residual,
+            &settings,
+        );
         let part = ipl_update(
             &x_bar,
             &q,
@@ -493,9 +510,39 @@ mod tests {
         assert!((fresh.mean - truth).xy().norm() < 0.5, "{:?}", fresh.mean);
         assert!((fresh.mean - part.mean).norm() < 0.05, "{:?} vs {:?}", fresh.mean, part.mean);
         let mut reused = JointIpl::default();
-        reused.update(&x_bar, &q, &m_bar[..2], &p_m[..2], &z[..2], &r, lin, &settings);
-        reused.update(&x_bar, &q, &m_bar[..6], &p_m, &z, &r, lin, &settings);
-        let again = reused.update(&x_bar, &q, &m_bar, &p_m, &z, &r, lin, &settings);
+        reused.update(
+            &x_bar,
+            &q,
+            &m_bar[..2],
+            &p_m[..2],
+            &z[..2],
+            &r,
+            lin,
+            crate::sensor::RangeBearingSensor::residual,
+            &settings,
+        );
+        reused.update(
+            &x_bar,
+            &q,
+            &m_bar[..6],
+            &p_m,
+            &z,
+            &r,
+            lin,
+            crate::sensor::RangeBearingSensor::residual,
+            &settings,
+        );
+        let again = reused.update(
+            &x_bar,
+            &q,
+            &m_bar,
+            &p_m,
+            &z,
+            &r,
+            lin,
+            crate::sensor::RangeBearingSensor::residual,
+            &settings,
+        );
         assert_eq!(again, fresh);
     }
 
@@ -512,6 +559,7 @@ mod tests {
             &[],
             &r,
             |_, _, _| unreachable!(),
+            crate::sensor::RangeBearingSensor::residual,
             &JointIplSettings::default(),
         );
         assert_eq!((res.mean, res.cov, res.iterations), (x, q, 0));
@@ -531,6 +579,7 @@ mod tests {
             &[RangeBearing::new(1.0, 0.0)],
             &r,
             |_, _, _| (RangeBearing::zeros(), Matrix2x3::zeros(), Matrix2::zeros()),
+            crate::sensor::RangeBearingSensor::residual,
             &JointIplSettings::default(),
         );
         assert!(res.lost_definiteness);

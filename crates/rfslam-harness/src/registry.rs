@@ -147,12 +147,12 @@ pub static REGISTRY: &[FilterEntry] = &[
         phd_slam_1::PhdSlam1,
         "PHD-SLAM 1.0 (Mullane et al. 2011): RB-PHD SLAM, transition density as proposal"
     ),
-    entry!(
+    planar_entry!(
         "phd-2.0a",
         phd_slam_2a::PhdSlam2a,
         "PHD-SLAM 2.0a (Gao, Battistelli, Chisci 2021): pose conditioned on each gated pair, moment-matched Gaussian proposal"
     ),
-    entry!(
+    planar_entry!(
         "phd-2.0b",
         phd_slam_2b::PhdSlam2b,
         "PHD-SLAM 2.0b (Kaltiokallio et al. 2022): joint pose-and-map IPL importance density on the best association"

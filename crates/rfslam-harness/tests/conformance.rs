@@ -32,7 +32,7 @@ const SENSORS: [SensorKind; 2] = [SensorKind::RangeBearing, SensorKind::Relative
 
 /// The filters not yet generic over the sensor model: they run on the range-bearing sensor
 /// only and refuse any other when validated.
-const RANGE_BEARING_ONLY: &[&str] = &["phd-2.0a", "phd-2.0b"];
+const RANGE_BEARING_ONLY: &[&str] = &[];
 
 /// A procedural scenario in a 300 m square with the given control noise, detection
 /// probability and clutter rate (the PHD-SLAM 3.0 synthetic sensor otherwise: 150 m,
@@ -396,7 +396,7 @@ fn particle_filters_report_poses_and_parents() {
             );
             checked += 1;
         }
-        let least = if sensor == SensorKind::RangeBearing { 12 } else { 6 };
+        let least = 12;
         assert!(checked >= least, "only {checked} particle filters checked on the {} sensor", sensor.name());
     }
 }
