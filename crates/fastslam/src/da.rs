@@ -192,7 +192,8 @@ impl<S: PlanarSensorModel> DaFastSlam<S> {
     /// settings as [`crate::FastSlam1Params::validate`] checked them).
     pub(crate) fn new(name: &'static str, settings: DaSettings, models: &SlamModels, n: usize) -> Self {
         let n = n.max(1);
-        let r2 = 2.0 * models.measurement_noise;
+        let sensor = S::from_models(models, models.clutter.intensity(&models.fov, models.sensor_kind));
+        let r2 = 2.0 * sensor.noise(());
         let log_p0 = settings
             .new_landmark_log_likelihood
             .unwrap_or_else(|| -0.5 * settings.gate - LN_2PI - 0.5 * r2.determinant().max(1e-300).ln());
@@ -203,7 +204,7 @@ impl<S: PlanarSensorModel> DaFastSlam<S> {
             name,
             settings,
             models: models.clone(),
-            sensor: S::from_models(models, models.clutter.intensity(&models.fov, models.sensor_kind)),
+            sensor,
             nominal: n,
             set: ParticleSet::new(p0, n),
             next: Vec::new(),

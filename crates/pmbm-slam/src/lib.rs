@@ -55,7 +55,7 @@
 //!   with `r > T_EP = 0.4` in its heaviest global hypothesis.
 //! - **`pmbm-slam-mh`** (our variant, [`mh`]): `pmbm-slam` with each particle's pose drawn
 //!   from PHD-SLAM 3.0's multi-hypotheses importance density (\[Kaltiokallio2024\] Section V)
-//!   on its heaviest global hypothesis, `r` in place of the PHD weight; range-bearing only.
+//!   on its heaviest global hypothesis, `r` in place of the PHD weight.
 //! - **`mpmb-slam`** (Section IV-D, eqs. 39-41; [`mpmb`]): no particles, the vehicle one
 //!   Gaussian predicted and updated with the cubature Kalman filter ([`cubature`]), the map
 //!   a PMB updated by joint cubature, LBP and TOMB/P, the vehicle by one stacked update with
@@ -63,8 +63,9 @@
 //!
 //! The filters reach the sensor only through [`model::InvertibleSensorModel`] (prediction,
 //! Jacobians, residual, inverse, detection probability, field of view, clutter intensity,
-//! birth integral), implemented for the planar range-bearing sensor by
-//! [`model::RangeBearingModel`]. The clutter intensity is in measurement space by default
+//! birth integral); the registered filters are generic over the planar sensor models
+//! (`rfslam_core::PlanarSensorModel`: the range-bearing and the relative-position sensor).
+//! The clutter intensity is in measurement space by default
 //! (`clutter_intensity = "measurement"`): it is the ratio `e_j / kappa(z_j)` that decides
 //! whether a measurement starts a landmark, and the Cartesian density of the published
 //! PHD-SLAM 3.0 tables is about 75 times smaller on their world.
