@@ -192,7 +192,7 @@ impl<S: PlanarSensorModel> DaFastSlam<S> {
     /// settings as [`crate::FastSlam1Params::validate`] checked them).
     pub(crate) fn new(name: &'static str, settings: DaSettings, models: &SlamModels, n: usize) -> Self {
         let n = n.max(1);
-        let sensor = S::from_models(models, models.clutter.intensity(&models.fov, models.sensor_kind));
+        let sensor = S::from_models(models, models.clutter_intensity());
         let r2 = 2.0 * sensor.noise(());
         let log_p0 = settings
             .new_landmark_log_likelihood

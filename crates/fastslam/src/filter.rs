@@ -65,7 +65,7 @@ impl<S: PlanarSensorModel> OracleFastSlam2<S> {
         OracleFastSlam2 {
             params,
             models: models.clone(),
-            sensor: S::from_models(models, models.clutter.intensity(&models.fov, models.sensor_kind)),
+            sensor: S::from_models(models, models.clutter_intensity()),
             ipl,
             set: ParticleSet::new(p0, n),
             unlabelled_scans: 0,

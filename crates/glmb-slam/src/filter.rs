@@ -92,14 +92,14 @@ impl<S: PlanarSensorModel> GlmbSlam<S> {
     /// A filter with `n` particles at the initial pose with empty maps (through
     /// [`FilterBuild::build`] of a variant: validated).
     fn new(variant: Variant, params: Params, models: &SlamModels, n: usize) -> Self {
-        let log_kappa =
-            models.clutter.intensity(&models.fov, models.sensor_kind).max(params.min_clutter_intensity).ln();
+        let kappa = models.clutter_intensity();
+        let log_kappa = kappa.max(params.min_clutter_intensity).ln();
         let p0 = Particle { pose: models.initial_pose, ..Default::default() };
         GlmbSlam {
             variant,
             params,
             models: models.clone(),
-            sensor: S::from_models(models, log_kappa.exp()),
+            sensor: S::from_models(models, kappa),
             log_kappa,
             set: ParticleSet::new(p0, n),
             step: 0,

@@ -463,7 +463,7 @@ mod tests {
             map: &map,
             detectable: &[0, 1],
             pd: &[0.95, 0.95],
-            log_clutter: m.clutter.intensity(&m.fov, m.sensor_kind).ln(),
+            log_clutter: m.clutter_intensity().ln(),
             gate: 41.4465,
         };
         let mut rng = Rng::seed_from_u64(1);

@@ -270,7 +270,7 @@ mod tests {
             map,
             detectable: det,
             pd,
-            log_clutter: m.clutter.intensity(&m.fov, m.sensor_kind).ln(),
+            log_clutter: m.clutter_intensity().ln(),
             gate: 41.4465,
         }
     }

@@ -8,7 +8,7 @@ use rfslam_core::{
     StepReport, Validated,
 };
 
-use crate::model::{InvertibleSensorModel, RangeBearingModel};
+use crate::model::InvertibleSensorModel;
 use crate::params::{Params, undetected_cell};
 use crate::pmbm::{PmbWeight, PmbmDensity, UpdateSettings, Workspace, pmb_update, pmbm_update};
 use crate::undetected::Undetected;
@@ -253,23 +253,12 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
     }
 }
 
-/// The family on the planar range-bearing sensor of a scenario.
-pub type RangeBearingPmbm = PmbmFilter<RangeBearingModel, 2, 2>;
-
 /// The planar sensor model `S` a filter with `params` assumes on `models`: the scenario's
 /// sensor with the filter's clutter intensity and detection model (`detection_pd`).
 pub fn sensor_model<S: PlanarSensorModel>(params: &Params, models: &SlamModels) -> S {
     let mut assumed = models.clone();
     assumed.detection = params.detection(models);
     S::from_models(&assumed, params.clutter_intensity(models))
-}
-
-/// The range-bearing model a filter with `params` assumes on `models` (whatever sensor the
-/// scenario declares: for the variants written for this sensor alone).
-pub fn range_bearing_model(params: &Params, models: &SlamModels) -> RangeBearingModel {
-    let mut m = RangeBearingModel::new(models, params.clutter_intensity(models));
-    m.detection = params.detection(models);
-    m
 }
 
 impl<S: PlanarSensorModel> FilterEngine for PmbmFilter<S, 2, 2> {

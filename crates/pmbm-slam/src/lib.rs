@@ -79,7 +79,7 @@ pub mod params;
 pub mod pmbm;
 pub mod undetected;
 
-pub use filter::{DrawContext, Particle, PmbSlam, PmbmFilter, PmbmSlam, PoseDraw, RangeBearingPmbm, Variant};
+pub use filter::{DrawContext, Particle, PmbSlam, PmbmFilter, PmbmSlam, PoseDraw, Variant};
 pub use mh::{MhPmbmParams, PmbmSlamMh};
 pub use model::{InvertibleSensorModel, RangeBearingModel};
 pub use mpmb::{MpmbFilter, MpmbParams, MpmbSlam};

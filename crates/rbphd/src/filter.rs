@@ -65,7 +65,7 @@ impl<P: Proposal> RbPhd<P> {
         let models = &params.filter_models(models);
         // A zero clutter rate makes c(z) = 0; keep ln c finite so unexplained measurements
         // do not produce NaN weights.
-        let kappa = models.clutter.intensity(&models.fov, models.sensor_kind);
+        let kappa = models.clutter_intensity();
         let log_clutter = kappa.max(1e-300).ln();
         let mf = params.multi_feature();
         let fov_active = models.fov.enlarged(params.fov_buffer_range, params.fov_buffer_deg.to_radians());

@@ -39,6 +39,15 @@ pub struct SlamModels {
     pub initial_pose: Pose,
 }
 
+impl SlamModels {
+    /// The uniform clutter intensity `kappa` the filters assume: the clutter rate over the
+    /// field of view in the scenario's units (`[clutter] intensity`) for its sensor
+    /// ([`ClutterModel::intensity`]).
+    pub fn clutter_intensity(&self) -> f64 {
+        self.clutter.intensity(&self.fov, self.sensor_kind)
+    }
+}
+
 /// A SLAM filter: predict through the odometry since the last scan, then update with it.
 ///
 /// One instance runs one Monte Carlo job on one thread; all randomness comes from the

@@ -60,7 +60,7 @@ pub fn simulate(world: &World, models: &ModelConfig, run_seed: u64) -> Result<Da
     // The sensor as it is: the hard edge whatever the filters' `[sensor] edge` (a model of
     // the filters'); the minimum range applies (`pd_true`, `sample_clutter`).
     let slam = models.to_models(x0);
-    let kappa = slam.clutter.intensity(&slam.fov, slam.sensor_kind);
+    let kappa = slam.clutter_intensity();
     let scans_odometry = match models.sensor.model {
         SensorKind::RangeBearing => draw(world, models, &RangeBearingModel::new(&slam, kappa), run_seed),
         SensorKind::RelativePosition => {
