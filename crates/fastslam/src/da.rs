@@ -463,7 +463,7 @@ impl<S: PlanarSensorModel> DaFastSlam<S> {
             .landmarks
             .iter()
             .filter(|l| l.log_odds > 0.0)
-            .map(|l| MapPoint { position: l.mean, weight: l.existence() })
+            .map(|l| MapPoint { position: l.mean, mark: 0, weight: l.existence() })
             .collect();
         Estimate { pose: p.pose, map }
     }

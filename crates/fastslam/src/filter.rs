@@ -228,7 +228,10 @@ impl<S: PlanarSensorModel> SlamFilter for OracleFastSlam2<S> {
 
     fn estimate(&self) -> Estimate {
         let p = self.set.best_particle();
-        Estimate { pose: p.pose, map: p.landmarks.iter().map(|l| MapPoint { position: l.mean, weight: 1.0 }).collect() }
+        Estimate {
+            pose: p.pose,
+            map: p.landmarks.iter().map(|l| MapPoint { position: l.mean, mark: 0, weight: 1.0 }).collect(),
+        }
     }
 
     fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {

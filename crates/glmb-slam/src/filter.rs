@@ -251,7 +251,7 @@ impl<S: PlanarSensorModel> GlmbSlam<S> {
                 .iter()
                 .zip(&p.lmb.r)
                 .filter(|(_, r)| **r > self.params.existence_estimate)
-                .map(|(t, r)| MapPoint { position: t.mean, weight: *r })
+                .map(|(t, r)| MapPoint { position: t.mean, mark: 0, weight: *r })
                 .collect(),
             _ => {
                 let h = p.glmb.map_hypothesis();
@@ -259,7 +259,7 @@ impl<S: PlanarSensorModel> GlmbSlam<S> {
                 p.glmb
                     .members_of(h)
                     .iter()
-                    .map(|&t| MapPoint { position: p.glmb.tracks[t as usize].mean, weight: w })
+                    .map(|&t| MapPoint { position: p.glmb.tracks[t as usize].mean, mark: 0, weight: w })
                     .collect()
             }
         };

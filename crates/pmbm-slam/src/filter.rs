@@ -246,7 +246,7 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
             p.map
                 .global(0)
                 .filter(|h| h.r > self.params.estimate_existence)
-                .map(|h| MapPoint { position: to_point(&h.mean), weight: h.r })
+                .map(|h| MapPoint { position: to_point(&h.mean), mark: 0, weight: h.r })
                 .collect()
         };
         Estimate { pose: p.pose, map }

@@ -529,7 +529,7 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
             .bernoullis
             .iter()
             .filter(|b| b.r > self.params.estimate_existence)
-            .map(|b| MapPoint { position: to_point(&b.mean), weight: b.r })
+            .map(|b| MapPoint { position: to_point(&b.mean), mark: 0, weight: b.r })
             .collect();
         Estimate { pose: self.mean, map }
     }

@@ -272,7 +272,7 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
             // Leung et al.: a component of weight w stands for round(w) features (bounded, so
             // that a corrupt weight cannot make the estimate unbounded).
             let copies = if self.estimate_rounding { w.round().clamp(1.0, MAX_ROUNDED_COPIES) as usize } else { 1 };
-            map.extend(std::iter::repeat_n(MapPoint { position: p.map.mean[i], weight: w }, copies));
+            map.extend(std::iter::repeat_n(MapPoint { position: p.map.mean[i], mark: 0, weight: w }, copies));
         }
         Estimate { pose: p.pose, map }
     }

@@ -1,6 +1,6 @@
 //! The [`SlamFilter`] trait every filter implements, and the models it is built with.
 
-use nalgebra::{Matrix2, Matrix3};
+use nalgebra::{Matrix2, Matrix3, SVector};
 
 use crate::detection::{ClutterModel, DetectionModel, Fov};
 use crate::model::SensorKind;
@@ -50,9 +50,13 @@ impl SlamModels {
 
 /// A SLAM filter: predict through the odometry since the last scan, then update with it.
 ///
+/// The world's dimensions are parameters: a vehicle state of `X` components, landmarks of
+/// `M` coordinates and measurements of `Z` components; the defaults are the planar worlds
+/// (`[x, y, heading]`, `[x, y]`, two measurement components).
+///
 /// One instance runs one Monte Carlo job on one thread; all randomness comes from the
 /// `rng` passed in, so the same seed gives the same output on any thread count.
-pub trait SlamFilter: Send {
+pub trait SlamFilter<const X: usize = 3, const M: usize = 2, const Z: usize = 2>: Send {
     /// Registered name (e.g. `phd-3.0`).
     fn name(&self) -> &str;
 
@@ -60,10 +64,10 @@ pub trait SlamFilter: Send {
     fn particles(&self) -> usize;
 
     /// Predict through the odometry segments since the last scan, then update with `scan`.
-    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport;
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M>;
 
     /// Best pose and landmark map now (highest-weight particle unless the filter says otherwise).
-    fn estimate(&self) -> Estimate;
+    fn estimate(&self) -> Estimate<X, M>;
 
     /// Writes every particle's pose and normalised log weight `(x_k^(i), ln w_k^(i))` to
     /// `out` (cleared first) and returns `true`; for plotting particle clouds and trajectories
@@ -74,7 +78,7 @@ pub trait SlamFilter: Send {
     /// links the copies to their parents. The default (filters without
     /// particles, or that do not expose them) leaves `out` empty and returns `false`. It is
     /// never called by the harness unless asked for, so it costs nothing otherwise.
-    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+    fn particle_poses(&self, out: &mut Vec<(SVector<f64, X>, f64)>) -> bool {
         out.clear();
         false
     }
@@ -93,18 +97,18 @@ pub trait SlamFilter: Send {
 /// delta-GLMB engine in three variants): [`SlamFilter`] but the name, which each registered
 /// filter that [`filter_variant!`](crate::filter_variant) declares takes from its own. The
 /// particle methods have no default here, so that no variant drops them.
-pub trait FilterEngine: Send {
+pub trait FilterEngine<const X: usize = 3, const M: usize = 2, const Z: usize = 2>: Send {
     /// Number of particles (1 for engines that have none).
     fn particles(&self) -> usize;
 
     /// [`SlamFilter::step`].
-    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport;
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M>;
 
     /// [`SlamFilter::estimate`].
-    fn estimate(&self) -> Estimate;
+    fn estimate(&self) -> Estimate<X, M>;
 
     /// [`SlamFilter::particle_poses`].
-    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool;
+    fn particle_poses(&self, out: &mut Vec<(SVector<f64, X>, f64)>) -> bool;
 
     /// [`SlamFilter::particle_parents`].
     fn particle_parents(&self, out: &mut Vec<usize>) -> bool;

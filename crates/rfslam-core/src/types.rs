@@ -1,9 +1,8 @@
 //! Plain data types that flow between datasets, filters and the harness.
 
-use nalgebra::Vector3;
+use nalgebra::{SVector, Vector3};
 
 use crate::detection::Fov;
-use crate::{Point2, Pose, RangeBearing};
 
 /// A control input. Its meaning depends on the motion model:
 /// `velocity` `[v, omega, 0]` (m/s, rad/s), `ackermann` `[v, steer, 0]` (m/s, rad),
@@ -22,13 +21,15 @@ pub struct ControlSegment {
     pub u: Control,
 }
 
-/// One sensor scan: the set `Z_k` of range-bearing measurements at time `t`.
+/// One sensor scan: the set `Z_k` of measurements of `Z` components at time `t` (the
+/// planar default: `z = [range, bearing]` or `[x, y]`, as the world's sensor model says).
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct Scan {
+pub struct Scan<const Z: usize = 2> {
     /// Time stamp (s).
     pub t: f64,
-    /// Measurements `z = [range (m), bearing (rad, relative to heading, wrapped)]`.
-    pub z: Vec<RangeBearing>,
+    /// Measurements in the sensor model's components (for the range-bearing sensor `[range
+    /// (m), bearing (rad, relative to heading, wrapped)]`).
+    pub z: Vec<SVector<f64, Z>>,
     /// Truth labels, one per measurement when any is known: the landmark id, `-1` for
     /// clutter, or [`TRUTH_UNKNOWN`] for a measurement whose origin is not known (a real
     /// detection of an unidentified landmark next to labelled artificial clutter, as in the
@@ -42,27 +43,39 @@ pub struct Scan {
 /// Data-association scores skip such measurements.
 pub const TRUTH_UNKNOWN: i64 = -2;
 
-/// A landmark of a filter's map estimate.
+/// A landmark of a filter's map estimate: a point of `M` coordinates (the planar default:
+/// `[x, y]`) and its mark.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MapPoint {
+pub struct MapPoint<const M: usize = 2> {
     /// Landmark position (m).
-    pub position: Point2,
+    pub position: SVector<f64, M>,
+    /// The landmark type as an index into the world's landmark types (0 in a world with one
+    /// type, as every planar world; the 5G radio world's base station, virtual anchors and
+    /// scattering points are three).
+    pub mark: u8,
     /// The filter's weight for it (a GM-PHD weight `eta`, an existence probability, or 1).
     pub weight: f64,
 }
 
-/// The filter's current best estimate.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct Estimate {
-    /// Pose estimate (highest-weight particle unless the filter documents otherwise).
-    pub pose: Pose,
+/// The filter's current best estimate: a vehicle state of `X` components in the vehicle
+/// model's order (the planar default: `[x, y, heading]`) and a map of `M`-coordinate points.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Estimate<const X: usize = 3, const M: usize = 2> {
+    /// Vehicle state estimate (highest-weight particle unless the filter documents otherwise).
+    pub pose: SVector<f64, X>,
     /// Map estimate.
-    pub map: Vec<MapPoint>,
+    pub map: Vec<MapPoint<M>>,
 }
 
-/// What a filter reports about one recursion.
+impl<const X: usize, const M: usize> Default for Estimate<X, M> {
+    fn default() -> Self {
+        Estimate { pose: SVector::zeros(), map: Vec::new() }
+    }
+}
+
+/// What a filter reports about one recursion (landmark positions of `M` coordinates).
 #[derive(Debug, Clone, PartialEq)]
-pub struct StepReport {
+pub struct StepReport<const M: usize = 2> {
     /// Effective sample size `1 / sum w_n^2` after the update, before any resampling
     /// (between 1 and the number of particles).
     pub ess: f64,
@@ -76,12 +89,12 @@ pub struct StepReport {
     /// For filters that make explicit associations, one entry per measurement of the scan:
     /// the world position of the map component the measurement was associated with by the
     /// estimate's particle, or `None` when it was treated as clutter. Used for TPR/TNR.
-    pub associations: Option<Vec<Option<Point2>>>,
+    pub associations: Option<Vec<Option<SVector<f64, M>>>>,
     /// Covariances that failed a Cholesky factorisation in this step (handled, counted).
     pub cholesky_failures: u32,
 }
 
-impl StepReport {
+impl<const M: usize> StepReport<M> {
     /// A report for a filter with `n` equally weighted particles that did nothing special.
     pub fn plain(n: usize) -> Self {
         StepReport {

@@ -1167,7 +1167,7 @@ mod tests {
         let ds = sc.build_dataset(world.as_ref(), 1).unwrap();
         let estimate = Estimate {
             pose: ds.models().initial_pose,
-            map: map.iter().map(|&(x, y)| MapPoint { position: Point2::new(x, y), weight: 1.0 }).collect(),
+            map: map.iter().map(|&(x, y)| MapPoint { position: Point2::new(x, y), mark: 0, weight: 1.0 }).collect(),
         };
         let mut values = Values::default();
         let end = RunEnd { dataset: &ds, estimate: &estimate, steps: 0 };
@@ -1190,7 +1190,7 @@ mod tests {
         ds.landmarks = None;
         let estimate = Estimate {
             pose: ds.models().initial_pose,
-            map: vec![MapPoint { position: Point2::new(1.0, 2.0), weight: 1.0 }],
+            map: vec![MapPoint { position: Point2::new(1.0, 2.0), mark: 0, weight: 1.0 }],
         };
         let mut values = Values::default();
         let end = RunEnd { dataset: &ds, estimate: &estimate, steps: 0 };
@@ -1340,7 +1340,7 @@ mod tests {
         );
         let estimate = |map: &[(f64, f64)]| Estimate {
             pose: ds.models().initial_pose,
-            map: map.iter().map(|&(x, y)| MapPoint { position: Point2::new(x, y), weight: 1.0 }).collect(),
+            map: map.iter().map(|&(x, y)| MapPoint { position: Point2::new(x, y), mark: 0, weight: 1.0 }).collect(),
         };
         for (k, map) in maps.iter().enumerate() {
             let est = estimate(map);

@@ -273,7 +273,7 @@ mod tests {
         let truth = &ds.groundtruth.as_ref().unwrap()[5];
         let est = Estimate {
             pose: Pose::new(truth.position.x + 3.0, truth.position.y - 4.0, truth.heading.unwrap() + 0.1),
-            map: vec![MapPoint { position: Point2::new(1e6, 1e6), weight: 1.0 }],
+            map: vec![MapPoint { position: Point2::new(1e6, 1e6), mark: 0, weight: 1.0 }],
         };
         let report = StepReport::plain(1);
         let rec = StepRecord {

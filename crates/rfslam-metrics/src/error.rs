@@ -20,6 +20,18 @@ pub enum MetricError {
         /// Index of the point in its slice.
         index: usize,
     },
+    /// A point's mark is not one of the world's landmark types.
+    #[error("{set} point {index} has mark {mark}, but the world has {marks} landmark types")]
+    UnknownMark {
+        /// `"truth"` or `"estimate"`.
+        set: &'static str,
+        /// Index of the point in its slice.
+        index: usize,
+        /// The mark.
+        mark: u8,
+        /// The number of landmark types.
+        marks: usize,
+    },
     /// Two per-measurement slices differ in length.
     #[error("{what} has {got} entries, expected {expected}")]
     LengthMismatch {

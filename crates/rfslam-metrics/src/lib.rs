@@ -3,8 +3,10 @@
 //! - [`gospa`] (alpha = 2) and [`ospa`]: map error between the true landmark set and a
 //!   filter's map estimate (\[Kaltiokallio2024\] Section VI uses GOSPA with `c = 20 m`, `p = 2`;
 //!   \[Moratuwage2019\] uses OSPA with `c = 0.5 m`, `p = 1`). Both use the optimal assignment of
-//!   [`rfslam_assign`].
-//! - [`PoseErrors`]: position and wrapped-heading RMSE over steps, poolable across runs.
+//!   [`rfslam_assign`]. Points of any dimension; [`gospa_per_mark`] scores each landmark
+//!   type apart.
+//! - [`PoseErrors`]: position, wrapped-heading and clock-bias RMSE over steps (per kind of
+//!   state component the vehicle model declares), poolable across runs.
 //! - [`Se2AlignedRmse`]: position RMSE after the best rigid (SE(2)) alignment of the
 //!   estimated trajectory to the truth, accumulated in constant memory.
 //! - [`DaCounts`] / [`score_associations`]: data-association true-positive and
@@ -21,6 +23,6 @@ pub mod stats;
 
 pub use da::{DaCounts, score_associations};
 pub use error::MetricError;
-pub use ospa::{Gospa, Ospa, gospa, ospa};
+pub use ospa::{Gospa, Ospa, gospa, gospa_per_mark, ospa};
 pub use pose::{PoseErrors, Se2AlignedRmse, Se2Alignment, SumSquares};
 pub use stats::{EssStats, RunningMean};

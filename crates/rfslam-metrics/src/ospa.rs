@@ -1,8 +1,8 @@
-//! GOSPA (alpha = 2) and OSPA between two finite sets of 2-D points (\[Rahmathullah2017\],
-//! \[Schuhmacher2008\]).
+//! GOSPA (alpha = 2) and OSPA between two finite sets of points of any dimension `D`
+//! (\[Rahmathullah2017\], \[Schuhmacher2008\]), and GOSPA per landmark type.
 
+use nalgebra::SVector;
 use rfslam_assign::{CostMatrix, solve_lap};
-use rfslam_core::Point2;
 
 use crate::MetricError;
 
@@ -70,7 +70,12 @@ impl Ospa {
 }
 
 /// Checks `c`, `p` and that every coordinate is finite.
-fn validate(truth: &[Point2], est: &[Point2], c: f64, p: f64) -> Result<(), MetricError> {
+fn validate<const D: usize>(
+    truth: &[SVector<f64, D>],
+    est: &[SVector<f64, D>],
+    c: f64,
+    p: f64,
+) -> Result<(), MetricError> {
     if !(c.is_finite() && c > 0.0) {
         return Err(MetricError::InvalidCutoff(c));
     }
@@ -87,7 +92,12 @@ fn validate(truth: &[Point2], est: &[Point2], c: f64, p: f64) -> Result<(), Metr
 
 /// Optimal pairs `(i, j, d(x_i, y_j))` minimising `sum min(d, c)^p` with every point of
 /// the smaller set paired (one rectangular assignment, no forbidden pairs).
-fn optimal_pairs(truth: &[Point2], est: &[Point2], c: f64, p: f64) -> Result<Vec<(usize, usize, f64)>, MetricError> {
+fn optimal_pairs<const D: usize>(
+    truth: &[SVector<f64, D>],
+    est: &[SVector<f64, D>],
+    c: f64,
+    p: f64,
+) -> Result<Vec<(usize, usize, f64)>, MetricError> {
     let cp = c.powf(p);
     let cost = CostMatrix::from_fn(truth.len(), est.len(), |i, j| {
         let d = (truth[i] - est[j]).norm();
@@ -103,7 +113,12 @@ fn optimal_pairs(truth: &[Point2], est: &[Point2], c: f64, p: f64) -> Result<Vec
 /// Solves one rectangular assignment on `min(d, c)^p`; a pair is *real* (localisation)
 /// only if `d < c` strictly, a capped pair counts as one missed plus one false.
 /// \[Kaltiokallio2024\] uses `c = 20`, `p = 2` on the final map estimate.
-pub fn gospa(truth: &[Point2], est: &[Point2], c: f64, p: f64) -> Result<Gospa, MetricError> {
+pub fn gospa<const D: usize>(
+    truth: &[SVector<f64, D>],
+    est: &[SVector<f64, D>],
+    c: f64,
+    p: f64,
+) -> Result<Gospa, MetricError> {
     validate(truth, est, c, p)?;
     let half_cp = 0.5 * c.powf(p);
     let mut loc_term = 0.0;
@@ -133,7 +148,12 @@ pub fn gospa(truth: &[Point2], est: &[Point2], c: f64, p: f64) -> Result<Gospa, 
 /// OSPA between `truth` and `est` with cut-off `c > 0` and order `1 <= p < inf`
 /// (\[Schuhmacher2008\]). Normalised by `max(|X|, |Y|)`, so it is a per-object error that does
 /// not grow with the map size; `OSPA(empty, Y) = c` for non-empty `Y`.
-pub fn ospa(truth: &[Point2], est: &[Point2], c: f64, p: f64) -> Result<Ospa, MetricError> {
+pub fn ospa<const D: usize>(
+    truth: &[SVector<f64, D>],
+    est: &[SVector<f64, D>],
+    c: f64,
+    p: f64,
+) -> Result<Ospa, MetricError> {
     validate(truth, est, c, p)?;
     let n = truth.len().max(est.len());
     if n == 0 {
@@ -148,10 +168,44 @@ pub fn ospa(truth: &[Point2], est: &[Point2], c: f64, p: f64) -> Result<Ospa, Me
     Ok(Ospa { total: (loc + card).powf(1.0 / p), loc, card, p })
 }
 
+/// GOSPA per landmark type (the PMBM-SLAM paper's Fig. 3 scores virtual anchors and
+/// scattering points apart): for each mark `0..marks`, [`gospa`] between the true points of
+/// that mark and the estimated points of that mark, so that an estimate of the wrong type
+/// counts as one false landmark of its type and one missed of the true type.
+///
+/// `truth` and `est` pair each point with its mark; a mark `>= marks` is an error
+/// ([`MetricError::UnknownMark`]). `scratch` holds the per-mark point lists between calls
+/// (no allocation once it has grown).
+pub fn gospa_per_mark<const D: usize>(
+    truth: &[(u8, SVector<f64, D>)],
+    est: &[(u8, SVector<f64, D>)],
+    marks: usize,
+    c: f64,
+    p: f64,
+    scratch: &mut (Vec<SVector<f64, D>>, Vec<SVector<f64, D>>),
+) -> Result<Vec<Gospa>, MetricError> {
+    for (set, pts) in [("truth", truth), ("estimate", est)] {
+        if let Some(index) = pts.iter().position(|(m, _)| usize::from(*m) >= marks) {
+            return Err(MetricError::UnknownMark { set, index, mark: pts[index].0, marks });
+        }
+    }
+    (0..marks)
+        .map(|k| {
+            let (t, e) = (&mut scratch.0, &mut scratch.1);
+            t.clear();
+            e.clear();
+            t.extend(truth.iter().filter(|(m, _)| usize::from(*m) == k).map(|(_, x)| *x));
+            e.extend(est.iter().filter(|(m, _)| usize::from(*m) == k).map(|(_, x)| *x));
+            gospa(t, e, c, p)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
+    use rfslam_core::Point2;
 
     fn pt(x: f64, y: f64) -> Point2 {
         Point2::new(x, y)
@@ -166,8 +220,8 @@ mod tests {
         let g = gospa(&x, &y, 20.0, 2.0).unwrap();
         assert_eq!((g.total, g.missed, g.false_count), (0.0, 0, 0));
         assert_eq!(ospa(&x, &y, 20.0, 2.0).unwrap().total, 0.0);
-        assert_eq!(gospa(&[], &[], 20.0, 2.0).unwrap().total, 0.0);
-        assert_eq!(ospa(&[], &[], 20.0, 2.0).unwrap().total, 0.0);
+        assert_eq!(gospa::<2>(&[], &[], 20.0, 2.0).unwrap().total, 0.0);
+        assert_eq!(ospa::<2>(&[], &[], 20.0, 2.0).unwrap().total, 0.0);
     }
 
     #[test]
@@ -305,6 +359,43 @@ mod tests {
     }
 
     /// GOSPA by enumerating every partial matching.
+    #[test]
+    fn three_dimensional_points() {
+        // (1, 2, 2) is 3 m from the origin: a real pair with c = 20; the third coordinate counts.
+        let x = [nalgebra::Vector3::new(0.0, 0.0, 0.0)];
+        let y = [nalgebra::Vector3::new(1.0, 2.0, 2.0)];
+        let g = gospa(&x, &y, 20.0, 2.0).unwrap();
+        assert!((g.total - 3.0).abs() < TOL);
+        assert_eq!(g.matched, 1);
+        // With c = 2.5 the pair is capped: one missed, one false.
+        let g = gospa(&x, &y, 2.5, 2.0).unwrap();
+        assert_eq!((g.missed, g.false_count), (1, 1));
+        assert!((ospa(&x, &y, 20.0, 1.0).unwrap().total - 3.0).abs() < TOL);
+    }
+
+    #[test]
+    fn per_mark_scores_each_type_apart() {
+        let mut scratch = Default::default();
+        // Mark 0: one true, one estimate 1 m off. Mark 1: two true, one estimate on the
+        // first; an estimate of mark 1 placed on the true point of mark 0 is false for
+        // mark 1, not a match for mark 0.
+        let truth = [(0, pt(0.0, 0.0)), (1, pt(10.0, 0.0)), (1, pt(20.0, 0.0))];
+        let est = [(0, pt(1.0, 0.0)), (1, pt(10.0, 0.0)), (1, pt(0.0, 0.0))];
+        let g = gospa_per_mark(&truth, &est, 2, 5.0, 2.0, &mut scratch).unwrap();
+        assert_eq!(g.len(), 2);
+        assert_eq!((g[0].matched, g[0].missed, g[0].false_count), (1, 0, 0));
+        assert!((g[0].total - 1.0).abs() < TOL);
+        assert_eq!((g[1].matched, g[1].missed, g[1].false_count), (1, 1, 1));
+        assert!((g[1].total - (0.5 * 25.0 * 2.0f64).sqrt()).abs() < TOL);
+        // The GOSPA of all points together would pair the stray estimate with the true point
+        // of mark 0 (at 0 m) and leave the 1 m estimate unmatched.
+        let all = gospa(&truth.map(|t| t.1), &est.map(|e| e.1), 5.0, 2.0).unwrap();
+        assert_eq!((all.matched, all.loc_term), (2, 0.0));
+        // A mark the world does not have is refused, naming the set.
+        let e = gospa_per_mark(&truth, &[(2, pt(0.0, 0.0))], 2, 5.0, 2.0, &mut scratch).unwrap_err();
+        assert_eq!(e, MetricError::UnknownMark { set: "estimate", index: 0, mark: 2, marks: 2 });
+    }
+
     fn gospa_brute(x: &[Point2], y: &[Point2], c: f64, p: f64) -> f64 {
         let b = Brute { x, y, c, p };
         b.gospa_partial(0, &mut vec![false; y.len()], 0.0, 0).powf(1.0 / p)

@@ -1,6 +1,8 @@
 //! Pose RMSE accumulation (over all steps of all runs, the heading error wrapped, as in
 //! \[Kaltiokallio2024\] Table II) and the rigidly aligned position RMSE.
 
+use nalgebra::SVector;
+use rfslam_core::model::StateComponent;
 use rfslam_core::{Point2, Pose, angle};
 
 /// A sum of squares that does not overflow: `scale^2 * ssq`.
@@ -47,9 +49,11 @@ impl SumSquares {
         }
     }
 
-    /// Adds the squared norm of `e` (the plain sum adds `e.norm_squared()`).
-    pub fn add_norm(&mut self, e: Point2) {
-        self.add(e.x.hypot(e.y), e.norm_squared());
+    /// Adds the squared norm of `e` (the plain sum adds `e.norm_squared()`, with the bits of
+    /// `((0 + e_0^2) + e_1^2) + ...`).
+    pub fn add_norm<const D: usize>(&mut self, e: SVector<f64, D>) {
+        let hypot = e.iter().fold(0.0, |h: f64, v| h.hypot(*v));
+        self.add(hypot, e.norm_squared());
     }
 
     /// Pools another sum into this one (the plain sums add while they stay finite).
@@ -101,10 +105,13 @@ impl SumSquares {
     }
 }
 
-/// Accumulates squared pose errors over steps so that position and heading RMSE can be
-/// reported per run or pooled exactly over runs ([`PoseErrors::merge`]).
+/// Accumulates squared pose errors over steps so that the RMSE of each kind of state
+/// component the vehicle model declares ([`StateComponent`]) can be reported per run or
+/// pooled exactly over runs ([`PoseErrors::merge`]): the position (all position axes
+/// together), the heading and the clock bias (the PMBM-SLAM paper's Fig. 4 plots these
+/// three).
 ///
-/// Position error is Euclidean; heading error is the wrapped difference
+/// Position error is Euclidean; clock-bias error is the plain difference (m); heading error is the wrapped difference
 /// `angle::diff(est_heading, true_heading)` in `[-pi, pi)`, so 3.1 vs -3.1 rad is an
 /// error of about 0.083 rad, not 6.2. The position errors are summed without overflow
 /// ([`SumSquares`]: finite errors give a finite RMSE, with the plain sum's bits while it
@@ -115,6 +122,8 @@ pub struct PoseErrors {
     sum_sq_pos: SumSquares,
     head_steps: usize,
     sum_sq_head: f64,
+    clock_steps: usize,
+    sum_sq_clock: f64,
 }
 
 impl PoseErrors {
@@ -123,16 +132,49 @@ impl PoseErrors {
         Self::default()
     }
 
-    /// Adds one step: estimated pose `est = [x, y, heading]` against the true position
-    /// and, when the ground truth has one, the true heading (rad).
+    /// Adds one step of a planar pose: estimated `est = [x, y, heading]` against the true
+    /// position and, when the ground truth has one, the true heading (rad).
     pub fn push(&mut self, est: &Pose, truth_xy: Point2, truth_heading: Option<f64>) {
-        let e = Point2::new(est.x, est.y) - truth_xy;
-        self.steps += 1;
-        self.sum_sq_pos.add_norm(e);
-        if let Some(h) = truth_heading {
-            let dh = angle::diff(est.z, h);
-            self.head_steps += 1;
-            self.sum_sq_head += dh * dh;
+        const PLANAR: [StateComponent; 3] =
+            [StateComponent::Position(0), StateComponent::Position(1), StateComponent::Heading];
+        self.push_state(&PLANAR, est, &[Some(truth_xy.x), Some(truth_xy.y), truth_heading]);
+    }
+
+    /// Adds one step of a vehicle state of `X` components (`components` says what each is)
+    /// against the truth, `None` where the ground truth does not know a component (GPS gives
+    /// no heading). The position error is taken over the position axes when the truth knows
+    /// all of them; the heading error is wrapped; a state with several headings or clock
+    /// biases adds each.
+    pub fn push_state<const X: usize>(
+        &mut self,
+        components: &[StateComponent; X],
+        est: &SVector<f64, X>,
+        truth: &[Option<f64>; X],
+    ) {
+        let mut pos = SVector::<f64, X>::zeros();
+        let mut pos_known = true;
+        for (i, c) in components.iter().enumerate() {
+            match (c, truth[i]) {
+                (StateComponent::Position(_), Some(t)) => pos[i] = est[i] - t,
+                (StateComponent::Position(_), None) => pos_known = false,
+                (StateComponent::Heading, Some(t)) => {
+                    let dh = angle::diff(est[i], t);
+                    self.head_steps += 1;
+                    self.sum_sq_head += dh * dh;
+                }
+                (StateComponent::ClockBias, Some(t)) => {
+                    let db = est[i] - t;
+                    self.clock_steps += 1;
+                    self.sum_sq_clock += db * db;
+                }
+                (_, None) => {}
+            }
+        }
+        if pos_known {
+            self.steps += 1;
+            // The zero entries of the other components add exact zeros: the sums have the
+            // bits of the position axes' alone.
+            self.sum_sq_pos.add_norm(pos);
         }
     }
 
@@ -142,6 +184,8 @@ impl PoseErrors {
         self.sum_sq_pos.merge(&other.sum_sq_pos);
         self.head_steps += other.head_steps;
         self.sum_sq_head += other.sum_sq_head;
+        self.clock_steps += other.clock_steps;
+        self.sum_sq_clock += other.sum_sq_clock;
     }
 
     /// Number of steps pushed.
@@ -172,6 +216,12 @@ impl PoseErrors {
     /// Heading RMSE (rad) over the steps with a true heading; `None` if there were none.
     pub fn head_rmse(&self) -> Option<f64> {
         (self.head_steps > 0).then(|| (self.sum_sq_head / self.head_steps as f64).sqrt())
+    }
+
+    /// Clock-bias RMSE (m) over the steps with a true clock bias; `None` if there were none
+    /// (every planar world).
+    pub fn clock_rmse(&self) -> Option<f64> {
+        (self.clock_steps > 0).then(|| (self.sum_sq_clock / self.clock_steps as f64).sqrt())
     }
 
     /// Heading RMSE in degrees; `None` if no step had a true heading.
@@ -312,6 +362,36 @@ impl Se2AlignedRmse {
 mod tests {
     use super::*;
     use std::f64::consts::PI;
+
+    #[test]
+    fn state_errors_per_component() {
+        use StateComponent::*;
+        // The 5G radio vehicle's state [x, y, z, heading, clock bias].
+        let c = [Position(0), Position(1), Position(2), Heading, ClockBias];
+        let mut e = PoseErrors::new();
+        let est = SVector::<f64, 5>::new(1.0, 2.0, 2.0, 3.1, 300.5);
+        e.push_state(&c, &est, &[Some(0.0), Some(0.0), Some(0.0), Some(-3.1), Some(300.0)]);
+        assert!((e.pos_rmse().unwrap() - 3.0).abs() < 1e-12, "the z axis counts in the position");
+        assert!((e.head_rmse().unwrap() - (2.0 * PI - 6.2)).abs() < 1e-12);
+        assert!((e.clock_rmse().unwrap() - 0.5).abs() < 1e-12);
+        // A step whose truth lacks z adds no position error; the clock bias still counts.
+        e.push_state(&c, &est, &[Some(0.0), Some(0.0), None, None, Some(301.5)]);
+        assert_eq!((e.steps(), e.head_steps()), (1, 1));
+        assert!((e.clock_rmse().unwrap() - 0.5f64.hypot(1.0) / 2f64.sqrt()).abs() < 1e-12);
+        // Planar pushes report no clock bias, and agree bit for bit with push_state.
+        let mut a = PoseErrors::new();
+        a.push(&Pose::new(0.3, -1.7, 0.2), Point2::new(0.1, 0.4), Some(0.25));
+        let mut b = PoseErrors::new();
+        b.push_state(
+            &[Position(0), Position(1), Heading],
+            &Pose::new(0.3, -1.7, 0.2),
+            &[Some(0.1), Some(0.4), Some(0.25)],
+        );
+        assert_eq!(a, b);
+        assert_eq!(a.clock_rmse(), None);
+        let d = Point2::new(0.3 - 0.1, -1.7 - 0.4);
+        assert_eq!(a.sum_sq_pos().to_bits(), d.norm_squared().to_bits());
+    }
 
     #[test]
     fn wrapped_heading_error() {
