@@ -1,9 +1,11 @@
 //! Conformance suite run over every motion model and the measurement model: Jacobians
 //! against central finite differences at random states, heading and bearing wrapping.
 
-use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector3};
+use nalgebra::{Matrix2, Matrix2x3, Vector3};
 use proptest::prelude::*;
 use rfslam_core::angle::{diff, wrap};
+use rfslam_core::model::RadioVehicle;
+use rfslam_core::model::conformance::check_vehicle_model;
 use rfslam_core::{AckermannModel, Control, Motion, MotionModel, Point2, Pose, RangeBearingSensor};
 use std::f64::consts::PI;
 
@@ -15,29 +17,8 @@ fn rel_err<const R: usize, const C: usize>(a: &nalgebra::SMatrix<f64, R, C>, n: 
     (a - n).norm() / n.norm().max(1.0)
 }
 
-fn pose_diff(a: &Pose, b: &Pose) -> Vector3<f64> {
-    Vector3::new(a[0] - b[0], a[1] - b[1], diff(a[2], b[2]))
-}
-
 fn check_motion(model: &Motion, x: Pose, u: Control, dt: f64) -> Result<(), TestCaseError> {
-    let (_, f, fu) = model.predict_with_jacobians(&x, &u, dt);
-    let mut nf = Matrix3::zeros();
-    let mut nfu = Matrix3::zeros();
-    for k in 0..3 {
-        let mut e = Vector3::zeros();
-        e[k] = H;
-        let col = pose_diff(&model.predict(&(x + e), &u, dt), &model.predict(&(x - e), &u, dt)) / (2.0 * H);
-        nf.set_column(k, &col);
-        if k < model.control_dim() {
-            let col = pose_diff(&model.predict(&x, &(u + e), dt), &model.predict(&x, &(u - e), dt)) / (2.0 * H);
-            nfu.set_column(k, &col);
-        }
-    }
-    prop_assert!(rel_err(&f, &nf) < 1e-6, "{} F\n{}\nnumeric\n{}", model.name(), f, nf);
-    prop_assert!(rel_err(&fu, &nfu) < 1e-6, "{} F_u\n{}\nnumeric\n{}", model.name(), fu, nfu);
-    let mean = model.predict(&x, &u, dt);
-    prop_assert!((-std::f64::consts::PI..std::f64::consts::PI).contains(&mean[2]));
-    Ok(())
+    check_vehicle_model(model, &x, &u, dt).map_err(|e| TestCaseError::fail(format!("{}: {e}", model.name())))
 }
 
 fn models() -> Vec<Motion> {
@@ -57,6 +38,19 @@ proptest! {
             let u1 = if matches!(m, Motion::Velocity) && u1.abs() < 1e-3 { 1e-3 } else { u1 };
             check_motion(&m, Pose::new(px, py, th), Control::new(u0, u1, u2), dt)?;
         }
+    }
+
+    /// The 5G radio vehicle (Kim et al. 2022 eq. 1): the planar velocity model lifted to
+    /// `[x, y, z, heading, clock bias]`, with and without the height estimated.
+    #[test]
+    fn radio_vehicle_passes_the_vehicle_checks(
+        px in -500.0..500.0f64, py in -500.0..500.0f64, pz in -5.0..40.0f64, th in -PI..PI, b in -1e3..1e3f64,
+        v in -30.0..30.0f64, w in -0.5..0.5f64, dt in 0.05..2.0f64, sz in prop::bool::ANY,
+    ) {
+        let w = if w.abs() < 1e-3 { 1e-3 } else { w };
+        let model = RadioVehicle { sigma: [0.2, 0.2, if sz { 0.1 } else { 0.0 }, 1e-3, 0.2] };
+        let x = nalgebra::SVector::from([px, py, pz, th, b]);
+        check_vehicle_model(&model, &x, &Control::new(v, w, 0.0), dt).map_err(TestCaseError::fail)?;
     }
 
     #[test]

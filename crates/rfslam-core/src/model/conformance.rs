@@ -1,5 +1,6 @@
-//! The checks every [`SensorModel`] must pass, written once and run over every
-//! implementation (the planar models' tests here; a new model's own tests call
+//! The checks every [`VehicleModel`] and [`SensorModel`] must pass, written once and run
+//! over every implementation (the planar models' tests here and in the crate's
+//! `model_conformance` suite; a new model's own tests call [`check_vehicle_model`] or
 //! [`check_sensor_model`] with cases of its world).
 //!
 //! Each check returns an error saying which property failed at which case, so a test
@@ -8,7 +9,7 @@
 use nalgebra::{SMatrix, SVector};
 use rand::SeedableRng;
 
-use super::{InvertibleSensorModel, SensorModel};
+use super::{InvertibleSensorModel, SensorModel, VehicleModel};
 use crate::Rng;
 
 /// One case: a vehicle state, a landmark and its mark, the landmark in the field of view.
@@ -22,6 +23,54 @@ fn unit<const N: usize>(k: usize, v: f64) -> SVector<f64, N> {
 /// Relative agreement of `a` and `b`: `|a - b| <= tol (1 + |b|)`.
 fn close<const R: usize, const C: usize>(a: &SMatrix<f64, R, C>, b: &SMatrix<f64, R, C>, tol: f64) -> bool {
     (a - b).norm() <= tol * (1.0 + b.norm())
+}
+
+/// Runs every check of [`VehicleModel`] on `model` at state `x`, control `u` and step `dt`
+/// (away from any branch of the model, such as a zero turn rate): `F` and `F_u` against
+/// central differences of the transition (differences through
+/// [`VehicleModel::state_difference`], so angles wrap), zero `F_u` columns for the unused
+/// inputs, angular components of the prediction in `[-pi, pi)`, `state_difference` wrapping
+/// the angular components alone, a symmetric positive semi-definite process noise, and a
+/// component that is not estimated held constant without noise.
+pub fn check_vehicle_model<V: VehicleModel<X, U>, const X: usize, const U: usize>(
+    model: &V,
+    x: &SVector<f64, X>,
+    u: &SVector<f64, U>,
+    dt: f64,
+) -> Result<(), String> {
+    let (mean, f, fu) = model.transition(x, u, dt);
+    let diff = |a: &SVector<f64, X>, b: &SVector<f64, X>| model.state_difference(a, b);
+    central_differences("F", &f, x, |x| model.transition(x, u, dt).0, diff)?;
+    let used = model.control_dim();
+    for k in 0..U {
+        let e = unit::<U>(k, 1e-6);
+        let fd = diff(&model.transition(x, &(u + e), dt).0, &model.transition(x, &(u - e), dt).0) / 2e-6;
+        let col = fu.column(k).into_owned();
+        let ok = if k < used { close(&fd, &col, 1e-6) } else { col == SVector::<f64, X>::zeros() };
+        if !ok {
+            return Err(format!("F_u column {k} (of {used} used) is {col:?}, central difference {fd:?}"));
+        }
+    }
+    let components = model.components();
+    let (q, estimated) = (model.process_noise(dt), model.estimated());
+    if q != q.transpose() || (q + SMatrix::<f64, X, X>::identity() * 1e-12).cholesky().is_none() {
+        return Err(format!("process noise {q:?} is not symmetric positive semi-definite"));
+    }
+    for (i, c) in components.iter().enumerate() {
+        if c.is_angle() && !(-std::f64::consts::PI..std::f64::consts::PI).contains(&mean[i]) {
+            return Err(format!("{} = {} is not wrapped", c.name(), mean[i]));
+        }
+        let turn = unit::<X>(i, std::f64::consts::TAU);
+        let d = model.state_difference(&(x + turn), x)[i];
+        let want = if c.is_angle() { 0.0 } else { std::f64::consts::TAU };
+        if (d - want).abs() > 1e-9 {
+            return Err(format!("state_difference of {} by 2 pi is {d}, expected {want}", c.name()));
+        }
+        if !estimated[i] && (mean[i] != x[i] || q.row(i).iter().any(|v| *v != 0.0)) {
+            return Err(format!("{} is not estimated but moves or has process noise", c.name()));
+        }
+    }
+    Ok(())
 }
 
 /// Runs every check of [`SensorModel`] on `model` at each case (each landmark inside the

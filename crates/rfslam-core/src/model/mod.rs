@@ -3,7 +3,9 @@
 //!
 //! - [`VehicleModel`]: a state of `X` components (position, heading, and any extra such as
 //!   a clock bias, [`StateComponent`]) driven by a control of `U` inputs, with the
-//!   prediction and its Jacobians;
+//!   prediction and its Jacobians, the additive process noise and which components the
+//!   filters estimate; the planar [`Motion`] models and the 5G radio vehicle
+//!   ([`RadioVehicle`]: 3-D position, heading, clock bias) implement it;
 //! - [`SensorModel`] (and [`InvertibleSensorModel`] where a measurement fixes its landmark):
 //!   landmarks of `M` dimensions with a mark (the landmark type,
 //!   [`SensorModel::Mark`]; `()` in a world of one type) measured in `Z` dimensions from a
@@ -14,14 +16,15 @@
 //! - [`RangeBearingModel`]: the planar range-bearing sensor (\[Kaltiokallio2024\] eq. 50);
 //! - [`RelativePositionModel`]: a landmark's position in the vehicle frame (stereo rigs,
 //!   lidar feature extractors);
-//! - [`conformance`]: the checks every sensor model must pass (Jacobians against central
-//!   differences, the inverse against the prediction, residual wrapping, draws).
+//! - [`conformance`]: the checks every vehicle and sensor model must pass (Jacobians against
+//!   central differences, the inverse against the prediction, wrapping, draws).
 //!
 //! The dimensions are const generics, so every vector and matrix is a fixed-size nalgebra
 //! type: a filter generic over a model allocates nothing and dispatches nothing dynamically
 //! inside its per-landmark and per-measurement loops.
 
 pub mod conformance;
+mod radio_vehicle;
 mod range_bearing;
 mod relative_position;
 
@@ -34,6 +37,7 @@ use crate::gaussian::symmetrise;
 use crate::motion::{Motion, MotionModel};
 
 pub use crate::types::SensorKind;
+pub use radio_vehicle::RadioVehicle;
 pub use range_bearing::RangeBearingModel;
 pub use relative_position::{RelativePositionModel, RelativePositionSensor};
 
@@ -84,8 +88,10 @@ pub fn wrapped_difference<const N: usize>(
 }
 
 /// A vehicle (motion) model: a state of `X` components driven by a control of `U` inputs,
-/// `x_k = f(x_{k-1}, u_k)` over `dt` seconds. Control noise enters through the control
-/// (\[Kaltiokallio2024\] Section VI-A): one segment adds `F_u Q_u F_u^T` to `F P F^T`.
+/// `x_k = f(x_{k-1}, u_k)` over `dt` seconds. Noise enters in either or both of two ways:
+/// through the control (\[Kaltiokallio2024\] Section VI-A: one segment adds `F_u Q_u F_u^T`
+/// to `F P F^T`, `Q_u` the odometry's noise) and additively on the state
+/// ([`VehicleModel::process_noise`], as the 5G radio vehicle of \[Kim2022\] eq. 1).
 pub trait VehicleModel<const X: usize, const U: usize> {
     /// What each state component is (position coordinates, heading, clock bias, ...).
     fn components(&self) -> [StateComponent; X];
@@ -106,6 +112,20 @@ pub trait VehicleModel<const X: usize, const U: usize> {
     fn state_difference(&self, a: &SVector<f64, X>, b: &SVector<f64, X>) -> SVector<f64, X> {
         let c = self.components();
         wrapped_difference(a, b, &std::array::from_fn(|i| c[i].is_angle()))
+    }
+
+    /// The covariance `Q` of the noise added to the state once per transition of `dt`
+    /// seconds, on top of the control noise. Zero by default: the planar models take all
+    /// their noise through the control.
+    fn process_noise(&self, _dt: f64) -> SMatrix<f64, X, X> {
+        SMatrix::zeros()
+    }
+
+    /// Which components the filters estimate; a component that is not estimated is known
+    /// and constant (no process noise, no prior spread), such as the radio vehicle's height.
+    /// Every component by default.
+    fn estimated(&self) -> [bool; X] {
+        [true; X]
     }
 }
 
