@@ -95,7 +95,7 @@ impl CsvRows {
     }
 
     /// Raw text of column `i` (empty if an optional column is absent).
-    fn text(&self, i: usize) -> Result<&str, DataError> {
+    pub fn text(&self, i: usize) -> Result<&str, DataError> {
         let Some(j) = self.index[i] else { return Ok("") };
         let raw = self.record.get(j).unwrap_or(b"");
         std::str::from_utf8(raw).map_err(|_| self.err(i, "is not valid UTF-8"))

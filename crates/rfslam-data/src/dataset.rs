@@ -30,7 +30,7 @@ pub mod files {
     pub const ODOMETRY: &str = "odometry.csv";
     /// `t,x,y,heading` (optional file).
     pub const GROUNDTRUTH: &str = "groundtruth.csv";
-    /// `id,x,y` (optional file).
+    /// `id,x,y` and, in a world of several landmark types, `type` (optional file).
     pub const LANDMARKS: &str = "landmarks.csv";
 }
 
@@ -92,6 +92,56 @@ pub struct Landmark {
     pub id: i64,
     /// Position (m).
     pub position: Point2,
+    /// Its type, as an index into the data set's landmark types ([`LandmarkTypes`]; 0 in a
+    /// world of one type).
+    pub mark: u8,
+}
+
+/// The landmark types of a world (`dataset.toml`'s `[landmarks] types`): the names a
+/// `type` column of `landmarks.csv` uses, in the order of the marks (`MapPoint::mark`,
+/// `Landmark::mark`). A world of one type (every planar world so far) has the single type
+/// `landmark` and no `type` column.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LandmarkTypes {
+    /// Type names, at least one and at most 255, distinct and non-empty.
+    pub types: Vec<String>,
+}
+
+impl Default for LandmarkTypes {
+    fn default() -> Self {
+        LandmarkTypes { types: vec!["landmark".to_string()] }
+    }
+}
+
+impl LandmarkTypes {
+    /// Whether this is the one-type default (not written to `dataset.toml`).
+    pub fn is_default(&self) -> bool {
+        *self == LandmarkTypes::default()
+    }
+
+    /// Checks the names (key `landmarks.types`).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let n = self.types.len();
+        let fail = |why: String| Err(ConfigError::new("landmarks.types", why));
+        if n == 0 || n > usize::from(u8::MAX) {
+            return fail(format!("{n} landmark types; between 1 and 255 are allowed"));
+        }
+        for (i, t) in self.types.iter().enumerate() {
+            if t.is_empty() || t.contains(',') || t.trim() != t {
+                return fail(format!("type {i} ({t:?}) must be a non-empty name without commas or outer spaces"));
+            }
+            if self.types[..i].contains(t) {
+                return fail(format!("type {t:?} is listed twice"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The mark of the type called `name`.
+    pub fn mark(&self, name: &str) -> Option<u8> {
+        self.types.iter().position(|t| t == name).map(|i| i as u8)
+    }
 }
 
 /// The contents of `dataset.toml`.
@@ -107,6 +157,8 @@ pub struct DatasetMeta {
     pub initial_pose: Pose,
     /// Nominal models (a filter run on the data set uses them).
     pub models: ModelConfig,
+    /// The landmark types (`[landmarks]`; one type when absent).
+    pub landmarks: LandmarkTypes,
 }
 
 /// The `dataset.toml` file as written.
@@ -122,6 +174,8 @@ struct MetaFile {
     #[serde(deserialize_with = "crate::config::de_detection")]
     detection: DetectionModel,
     clutter: ClutterConfig,
+    #[serde(default, skip_serializing_if = "LandmarkTypes::is_default")]
+    landmarks: LandmarkTypes,
 }
 
 #[derive(Debug, Clone, Copy, Serialize, Deserialize)]
@@ -153,7 +207,8 @@ impl DatasetMeta {
             {
                 in_range(&format!("initial_pose.{k}"), Interval::magnitude(bound), v)?;
             }
-            models.validate()
+            models.validate()?;
+            f.landmarks.validate()
         };
         check().map_err(|source| DataError::config_in(path, text, source))?;
         Ok(DatasetMeta {
@@ -162,6 +217,7 @@ impl DatasetMeta {
             initial_t: ip.t,
             initial_pose: Pose::new(ip.x, ip.y, wrap(ip.heading)),
             models,
+            landmarks: f.landmarks,
         })
     }
 
@@ -181,6 +237,7 @@ impl DatasetMeta {
             sensor: m.sensor,
             detection: m.detection,
             clutter: m.clutter,
+            landmarks: self.landmarks.clone(),
         };
         toml::to_string(&f).map_err(|e| DataError::Mismatch(format!("cannot serialize dataset.toml: {e}")))
     }
@@ -219,7 +276,7 @@ impl Dataset {
             return Err(DataError::MissingFile { path: dir.to_path_buf() });
         }
         let meta = DatasetMeta::read(dir)?;
-        let landmarks = optional(dir.join(files::LANDMARKS), read_landmarks)?;
+        let landmarks = optional(dir.join(files::LANDMARKS), |p| read_landmarks(p, &meta.landmarks))?;
         let mut scans = read_scans(&dir.join(files::SCANS), meta.initial_t)?;
         let ids: Option<HashSet<i64>> = landmarks.as_ref().map(|l| l.iter().map(|l| l.id).collect());
         let sensor = meta.models.sensor.model;
@@ -294,7 +351,7 @@ impl Dataset {
         }
         let lm_path = dir.join(files::LANDMARKS);
         match &self.landmarks {
-            Some(lms) => write_landmarks(&lm_path, lms)?,
+            Some(lms) => write_landmarks(&lm_path, lms, &self.meta.landmarks)?,
             None => remove_if_exists(&lm_path)?,
         }
         Ok(())
@@ -392,9 +449,16 @@ fn remove_if_exists(path: &Path) -> Result<(), DataError> {
     }
 }
 
-/// Reads `landmarks.csv` (`id,x,y`); ids must be unique.
-pub fn read_landmarks(path: &Path) -> Result<Vec<Landmark>, DataError> {
-    let mut r = CsvRows::open(path, &["id", "x", "y"], &[])?;
+/// Reads `landmarks.csv` (`id,x,y`, and `type` naming one of `types` in a world of several
+/// landmark types, where it is required); ids must be unique.
+pub fn read_landmarks(path: &Path, types: &LandmarkTypes) -> Result<Vec<Landmark>, DataError> {
+    let mut r = CsvRows::open(path, &["id", "x", "y"], &["type"])?;
+    let typed = types.types.len() > 1;
+    if typed && !r.has(3) {
+        return Err(
+            r.err(3, format!("is missing: dataset.toml declares the landmark types {}", types.types.join(", ")))
+        );
+    }
     let mut out = Vec::new();
     let mut seen = HashSet::new();
     while r.next_row()? {
@@ -403,16 +467,32 @@ pub fn read_landmarks(path: &Path) -> Result<Vec<Landmark>, DataError> {
             return Err(r.err(0, format!("landmark id {id} appears twice")));
         }
         let c = limits::MAX_COORDINATE;
-        out.push(Landmark { id, position: Point2::new(r.bounded_f64(1, c, "m")?, r.bounded_f64(2, c, "m")?) });
+        let position = Point2::new(r.bounded_f64(1, c, "m")?, r.bounded_f64(2, c, "m")?);
+        let mark = match (r.has(3), r.text(3)?) {
+            (false, _) => 0,
+            (true, name) => types.mark(name).ok_or_else(|| {
+                r.err(3, format!("{name:?} is not a landmark type of dataset.toml ({})", types.types.join(", ")))
+            })?,
+        };
+        out.push(Landmark { id, position, mark });
     }
     Ok(out)
 }
 
-/// Writes `landmarks.csv` (`id,x,y`) at full precision.
-pub fn write_landmarks(path: &Path, lms: &[Landmark]) -> Result<(), DataError> {
-    let mut w = CsvOut::create(path, "id,x,y")?;
+/// Writes `landmarks.csv` (`id,x,y`, and `type` in a world of several landmark types) at
+/// full precision.
+pub fn write_landmarks(path: &Path, lms: &[Landmark], types: &LandmarkTypes) -> Result<(), DataError> {
+    let typed = types.types.len() > 1;
+    let mut w = CsvOut::create(path, if typed { "id,x,y,type" } else { "id,x,y" })?;
     for l in lms {
-        w.line(format_args!("{},{},{}", l.id, l.position.x, l.position.y))?;
+        let name = types.types.get(usize::from(l.mark)).ok_or_else(|| {
+            DataError::Mismatch(format!("landmark {} has mark {} beyond the {} types", l.id, l.mark, types.types.len()))
+        })?;
+        if typed {
+            w.line(format_args!("{},{},{},{name}", l.id, l.position.x, l.position.y))?;
+        } else {
+            w.line(format_args!("{},{},{}", l.id, l.position.x, l.position.y))?;
+        }
     }
     w.finish()
 }
@@ -566,6 +646,7 @@ mod tests {
             initial_t: 0.0,
             initial_pose: Pose::new(1.0, 2.0, 0.5),
             models,
+            landmarks: Default::default(),
         }
     }
 
@@ -766,18 +847,22 @@ mod tests {
     }
 
     /// The TOML examples of docs/datasets.md parse: the first is a `dataset.toml`, the
-    /// second a scenario file.
+    /// second its `[landmarks]` table, the third a scenario file.
     #[test]
     fn documented_examples_parse() {
         let doc_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/datasets.md");
         let doc = std::fs::read_to_string(&doc_path).unwrap();
         let blocks: Vec<&str> =
             doc.split("```toml\n").skip(1).map(|b| b.split("```").next().unwrap_or_default()).collect();
-        assert!(blocks.len() >= 2, "{}", doc_path.display());
+        assert!(blocks.len() >= 3, "{}", doc_path.display());
         let meta = DatasetMeta::from_toml_str(blocks[0], Path::new("docs/datasets.md")).unwrap();
         assert_eq!(meta.initial_pose, Pose::new(300.0, 400.0, -0.0873));
         assert_eq!(meta.models, ModelConfig::phd_slam_synthetic());
-        let sc = crate::ScenarioConfig::from_toml_str(blocks[1], "docs/datasets.md").unwrap();
+        assert!(meta.landmarks.is_default());
+        let typed = format!("{}\n{}", blocks[0], blocks[1]);
+        let meta = DatasetMeta::from_toml_str(&typed, Path::new("docs/datasets.md")).unwrap();
+        assert_eq!(meta.landmarks.mark("scattering_point"), Some(2));
+        let sc = crate::ScenarioConfig::from_toml_str(blocks[2], "docs/datasets.md").unwrap();
         assert_eq!(sc.models(), ModelConfig::phd_slam_synthetic());
     }
 
@@ -798,10 +883,56 @@ mod tests {
             TruthPose { t: 0.7, position: Point2::new(-0.0, 1e9 / 7.0), heading: None },
         ]);
         d.landmarks = Some(vec![
-            Landmark { id: 3, position: Point2::new(0.1, 0.2) },
-            Landmark { id: 7, position: Point2::new(-5.0, 2.0f64.sqrt()) },
+            Landmark { id: 3, position: Point2::new(0.1, 0.2), mark: 0 },
+            Landmark { id: 7, position: Point2::new(-5.0, 2.0f64.sqrt()), mark: 0 },
         ]);
         d
+    }
+
+    /// A world of several landmark types: `dataset.toml` names them, `landmarks.csv` has a
+    /// `type` column, the marks come back; a one-type world writes neither.
+    #[test]
+    fn landmark_types_round_trip_and_errors() {
+        let tmp = TempDir::new("types");
+        let mut d = example();
+        let types = ["base_station", "virtual_anchor", "scattering_point"];
+        d.meta.landmarks = LandmarkTypes { types: types.map(String::from).to_vec() };
+        d.landmarks.as_mut().unwrap()[1].mark = 2;
+        d.write(tmp.path()).unwrap();
+        let meta = std::fs::read_to_string(tmp.path().join(files::META)).unwrap();
+        assert!(meta.contains("[landmarks]") && meta.contains("scattering_point"), "{meta}");
+        let lms = std::fs::read_to_string(tmp.path().join(files::LANDMARKS)).unwrap();
+        assert!(lms.starts_with("id,x,y,type\n3,0.1,0.2,base_station\n7,"), "{lms}");
+        let back = Dataset::read(tmp.path()).unwrap();
+        assert_eq!(back, d);
+        assert_eq!(back.landmarks.unwrap()[1].mark, 2);
+        // The one-type default writes no [landmarks] table and no type column.
+        example().write(tmp.path()).unwrap();
+        assert!(!std::fs::read_to_string(tmp.path().join(files::META)).unwrap().contains("[landmarks]"));
+        assert!(std::fs::read_to_string(tmp.path().join(files::LANDMARKS)).unwrap().starts_with("id,x,y\n"));
+
+        // Errors name the file, the line and the column.
+        let typed = |edit_meta: &str, edit_lms: &dyn Fn(String) -> String| {
+            d.write(tmp.path()).unwrap();
+            let mp = tmp.path().join(files::META);
+            let text = std::fs::read_to_string(&mp).unwrap();
+            std::fs::write(&mp, text.replace("\"scattering_point\"", edit_meta)).unwrap();
+            let lp = tmp.path().join(files::LANDMARKS);
+            std::fs::write(&lp, edit_lms(std::fs::read_to_string(&lp).unwrap())).unwrap();
+            Dataset::read(tmp.path()).unwrap_err().to_string()
+        };
+        let same = |t: String| t;
+        let e =
+            typed("\"scattering_point\"", &|t| t.replace("7,-5,1.4142135623730951,scattering_point", "7,-5,1,wall"));
+        assert!(e.contains("landmarks.csv:3: column `type`: \"wall\" is not a landmark type"), "{e}");
+        let e = typed("\"scattering_point\"", &|t| {
+            t.lines().map(|l| l.rsplit_once(',').unwrap().0.to_string() + "\n").collect()
+        });
+        assert!(e.contains("landmarks.csv") && e.contains("column `type`: is missing"), "{e}");
+        let e = typed("\"base_station\"", &same);
+        assert!(e.contains("dataset.toml") && e.contains("landmarks.types") && e.contains("listed twice"), "{e}");
+        let e = typed("\"\"", &same);
+        assert!(e.contains("landmarks.types") && e.contains("non-empty"), "{e}");
     }
 
     #[test]

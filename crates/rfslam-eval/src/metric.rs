@@ -1372,7 +1372,7 @@ mod tests {
         let mut ds = sc.build_dataset(world.as_ref(), 1).unwrap();
         ds.landmarks = Some(
             [(0, 0.0), (1, 100.0), (2, 200.0)]
-                .map(|(id, x)| rfslam_data::Landmark { id, position: Point2::new(x, 0.0) })
+                .map(|(id, x)| rfslam_data::Landmark { id, position: Point2::new(x, 0.0), mark: 0 })
                 .to_vec(),
         );
         let mut labels = vec![Some(vec![]); 16];

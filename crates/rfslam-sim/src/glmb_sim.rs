@@ -119,7 +119,7 @@ fn landmarks(lap_length: f64) -> Vec<Landmark> {
                 let offset = 0.8 + 0.4 * ((i * 7) % 3) as f64;
                 let (sn, cs) = pose[2].sin_cos();
                 let p = Point2::new(pose[0] - side * offset * sn, pose[1] + side * offset * cs);
-                out.push(Landmark { id: i as i64 + 1, position: p });
+                out.push(Landmark { id: i as i64 + 1, position: p, mark: 0 });
                 next += 4.5 * scale;
                 if out.len() == 23 {
                     return out;

@@ -80,6 +80,7 @@ pub fn simulate(world: &World, models: &ModelConfig, run_seed: u64) -> Result<Da
             initial_t: t0,
             initial_pose: x0,
             models: *models,
+            landmarks: Default::default(),
         },
         scans,
         odometry,

@@ -275,6 +275,7 @@ impl VictoriaPark {
                 initial_t: self.scan_times[0],
                 initial_pose: Pose::new(initial_pose[0], initial_pose[1], wrap(initial_pose[2])),
                 models: *models,
+                landmarks: Default::default(),
             },
             scans,
             odometry,

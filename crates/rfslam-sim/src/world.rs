@@ -16,6 +16,7 @@ use rfslam_core::angle::wrap;
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{Control, Motion, MotionModel, Point2, Pose};
 use rfslam_data::csvio::{CsvOut, CsvRows};
+use rfslam_data::LandmarkTypes;
 use rfslam_data::dataset::{limits, read_landmarks, write_landmarks};
 use rfslam_data::find::where_to_get;
 use rfslam_data::mat::{MatArray, MatFile};
@@ -102,7 +103,7 @@ impl World {
     /// (`t,v,omega`, uniformly spaced: `dt` is the spacing) and `groundtruth.csv`
     /// (`t,x,y,heading`, of which the first row is the initial pose). Velocity model.
     pub fn from_csv_dir(dir: &Path) -> Result<World, DataError> {
-        let landmarks = read_landmarks(&dir.join(files::LANDMARKS))?;
+        let landmarks = read_landmarks(&dir.join(files::LANDMARKS), &LandmarkTypes::default())?;
         let controls_path = dir.join(files::CONTROLS);
         let mut r = CsvRows::open(&controls_path, &["t", "v", "omega"], &[])?;
         let mut controls: Vec<(f64, Control)> = Vec::new();
@@ -202,7 +203,7 @@ impl World {
                     ),
                 });
             }
-            landmarks.push(Landmark { id: id as i64, position: Point2::new(x, y) });
+            landmarks.push(Landmark { id: id as i64, position: Point2::new(x, y), mark: 0 });
         }
         let max_dt = rfslam_data::config::limits::MAX_DT;
         let dt = match mat.get("T") {
@@ -251,7 +252,7 @@ impl World {
     /// reads it back. This converts `Environment_SLAM.mat` to CSV.
     pub fn write_csv_dir(&self, dir: &Path) -> Result<(), DataError> {
         std::fs::create_dir_all(dir).map_err(|e| DataError::io(dir, e))?;
-        write_landmarks(&dir.join(files::LANDMARKS), &self.landmarks)?;
+        write_landmarks(&dir.join(files::LANDMARKS), &self.landmarks, &LandmarkTypes::default())?;
         let cols = self.motion.control_columns();
         let mut w = CsvOut::create(&dir.join(files::CONTROLS), &format!("t,{}", cols.join(",")))?;
         for (t, u) in &self.controls {
@@ -377,7 +378,7 @@ impl World {
                 continue;
             }
             grid.entry((cx, cy)).or_default().push(q);
-            landmarks.push(Landmark { id: landmarks.len() as i64 + 1, position: q });
+            landmarks.push(Landmark { id: landmarks.len() as i64 + 1, position: q, mark: 0 });
         }
         Ok(World { name: "procedural".into(), dt: p.dt, landmarks, controls, poses, motion: Motion::Velocity })
     }
