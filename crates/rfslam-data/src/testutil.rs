@@ -30,18 +30,37 @@ impl Drop for TempDir {
     }
 }
 
-/// A directory of the shared external data: through `find_data`, else beside the
-/// workspace (`<workspace>/../shared/data`). `None` (with a printed note) when absent.
-pub fn shared_data(rel: &str) -> Option<PathBuf> {
+/// A file or directory of the external data (`phd-slam-synthetic/landmarks.csv`,
+/// `victoria-park`), for the tests that need it: through `find_data`, else beside the
+/// workspace (`<workspace>/../shared/data`).
+///
+/// Such a test is marked `#[ignore = "needs the external data set <name> (set RFSLAM_DATA
+/// or put it in ../shared/data)"]`, so that `cargo test` on a clean clone does not run it,
+/// and is run with `cargo test --release -- --ignored`; there a missing data set fails the
+/// test with this panic (the paths tried and where to get the data), never a silent pass.
+/// A test whose point is a code path rather than the published data uses the shipped
+/// scenarios or a generated world ([`small_scenario`], `rfslam_sim::World::procedural`)
+/// instead.
+pub fn shared_data(rel: &str) -> PathBuf {
     let beside = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data").join(rel);
-    match crate::find_data(rel) {
-        Ok(p) if p.exists() => Some(p),
-        _ if beside.exists() => Some(beside),
-        _ => {
-            println!("note: external data `{rel}` not found (set RFSLAM_DATA); skipping this check");
-            None
-        }
+    let found = crate::find_data(rel);
+    if let Ok(p) = &found
+        && p.exists()
+    {
+        return p.clone();
     }
+    if beside.exists() {
+        return beside;
+    }
+    let why = match found {
+        Ok(p) => format!("{} does not exist", p.display()),
+        Err(e) => e.to_string(),
+    };
+    panic!(
+        "this test needs the external data `{rel}`, which is not installed (it also looked beside the workspace, \
+         at {}): {why}",
+        beside.display()
+    );
 }
 
 /// The text of `tests/data/small-procedural.toml`, the scenario of the tests: a small
@@ -65,12 +84,14 @@ pub fn small_scenario(overrides: &[(&str, toml::Value)]) -> String {
 
 /// The published PHD-SLAM environment in both forms: the directory of its CSV layout and
 /// its `Environment_SLAM.mat`, each looked up with [`shared_data`] (so that a data root
-/// holding only the .mat does not hide the CSV files). `None` (with a printed note) when
-/// either is missing.
-pub fn synthetic_csv_and_mat() -> Option<(PathBuf, PathBuf)> {
-    let csv = shared_data("phd-slam-synthetic/landmarks.csv")?;
-    let mat = shared_data("phd-slam-synthetic/Environment_SLAM.mat")?;
-    Some((csv.parent()?.to_path_buf(), mat))
+/// holding only the .mat does not hide the CSV files). Panics, like [`shared_data`], when
+/// either is missing: for the tests marked `#[ignore = "needs the external data set
+/// phd-slam-synthetic ..."]`.
+pub fn synthetic_csv_and_mat() -> (PathBuf, PathBuf) {
+    let csv = shared_data("phd-slam-synthetic/landmarks.csv");
+    let mat = shared_data("phd-slam-synthetic/Environment_SLAM.mat");
+    let dir = csv.parent().expect("landmarks.csv is in a directory").to_path_buf();
+    (dir, mat)
 }
 
 /// A fresh `<temp>/phd-slam-synthetic/` holding only a copy of `mat`: the published

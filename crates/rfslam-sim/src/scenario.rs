@@ -105,9 +105,13 @@ fn check_same_motion(scenario: &MotionConfig, dataset: &MotionConfig, name: &str
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rfslam_data::mat::build;
     use rfslam_data::scenario::GpsFrame;
-    use rfslam_data::testutil::{SMALL_SCENARIO, TempDir, mat_only_environment, shared_data, synthetic_csv_and_mat};
+    use rfslam_data::testutil::{SMALL_SCENARIO, TempDir, shared_data};
     use rfslam_data::{ModelConfig, ProceduralParams};
+    use std::path::{Path, PathBuf};
+
+    use crate::victoria_park::tests::{GPS, INPUTS, MEASUREMENTS, write_excerpt};
 
     /// The `[world]` keys of the test scenario.
     const SMALL_WORLD: &str = "kind = \"procedural\"\nseed = 1\nsteps = 120\nextent = 300.0\nlandmarks = 25\n";
@@ -156,34 +160,80 @@ mod tests {
         assert!(e.contains("ackermann") && e.contains("velocity"), "{e}");
     }
 
-    #[test]
-    fn environment_and_mat_scenarios_load_the_shared_data() {
-        let Some((dir, mat_path)) = synthetic_csv_and_mat() else { return };
-        let env = with_world(&format!("kind = \"environment\"\npath = {:?}\n", dir.display().to_string()));
-        let sc = ScenarioConfig::from_toml_str(&env, "env.toml").unwrap();
-        let w = sc.load_world().unwrap().unwrap();
-        assert_eq!(w.poses.len(), 4000);
-        let mat = with_world(&format!("kind = \"mat\"\npath = {:?}\n", mat_path.display().to_string()));
-        let sc = ScenarioConfig::from_toml_str(&mat, "mat.toml").unwrap();
-        assert_eq!(sc.load_world().unwrap().unwrap().landmarks.len(), 160);
+    /// The world of the test scenario in both forms of the published environment:
+    /// `<tmp>/csv/phd-slam-synthetic/` in the CSV layout and
+    /// `<tmp>/mat/phd-slam-synthetic/Environment_SLAM.mat` alone (the variables the download
+    /// holds), so that the environment and mat scenarios run without the external data.
+    /// Returns the world named like the directories, the CSV directory and the .mat.
+    fn generated_environment(tmp: &TempDir) -> (World, PathBuf, PathBuf) {
+        let p = ProceduralParams { steps: 120, extent: 300.0, landmarks: 25, ..Default::default() };
+        let mut w = World::procedural(&p, 1).unwrap();
+        w.name = "phd-slam-synthetic".into();
+        let csv = tmp.path().join("csv/phd-slam-synthetic");
+        w.write_csv_dir(&csv).unwrap();
+        let n = w.landmarks.len();
+        let lm: Vec<f64> = (w.landmarks.iter().map(|l| l.id as f64))
+            .chain(w.landmarks.iter().map(|l| l.position.x))
+            .chain(w.landmarks.iter().map(|l| l.position.y))
+            .collect();
+        let u: Vec<f64> = w.controls.iter().flat_map(|(_, u)| [u[0], u[1]]).collect();
+        let x0 = w.poses[0].1;
+        let mut f = build::header();
+        f.extend(build::compressed(&build::double_matrix("Landmark_Groundtruth", n, 3, &lm)));
+        f.extend(build::double_matrix("Robot_Control", 2, w.controls.len(), &u));
+        f.extend(build::double_matrix("Robot_Groundtruth", 3, 1, &[x0.x, x0.y, x0.z]));
+        f.extend(build::double_matrix("T", 1, 1, &[w.dt]));
+        let mat_dir = tmp.path().join("mat/phd-slam-synthetic");
+        std::fs::create_dir_all(&mat_dir).unwrap();
+        let mat = mat_dir.join(crate::world::ENVIRONMENT_MAT);
+        std::fs::write(&mat, f).unwrap();
+        (w, csv, mat)
     }
 
-    /// `scenarios/phd-slam-synthetic.toml` on a directory holding only the downloaded
-    /// `Environment_SLAM.mat` gives the data sets of the CSV layout.
+    /// `path = "<path>"` in TOML.
+    fn toml_path(p: &Path) -> String {
+        format!("path = {:?}", p.display().to_string())
+    }
+
+    /// Worlds of kind "environment" (its CSV layout, or the .mat alone) and "mat" load the
+    /// world they name (on a generated world; the published one: the ignored tests of
+    /// `world.rs`).
+    #[test]
+    fn environment_and_mat_scenarios_load_their_world() {
+        let tmp = TempDir::new("scenario-env");
+        let (w, csv, mat) = generated_environment(&tmp);
+        let load = |world: String| {
+            let sc = ScenarioConfig::from_toml_str(&with_world(&world), "env.toml").unwrap();
+            sc.load_world().unwrap().unwrap()
+        };
+        assert_eq!(load(format!("kind = \"environment\"\n{}\n", toml_path(&csv))), w);
+        assert_eq!(load(format!("kind = \"environment\"\n{}\n", toml_path(mat.parent().unwrap()))), w);
+        let mut from_mat = load(format!("kind = \"mat\"\n{}\n", toml_path(&mat)));
+        assert_eq!(from_mat.name, "Environment_SLAM");
+        from_mat.name = w.name.clone();
+        assert_eq!(from_mat, w);
+    }
+
+    /// `scenarios/phd-slam-synthetic.toml` on a directory holding only `Environment_SLAM.mat`
+    /// (the published environment as downloaded) gives the world and the data sets of the
+    /// CSV layout; on a generated world in both forms (the published file itself:
+    /// `world::tests::published_mat_alone_gives_the_csv_world_bit_for_bit`, ignored).
     #[test]
     fn shipped_environment_scenario_runs_on_the_mat_alone() {
-        let Some((shared, mat)) = synthetic_csv_and_mat() else { return };
-        let (_tmp, dir) = mat_only_environment(&mat, "scenario-mat-only");
+        let tmp = TempDir::new("scenario-mat-only");
+        let (w, csv, mat) = generated_environment(&tmp);
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/phd-slam-synthetic.toml");
         let text = std::fs::read_to_string(path).unwrap();
-        let at = |d: &std::path::Path| {
-            text.replace("path = \"phd-slam-synthetic\"", &format!("path = {:?}", d.display().to_string()))
-        };
-        let mat_only = ScenarioConfig::from_toml_str(&at(&dir), "mat-only.toml").unwrap();
-        let csv = ScenarioConfig::from_toml_str(&at(&shared), "csv.toml").unwrap();
+        let at = |d: &Path| text.replace("path = \"phd-slam-synthetic\"", &toml_path(d));
+        assert_ne!(at(&csv), text, "scenarios/phd-slam-synthetic.toml names its data as path = \"phd-slam-synthetic\"");
+        let mat_only = ScenarioConfig::from_toml_str(&at(mat.parent().unwrap()), "mat-only.toml").unwrap();
+        let csv = ScenarioConfig::from_toml_str(&at(&csv), "csv.toml").unwrap();
         let (wm, wc) = (mat_only.load_world().unwrap(), csv.load_world().unwrap());
         assert_eq!(wm, wc);
-        assert_eq!(mat_only.build_dataset(wm.as_ref(), 1).unwrap(), csv.build_dataset(wc.as_ref(), 1).unwrap());
+        assert_eq!(wm.as_ref(), Some(&w));
+        let d = mat_only.build_dataset(wm.as_ref(), 1).unwrap();
+        assert_eq!(d.scans.len(), 120);
+        assert_eq!(d, csv.build_dataset(wc.as_ref(), 1).unwrap());
     }
 
     /// The shipped delta-GLMB-SLAM worlds have the scans and loop closures the scenario
@@ -224,28 +274,44 @@ mod tests {
         assert!((sc.models_for(None).unwrap().initial_pose[2] - 35.5f64.to_radians()).abs() < 1e-15);
     }
 
+    /// `scenarios/victoria-park.toml` (or `text`) on the excerpt of `victoria_park.rs`'s
+    /// tests (three scans, four odometry rows, three GPS fixes) written to `tmp`.
+    fn on_victoria_park_excerpt(text: &str, tmp: &TempDir) -> ScenarioConfig {
+        write_excerpt(tmp, MEASUREMENTS, INPUTS, GPS);
+        let text = text.replace("path = \"victoria-park\"", &toml_path(tmp.path()));
+        ScenarioConfig::from_toml_str(&text, "vp.toml").unwrap()
+    }
+
+    /// Each run is a data set of its own (clutter drawn from the run seed), on the same
+    /// odometry, with the scenario's models; on the excerpt (the distributed recording:
+    /// `victoria_park::tests::the_distributed_files_import`, ignored).
     #[test]
     fn victoria_park_scenario_builds_per_run_data_sets() {
-        let Some(dir) = shared_data("victoria-park") else { return };
-        let text = victoria_park_scenario()
-            .replace("path = \"victoria-park\"", &format!("path = {:?}", dir.display().to_string()));
-        let sc = ScenarioConfig::from_toml_str(&text, "vp.toml").unwrap();
+        let tmp = TempDir::new("scenario-vp");
+        let sc = on_victoria_park_excerpt(&victoria_park_scenario(), &tmp);
         let a = sc.build_dataset(None, 4).unwrap();
-        assert_eq!(a.scans.len(), 7230);
+        assert_eq!(a.scans.len(), 3);
         assert_eq!(a.models(), sc.models_for(None).unwrap());
         assert_eq!(a.meta.initial_t, 0.852);
         let b = sc.build_dataset(None, 5).unwrap();
         assert_ne!(a.scans, b.scans);
         assert_eq!(a.odometry, b.odometry);
+        assert_eq!(sc.build_dataset(None, 4).unwrap(), a);
+    }
+
+    /// `scenarios/victoria-park-paper-frame.toml`.
+    fn victoria_park_paper_frame_scenario() -> String {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/victoria-park-paper-frame.toml");
+        std::fs::read_to_string(path).unwrap()
     }
 
     /// The paper-frame scenario starts at the paper's pose in the frame of `gps.dat` and
-    /// scores against `gps.dat` as recorded; an unknown `gps_frame` is refused naming the key.
+    /// scores against `gps.dat` as recorded (on the excerpt); an unknown `gps_frame` is
+    /// refused naming the key.
     #[test]
     fn victoria_park_paper_frame_scores_against_the_recorded_gps() {
-        let path =
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/victoria-park-paper-frame.toml");
-        let text = std::fs::read_to_string(path).unwrap();
+        let text = victoria_park_paper_frame_scenario();
         let sc = ScenarioConfig::from_toml_str(&text, "vp.toml").unwrap();
         assert!(matches!(sc.world, WorldSpec::VictoriaPark { gps_frame: GpsFrame::Recorded, .. }));
         let x0 = sc.models_for(None).unwrap().initial_pose;
@@ -253,10 +319,25 @@ mod tests {
         let bad = text.replace("gps_frame = \"recorded\"", "gps_frame = \"acfr\"");
         let e = ScenarioConfig::from_toml_str(&bad, "vp.toml").unwrap_err().to_string();
         assert!(e.contains("gps_frame") || e.contains("acfr"), "{e}");
-        let Some(dir) = shared_data("victoria-park") else { return };
-        let text = text.replace("path = \"victoria-park\"", &format!("path = {:?}", dir.display().to_string()));
+        let tmp = TempDir::new("scenario-vp-paper");
+        let d = on_victoria_park_excerpt(&text, &tmp).build_dataset(None, 1).unwrap();
+        assert_eq!(d.meta.initial_pose, x0);
+        let gt: Vec<_> = d.groundtruth.unwrap().iter().map(|g| (g.t, g.position)).collect();
+        let recorded = [(0.0, (-2.023, -1.923)), (1.08, (0.5, -1.8)), (1.29, (1.0, -1.7))];
+        assert_eq!(gt, recorded.map(|(t, (x, y))| (t, rfslam_core::Point2::new(x, y))));
+    }
+
+    /// The paper's start position is the first fix of the distributed `gps.dat`, where the
+    /// paper-frame scenario starts.
+    #[test]
+    #[ignore = "needs the external data set victoria-park (set RFSLAM_DATA or put it in ../shared/data)"]
+    fn victoria_park_paper_frame_starts_at_the_first_recorded_fix() {
+        let dir = shared_data("victoria-park");
+        let text = victoria_park_paper_frame_scenario().replace("path = \"victoria-park\"", &toml_path(&dir));
         let d = ScenarioConfig::from_toml_str(&text, "vp.toml").unwrap().build_dataset(None, 1).unwrap();
+        assert_eq!(d.scans.len(), 7230);
         let first = d.groundtruth.unwrap()[0].position;
+        assert!((first - d.meta.initial_pose.xy()).norm() < 0.01, "{first}");
         assert!((first - rfslam_core::Point2::new(-2.023, -1.923)).norm() < 0.01, "{first}");
     }
 
