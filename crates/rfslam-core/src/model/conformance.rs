@@ -140,7 +140,7 @@ fn central_differences<const R: usize, const N: usize>(
         let d = unit::<N>(k, eps);
         let fd = diff(&f(&(at + d)), &f(&(at - d))) / (2.0 * eps);
         if !close(&fd, &jac.column(k).into_owned(), 1e-6) {
-            return Err(format!("{name} column {k} is {:?}, central difference {fd:?}", jac.column(k)));
+            return Err(format!("{name} column {k} is {:?}, central difference {fd:?}", jac.column(k).into_owned()));
         }
     }
     Ok(())

@@ -16,6 +16,8 @@
 //! - [`RangeBearingModel`]: the planar range-bearing sensor (\[Kaltiokallio2024\] eq. 50);
 //! - [`RelativePositionModel`]: a landmark's position in the vehicle frame (stereo rigs,
 //!   lidar feature extractors);
+//! - [`RadioSensor`]: the 5G mmWave TOA/DOD/DOA sensor of \[Kim2022\] (`X = 5`, `M = 3`,
+//!   `Z = 5`, landmarks of three types, [`LandmarkType`]);
 //! - [`conformance`]: the checks every vehicle and sensor model must pass (Jacobians against
 //!   central differences, the inverse against the prediction, wrapping, draws).
 //!
@@ -24,6 +26,7 @@
 //! inside its per-landmark and per-measurement loops.
 
 pub mod conformance;
+mod radio_sensor;
 mod radio_vehicle;
 mod range_bearing;
 mod relative_position;
@@ -37,6 +40,7 @@ use crate::gaussian::symmetrise;
 use crate::motion::{Motion, MotionModel};
 
 pub use crate::types::SensorKind;
+pub use radio_sensor::{LandmarkType, RadioSensor};
 pub use radio_vehicle::RadioVehicle;
 pub use range_bearing::RangeBearingModel;
 pub use relative_position::{RelativePositionModel, RelativePositionSensor};

@@ -1,0 +1,425 @@
+//! The 5G mmWave radio sensor of the PMBM-SLAM paper's world (\[Kim2022\] Section II, eq. 2):
+//! time of arrival, direction of departure and direction of arrival of the paths from a base
+//! station to the vehicle, through virtual anchors (reflections) and scattering points.
+
+use nalgebra::{Matrix3, RowVector3, SMatrix, SVector, Vector3};
+use rand::RngExt;
+use rand_distr::{Distribution, Poisson, StandardNormal};
+
+use super::{Linearised, MeasurementComponent, SensorModel};
+use crate::angle::wrap;
+
+/// The type of a landmark of the radio world (\[Kim2022\] Section II: `M = {BS, VA, SP}`), in
+/// the order of the marks of its data sets (`base_station`, `virtual_anchor`,
+/// `scattering_point`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum LandmarkType {
+    /// The base station (line-of-sight path), known to the filters.
+    #[default]
+    BaseStation,
+    /// A virtual anchor: the mirror image of the base station in a wall (a reflected path).
+    VirtualAnchor,
+    /// A scattering point (a path scattered at a small object).
+    ScatteringPoint,
+}
+
+impl LandmarkType {
+    /// Every type, in the order of the marks.
+    pub const ALL: [LandmarkType; 3] =
+        [LandmarkType::BaseStation, LandmarkType::VirtualAnchor, LandmarkType::ScatteringPoint];
+
+    /// The names a data set writes, in the order of the marks.
+    pub const NAMES: [&'static str; 3] = ["base_station", "virtual_anchor", "scattering_point"];
+
+    /// The mark (index into [`LandmarkType::ALL`]).
+    pub fn mark(self) -> u8 {
+        self as u8
+    }
+}
+
+/// Azimuth `atan2(w_y, w_x)`, elevation `asin(w_z / |w|)` and length `|w|` of a direction `w`,
+/// with their gradients in `w`: `d az = (-w_y, w_x, 0) / rho^2`, `d el = (-w_z w_x, -w_z w_y,
+/// rho^2) / (r^2 rho)`, `d r = w / r` (`rho` the horizontal length).
+#[derive(Debug, Clone, Copy)]
+struct Direction {
+    az: f64,
+    el: f64,
+    r: f64,
+    d_az: RowVector3<f64>,
+    d_el: RowVector3<f64>,
+    d_r: RowVector3<f64>,
+}
+
+impl Direction {
+    #[inline]
+    fn of(w: &Vector3<f64>) -> Direction {
+        let rho2 = w.x * w.x + w.y * w.y;
+        let rho = rho2.sqrt();
+        let r2 = rho2 + w.z * w.z;
+        let r = r2.sqrt();
+        Direction {
+            az: w.y.atan2(w.x),
+            el: (w.z / r).clamp(-1.0, 1.0).asin(),
+            r,
+            d_az: RowVector3::new(-w.y, w.x, 0.0) / rho2,
+            d_el: RowVector3::new(-w.z * w.x, -w.z * w.y, rho2) / (r2 * rho),
+            d_r: w.transpose() / r,
+        }
+    }
+}
+
+/// The reflection point of the path from the base station `b` to the vehicle at `v` through
+/// the virtual anchor `m`: where the segment from `m` to `v` meets the wall, the plane
+/// bisecting `b` and `m` perpendicularly. With `a = b - m` and `g = v - m`,
+/// `p = m + s g`, `s = |a|^2 / (2 g . a)`; returns `p`, `dp/dv` and `dp/dm`.
+#[inline]
+fn reflection_point(
+    b: &Vector3<f64>,
+    m: &Vector3<f64>,
+    v: &Vector3<f64>,
+) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>) {
+    let (a, g) = (b - m, v - m);
+    let ga = g.dot(&a);
+    let s = a.norm_squared() / (2.0 * ga);
+    let p = m + g * s;
+    // ds/dv = -s a^T / (g . a); ds/dm = (s (a + g) - a)^T / (g . a).
+    let ds_dv = a.transpose() * (-s / ga);
+    let ds_dm = ((a + g) * s - a).transpose() / ga;
+    let dp_dv = Matrix3::identity() * s + g * ds_dv;
+    let dp_dm = Matrix3::identity() * (1.0 - s) + g * ds_dm;
+    (p, dp_dv, dp_dm)
+}
+
+/// The TOA/DOD/DOA sensor of \[Kim2022\] (eq. 2; the geometry of the public codes of that world):
+/// a measurement `z = [toa, dod_az, dod_el, doa_az, doa_el]` (m, rad) of the path through a
+/// landmark `m = [x, y, z]` of a [`LandmarkType`], seen from the radio vehicle's state
+/// `[x, y, z, heading, clock bias]` ([`super::RadioVehicle`]). With `v` the vehicle position,
+/// `b` the clock bias and `B` the base station:
+///
+/// - base station `m` (line of sight): `toa = |m - v| + b`, DOD the direction of `v - m`,
+///   DOA the direction of `m - v`;
+/// - virtual anchor `m`: `toa = |m - v| + b`, DOA the direction of `m - v`, DOD the direction
+///   from `B` to the reflection point on the wall bisecting `B` and `m`;
+/// - scattering point `m`: `toa = |m - v| + |m - B| + b`, DOA the direction of `m - v`, DOD
+///   the direction of `m - B`.
+///
+/// A direction is the azimuth `atan2(w_y, w_x)` and the elevation `asin(w_z / |w|)` (positive
+/// upward, in `[-pi/2, pi/2]`); the DOD is in the global frame (the base station's array is
+/// not rotated), the DOA azimuth is relative to the heading. Azimuths are wrapped to
+/// `[-pi, pi)` and at every subtraction; elevations are not. The component order is the
+/// codes' (`[toa, DOD, DOA]`); the paper's eq. (2) lists DOA before DOD. The codes take the
+/// DOD azimuth as `atan2` of absolute coordinates, which is the same only for a base station
+/// at `x = y = 0`: here it is relative to `B`.
+///
+/// Noise: `R = noise_scale[type] diag(sigma^2)`, the codes' fixed `sigma = [0.1 m, 0.01 rad
+/// x 4]` in the published world; \[Kim2022\] derives its `R` from the Fisher information of
+/// radio settings it does not state fully. Visibility: a landmark of type `t` is in view
+/// within the 3-D distance `visibility[t]` of the vehicle (the codes: scattering points
+/// within 50 m, the base station and the virtual anchors always), where the filters' `p_D`
+/// is `pd` and the simulator's `pd_true` (hard edge: no edge treatment applies). Clutter:
+/// `Poisson(clutter_rate)` measurements per scan, uniform over `toa` in `[0, toa_max]`, the
+/// azimuths in `[-pi, pi)` and the elevations in `[-pi/2, pi/2]`; the filters' intensity is
+/// `kappa` per m rad^4.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RadioSensor {
+    /// The base station position `B` (m).
+    pub base_station: Vector3<f64>,
+    /// Standard deviations of `[toa, dod_az, dod_el, doa_az, doa_el]` (m, rad x 4).
+    pub sigma: [f64; 5],
+    /// Scale of `R` per landmark type (base station, virtual anchor, scattering point).
+    pub noise_scale: [f64; 3],
+    /// Visibility radius per landmark type (m; infinite for always visible).
+    pub visibility: [f64; 3],
+    /// The filters' detection probability inside the visibility radius.
+    pub pd: f64,
+    /// The simulator's detection probability inside the visibility radius.
+    pub pd_true: f64,
+    /// Mean clutter measurements per scan (simulator).
+    pub clutter_rate: f64,
+    /// Upper end of the clutter's time of arrival (m).
+    pub toa_max: f64,
+    /// The filters' clutter intensity (per m rad^4).
+    pub kappa: f64,
+}
+
+impl RadioSensor {
+    /// The volume of the clutter box, `toa_max (2 pi)^2 pi^2` (m rad^4).
+    pub fn clutter_volume(&self) -> f64 {
+        use std::f64::consts::{PI, TAU};
+        self.toa_max * TAU * TAU * PI * PI
+    }
+
+    /// `h(x, m, t)` with `H_x` (`5 x 5`) and `H_m` (`5 x 3`).
+    #[inline]
+    fn measure(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, t: LandmarkType) -> Linearised<5, 3, 5> {
+        let v = Vector3::new(x[0], x[1], x[2]);
+        let mut hx = SMatrix::<f64, 5, 5>::zeros();
+        let mut hm = SMatrix::<f64, 5, 3>::zeros();
+        // DOA: the direction of m - v, azimuth relative to the heading (d/dv = -d/dm).
+        let doa = Direction::of(&(m - v));
+        hm.fixed_view_mut::<1, 3>(3, 0).copy_from(&doa.d_az);
+        hm.fixed_view_mut::<1, 3>(4, 0).copy_from(&doa.d_el);
+        hx.fixed_view_mut::<1, 3>(3, 0).copy_from(&-doa.d_az);
+        hx.fixed_view_mut::<1, 3>(4, 0).copy_from(&-doa.d_el);
+        hx[(3, 3)] = -1.0;
+        // TOA: |m - v| + b (+ |m - B| for a scattering point).
+        let mut toa = doa.r + x[4];
+        hm.fixed_view_mut::<1, 3>(0, 0).copy_from(&doa.d_r);
+        hx.fixed_view_mut::<1, 3>(0, 0).copy_from(&-doa.d_r);
+        hx[(0, 4)] = 1.0;
+        // DOD, from the base station's side.
+        let dod = match t {
+            LandmarkType::BaseStation => {
+                let d = Direction::of(&(v - m));
+                hx.fixed_view_mut::<1, 3>(1, 0).copy_from(&d.d_az);
+                hx.fixed_view_mut::<1, 3>(2, 0).copy_from(&d.d_el);
+                hm.fixed_view_mut::<1, 3>(1, 0).copy_from(&-d.d_az);
+                hm.fixed_view_mut::<1, 3>(2, 0).copy_from(&-d.d_el);
+                d
+            }
+            LandmarkType::VirtualAnchor => {
+                let (p, dp_dv, dp_dm) = reflection_point(&self.base_station, m, &v);
+                let d = Direction::of(&(p - self.base_station));
+                hx.fixed_view_mut::<1, 3>(1, 0).copy_from(&(d.d_az * dp_dv));
+                hx.fixed_view_mut::<1, 3>(2, 0).copy_from(&(d.d_el * dp_dv));
+                hm.fixed_view_mut::<1, 3>(1, 0).copy_from(&(d.d_az * dp_dm));
+                hm.fixed_view_mut::<1, 3>(2, 0).copy_from(&(d.d_el * dp_dm));
+                d
+            }
+            LandmarkType::ScatteringPoint => {
+                let d = Direction::of(&(m - self.base_station));
+                toa += d.r;
+                let mut row = hm.fixed_view_mut::<1, 3>(0, 0);
+                row += d.d_r;
+                hm.fixed_view_mut::<1, 3>(1, 0).copy_from(&d.d_az);
+                hm.fixed_view_mut::<1, 3>(2, 0).copy_from(&d.d_el);
+                d
+            }
+        };
+        let z = SVector::from([toa, wrap(dod.az), dod.el, wrap(doa.az - x[3]), doa.el]);
+        Linearised { z, hx, hm }
+    }
+}
+
+impl SensorModel<5, 3, 5> for RadioSensor {
+    type Mark = LandmarkType;
+
+    const NAME: &'static str = "radio5g";
+
+    fn components(&self) -> [MeasurementComponent; 5] {
+        [
+            MeasurementComponent { name: "toa", angle: false },
+            MeasurementComponent { name: "dod_az", angle: true },
+            MeasurementComponent { name: "dod_el", angle: false },
+            MeasurementComponent { name: "doa_az", angle: true },
+            MeasurementComponent { name: "doa_el", angle: false },
+        ]
+    }
+
+    #[inline]
+    fn predict(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, mark: LandmarkType) -> SVector<f64, 5> {
+        self.measure(x, m, mark).z
+    }
+
+    #[inline]
+    fn linearise(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, mark: LandmarkType) -> Linearised<5, 3, 5> {
+        self.measure(x, m, mark)
+    }
+
+    fn noise(&self, mark: LandmarkType) -> SMatrix<f64, 5, 5> {
+        let s = self.noise_scale[mark as usize];
+        SMatrix::from_diagonal(&SVector::from(self.sigma.map(|v| s * v * v)))
+    }
+
+    fn in_fov(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, mark: LandmarkType) -> bool {
+        let d = Vector3::new(m.x - x[0], m.y - x[1], m.z - x[2]).norm();
+        d <= self.visibility[mark as usize]
+    }
+
+    fn detection_probability(
+        &self,
+        x: &SVector<f64, 5>,
+        m: &Vector3<f64>,
+        _cov: &Matrix3<f64>,
+        mark: LandmarkType,
+    ) -> f64 {
+        if self.in_fov(x, m, mark) { self.pd } else { 0.0 }
+    }
+
+    fn clutter_intensity(&self, _z: &SVector<f64, 5>) -> f64 {
+        self.kappa
+    }
+
+    fn pd_true(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, mark: LandmarkType) -> f64 {
+        if self.in_fov(x, m, mark) { self.pd_true } else { 0.0 }
+    }
+
+    fn sample<R: rand::Rng + ?Sized>(
+        &self,
+        x: &SVector<f64, 5>,
+        m: &Vector3<f64>,
+        mark: LandmarkType,
+        rng: &mut R,
+    ) -> SVector<f64, 5> {
+        let s = self.noise_scale[mark as usize].sqrt();
+        let mut z = self.predict(x, m, mark);
+        for (i, sigma) in self.sigma.iter().enumerate() {
+            let e: f64 = StandardNormal.sample(rng);
+            z[i] += s * sigma * e;
+        }
+        z[1] = wrap(z[1]);
+        z[3] = wrap(z[3]);
+        z
+    }
+
+    fn sample_clutter<R: rand::Rng + ?Sized>(&self, _x: &SVector<f64, 5>, rng: &mut R, out: &mut Vec<SVector<f64, 5>>) {
+        use std::f64::consts::{FRAC_PI_2, PI};
+        if self.clutter_rate <= 0.0 {
+            return;
+        }
+        let n = Poisson::new(self.clutter_rate).map(|d| d.sample(rng) as usize).unwrap_or(0);
+        for _ in 0..n {
+            out.push(SVector::from([
+                rng.random_range(0.0..=self.toa_max),
+                rng.random_range(-PI..PI),
+                rng.random_range(-FRAC_PI_2..=FRAC_PI_2),
+                rng.random_range(-PI..PI),
+                rng.random_range(-FRAC_PI_2..=FRAC_PI_2),
+            ]));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::conformance::check_sensor_model;
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+
+    /// The published world: the base station at (0, 0, 40), the codes' noise, scattering
+    /// points seen within 50 m, the others always; one clutter return per scan over a TOA of
+    /// 0-200 m.
+    fn published() -> RadioSensor {
+        let toa_max = 200.0;
+        let mut s = RadioSensor {
+            base_station: Vector3::new(0.0, 0.0, 40.0),
+            sigma: [0.1, 0.01, 0.01, 0.01, 0.01],
+            noise_scale: [1.0, 1.0, 1.0],
+            visibility: [f64::INFINITY, f64::INFINITY, 50.0],
+            pd: 0.95,
+            pd_true: 0.95,
+            clutter_rate: 1.0,
+            toa_max,
+            kappa: 0.0,
+        };
+        s.kappa = 1.0 / s.clutter_volume();
+        s
+    }
+
+    fn state(x: f64, y: f64, heading: f64) -> SVector<f64, 5> {
+        SVector::from([x, y, 0.0, heading, 300.0])
+    }
+
+    #[test]
+    fn line_of_sight_by_hand() {
+        let s = published();
+        // The vehicle at its start (70.73, 0, 0) heading north (+y).
+        let r = 70.7285;
+        let z = s.predict(&state(r, 0.0, FRAC_PI_2), &s.base_station, LandmarkType::BaseStation);
+        let d = (r * r + 40.0f64 * 40.0).sqrt();
+        assert!((z[0] - (d + 300.0)).abs() < 1e-9, "toa {}", z[0]);
+        // DOD: from the BS towards the vehicle, azimuth 0 (along +x), looking down.
+        assert!(z[1].abs() < 1e-12);
+        assert!((z[2] - (-40.0 / d).asin()).abs() < 1e-12 && z[2] < 0.0);
+        assert!((z[2].to_degrees() + 29.5).abs() < 0.05, "the note's -29.5 deg: {}", z[2].to_degrees());
+        // DOA: the BS is behind-left... at azimuth pi globally, pi - pi/2 = pi/2 relative to
+        // the heading (to the vehicle's left); looking up.
+        assert!((z[3] - FRAC_PI_2).abs() < 1e-12, "doa az {}", z[3]);
+        assert!((z[4] + z[2]).abs() < 1e-12 && z[4] > 0.0);
+    }
+
+    #[test]
+    fn virtual_anchor_reflects_in_the_wall() {
+        let s = published();
+        // The VA (200, 0, 40) mirrors the BS in the wall x = 100. Vehicle at (0, -50, 0):
+        // the path leaves the BS, hits x = 100 at the point on the line from the vehicle to
+        // the VA, p = v + t (m - v) with x = 100: t = 1/2, p = (100, -25, 20).
+        let x = state(0.0, -50.0, 0.0);
+        let m = Vector3::new(200.0, 0.0, 40.0);
+        let (p, _, _) = reflection_point(&s.base_station, &m, &Vector3::new(0.0, -50.0, 0.0));
+        assert!((p - Vector3::new(100.0, -25.0, 20.0)).norm() < 1e-9, "{p}");
+        let z = s.predict(&x, &m, LandmarkType::VirtualAnchor);
+        // TOA = |m - v| + b = |BS - p| + |p - v| + b (the reflected path's length).
+        let path = (p - s.base_station).norm() + (p - Vector3::new(0.0, -50.0, 0.0)).norm();
+        assert!((z[0] - 300.0 - path).abs() < 1e-9);
+        // DOD towards p: azimuth atan2(-25, 100), elevation asin(-20 / |p - BS|).
+        assert!((z[1] - (-25.0f64).atan2(100.0)).abs() < 1e-12);
+        assert!((z[2] - (-20.0 / (p - s.base_station).norm()).asin()).abs() < 1e-12);
+        // DOA from the VA's direction: atan2(50, 200) relative to heading 0, looking up.
+        assert!((z[3] - 50.0f64.atan2(200.0)).abs() < 1e-12 && z[4] > 0.0);
+    }
+
+    #[test]
+    fn scattering_point_and_azimuth_wrap() {
+        let s = published();
+        // An SP at (-65, 65, 20) seen from (-40, 40, 0) heading -3 rad (about -172 deg).
+        let x = state(-40.0, 40.0, -3.0);
+        let m = Vector3::new(-65.0, 65.0, 20.0);
+        let z = s.predict(&x, &m, LandmarkType::ScatteringPoint);
+        let (dv, db) = ((m - Vector3::new(-40.0, 40.0, 0.0)).norm(), (m - s.base_station).norm());
+        assert!((z[0] - (dv + db + 300.0)).abs() < 1e-9);
+        // DOD of m - B = (-65, 65, -20): azimuth 3 pi / 4, elevation negative.
+        assert!((z[1] - 3.0 * FRAC_PI_4).abs() < 1e-12 && z[2] < 0.0);
+        // DOA azimuth 3 pi / 4 - (-3) = 5.356 rad, wrapped to 5.356 - 2 pi = -0.927.
+        let want = 3.0 * FRAC_PI_4 + 3.0 - 2.0 * PI;
+        assert!((z[3] - want).abs() < 1e-12 && (-PI..PI).contains(&z[3]), "doa az {}", z[3]);
+        // Out of view beyond 50 m; the BS and VAs always in view.
+        assert!(s.in_fov(&x, &m, LandmarkType::ScatteringPoint));
+        assert!(!s.in_fov(&state(70.0, 0.0, 0.0), &m, LandmarkType::ScatteringPoint));
+        assert!(s.in_fov(&state(70.0, 0.0, 0.0), &Vector3::new(0.0, -200.0, 40.0), LandmarkType::VirtualAnchor));
+        assert_eq!(
+            s.detection_probability(&state(70.0, 0.0, 0.0), &m, &Matrix3::identity(), LandmarkType::ScatteringPoint),
+            0.0
+        );
+        // The note's clutter density 1.2832e-5 per m rad^4.
+        assert!((s.kappa - 1.2832e-5).abs() < 1e-9);
+    }
+
+    /// The conformance checks of every sensor model, for every type: Jacobians against
+    /// central differences, residual wrapping (azimuths only), visibility, draws. The test
+    /// instance limits every type's visibility (the check puts a landmark 1e9 m away).
+    #[test]
+    fn conformance() {
+        let mut s = published();
+        s.visibility = [1e4, 1e4, 50.0];
+        s.noise_scale = [1.0, 4.0, 9.0];
+        let mut cases = Vec::new();
+        for (k, &(x, y, h)) in
+            [(70.7, 0.0, 1.6), (10.0, -60.0, -3.0), (-55.0, 30.0, 0.4), (40.0, 60.0, 2.9)].iter().enumerate()
+        {
+            let mut st = state(x, y, h);
+            st[2] = 0.5 * k as f64;
+            st[4] = 300.0 - 7.0 * k as f64;
+            cases.push((st, s.base_station, LandmarkType::BaseStation));
+            for va in [[200.0, 0.0, 40.0], [0.0, 200.0, 40.0], [-200.0, 0.0, 40.0], [0.0, -200.0, 40.0]] {
+                cases.push((st, Vector3::from(va), LandmarkType::VirtualAnchor));
+            }
+            let sp = Vector3::new(x + 20.0, y - 25.0, 12.0);
+            cases.push((st, sp, LandmarkType::ScatteringPoint));
+        }
+        check_sensor_model(&s, &cases).unwrap();
+    }
+
+    /// The DOD of a virtual anchor moves with the vehicle (the reflection point does); the
+    /// DOD of a scattering point does not.
+    #[test]
+    fn virtual_anchor_dod_moves_with_the_vehicle() {
+        let s = published();
+        let x = state(10.0, -60.0, -3.0);
+        let m = Vector3::new(200.0, 0.0, 40.0);
+        let lin = s.linearise(&x, &m, LandmarkType::VirtualAnchor);
+        assert!(lin.hx.fixed_view::<2, 3>(1, 0).norm() > 1e-4, "the DOD of a VA moves with the vehicle");
+        let sp = s.linearise(&x, &m, LandmarkType::ScatteringPoint);
+        assert_eq!(sp.hx.fixed_view::<2, 3>(1, 0).norm(), 0.0, "the DOD of an SP does not");
+    }
+}
