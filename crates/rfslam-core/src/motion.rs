@@ -4,11 +4,12 @@
 //! covariance of one segment is `F P F^T + F_u Q_u F_u^T`. Controls are `Vector3`; a model with two
 //! control inputs ignores the third entry and has a zero third column in `F_u`.
 
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, SMatrix, SVector};
 use serde::{Deserialize, Serialize};
 
 use crate::Pose;
 use crate::angle::wrap;
+use crate::model::VehicleModel;
 use crate::types::{Control, ControlSegment};
 
 /// A pose transition and its Jacobians.
@@ -236,24 +237,33 @@ impl MotionModel for Motion {
 }
 
 /// Propagates the mean through every segment: `f(...f(f(x, u_1), u_2)..., u_n)`.
-pub fn propagate<M: MotionModel + ?Sized>(model: &M, x: &Pose, segments: &[ControlSegment]) -> Pose {
+pub fn propagate<V: VehicleModel<X, 3> + ?Sized, const X: usize>(
+    model: &V,
+    x: &SVector<f64, X>,
+    segments: &[ControlSegment],
+) -> SVector<f64, X> {
     segments.iter().fold(*x, |p, s| model.predict(&p, &s.u, s.dt))
 }
 
 /// Propagates the mean and the covariance through every segment from an exactly known
-/// pose: `P <- F P F^T + F_u Q_u F_u^T` per segment, starting from `P = 0`.
-/// `q_u` is the control noise covariance (3 x 3; zero rows for unused inputs).
-pub fn propagate_with_covariance<M: MotionModel + ?Sized>(
-    model: &M,
-    x: &Pose,
+/// state: `P <- F P F^T + F_u Q_u F_u^T (+ Q)` per segment, starting from `P = 0`, with
+/// `Q` the model's additive process noise where it has one
+/// ([`VehicleModel::process_noise`]). `q_u` is the control noise covariance (3 x 3; zero
+/// rows for unused inputs).
+pub fn propagate_with_covariance<V: VehicleModel<X, 3> + ?Sized, const X: usize>(
+    model: &V,
+    x: &SVector<f64, X>,
     segments: &[ControlSegment],
     q_u: &Matrix3<f64>,
-) -> (Pose, Matrix3<f64>) {
-    let mut p = Matrix3::zeros();
+) -> (SVector<f64, X>, SMatrix<f64, X, X>) {
+    let mut p = SMatrix::<f64, X, X>::zeros();
     let mut mean = *x;
     for s in segments {
-        let (m, f, fu) = model.predict_with_jacobians(&mean, &s.u, s.dt);
+        let (m, f, fu) = model.transition(&mean, &s.u, s.dt);
         p = f * p * f.transpose() + fu * q_u * fu.transpose();
+        if let Some(q) = model.process_noise(s.dt) {
+            p += q;
+        }
         mean = m;
     }
     (mean, 0.5 * (p + p.transpose()))

@@ -52,7 +52,10 @@ pub fn check_vehicle_model<V: VehicleModel<X, U>, const X: usize, const U: usize
         }
     }
     let components = model.components();
-    let (q, estimated) = (model.process_noise(dt), model.estimated());
+    if model.predict(x, u, dt) != mean {
+        return Err(format!("predict {:?} differs from transition {mean:?}", model.predict(x, u, dt)));
+    }
+    let (q, estimated) = (model.process_noise(dt).unwrap_or_else(SMatrix::zeros), model.estimated());
     if q != q.transpose() || (q + SMatrix::<f64, X, X>::identity() * 1e-12).cholesky().is_none() {
         return Err(format!("process noise {q:?} is not symmetric positive semi-definite"));
     }

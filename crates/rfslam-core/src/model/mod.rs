@@ -118,11 +118,17 @@ pub trait VehicleModel<const X: usize, const U: usize> {
         wrapped_difference(a, b, &std::array::from_fn(|i| c[i].is_angle()))
     }
 
+    /// `f(x, u)` over `dt` seconds alone (a model may skip its Jacobians here).
+    #[inline]
+    fn predict(&self, x: &SVector<f64, X>, u: &SVector<f64, U>, dt: f64) -> SVector<f64, X> {
+        self.transition(x, u, dt).0
+    }
+
     /// The covariance `Q` of the noise added to the state once per transition of `dt`
-    /// seconds, on top of the control noise. Zero by default: the planar models take all
-    /// their noise through the control.
-    fn process_noise(&self, _dt: f64) -> SMatrix<f64, X, X> {
-        SMatrix::zeros()
+    /// seconds, on top of the control noise; `None` (the default) when the model takes all
+    /// its noise through the control, as the planar models do.
+    fn process_noise(&self, _dt: f64) -> Option<SMatrix<f64, X, X>> {
+        None
     }
 
     /// Which components the filters estimate; a component that is not estimated is known
@@ -152,6 +158,11 @@ impl VehicleModel<3, 3> for Motion {
         dt: f64,
     ) -> (SVector<f64, 3>, SMatrix<f64, 3, 3>, SMatrix<f64, 3, 3>) {
         self.predict_with_jacobians(x, u, dt)
+    }
+
+    #[inline]
+    fn predict(&self, x: &SVector<f64, 3>, u: &SVector<f64, 3>, dt: f64) -> SVector<f64, 3> {
+        MotionModel::predict(self, x, u, dt)
     }
 }
 

@@ -70,8 +70,8 @@ impl VehicleModel<5, 3> for RadioVehicle {
         (mean, f, fu)
     }
 
-    fn process_noise(&self, _dt: f64) -> SMatrix<f64, 5, 5> {
-        SMatrix::from_diagonal(&SVector::from(self.sigma.map(|s| s * s)))
+    fn process_noise(&self, _dt: f64) -> Option<SMatrix<f64, 5, 5>> {
+        Some(SMatrix::from_diagonal(&SVector::from(self.sigma.map(|s| s * s))))
     }
 
     fn estimated(&self) -> [bool; 5] {
@@ -140,10 +140,10 @@ mod tests {
                 }
                 (mean, f, fu)
             }
-            fn process_noise(&self, dt: f64) -> SMatrix<f64, 5, 5> {
-                let mut q = self.0.process_noise(dt);
+            fn process_noise(&self, dt: f64) -> Option<SMatrix<f64, 5, 5>> {
+                let mut q = self.0.process_noise(dt)?;
                 q[(2, 2)] = if self.1 == 2 { 0.01 } else { 0.0 };
-                q
+                Some(q)
             }
             fn estimated(&self) -> [bool; 5] {
                 [true, true, false, true, true]
@@ -158,11 +158,35 @@ mod tests {
         }
     }
 
+    /// The propagation every filter predicts with adds the additive noise once per
+    /// segment: from a known state, `Q` after one segment, `F Q F^T + Q` after two; the mean
+    /// is the transition's.
+    #[test]
+    fn propagation_adds_the_process_noise() {
+        use crate::motion::{propagate, propagate_with_covariance};
+        use crate::types::ControlSegment;
+        let (model, s, u) = published();
+        let seg = ControlSegment { dt: 0.5, u };
+        let q = model.process_noise(0.5).unwrap();
+        let (mean, p) = propagate_with_covariance(&model, &s, &[seg], &nalgebra::Matrix3::zeros());
+        assert_eq!(mean, model.transition(&s, &u, 0.5).0);
+        assert!((p - q).norm() < 1e-15);
+        let (mean2, p2) = propagate_with_covariance(&model, &s, &[seg, seg], &nalgebra::Matrix3::zeros());
+        let (_, f, _) = model.transition(&mean, &u, 0.5);
+        assert!((p2 - (f * q * f.transpose() + q)).norm() < 1e-12);
+        assert_eq!(mean2, propagate(&model, &s, &[seg, seg]));
+        // With speed noise, the control term adds along the direction of travel.
+        let qu = nalgebra::Matrix3::from_diagonal(&Vector3::new(0.25, 0.0, 0.0));
+        let (_, p) = propagate_with_covariance(&model, &s, &[seg], &qu);
+        let (_, _, fu) = model.transition(&s, &u, 0.5);
+        assert!((p - (fu * qu * fu.transpose() + q)).norm() < 1e-12);
+    }
+
     #[test]
     fn noise_and_estimated_components() {
         let (model, _, _) = published();
-        let q = model.process_noise(0.5);
-        assert_eq!(q, model.process_noise(5.0), "not scaled by dt");
+        let q = model.process_noise(0.5).unwrap();
+        assert_eq!(Some(q), model.process_noise(5.0), "not scaled by dt");
         assert!((q.diagonal() - SVector::from([0.04, 0.04, 0.0, 1e-6, 0.04])).norm() < 1e-15);
         assert_eq!(q, q.transpose());
         assert_eq!(model.estimated(), [true, true, false, true, true]);
