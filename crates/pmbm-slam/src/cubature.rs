@@ -1,5 +1,6 @@
 //! The third-degree spherical-radial cubature rule (\[Kim2022\] eqs. 39-41) for a function of
-//! a planar pose and an independent Gaussian input: `[s; v] ~ N([mu_s; v0], blkdiag(U, P))`
+//! a vehicle state of any dimension (the planar pose by default) and an independent Gaussian
+//! input: `[s; v] ~ N([mu_s; v0], blkdiag(U, P))`
 //! in `n` stacked dimensions (`n` may exceed `3 + dim v` when the pair is one block of a
 //! larger stacked state). The rule's `2n` points are `mu +- sqrt(n) L e_c` (`L L^T` the
 //! covariance, block-diagonal here), all of weight `1 / (2n)`; a point moves either the pose
@@ -13,57 +14,63 @@
 //! a filter crate does not depend on another variant, and the split (block-diagonal)
 //! evaluation here is what the stacked vehicle update needs.
 
-use nalgebra::{Matrix3, SMatrix, SVector};
-use rfslam_core::Pose;
+use nalgebra::{SMatrix, SVector};
 
-/// The points of a pose block: `y0 = f(mu_s)` and the deviations `f(mu_s +- sqrt(n) L_U e_c) -
-/// y0` in the order `+e_0, -e_0, +e_1, ...`.
+/// The points of a vehicle-state block of `X` components (the planar pose by default):
+/// `y0 = f(mu_s)` and the deviations `f(mu_s +- sqrt(n) L_U e_c) - y0`, kept per column `c`
+/// as the pair `[+e_c, -e_c]` (the rule's `2X` points, summed in the order `+e_0, -e_0, +e_1,
+/// ...`).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PosePoints<const K: usize> {
+pub struct PosePoints<const K: usize, const X: usize = 3> {
     /// `f` at the mean.
     pub y0: SVector<f64, K>,
-    /// Deviations at the six pose points.
-    pub dev: [SVector<f64, K>; 6],
-    /// The pose offsets `+- sqrt(n) L_U e_c` of those points.
-    pub ds: [Pose; 6],
+    /// Deviations at the points `mu_s + ds[c]` and `mu_s - ds[c]`.
+    pub dev: [[SVector<f64, K>; 2]; X],
+    /// The offsets `sqrt(n) L_U e_c` of the points (the other point of the pair is `-ds[c]`).
+    pub ds: [SVector<f64, X>; X],
 }
 
-impl<const K: usize> PosePoints<K> {
-    /// Evaluates `f` at the pose points of `N(mu, L L^T)` with spread `sqrt(n)`.
+impl<const K: usize, const X: usize> PosePoints<K, X> {
+    /// Evaluates `f` at the state points of `N(mu, L L^T)` with spread `sqrt(n)`.
     pub fn new(
         n: usize,
-        mu: &Pose,
-        l: &Matrix3<f64>,
-        mut f: impl FnMut(&Pose) -> SVector<f64, K>,
+        mu: &SVector<f64, X>,
+        l: &SMatrix<f64, X, X>,
+        mut f: impl FnMut(&SVector<f64, X>) -> SVector<f64, K>,
         diff: impl Fn(&SVector<f64, K>, &SVector<f64, K>) -> SVector<f64, K>,
     ) -> Self {
         let scale = (n as f64).sqrt();
         let y0 = f(mu);
-        let mut dev = [SVector::zeros(); 6];
-        let mut ds = [Pose::zeros(); 6];
-        for c in 0..3 {
+        let mut dev = [[SVector::zeros(); 2]; X];
+        let mut ds = [SVector::zeros(); X];
+        for c in 0..X {
             let d = l.column(c) * scale;
-            ds[2 * c] = d;
-            ds[2 * c + 1] = -d;
-            dev[2 * c] = diff(&f(&(mu + d)), &y0);
-            dev[2 * c + 1] = diff(&f(&(mu - d)), &y0);
+            ds[c] = d;
+            dev[c] = [diff(&f(&(mu + d)), &y0), diff(&f(&(mu - d)), &y0)];
         }
         PosePoints { y0, dev, ds }
     }
 
     /// `sum_c d_c`.
     pub fn sum(&self) -> SVector<f64, K> {
-        self.dev.iter().sum()
+        self.dev.iter().flatten().fold(SVector::zeros(), |acc, d| acc + d)
     }
 
-    /// `sum_c d_c e_c^T` against another pose block's deviations at the same points.
-    pub fn outer<const L: usize>(&self, other: &PosePoints<L>) -> SMatrix<f64, K, L> {
-        self.dev.iter().zip(&other.dev).map(|(a, b)| a * b.transpose()).sum()
+    /// `sum_c d_c e_c^T` against another block's deviations at the same points.
+    pub fn outer<const L: usize>(&self, other: &PosePoints<L, X>) -> SMatrix<f64, K, L> {
+        self.dev
+            .iter()
+            .flatten()
+            .zip(other.dev.iter().flatten())
+            .fold(SMatrix::zeros(), |acc, (a, b)| acc + a * b.transpose())
     }
 
     /// `sum_c (s_c - mu_s) d_c^T`.
-    pub fn cross(&self) -> SMatrix<f64, 3, K> {
-        self.ds.iter().zip(&self.dev).map(|(s, d)| s * d.transpose()).sum()
+    pub fn cross(&self) -> SMatrix<f64, X, K> {
+        self.ds
+            .iter()
+            .zip(&self.dev)
+            .fold(SMatrix::zeros(), |acc, (s, [dp, dm])| acc + s * dp.transpose() + (-s) * dm.transpose())
     }
 }
 
@@ -104,9 +111,10 @@ impl<const V: usize, const K: usize> InputPoints<V, K> {
     }
 }
 
-/// Moments of `y = f(s, v)` from one pose block and one input block in `n` dimensions.
+/// Moments of `y = f(s, v)` from one state block of `X` components and one input block in
+/// `n` dimensions.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PairMoments<const V: usize, const K: usize> {
+pub struct PairMoments<const V: usize, const K: usize, const X: usize = 3> {
     /// `E[y] - y0` (add to `y0`; angles are not wrapped).
     pub dmean: SVector<f64, K>,
     /// `Cov[y]`.
@@ -114,12 +122,12 @@ pub struct PairMoments<const V: usize, const K: usize> {
     /// `Cov[v, y]`.
     pub cross_v: SMatrix<f64, V, K>,
     /// `Cov[s, y]`.
-    pub cross_s: SMatrix<f64, 3, K>,
+    pub cross_s: SMatrix<f64, X, K>,
 }
 
-impl<const V: usize, const K: usize> PairMoments<V, K> {
-    /// The moments in `n` dimensions (`n = 3 + V` for the pair alone).
-    pub fn new(n: usize, pose: &PosePoints<K>, input: &InputPoints<V, K>) -> Self {
+impl<const V: usize, const K: usize, const X: usize> PairMoments<V, K, X> {
+    /// The moments in `n` dimensions (`n = X + V` for the pair alone).
+    pub fn new(n: usize, pose: &PosePoints<K, X>, input: &InputPoints<V, K>) -> Self {
         let w = 0.5 / n as f64;
         let dmean = (pose.sum() + input.sum) * w;
         let cov = (pose.outer(pose) + input.sq) * w - dmean * dmean.transpose();

@@ -98,6 +98,23 @@ fn cubature_is_exact_on_linear_functions() {
     }
     assert_eq!(lower_factor(&Matrix3::zeros()), Some(Matrix3::zeros()));
     assert_eq!(lower_factor(&-Matrix3::<f64>::identity()), None);
+
+    // A five-component vehicle state (the radio vehicle's [x, y, z, heading, clock bias]):
+    // the same exactness in any dimension.
+    let a5 =
+        nalgebra::SMatrix::<f64, 2, 5>::from_fn(|r, c| 0.3 * r as f64 - 0.2 * c as f64 + 0.1 * (r * c) as f64 + 1.0);
+    let mu5 = nalgebra::SVector::<f64, 5>::new(1.0, -2.0, 0.5, 0.3, 300.0);
+    let g = nalgebra::SMatrix::<f64, 5, 5>::from_fn(|r, c| if r >= c { 0.2 + 0.05 * (r + 2 * c) as f64 } else { 0.0 });
+    let u5 = g * g.transpose();
+    let l5 = lower_factor(&u5).unwrap();
+    for n in [7, 11] {
+        let pose = PosePoints::new(n, &mu5, &l5, |s| a5 * s + b * v0 + c, diff);
+        let input = InputPoints::new(n, &v0, &l_p, &pose.y0, |v| a5 * mu5 + b * v + c, diff);
+        let m = PairMoments::new(n, &pose, &input);
+        close(&m.dmean, &Vector2::zeros(), "mean, X = 5");
+        close(&m.cov, &(a5 * u5 * a5.transpose() + b * p * b.transpose()), "cov, X = 5");
+        close(&m.cross_s, &(u5 * a5.transpose()), "cross s, X = 5");
+    }
 }
 
 /// A linear sensor, one landmark (`r = 1`) and one measurement that is surely its detection
