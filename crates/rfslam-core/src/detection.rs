@@ -7,8 +7,7 @@ use serde::{Deserialize, Serialize};
 use nalgebra::{Matrix2, Vector2};
 
 use crate::angle::wrap;
-use crate::types::SensorKind;
-use crate::{Point2, Pose, RangeBearing};
+use crate::types::{Point2, Pose, RangeBearing};
 
 /// Largest detection probability used, so that `ln(1 - p_D)` stays finite (our
 /// choice of bound).
@@ -403,6 +402,50 @@ impl ClutterModel {
             let r = rng.random_range(fov.min_range..fov.max_range);
             let b = if fov.half_angle > 0.0 { rng.random_range(-fov.half_angle..fov.half_angle) } else { 0.0 };
             out.push(RangeBearing::new(r, wrap(b)));
+        }
+    }
+}
+
+/// Which sensor a planar world declares (`[sensor] model` of a scenario or data set).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SensorKind {
+    /// [`crate::model::RangeBearingModel`]: `z = [range, bearing]`.
+    #[default]
+    RangeBearing,
+    /// [`crate::model::RelativePositionModel`]: `z = [x, y]` in the sensor frame.
+    RelativePosition,
+}
+
+impl SensorKind {
+    /// Whether this is the range-bearing sensor (the default, not written in files).
+    pub fn is_range_bearing(&self) -> bool {
+        *self == SensorKind::RangeBearing
+    }
+
+    /// The name as files write it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            SensorKind::RangeBearing => "range_bearing",
+            SensorKind::RelativePosition => "relative_position",
+        }
+    }
+
+    /// The volume of the measurement space the field of view covers: `(max_range -
+    /// min_range) 2 half_angle` (m rad) for range and bearing, the sector's area (m^2) for a
+    /// relative position.
+    pub fn measurement_volume(&self, fov: &Fov) -> f64 {
+        match self {
+            SensorKind::RangeBearing => fov.measurement_volume(),
+            SensorKind::RelativePosition => fov.area(),
+        }
+    }
+
+    /// The measurement columns of `measurements.csv` after `scan`.
+    pub fn columns(&self) -> [&'static str; 2] {
+        match self {
+            SensorKind::RangeBearing => ["range", "bearing"],
+            SensorKind::RelativePosition => ["x", "y"],
         }
     }
 }

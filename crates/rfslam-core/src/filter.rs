@@ -1,52 +1,13 @@
-//! The [`SlamFilter`] trait every filter implements, and the models it is built with.
+//! The [`SlamFilter`] trait every filter implements, and how a registered filter is built
+//! ([`FilterBuild`], [`Validated`]).
 
-use nalgebra::{Matrix2, Matrix3, SVector};
+use nalgebra::SVector;
 
-use crate::detection::{ClutterModel, DetectionModel, Fov};
-use crate::model::SensorKind;
-use crate::motion::Motion;
+use crate::detection::SensorKind;
 use crate::params::ParamError;
-use crate::sensor::RangeBearingSensor;
+use crate::planar::SlamModels;
+use crate::rng::Rng;
 use crate::types::{ControlSegment, Estimate, Scan, StepReport};
-use crate::{Pose, Rng};
-
-/// Everything a filter knows about the world it runs in (the scenario's models as the
-/// filter assumes them), shared by all filters of a run.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SlamModels {
-    /// Motion model of the odometry.
-    pub motion: Motion,
-    /// Control noise covariance `Q_u` (3 x 3; zero rows and columns for unused inputs).
-    pub control_noise: Matrix3<f64>,
-    /// Which sensor the world declares: the range-bearing sensor (`z = [range, bearing]`) or
-    /// the relative-position sensor (`z = [x, y]` in the sensor frame). Filters reach it
-    /// through a [`crate::PlanarSensorModel`] built from these models; a filter written for
-    /// the range-bearing sensor alone is refused for any other.
-    pub sensor_kind: SensorKind,
-    /// The sensor's mounting (its offset in the body frame), and the range-bearing geometry
-    /// that filters not yet generic over the sensor use.
-    pub sensor: RangeBearingSensor,
-    /// Measurement noise covariance `R`: `diag(sigma_r^2, sigma_phi^2)` for the
-    /// range-bearing sensor, `diag(sigma_x^2, sigma_y^2)` for the relative-position one.
-    pub measurement_noise: Matrix2<f64>,
-    /// Sensor field of view.
-    pub fov: Fov,
-    /// Detection probability model.
-    pub detection: DetectionModel,
-    /// Clutter model (rate and the intensity units the filters use).
-    pub clutter: ClutterModel,
-    /// Known initial pose `x_0`.
-    pub initial_pose: Pose,
-}
-
-impl SlamModels {
-    /// The uniform clutter intensity `kappa` the filters assume: the clutter rate over the
-    /// field of view in the scenario's units (`[clutter] intensity`) for its sensor
-    /// ([`ClutterModel::intensity`]).
-    pub fn clutter_intensity(&self) -> f64 {
-        self.clutter.intensity(&self.fov, self.sensor_kind)
-    }
-}
 
 /// A SLAM filter: predict through the odometry since the last scan, then update with it.
 ///

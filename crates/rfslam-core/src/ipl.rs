@@ -14,9 +14,9 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use crate::Pose;
 use crate::angle::{diff, wrap};
 use crate::gaussian::symmetrise;
+use crate::types::Pose;
 
 /// Settings of [`ipl_update`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -207,8 +207,8 @@ mod tests {
     /// iterate `k` when the loop has not stopped before.)
     #[test]
     fn nonlinear_update_stops_at_the_first_iterate_below_the_kl_threshold() {
-        use crate::Point2;
         use crate::sensor::RangeBearingSensor;
+        use crate::types::Point2;
         let sensor = RangeBearingSensor::default();
         let truth = Pose::new(1.5, -1.0, 0.35);
         let x_bar = Pose::new(0.0, 0.0, 0.0);

@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 use crate::angle::{diff, wrap};
 use crate::gaussian::symmetrise;
 use crate::ipl::{IplResult, kl_divergence};
-use crate::{Point2, Pose, RangeBearing};
+use crate::types::{Point2, Pose, RangeBearing};
 
 /// On which density the convergence test `KL(pi_{l-1} || pi_l) < threshold` is evaluated
 /// (\[Kaltiokallio2024\]'s description of 2.0b does not say: our choice, a parameter).

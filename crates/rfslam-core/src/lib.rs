@@ -16,8 +16,9 @@
 //!   steps through ([`rbpf::ParticleSet`]);
 //! - [`params`]: the parameter vocabulary (ranges, [`ParamError`]), the population
 //!   parameters every RBPF shares ([`RbpfParams`]) and key lists from serde;
-//! - [`filter`]: the [`SlamFilter`] and [`FilterBuild`] traits and the [`SlamModels`] a
-//!   filter is built with;
+//! - [`filter`]: the [`SlamFilter`] and [`FilterBuild`] traits;
+//! - [`planar`]: the [`SlamModels`] a planar world gives its filters and the
+//!   [`PlanarSensorModel`]s built from them;
 //! - [`rng`]: the random generator and seed derivation.
 
 pub mod angle;
@@ -29,23 +30,20 @@ pub mod joint_ipl;
 pub mod model;
 pub mod motion;
 pub mod params;
+pub mod planar;
 pub mod rbpf;
 pub mod rng;
 pub mod sensor;
 pub mod types;
 
-pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov, FovEdge, PlacedFov};
-pub use filter::{FilterBuild, FilterEngine, SlamFilter, SlamModels, Validated};
-pub use model::{InvertibleSensorModel, PlanarSensorModel, SensorModel, VehicleModel};
+pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov, FovEdge, PlacedFov, SensorKind};
+pub use filter::{FilterBuild, FilterEngine, SlamFilter, Validated};
+pub use model::{InvertibleSensorModel, SensorModel, VehicleModel};
 pub use motion::{AckermannModel, Motion, MotionModel, OdometryModel, VelocityModel};
 pub use params::{ParamError, RbpfParams};
+pub use planar::{PlanarSensorModel, SlamModels};
 pub use rng::Rng;
 pub use sensor::RangeBearingSensor;
-pub use types::{Control, ControlSegment, Estimate, MapPoint, Scan, SensorKind, StepReport, TRUTH_UNKNOWN};
-
-/// Robot pose `x = [px, py, theta]` (m, m, rad), heading wrapped to `[-pi, pi)`.
-pub type Pose = nalgebra::Vector3<f64>;
-/// A point landmark `m = [mx, my]` (m).
-pub type Point2 = nalgebra::Vector2<f64>;
-/// A range-bearing measurement `z = [r, phi]` (m, rad relative to the heading).
-pub type RangeBearing = nalgebra::Vector2<f64>;
+pub use types::{
+    Control, ControlSegment, Estimate, MapPoint, Point2, Pose, RangeBearing, Scan, StepReport, TRUTH_UNKNOWN,
+};

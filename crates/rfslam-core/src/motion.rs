@@ -7,9 +7,9 @@
 use nalgebra::{Matrix3, SMatrix, SVector};
 use serde::{Deserialize, Serialize};
 
-use crate::Pose;
 use crate::angle::wrap;
-use crate::model::VehicleModel;
+use crate::model::{StateComponent, VehicleModel};
+use crate::types::Pose;
 use crate::types::{Control, ControlSegment};
 
 /// A pose transition and its Jacobians.
@@ -233,6 +233,33 @@ impl MotionModel for Motion {
             Motion::Ackermann(m) => m.predict_with_jacobians(x, u, dt),
             Motion::Odometry2d => OdometryModel.predict_with_jacobians(x, u, dt),
         }
+    }
+}
+
+/// The planar motion models of rfslam: state `[x, y, heading]`, control `Vector3` (velocity,
+/// Ackermann or 2-D odometry, [`Motion`]).
+impl VehicleModel<3, 3> for Motion {
+    fn components(&self) -> [StateComponent; 3] {
+        [StateComponent::Position(0), StateComponent::Position(1), StateComponent::Heading]
+    }
+
+    fn control_dim(&self) -> usize {
+        MotionModel::control_dim(self)
+    }
+
+    #[inline]
+    fn transition(
+        &self,
+        x: &SVector<f64, 3>,
+        u: &SVector<f64, 3>,
+        dt: f64,
+    ) -> (SVector<f64, 3>, SMatrix<f64, 3, 3>, SMatrix<f64, 3, 3>) {
+        self.predict_with_jacobians(x, u, dt)
+    }
+
+    #[inline]
+    fn predict(&self, x: &SVector<f64, 3>, u: &SVector<f64, 3>, dt: f64) -> SVector<f64, 3> {
+        MotionModel::predict(self, x, u, dt)
     }
 }
 

@@ -15,11 +15,11 @@ use nalgebra::Matrix3;
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize};
 
-use crate::Pose;
-use crate::filter::SlamModels;
 use crate::motion::propagate_with_covariance;
+use crate::planar::SlamModels;
 use crate::rbpf::{ResampleRule, ResampleScheme};
 use crate::types::ControlSegment;
+use crate::types::Pose;
 
 /// An invalid filter parameter: the key and what is wrong with it.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -4,9 +4,9 @@
 
 use rand::RngExt;
 
-use crate::Pose;
 use crate::angle::wrap;
 use crate::gaussian::sample;
+use crate::types::Pose;
 
 /// `ln sum_i exp(l_i)`, stable (subtracts the maximum). `-inf` for an empty or all `-inf` slice.
 pub fn log_sum_exp(log_w: &[f64]) -> f64 {

@@ -5,7 +5,7 @@ use nalgebra::{Matrix2, Matrix2x3, Vector2};
 use serde::{Deserialize, Serialize};
 
 use crate::angle::wrap;
-use crate::{Point2, Pose, RangeBearing};
+use crate::types::{Point2, Pose, RangeBearing};
 
 /// `g(m, x) = [|m - s|, atan2(m_y - s_y, m_x - s_x) - theta]` where `s` is the sensor
 /// position: the pose position plus `offset` rotated into the world frame

@@ -2,7 +2,12 @@
 
 use nalgebra::{SVector, Vector3};
 
-use crate::detection::Fov;
+/// Robot pose `x = [px, py, theta]` (m, m, rad), heading wrapped to `[-pi, pi)`.
+pub type Pose = nalgebra::Vector3<f64>;
+/// A point landmark `m = [mx, my]` (m).
+pub type Point2 = nalgebra::Vector2<f64>;
+/// A range-bearing measurement `z = [r, phi]` (m, rad relative to the heading).
+pub type RangeBearing = nalgebra::Vector2<f64>;
 
 /// A control input. Its meaning depends on the motion model:
 /// `velocity` `[v, omega, 0]` (m/s, rad/s), `ackermann` `[v, steer, 0]` (m/s, rad),
@@ -104,50 +109,6 @@ impl<const M: usize> StepReport<M> {
             proposal_components: 0,
             associations: None,
             cholesky_failures: 0,
-        }
-    }
-}
-
-/// Which sensor a planar world declares (`[sensor] model` of a scenario or data set).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SensorKind {
-    /// [`crate::model::RangeBearingModel`]: `z = [range, bearing]`.
-    #[default]
-    RangeBearing,
-    /// [`crate::model::RelativePositionModel`]: `z = [x, y]` in the sensor frame.
-    RelativePosition,
-}
-
-impl SensorKind {
-    /// Whether this is the range-bearing sensor (the default, not written in files).
-    pub fn is_range_bearing(&self) -> bool {
-        *self == SensorKind::RangeBearing
-    }
-
-    /// The name as files write it.
-    pub fn name(&self) -> &'static str {
-        match self {
-            SensorKind::RangeBearing => "range_bearing",
-            SensorKind::RelativePosition => "relative_position",
-        }
-    }
-
-    /// The volume of the measurement space the field of view covers: `(max_range -
-    /// min_range) 2 half_angle` (m rad) for range and bearing, the sector's area (m^2) for a
-    /// relative position.
-    pub fn measurement_volume(&self, fov: &Fov) -> f64 {
-        match self {
-            SensorKind::RangeBearing => fov.measurement_volume(),
-            SensorKind::RelativePosition => fov.area(),
-        }
-    }
-
-    /// The measurement columns of `measurements.csv` after `scan`.
-    pub fn columns(&self) -> [&'static str; 2] {
-        match self {
-            SensorKind::RangeBearing => ["range", "bearing"],
-            SensorKind::RelativePosition => ["x", "y"],
         }
     }
 }

@@ -10,7 +10,7 @@ use nalgebra::{SMatrix, SVector};
 use rand::SeedableRng;
 
 use super::{InvertibleSensorModel, SensorModel, VehicleModel};
-use crate::Rng;
+use crate::rng::Rng;
 
 /// One case: a vehicle state, a landmark and its mark, the landmark in the field of view.
 pub type Case<const X: usize, const M: usize, Mark> = (SVector<f64, X>, SVector<f64, M>, Mark);

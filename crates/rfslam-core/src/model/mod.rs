@@ -4,7 +4,7 @@
 //! - [`VehicleModel`]: a state of `X` components (position, heading, and any extra such as
 //!   a clock bias, [`StateComponent`]) driven by a control of `U` inputs, with the
 //!   prediction and its Jacobians, the additive process noise and which components the
-//!   filters estimate; the planar [`Motion`] models and the 5G radio vehicle
+//!   filters estimate; the planar [`Motion`](crate::Motion) models and the 5G radio vehicle
 //!   ([`RadioVehicle`]: 3-D position, heading, clock bias) implement it;
 //! - [`SensorModel`] (and [`InvertibleSensorModel`] where a measurement fixes its landmark):
 //!   landmarks of `M` dimensions with a mark (the landmark type,
@@ -35,11 +35,9 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::angle::wrap;
 use crate::detection::{DetectionModel, Fov};
-use crate::filter::SlamModels;
 use crate::gaussian::symmetrise;
-use crate::motion::{Motion, MotionModel};
 
-pub use crate::types::SensorKind;
+pub use crate::detection::SensorKind;
 pub use radio_sensor::{LandmarkType, RadioSensor};
 pub use radio_vehicle::RadioVehicle;
 pub use range_bearing::RangeBearingModel;
@@ -136,33 +134,6 @@ pub trait VehicleModel<const X: usize, const U: usize> {
     /// Every component by default.
     fn estimated(&self) -> [bool; X] {
         [true; X]
-    }
-}
-
-/// The planar motion models of rfslam: state `[x, y, heading]`, control `Vector3` (velocity,
-/// Ackermann or 2-D odometry, [`Motion`]).
-impl VehicleModel<3, 3> for Motion {
-    fn components(&self) -> [StateComponent; 3] {
-        [StateComponent::Position(0), StateComponent::Position(1), StateComponent::Heading]
-    }
-
-    fn control_dim(&self) -> usize {
-        MotionModel::control_dim(self)
-    }
-
-    #[inline]
-    fn transition(
-        &self,
-        x: &SVector<f64, 3>,
-        u: &SVector<f64, 3>,
-        dt: f64,
-    ) -> (SVector<f64, 3>, SMatrix<f64, 3, 3>, SMatrix<f64, 3, 3>) {
-        self.predict_with_jacobians(x, u, dt)
-    }
-
-    #[inline]
-    fn predict(&self, x: &SVector<f64, 3>, u: &SVector<f64, 3>, dt: f64) -> SVector<f64, 3> {
-        MotionModel::predict(self, x, u, dt)
     }
 }
 
@@ -305,27 +276,14 @@ pub trait InvertibleSensorModel<const X: usize, const M: usize, const Z: usize>:
     fn birth_integral(&self, x: &SVector<f64, X>, z: &SVector<f64, Z>, mark: Self::Mark) -> f64;
 }
 
-/// A sensor model of the planar worlds (pose `[x, y, heading]`, point landmarks `[x, y]`, one
-/// landmark type), built from the scenario's [`SlamModels`]: what the filters generic over a
-/// planar sensor take.
-pub trait PlanarSensorModel: InvertibleSensorModel<3, 2, 2, Mark = ()> {
-    /// The sensor this model reads from [`SlamModels`].
-    const KIND: SensorKind;
-
-    /// The model of `models` (mounting, noise, field of view, detection) with the filters'
-    /// clutter intensity `kappa`. It reads `models` as this sensor's whatever sensor they
-    /// declare: the filters check [`SlamModels::sensor_kind`] against [`Self::KIND`] when they
-    /// are validated ([`crate::FilterBuild::serves`]).
-    fn from_models(models: &SlamModels, kappa: f64) -> Self;
-}
-
 #[cfg(test)]
 mod tests {
     use super::conformance::check_invertible_sensor_model;
     use super::*;
     use crate::detection::{ClutterIntensity, ClutterModel, FovEdge};
+    use crate::motion::Motion;
     use crate::sensor::RangeBearingSensor;
-    use crate::{Point2, Pose};
+    use crate::types::{Point2, Pose};
     use nalgebra::{Matrix2, Vector2};
     use std::f64::consts::{FRAC_PI_2, PI};
 

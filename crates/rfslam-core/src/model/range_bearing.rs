@@ -3,14 +3,12 @@
 use nalgebra::{Matrix2, SVector, Vector2};
 use rand_distr::{Distribution, StandardNormal};
 
-use super::{
-    Inverse, InvertibleSensorModel, Linearised, MeasurementComponent, PlanarSensorModel, SensorKind, SensorModel,
-};
+use super::{Inverse, InvertibleSensorModel, Linearised, MeasurementComponent, SensorKind, SensorModel};
 use crate::angle::wrap;
 use crate::detection::{ClutterModel, DetectionModel, Fov};
-use crate::filter::SlamModels;
+use crate::planar::{PlanarSensorModel, SlamModels};
 use crate::sensor::RangeBearingSensor;
-use crate::{Point2, Pose, RangeBearing};
+use crate::types::{Point2, Pose, RangeBearing};
 
 /// The planar range-bearing sensor of \[Kaltiokallio2024\] eq. (50) (its mounting offset
 /// included) with its noise, field of view, detection model and a uniform clutter

@@ -6,12 +6,10 @@ use rand::RngExt;
 use rand_distr::{Distribution, Poisson, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use super::{
-    Inverse, InvertibleSensorModel, Linearised, MeasurementComponent, PlanarSensorModel, SensorKind, SensorModel,
-};
+use super::{Inverse, InvertibleSensorModel, Linearised, MeasurementComponent, SensorKind, SensorModel};
 use crate::detection::{ClutterModel, DetectionModel, Fov};
-use crate::filter::SlamModels;
-use crate::{Point2, Pose};
+use crate::planar::{PlanarSensorModel, SlamModels};
+use crate::types::{Point2, Pose};
 
 /// `h(x, m) = R(theta)^T (m - p) - o`: the landmark in the sensor frame (forward, left), the
 /// sensor mounted at `o` in the body frame, its axes those of the body.
