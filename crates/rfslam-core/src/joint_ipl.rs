@@ -477,24 +477,28 @@ mod tests {
         let q = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.5, 0.5, 1e-3));
         let r = Matrix2::new(0.64, 0.0, 0.0, 0.3f64.to_radians().powi(2));
         let m_bar: Vec<Point2> = (0..6).map(|a| Point2::new(30.0 + 7.0 * a as f64, -20.0 + 9.0 * a as f64)).collect();
-        let p_m = vec![Matrix2::identity() * 0.05; 6];
+        let p_m = [Matrix2::identity() * 0.05; 6];
         let z: Vec<RangeBearing> = m_bar.iter().map(|m| sensor.predict(&truth, m)).collect();
         let lin = |_: usize, x: &Pose, m: &Point2| {
             let l = sensor.linearise(x, m);
             (l.z, l.hx, l.hm)
         };
         let settings = JointIplSettings::default();
-        let fresh = JointIpl::default().update(
-            &x_bar,
-            &q,
-            &m_bar,
-            &p_m,
-            &z,
-            &r,
-            lin,
-            crate::sensor::RangeBearingSensor::residual,
-            &settings,
-        );
+        // The joint update on the first `k` landmarks and measurements.
+        let update = |ipl: &mut JointIpl, k: usize| {
+            ipl.update(
+                &x_bar,
+                &q,
+                &m_bar[..k],
+                &p_m[..k],
+                &z[..k],
+                &r,
+                lin,
+                crate::sensor::RangeBearingSensor::residual,
+                &settings,
+            )
+        };
+        let fresh = update(&mut JointIpl::default(), 6);
         let part = ipl_update(
             &x_bar,
             &q,
@@ -510,39 +514,9 @@ mod tests {
         assert!((fresh.mean - truth).xy().norm() < 0.5, "{:?}", fresh.mean);
         assert!((fresh.mean - part.mean).norm() < 0.05, "{:?} vs {:?}", fresh.mean, part.mean);
         let mut reused = JointIpl::default();
-        reused.update(
-            &x_bar,
-            &q,
-            &m_bar[..2],
-            &p_m[..2],
-            &z[..2],
-            &r,
-            lin,
-            crate::sensor::RangeBearingSensor::residual,
-            &settings,
-        );
-        reused.update(
-            &x_bar,
-            &q,
-            &m_bar[..6],
-            &p_m,
-            &z,
-            &r,
-            lin,
-            crate::sensor::RangeBearingSensor::residual,
-            &settings,
-        );
-        let again = reused.update(
-            &x_bar,
-            &q,
-            &m_bar,
-            &p_m,
-            &z,
-            &r,
-            lin,
-            crate::sensor::RangeBearingSensor::residual,
-            &settings,
-        );
+        update(&mut reused, 2);
+        update(&mut reused, 6);
+        let again = update(&mut reused, 6);
         assert_eq!(again, fresh);
     }
 
