@@ -143,3 +143,42 @@ pub fn lower_factor<const D: usize>(p: &SMatrix<f64, D, D>) -> Option<SMatrix<f6
     }
     p.cholesky().map(|c| c.l())
 }
+
+/// [`lower_factor`] of a vehicle covariance whose components not `estimated` are held (zero
+/// rows and columns): those get zero columns of `L`, so the rule's points never move them.
+/// With every component estimated it is [`lower_factor`].
+pub fn state_factor<const D: usize>(p: &SMatrix<f64, D, D>, estimated: &[bool; D]) -> Option<SMatrix<f64, D, D>> {
+    if estimated.iter().all(|&e| e) || p.iter().all(|&v| v == 0.0) {
+        return lower_factor(p);
+    }
+    let mut q = *p;
+    for i in (0..D).filter(|&i| !estimated[i]) {
+        q[(i, i)] = 1.0;
+    }
+    let mut l = q.cholesky()?.l();
+    for i in (0..D).filter(|&i| !estimated[i]) {
+        l.column_mut(i).fill(0.0);
+    }
+    Some(l)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Matrix3, Vector3};
+
+    /// A held component (zero row and column) gets a zero column; the factor still
+    /// reproduces the covariance, and with every component estimated it is the Cholesky
+    /// factor.
+    #[test]
+    fn state_factor_holds_components() {
+        let p = Matrix3::new(4.0, 1.0, 0.0, 1.0, 2.0, 0.0, 0.0, 0.0, 0.0);
+        let l = state_factor(&p, &[true, true, false]).unwrap();
+        assert!((l * l.transpose() - p).norm() < 1e-12);
+        assert_eq!(l.column(2), Vector3::zeros());
+        assert!(lower_factor(&p).is_none(), "plain Cholesky refuses the held component");
+        let q = Matrix3::new(4.0, 1.0, 0.5, 1.0, 2.0, 0.1, 0.5, 0.1, 3.0);
+        assert_eq!(state_factor(&q, &[true; 3]), lower_factor(&q));
+        assert_eq!(state_factor(&Matrix3::zeros(), &[true, false, true]), Some(Matrix3::zeros()));
+    }
+}

@@ -1,16 +1,17 @@
-//! The Rao-Blackwellised particle filters `pmbm-slam` and `pmb-slam` over any
-//! [`InvertibleSensorModel`], and their registration for the planar range-bearing sensor.
+//! The Rao-Blackwellised particle filters `pmbm-slam` and `pmb-slam` over any vehicle model
+//! and any [`InvertibleSensorModel`], and their registration for the planar sensors.
 
-use nalgebra::{Matrix3, SVector};
-use rfslam_core::rbpf::{LogWeighted, ParticleSet, draw_transition};
+use nalgebra::{SMatrix, SVector};
+use rfslam_core::model::{LandmarkMark, Vehicle, VehicleModel};
+use rfslam_core::rbpf::{LogWeighted, ParticleSet, draw_state};
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, ParamError, Point2, Pose, Rng, Scan, SlamModels,
+    ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, Motion, ParamError, Rng, Scan, SlamModels,
     StepReport, Validated,
 };
 
 use crate::model::InvertibleSensorModel;
 use crate::params::{Params, undetected_cell};
-use crate::pmbm::{PmbWeight, PmbmDensity, UpdateSettings, Workspace, pmb_update, pmbm_update};
+use crate::pmbm::{LocalHypothesis, PmbWeight, PmbmDensity, UpdateSettings, Workspace, pmb_update, pmbm_update};
 use crate::undetected::Undetected;
 use rfslam_core::{PlanarSensorModel, SensorKind};
 
@@ -23,18 +24,25 @@ pub enum Variant {
     Pmb,
 }
 
-/// One particle: pose, log weight and PMBM map.
-#[derive(Debug, PartialEq, Default)]
-pub struct Particle<const M: usize> {
+/// One particle: vehicle state (`X` components, the planar pose by default), log weight and
+/// PMBM map of `M`-dimensional landmarks.
+#[derive(Debug, PartialEq)]
+pub struct Particle<const M: usize, const X: usize = 3> {
     /// Log weight (normalised after every step).
     pub log_w: f64,
-    /// Pose `x_k`.
-    pub pose: Pose,
+    /// Vehicle state `x_k`.
+    pub pose: SVector<f64, X>,
     /// The map conditioned on the particle's trajectory.
     pub map: PmbmDensity<M>,
 }
 
-impl<const M: usize> Clone for Particle<M> {
+impl<const M: usize, const X: usize> Default for Particle<M, X> {
+    fn default() -> Self {
+        Particle { log_w: 0.0, pose: SVector::zeros(), map: PmbmDensity::default() }
+    }
+}
+
+impl<const M: usize, const X: usize> Clone for Particle<M, X> {
     fn clone(&self) -> Self {
         Particle { log_w: self.log_w, pose: self.pose, map: self.map.clone() }
     }
@@ -46,7 +54,7 @@ impl<const M: usize> Clone for Particle<M> {
     }
 }
 
-impl<const M: usize> LogWeighted for Particle<M> {
+impl<const M: usize, const X: usize> LogWeighted for Particle<M, X> {
     fn log_weight(&self) -> f64 {
         self.log_w
     }
@@ -63,26 +71,26 @@ impl<const M: usize> LogWeighted for Particle<M> {
 }
 
 /// What a pose proposal sees for one particle (see [`PmbmFilter::step_with_proposal`]).
-pub struct DrawContext<'a, S, const M: usize, const Z: usize> {
-    /// The particle before the step: pose `x_{k-1}`, weight and map.
-    pub particle: &'a Particle<M>,
+pub struct DrawContext<'a, V, S, const X: usize, const M: usize, const Z: usize> {
+    /// The particle before the step: state `x_{k-1}`, weight and map.
+    pub particle: &'a Particle<M, X>,
     /// `f(x_{k-1}, u_k)` through the odometry segments.
-    pub predicted: Pose,
-    /// Predicted pose covariance `Q_{k-1}` (with jitter).
-    pub q: Matrix3<f64>,
+    pub predicted: SVector<f64, X>,
+    /// Predicted state covariance `Q_{k-1}` (with jitter).
+    pub q: SMatrix<f64, X, X>,
     /// The scan `Z_k`.
     pub z: &'a [SVector<f64, Z>],
     /// The measurement model the filter assumes.
     pub model: &'a S,
-    /// The scenario's models.
-    pub models: &'a SlamModels,
+    /// The vehicle as the filter assumes it.
+    pub vehicle: &'a Vehicle<V, X>,
 }
 
-/// One pose drawn by a proposal.
+/// One vehicle state drawn by a proposal.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PoseDraw {
+pub struct PoseDraw<const X: usize = 3> {
     /// `x_k`.
-    pub pose: Pose,
+    pub pose: SVector<f64, X>,
     /// `ln f(x_k | x_{k-1}, u_k) - ln q(x_k)`: 0 for the transition density.
     pub log_correction: f64,
     /// Components of the importance density (0 for the transition density).
@@ -91,42 +99,64 @@ pub struct PoseDraw {
     pub cholesky_failures: u32,
 }
 
-impl PoseDraw {
+impl<const X: usize> PoseDraw<X> {
     /// `x_k ~ f(x_k | x_{k-1}, u)`, the transition density (no components, correction 0).
-    pub fn transition<S, const M: usize, const Z: usize>(ctx: &DrawContext<'_, S, M, Z>, rng: &mut Rng) -> Self {
+    pub fn transition<V: VehicleModel<X, 3>, S, const M: usize, const Z: usize>(
+        ctx: &DrawContext<'_, V, S, X, M, Z>,
+        rng: &mut Rng,
+    ) -> Self {
         let mut chol = 0;
-        let pose = draw_transition(&ctx.predicted, &ctx.q, rng, &mut chol);
+        let pose = draw_state(&ctx.vehicle.model, &ctx.predicted, &ctx.q, rng, &mut chol);
         PoseDraw { pose, log_correction: 0.0, components: 0, cholesky_failures: chol }
     }
 }
 
-/// A PMBM-family filter over the measurement model `S` (landmarks in `M`, measurements in
-/// `Z` dimensions).
+/// A PMBM-family filter over the vehicle model `V` (states of `X` components) and the
+/// measurement model `S` (landmarks in `M`, measurements in `Z` dimensions, landmarks typed
+/// by `S::Mark`). The sensor's anchors (known landmarks, [`rfslam_core::SensorModel::anchors`])
+/// start every particle's map as tracks of existence 1 and zero covariance: every update
+/// conditions on them (a detection of one weighs the particle, its missed detection keeps
+/// `r = 1`), none moves, and the estimate leaves them out.
 #[derive(Debug, Clone)]
-pub struct PmbmFilter<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usize> {
+pub struct PmbmFilter<V, S, const X: usize, const M: usize, const Z: usize>
+where
+    V: VehicleModel<X, 3>,
+    S: InvertibleSensorModel<X, M, Z>,
+{
     variant: Variant,
     params: Params,
-    models: SlamModels,
+    vehicle: Vehicle<V, X>,
     model: S,
     settings: UpdateSettings,
     weight: PmbWeight,
-    pub(crate) set: ParticleSet<Particle<M>>,
+    pub(crate) set: ParticleSet<Particle<M, X>>,
     ws: Workspace<M>,
     z: Vec<SVector<f64, Z>>,
 }
 
-impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usize> PmbmFilter<S, M, Z> {
-    /// `n` particles at the initial pose of `models` with empty maps; `model` is the sensor
-    /// as the filter assumes it.
-    pub fn new(variant: Variant, params: Params, models: &SlamModels, model: S, n: usize) -> Self {
+impl<V, S, const X: usize, const M: usize, const Z: usize> PmbmFilter<V, S, X, M, Z>
+where
+    V: VehicleModel<X, 3>,
+    S: InvertibleSensorModel<X, M, Z>,
+{
+    /// `n` particles at the initial state of `vehicle` with maps holding only the anchors;
+    /// `model` is the sensor as the filter assumes it.
+    pub fn new(variant: Variant, params: Params, vehicle: Vehicle<V, X>, model: S, n: usize) -> Self {
         let undetected = Undetected::new(params.undetected, undetected_cell(params.undetected_cell, &model));
-        let p0 = Particle { log_w: 0.0, pose: models.initial_pose, map: PmbmDensity::with_undetected(undetected) };
+        let anchors: Vec<LocalHypothesis<M>> = model
+            .anchors()
+            .into_iter()
+            .map(|(mean, mark)| LocalHypothesis { r: 1.0, mean, cov: SMatrix::zeros(), mark: mark.index() })
+            .collect();
+        let mut map = PmbmDensity::from_bernoullis(&anchors);
+        map.undetected = undetected;
+        let p0 = Particle { log_w: 0.0, pose: vehicle.initial_state, map };
         PmbmFilter {
             variant,
             settings: params.update_settings(Z),
             weight: params.pmb_weight(),
             params,
-            models: models.clone(),
+            vehicle,
             model,
             set: ParticleSet::new(p0, n),
             ws: Workspace::default(),
@@ -135,7 +165,7 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
     }
 
     /// The particles (for inspection and tests).
-    pub fn particle_set(&self) -> &[Particle<M>] {
+    pub fn particle_set(&self) -> &[Particle<M, X>] {
         self.set.particles()
     }
 
@@ -153,27 +183,27 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
         odometry: &[ControlSegment],
         z: impl IntoIterator<Item = SVector<f64, Z>>,
         rng: &mut Rng,
-    ) -> StepReport {
+    ) -> StepReport<M> {
         self.step_with_proposal(odometry, z, rng, PoseDraw::transition)
     }
 
-    /// [`Self::step_with`] with the pose of each particle drawn by `propose` (an importance
+    /// [`Self::step_with`] with the state of each particle drawn by `propose` (an importance
     /// density `q`) instead of the transition density: `ln w += (ln f - ln q) + ln chi`.
     pub fn step_with_proposal(
         &mut self,
         odometry: &[ControlSegment],
         z: impl IntoIterator<Item = SVector<f64, Z>>,
         rng: &mut Rng,
-        mut propose: impl FnMut(&DrawContext<'_, S, M, Z>, &mut Rng) -> PoseDraw,
-    ) -> StepReport {
+        mut propose: impl FnMut(&DrawContext<'_, V, S, X, M, Z>, &mut Rng) -> PoseDraw<X>,
+    ) -> StepReport<M> {
         self.z.clear();
         self.z.extend(z);
         let mut chol = 0u32;
         let mut proposal_components = 0;
         for part in self.set.particles_mut() {
-            let (predicted, q) = self.params.rbpf.predict(&self.models, &part.pose, odometry);
+            let (predicted, q) = self.params.rbpf.predict_state(&self.vehicle, &part.pose, odometry);
             let ctx =
-                DrawContext { particle: &*part, predicted, q, z: &self.z, model: &self.model, models: &self.models };
+                DrawContext { particle: &*part, predicted, q, z: &self.z, model: &self.model, vehicle: &self.vehicle };
             let draw = propose(&ctx, rng);
 
             chol += draw.cholesky_failures;
@@ -199,7 +229,7 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
             // Step i: lambda_u,k = (1 - p_D) lambda_u,k-1 (the births above read lambda_u,k-1),
             // and the factor exp(-int p_D lambda_u,k-1) of the likelihood, which no longer
             // cancels between particles (0 for the constant intensity).
-            let mass = part.map.undetected.thin(&self.model, &part.pose);
+            let mass = part.map.undetected.thin(&self.model, &self.vehicle.model.planar_pose(&part.pose));
             part.log_w -= self.settings.undetected_intensity * mass;
         }
         // Components: global hypotheses (PMBM) or Bernoullis (PMB), summed over particles.
@@ -223,8 +253,8 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
     }
 
     /// [`SlamFilter::particle_poses`](rfslam_core::SlamFilter::particle_poses): every
-    /// particle's pose and log weight.
-    pub fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+    /// particle's state and log weight.
+    pub fn particle_poses(&self, out: &mut Vec<(SVector<f64, X>, f64)>) -> bool {
         self.set.poses_into(out, |p| p.pose);
         true
     }
@@ -236,17 +266,17 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
         true
     }
 
-    /// The best particle's pose and the landmarks with existence above `T_EP` in its best
-    /// global hypothesis, projected to the plane by `to_point`.
-    pub fn estimate_with(&self, to_point: impl Fn(&SVector<f64, M>) -> Point2) -> Estimate {
+    /// The best particle's state and the mapped landmarks (anchors left out) with existence
+    /// above `T_EP` in its best global hypothesis, each with its track's type.
+    pub fn estimate(&self) -> Estimate<X, M> {
         let p = self.set.best_particle();
         let map = if p.map.hypotheses() == 0 {
             Vec::new()
         } else {
             p.map
                 .global(0)
-                .filter(|h| h.r > self.params.estimate_existence)
-                .map(|h| MapPoint { position: to_point(&h.mean), mark: 0, weight: h.r })
+                .filter(|h| h.r > self.params.estimate_existence && self.model.mapped(S::Mark::from_index(h.mark)))
+                .map(|h| MapPoint { position: h.mean, mark: h.mark, weight: h.r })
                 .collect()
         };
         Estimate { pose: p.pose, map }
@@ -261,20 +291,24 @@ pub fn sensor_model<S: PlanarSensorModel>(params: &Params, models: &SlamModels) 
     S::from_models(&assumed, params.clutter_intensity(models))
 }
 
-impl<S: PlanarSensorModel> FilterEngine for PmbmFilter<S, 2, 2> {
+impl<V, S, const X: usize, const M: usize, const Z: usize> FilterEngine<X, M, Z> for PmbmFilter<V, S, X, M, Z>
+where
+    V: VehicleModel<X, 3> + Send,
+    S: InvertibleSensorModel<X, M, Z>,
+{
     fn particles(&self) -> usize {
         self.set.len()
     }
 
-    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
         self.step_with(odometry, scan.z.iter().copied(), rng)
     }
 
-    fn estimate(&self) -> Estimate {
-        self.estimate_with(|m| *m)
+    fn estimate(&self) -> Estimate<X, M> {
+        PmbmFilter::estimate(self)
     }
 
-    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+    fn particle_poses(&self, out: &mut Vec<(SVector<f64, X>, f64)>) -> bool {
         PmbmFilter::particle_poses(self, out)
     }
 
@@ -287,7 +321,7 @@ impl<S: PlanarSensorModel> FilterEngine for PmbmFilter<S, 2, 2> {
 /// [`FilterBuild`].
 macro_rules! variant_filter {
     ($(#[$doc:meta])* $ty:ident, $variant:expr, $name:literal) => {
-        rfslam_core::filter_variant!($(#[$doc])* $ty<S>(PmbmFilter<S, 2, 2>), $name);
+        rfslam_core::filter_variant!($(#[$doc])* $ty<S>(PmbmFilter<Motion, S, 3, 2, 2>), $name);
 
         impl<S: PlanarSensorModel> FilterBuild for $ty<S> {
             type Params = Params;
@@ -306,7 +340,7 @@ macro_rules! variant_filter {
             fn build(params: Validated<Self>, models: &SlamModels) -> Self {
                 let (params, particles) = params.into_parts();
                 let model = sensor_model::<S>(&params, models);
-                $ty(PmbmFilter::new($variant, params, models, model, particles))
+                $ty(PmbmFilter::new($variant, params, models.vehicle(), model, particles))
             }
         }
     };

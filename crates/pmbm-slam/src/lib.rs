@@ -61,9 +61,16 @@
 //!   a PMB updated by joint cubature, LBP and TOMB/P, the vehicle by one stacked update with
 //!   the most likely association.
 //!
-//! The filters reach the sensor only through [`model::InvertibleSensorModel`] (prediction,
-//! Jacobians, residual, inverse, detection probability, field of view, clutter intensity,
-//! birth integral); the registered filters are generic over the planar sensor models
+//! The filters reach the vehicle only through `rfslam_core::VehicleModel` (any state of `X`
+//! components: the planar pose, or the radio world's position, heading and clock bias) and
+//! the sensor only through [`model::InvertibleSensorModel`] (prediction, Jacobians, residual,
+//! inverse, detection probability, field of view, clutter intensity, birth integral, the
+//! landmark types it maps and the anchors it knows): [`PmbmFilter`] and [`MpmbFilter`] take
+//! any of them. A Bernoulli carries its landmark type; a measurement's new Bernoulli sums the
+//! `e_j` terms of the mapped types (\[Kim2022\] Appendix A) and takes the type of the largest,
+//! once, at birth; the anchors (the radio world's base station) are tracks of existence 1
+//! and zero covariance that every update conditions on and no estimate reports. The
+//! registered filters are instantiated for the planar sensor models
 //! (`rfslam_core::PlanarSensorModel`: the range-bearing and the relative-position sensor).
 //! The clutter intensity is in measurement space by default
 //! (`clutter_intensity = "measurement"`): it is the ratio `e_j / kappa(z_j)` that decides

@@ -22,7 +22,8 @@ use mh_importance_density::{MhParams, MhProposal, TaylorSlr};
 use rbphd::{GmMap, PoseSample, ProposalContext};
 use rfslam_core::params::Interval;
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, ParamError, Pose, Rng, Scan, SlamFilter, SlamModels, StepReport, Validated,
+    ControlSegment, Estimate, FilterBuild, Motion, ParamError, Pose, Rng, Scan, SlamFilter, SlamModels, StepReport,
+    Validated,
 };
 use serde::{Deserialize, Serialize};
 
@@ -88,7 +89,9 @@ impl<S: PlanarSensorModel> std::fmt::Debug for MhDraw<S> {
 #[derive(Debug, Clone)]
 pub struct PmbmSlamMh<S: PlanarSensorModel = RangeBearingModel> {
     /// The PMBM filter on the planar sensor model `S`.
-    pub filter: PmbmFilter<S, 2, 2>,
+    pub filter: PmbmFilter<Motion, S, 3, 2, 2>,
+    /// The scenario's models (the importance density reads them).
+    models: SlamModels,
     mh: MhDraw<S>,
     /// `ln max(kappa, min_clutter_intensity)`, the importance density's clutter term.
     log_clutter: f64,
@@ -111,6 +114,7 @@ impl<S: PlanarSensorModel> SlamFilter for PmbmSlamMh<S> {
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
         let mh = &mut self.mh;
         let log_clutter = self.log_clutter;
+        let models = &self.models;
         self.filter.step_with_proposal(odometry, scan.z.iter().copied(), rng, |ctx, rng| {
             mh.map.clear();
             mh.detectable.clear();
@@ -130,7 +134,7 @@ impl<S: PlanarSensorModel> SlamFilter for PmbmSlamMh<S> {
                 return PoseDraw::transition(ctx, rng);
             }
             let pctx = ProposalContext {
-                models: ctx.models,
+                models,
                 sensor: ctx.model,
                 z: ctx.z,
                 prior_pose: ctx.particle.pose,
@@ -154,7 +158,7 @@ impl<S: PlanarSensorModel> SlamFilter for PmbmSlamMh<S> {
     }
 
     fn estimate(&self) -> Estimate {
-        self.filter.estimate_with(|m| *m)
+        self.filter.estimate()
     }
 
     fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
@@ -192,6 +196,7 @@ impl<S: PlanarSensorModel> FilterBuild for PmbmSlamMh<S> {
             samples: Vec::new(),
         };
         let log_clutter = params.pmbm.clutter_intensity(models).max(params.pmbm.min_clutter_intensity).ln();
-        PmbmSlamMh { filter: PmbmFilter::new(Variant::Pmbm, params.pmbm, models, model, particles), mh, log_clutter }
+        let filter = PmbmFilter::new(Variant::Pmbm, params.pmbm, models.vehicle(), model, particles);
+        PmbmSlamMh { filter, models: models.clone(), mh, log_clutter }
     }
 }

@@ -4,13 +4,37 @@
 //! (prediction, Jacobians, residual with angles wrapped, noise, inverse for births, detection
 //! probability with the field-of-view edge, clutter intensity, the birth integral
 //! `int N(z; h(m, x), R) dm` of the new-track weight `e_j` of \[Kim2022\] Appendix A step ii,
-//! and the detection sector the thinned undetected intensity is kept over). The landmark and
-//! measurement dimensions are const generics; the vehicle state is the planar pose that
-//! every motion model of rfslam propagates, and the landmarks are of one type (`Mark = ()`):
-//! typed landmarks (the radio world's base station, virtual anchors and scattering points)
-//! are not yet carried by this family.
+//! the landmark types it maps, its anchors, and the detection sector the thinned undetected
+//! intensity is kept over). The vehicle state, landmark and measurement dimensions are const
+//! generics.
 
 pub use rfslam_core::model::{InvertibleSensorModel, Linearised, RangeBearingModel, SensorModel};
+
+use nalgebra::{SMatrix, SVector};
+use rfslam_assign::tomb::GaussianBernoulli;
+use rfslam_core::model::LandmarkMark;
+
+/// The new Bernoulli of one measurement over the landmark types `model` maps (\[Kim2022\]
+/// Appendix A step ii): `birth(type)` gives the type's term `e_j(type)` and its density
+/// (`None`: the type cannot start a landmark here). Returns `e_j = sum of the terms` and the
+/// density of the largest term (the first type on a tie) with that type's mark and `r = 0`
+/// (the caller sets `r = e_j / nu_j`): the type estimate is the most likely type. `None`
+/// when no mapped type gives a density. With one type it is that type's term and density.
+pub fn typed_birth<const X: usize, const M: usize, const Z: usize, S: SensorModel<X, M, Z>>(
+    model: &S,
+    mut birth: impl FnMut(S::Mark) -> Option<(f64, SVector<f64, M>, SMatrix<f64, M, M>)>,
+) -> (f64, Option<GaussianBernoulli<M>>) {
+    let mut e_sum = 0.0;
+    let mut best: Option<(f64, GaussianBernoulli<M>)> = None;
+    for &mark in S::Mark::ALL.iter().filter(|&&t| model.mapped(t)) {
+        let Some((e, mean, cov)) = birth(mark) else { continue };
+        e_sum += e;
+        if best.is_none_or(|b| e > b.0) {
+            best = Some((e, GaussianBernoulli { r: 0.0, mean, cov, mark: mark.index() }));
+        }
+    }
+    (e_sum, best.map(|b| b.1))
+}
 
 /// The chi-square quantile with `k` degrees of freedom at probability `p` in `(0, 1)`:
 /// the gate `T_G` on the squared Mahalanobis distance that keeps a fraction `p` of the

@@ -13,7 +13,9 @@
 //!    along the predicted vehicle mean `mu_s` (\[Kim2022\] Appendix D-A averages `p_D` over
 //!    the vehicle density; our one-point version), or the constant one left as it is;
 //! 3. step iii: missed, `p_D` at `(mu_s, m_i)`;
-//! 4. step iv: joint cubature (n = 3 + dim m) over `[s; m_i] ~ N([mu_s; m_i], blkdiag(U, P_i))`
+//! 4. step iv: joint cubature (n = d(s) + dim m, `d(s)` the vehicle components the model
+//!    estimates: 3 for the planar pose, 4 for the radio vehicle, whose height is held) over
+//!    `[s; m_i] ~ N([mu_s; m_i], blkdiag(U, P_i))`
 //!    for `z_hat`, `S = P_zz + R_U` and `P_mz`; gated pairs give `nu_i(z_j) = r_i p_D
 //!    N(z_j; z_hat, S)` and the landmark-block update only;
 //! 5. LBP marginals and TOMB/P (\[Kim2022\] Section IV-C), Bernoullis below `bernoulli_prune`
@@ -25,23 +27,24 @@
 //!
 //! Estimate: `mu_s` and the Bernoulli means with `r > T_EP`.
 
-use nalgebra::{Cholesky, DMatrix, Dyn, Matrix3, SMatrix, SVector};
+use nalgebra::{Cholesky, DMatrix, Dyn, SMatrix, SVector};
 use rfslam_assign::tomb::{GaussianBernoulli, tomb_merge, tomb_new_track};
 use rfslam_assign::{AssociationProblem, BestAssociation, LbpOptions, LbpSolver, MAX_LBP_SWEEPS};
 use rfslam_assign::{DEFAULT_LBP_MAX_SWEEPS, DEFAULT_LBP_TOLERANCE};
 use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::symmetrise;
+use rfslam_core::model::{LandmarkMark, Vehicle, VehicleModel};
 use rfslam_core::motion::{propagate, propagate_with_covariance};
 use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::{
-    ClutterIntensity, ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, Point2, Pose, Rng, Scan, SlamFilter,
-    SlamModels, StepReport, Validated,
+    ClutterIntensity, ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, Motion, ParamError, Rng, Scan,
+    SlamFilter, SlamModels, StepReport, Validated,
 };
 use serde::{Deserialize, Serialize};
 
-use crate::cubature::{InputPoints, PairMoments, PosePoints, lower_factor};
+use crate::cubature::{InputPoints, PairMoments, PosePoints, lower_factor, state_factor};
 use crate::filter::sensor_model;
-use crate::model::{InvertibleSensorModel, RangeBearingModel, chi2_quantile};
+use crate::model::{InvertibleSensorModel, RangeBearingModel, chi2_quantile, typed_birth};
 use crate::params::{Params, check_cell, check_undetected, undetected_cell};
 use crate::undetected::{Undetected, UndetectedModel};
 use rfslam_core::{PlanarSensorModel, SensorKind};
@@ -85,8 +88,8 @@ pub struct MpmbParams {
     pub survival_fov: f64,
     /// `R_U = noise_inflation R` in steps ii and iv (\[Kim2022\] Section V: 4).
     pub noise_inflation: f64,
-    /// Dithering: `diag(dithering)` (m^2, m^2, rad^2) added to the predicted vehicle
-    /// covariance every step against an over-concentrated `U`. \[Kim2022\] names it without
+    /// Dithering: `diag(dithering)` (m^2, m^2, rad^2) on the vehicle's x, y and heading,
+    /// added to the predicted vehicle covariance every step against an over-concentrated `U`. \[Kim2022\] names it without
     /// a magnitude; default 0.
     pub dithering: [f64; 3],
 }
@@ -157,7 +160,7 @@ struct Detection<const M: usize> {
 
 /// Reusable buffers of one recursion.
 #[derive(Debug, Clone)]
-struct Workspace<const M: usize, const Z: usize> {
+struct Workspace<const M: usize, const Z: usize, const X: usize> {
     missed: Vec<GaussianBernoulli<M>>,
     ln_miss: Vec<f64>,
     det_start: Vec<usize>,
@@ -173,14 +176,14 @@ struct Workspace<const M: usize, const Z: usize> {
     next: Vec<GaussianBernoulli<M>>,
     /// Stacked update: (Bernoulli, measurement) pairs, their pose points and input sums.
     sel: Vec<(usize, usize)>,
-    pose_pts: Vec<PosePoints<Z>>,
+    pose_pts: Vec<PosePoints<Z, X>>,
     input_pts: Vec<InputPoints<M, Z>>,
     s_mat: DMatrix<f64>,
     rhs: DMatrix<f64>,
     sol: DMatrix<f64>,
 }
 
-impl<const M: usize, const Z: usize> Default for Workspace<M, Z> {
+impl<const M: usize, const Z: usize, const X: usize> Default for Workspace<M, Z, X> {
     fn default() -> Self {
         Workspace {
             missed: Vec::new(),
@@ -206,44 +209,73 @@ impl<const M: usize, const Z: usize> Default for Workspace<M, Z> {
     }
 }
 
-/// The marginalized PMB filter over the measurement model `S`.
+/// The marginalized PMB filter over the vehicle model `V` (states of `X` components) and
+/// the measurement model `S`. The sensor's anchors (known landmarks) are Bernoullis of
+/// existence 1 and zero covariance: they never move, update the vehicle in step 6 like any
+/// landmark above `T_EP`, and the estimate leaves them out. Components the vehicle model
+/// does not estimate are held: the cubature rules run over the `d(s)` estimated ones.
 #[derive(Debug, Clone)]
-pub struct MpmbFilter<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usize> {
+pub struct MpmbFilter<V, S, const X: usize, const M: usize, const Z: usize>
+where
+    V: VehicleModel<X, 3>,
+    S: InvertibleSensorModel<X, M, Z>,
+{
     params: MpmbParams,
-    models: SlamModels,
+    vehicle: Vehicle<V, X>,
     model: S,
     gate: f64,
     lbp: LbpOptions,
-    /// `R_U` and its lower factor.
-    r_u: SMatrix<f64, Z, Z>,
-    l_ru: Option<SMatrix<f64, Z, Z>>,
-    /// Vehicle mean and covariance.
-    pub mean: Pose,
+    /// Which state components are estimated, and how many (`d(s)`).
+    estimated: [bool; X],
+    n_s: usize,
+    /// `diag(dithering)` on the state.
+    dither: SMatrix<f64, X, X>,
+    /// `R` of each landmark type (by mark), `R_U` and its lower factor.
+    r: Vec<SMatrix<f64, Z, Z>>,
+    r_u: Vec<SMatrix<f64, Z, Z>>,
+    l_ru: Vec<Option<SMatrix<f64, Z, Z>>>,
+    /// Vehicle mean.
+    pub mean: SVector<f64, X>,
     /// Vehicle covariance `U`.
-    pub cov: Matrix3<f64>,
-    /// The Bernoullis of the map.
+    pub cov: SMatrix<f64, X, X>,
+    /// The Bernoullis of the map (the anchors first).
     pub bernoullis: Vec<GaussianBernoulli<M>>,
     /// The intensity of the undetected landmarks.
     pub undetected: Undetected,
-    ws: Workspace<M, Z>,
+    ws: Workspace<M, Z, X>,
     z: Vec<SVector<f64, Z>>,
 }
 
-impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usize> MpmbFilter<S, M, Z> {
-    /// The filter at the initial pose of `models` (`U = 0`) with an empty map.
-    pub fn new(params: MpmbParams, models: &SlamModels, model: S) -> Self {
-        let r_u = model.noise(()) * params.noise_inflation;
+impl<V, S, const X: usize, const M: usize, const Z: usize> MpmbFilter<V, S, X, M, Z>
+where
+    V: VehicleModel<X, 3>,
+    S: InvertibleSensorModel<X, M, Z>,
+{
+    /// The filter at the initial state of `vehicle` (`U = 0`) with a map of the anchors.
+    pub fn new(params: MpmbParams, vehicle: Vehicle<V, X>, model: S) -> Self {
+        let r: Vec<_> = S::Mark::ALL.iter().map(|&t| model.noise(t)).collect();
+        let r_u: Vec<_> = r.iter().map(|r| r * params.noise_inflation).collect();
+        let estimated = vehicle.model.estimated();
+        let bernoullis = model
+            .anchors()
+            .into_iter()
+            .map(|(mean, mark)| GaussianBernoulli { r: 1.0, mean, cov: SMatrix::zeros(), mark: mark.index() })
+            .collect();
         MpmbFilter {
             gate: chi2_quantile(Z, params.gate_probability),
             lbp: LbpOptions { tolerance: params.lbp_tolerance, max_sweeps: params.lbp_max_sweeps },
-            l_ru: lower_factor(&r_u),
+            l_ru: r_u.iter().map(lower_factor).collect(),
             r_u,
-            mean: models.initial_pose,
-            cov: Matrix3::zeros(),
-            bernoullis: Vec::new(),
+            r,
+            estimated,
+            n_s: estimated.iter().filter(|&&e| e).count(),
+            dither: vehicle.model.planar_diagonal(params.dithering),
+            mean: vehicle.initial_state,
+            cov: SMatrix::zeros(),
+            bernoullis,
             undetected: Undetected::new(params.undetected, undetected_cell(params.undetected_cell, &model)),
             params,
-            models: models.clone(),
+            vehicle,
             model,
             ws: Workspace::default(),
             z: Vec::new(),
@@ -256,23 +288,23 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
     }
 
     /// Step 1: cubature prediction of the vehicle through the motion model, plus the control
-    /// noise at the mean and the dithering. Returns the Cholesky failures.
+    /// noise at the mean (and the model's additive process noise) and the dithering.
+    /// Returns the Cholesky failures.
     fn predict(&mut self, odometry: &[ControlSegment]) -> u32 {
-        let motion = &self.models.motion;
-        let (_, q) = propagate_with_covariance(motion, &self.mean, odometry, &self.models.control_noise);
-        let dither = Matrix3::from_diagonal(&self.params.dithering.into());
-        let Some(l) = lower_factor(&self.cov) else {
+        let motion = &self.vehicle.model;
+        let (_, q) = propagate_with_covariance(motion, &self.mean, odometry, &self.vehicle.control_noise);
+        let Some(l) = state_factor(&self.cov, &self.estimated) else {
             self.mean = propagate(motion, &self.mean, odometry);
-            self.cov = symmetrise(&(self.cov + q + dither));
+            self.cov = symmetrise(&(self.cov + q + self.dither));
             return 1;
         };
-        let pts = PosePoints::new(3, &self.mean, &l, |s| propagate(motion, s, odometry), pose_diff);
-        let w = 1.0 / 6.0;
+        let diff = |a: &SVector<f64, X>, b: &SVector<f64, X>| motion.state_difference(a, b);
+        let pts = PosePoints::new(self.n_s, &self.mean, &l, |s| propagate(motion, s, odometry), diff);
+        let w = 0.5 / self.n_s as f64;
         let dmean = pts.sum() * w;
         let cov = pts.outer(&pts) * w - dmean * dmean.transpose();
-        self.mean = pts.y0 + dmean;
-        self.mean[2] = wrap(self.mean[2]);
-        self.cov = symmetrise(&(cov + q + dither));
+        self.mean = wrap_angles(motion, pts.y0 + dmean);
+        self.cov = symmetrise(&(cov + q + self.dither));
         0
     }
 
@@ -281,24 +313,24 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
         &mut self,
         odometry: &[ControlSegment],
         z: impl IntoIterator<Item = SVector<f64, Z>>,
-    ) -> StepReport {
+    ) -> StepReport<M> {
         self.z.clear();
         self.z.extend(z);
         let mut chol = self.predict(odometry);
-        let l_u = lower_factor(&self.cov).unwrap_or_else(|| {
+        let l_u = state_factor(&self.cov, &self.estimated).unwrap_or_else(|| {
             chol += 1;
-            Matrix3::zeros()
+            SMatrix::zeros()
         });
-        let Some(l_ru) = self.l_ru else {
+        if self.l_ru.iter().any(Option::is_none) {
             // R_U is not positive definite: no measurement can be used.
-            self.undetected.thin(&self.model, &self.mean);
+            self.undetected.thin(&self.model, &self.vehicle.model.planar_pose(&self.mean));
             return report(self.bernoullis.len(), chol + 1);
-        };
+        }
         chol += self.map_children(&l_u);
-        self.births(&l_u, &l_ru);
+        self.births(&l_u);
         // Step i along the predicted vehicle mean, after the births read lambda_u,k-1 (no
         // particles: the weight factor has nothing to weigh).
-        self.undetected.thin(&self.model, &self.mean);
+        self.undetected.thin(&self.model, &self.vehicle.model.planar_pose(&self.mean));
         // Step 5: the association problem, LBP marginals and the most likely association.
         let ws = &mut self.ws;
         let mut ok = ws.problem.reset(&ws.ln_nu_new).is_ok();
@@ -323,17 +355,18 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
     /// Steps iii-iv for every Bernoulli: the missed child (with `ln nu(empty)` kept in its
     /// `ln_miss`) and a detected child per gated measurement. Returns the Cholesky
     /// failures (a Bernoulli whose `P` or `S` fails is only missed).
-    fn map_children(&mut self, l_u: &Matrix3<f64>) -> u32 {
+    fn map_children(&mut self, l_u: &SMatrix<f64, X, X>) -> u32 {
         let (model, ws, mu, survival) = (&self.model, &mut self.ws, self.mean, self.params.survival_fov);
         let mut chol = 0;
         ws.missed.clear();
         ws.ln_miss.clear();
         ws.det_start.clear();
         ws.det.clear();
-        let n = 3 + M;
+        let n = self.n_s + M;
         for b in &self.bernoullis {
             ws.det_start.push(ws.det.len());
-            let p = model.detection_probability(&mu, &b.mean, &b.cov, ());
+            let mark = S::Mark::from_index(b.mark);
+            let p = model.detection_probability(&mu, &b.mean, &b.cov, mark);
             // Survival where the landmark is detectable (1: the static map of [Kim2022]).
             let r = if p > 0.0 { b.r * survival } else { b.r };
             let nu0 = 1.0 - r * p;
@@ -348,10 +381,10 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
                 continue;
             };
             let res = |a: &SVector<f64, Z>, b: &SVector<f64, Z>| model.residual(a, b);
-            let pose = PosePoints::new(n, &mu, l_u, |s| model.predict(s, &b.mean, ()), res);
-            let input = InputPoints::new(n, &b.mean, &l_p, &pose.y0, |m| model.predict(&mu, m, ()), res);
+            let pose = PosePoints::new(n, &mu, l_u, |s| model.predict(s, &b.mean, mark), res);
+            let input = InputPoints::new(n, &b.mean, &l_p, &pose.y0, |m| model.predict(&mu, m, mark), res);
             let mom = PairMoments::new(n, &pose, &input);
-            let s_cov = symmetrise(&(mom.cov + self.r_u));
+            let s_cov = symmetrise(&(mom.cov + self.r_u[usize::from(b.mark)]));
             let Some(ch) = s_cov.cholesky() else {
                 chol += 1;
                 continue;
@@ -369,7 +402,8 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
                     continue;
                 }
                 let ln_nu = ln_rp - 0.5 * (Z as f64 * LN_2PI + log_det + maha);
-                ws.det.push(Detection { j, ln_nu, child: GaussianBernoulli { r: 1.0, mean: b.mean + k * v, cov } });
+                let child = GaussianBernoulli { r: 1.0, mean: b.mean + k * v, cov, mark: b.mark };
+                ws.det.push(Detection { j, ln_nu, child });
             }
         }
         ws.det_start.push(ws.det.len());
@@ -377,29 +411,41 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
     }
 
     /// Step ii: the Bernoulli each measurement starts (cubature over `[s; z]`) and `ln nu_j`.
-    fn births(&mut self, l_u: &Matrix3<f64>, l_ru: &SMatrix<f64, Z, Z>) {
+    /// With several mapped landmark types, `e_j` sums the types' terms and the Bernoulli
+    /// takes the density and the type of the largest (\[Kim2022\] Appendix A).
+    fn births(&mut self, l_u: &SMatrix<f64, X, X>) {
         let (model, ws, mu, s, undetected) = (&self.model, &mut self.ws, self.mean, &self.params, &self.undetected);
         ws.ln_nu_new.clear();
         ws.born.clear();
-        let n = 3 + Z;
+        let n = self.n_s + Z;
         let sub = |a: &SVector<f64, M>, b: &SVector<f64, M>| a - b;
         for zj in &self.z {
-            let pose = PosePoints::new(n, &mu, l_u, |x| model.inverse(x, zj, ()).m, sub);
-            let input = InputPoints::new(n, zj, l_ru, &pose.y0, |z| model.inverse(&mu, z, ()).m, sub);
-            let mom = PairMoments::new(n, &pose, &input);
-            let mean = pose.y0 + mom.dmean;
-            let lambda = s.undetected_intensity * undetected.birth_multiplier(&mean, &mom.cov);
-            let e = model.detection_probability(&mu, &mean, &mom.cov, ()) * lambda * model.birth_integral(&mu, zj, ());
-            let nu = e + model.clutter_intensity(zj).max(s.min_clutter_intensity);
+            let l_ru = &self.l_ru;
+            let (e_sum, born) = typed_birth(model, |mark| {
+                let l_ru = l_ru[usize::from(mark.index())].as_ref()?;
+                let pose = PosePoints::new(n, &mu, l_u, |x| model.inverse(x, zj, mark).m, sub);
+                let input = InputPoints::new(n, zj, l_ru, &pose.y0, |z| model.inverse(&mu, z, mark).m, sub);
+                let mom = PairMoments::new(n, &pose, &input);
+                let mean = pose.y0 + mom.dmean;
+                let lambda = s.undetected_intensity * undetected.birth_multiplier(&mean, &mom.cov);
+                let e = model.detection_probability(&mu, &mean, &mom.cov, mark)
+                    * lambda
+                    * model.birth_integral(&mu, zj, mark);
+                Some((e, mean, mom.cov))
+            });
+            let nu = e_sum + model.clutter_intensity(zj).max(s.min_clutter_intensity);
             ws.ln_nu_new.push(nu.ln());
-            ws.born.push(GaussianBernoulli { r: (e / nu).clamp(0.0, 1.0), mean, cov: mom.cov });
+            // No type gives a density: a Bernoulli of existence 0, pruned in the merge.
+            let b =
+                born.unwrap_or(GaussianBernoulli { r: 0.0, mean: SVector::zeros(), cov: SMatrix::identity(), mark: 0 });
+            ws.born.push(GaussianBernoulli { r: (e_sum / nu).clamp(0.0, 1.0), ..b });
         }
     }
 
     /// Step 6: the stacked cubature update of the vehicle with the detected Bernoullis of the
     /// most likely association whose prior existence exceeds `T_EP`. Returns the Cholesky
     /// failures (then the vehicle keeps its prediction).
-    fn vehicle_update(&mut self, l_u: &Matrix3<f64>) -> u32 {
+    fn vehicle_update(&mut self, l_u: &SMatrix<f64, X, X>) -> u32 {
         let (model, ws, mu) = (&self.model, &mut self.ws, self.mean);
         ws.sel.clear();
         for (row, c) in ws.best.association().iter().enumerate() {
@@ -415,29 +461,29 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
         }
         let mut chol = 0;
         let k = ws.sel.len();
-        let n = 3 + M * k;
+        let n = self.n_s + M * k;
         let w = 0.5 / n as f64;
         ws.pose_pts.clear();
         ws.input_pts.clear();
         let res = |a: &SVector<f64, Z>, b: &SVector<f64, Z>| model.residual(a, b);
         for &(i, _) in &ws.sel {
             let b = &self.bernoullis[i];
+            let mark = S::Mark::from_index(b.mark);
             let l_p = lower_factor(&b.cov).unwrap_or_else(|| {
                 chol += 1;
                 SMatrix::zeros()
             });
-            let pose = PosePoints::new(n, &mu, l_u, |s| model.predict(s, &b.mean, ()), res);
-            ws.input_pts.push(InputPoints::new(n, &b.mean, &l_p, &pose.y0, |m| model.predict(&mu, m, ()), res));
+            let pose = PosePoints::new(n, &mu, l_u, |s| model.predict(s, &b.mean, mark), res);
+            ws.input_pts.push(InputPoints::new(n, &b.mean, &l_p, &pose.y0, |m| model.predict(&mu, m, mark), res));
             ws.pose_pts.push(pose);
         }
-        // S (Zk x Zk) and [P_sz^T | innovation] (Zk x 4).
+        // S (Zk x Zk) and [P_sz^T | innovation] (Zk x (X + 1)).
         let d = Z * k;
         if ws.s_mat.shape() != (d, d) {
             ws.s_mat = DMatrix::zeros(d, d);
-            ws.rhs = DMatrix::zeros(d, 4);
-            ws.sol = DMatrix::zeros(d, 4);
+            ws.rhs = DMatrix::zeros(d, X + 1);
+            ws.sol = DMatrix::zeros(d, X + 1);
         }
-        let r = model.noise(());
         for a in 0..k {
             let (pa, ia) = (&ws.pose_pts[a], &ws.input_pts[a]);
             let da = (pa.sum() + ia.sum) * w;
@@ -446,15 +492,15 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
                 let db = (pb.sum() + ws.input_pts[b].sum) * w;
                 let mut blk = pa.outer(pb) * w - da * db.transpose();
                 if a == b {
-                    blk += ia.sq * w + r;
+                    blk += ia.sq * w + self.r[usize::from(self.bernoullis[ws.sel[a].0].mark)];
                 }
                 ws.s_mat.view_mut((Z * a, Z * b), (Z, Z)).copy_from(&blk);
                 ws.s_mat.view_mut((Z * b, Z * a), (Z, Z)).copy_from(&blk.transpose());
             }
             let psz = pa.cross() * w;
-            ws.rhs.view_mut((Z * a, 0), (Z, 3)).copy_from(&psz.transpose());
+            ws.rhs.view_mut((Z * a, 0), (Z, X)).copy_from(&psz.transpose());
             let v = model.residual(&self.z[ws.sel[a].1], &pa.y0) - da;
-            ws.rhs.view_mut((Z * a, 3), (Z, 1)).copy_from(&v);
+            ws.rhs.view_mut((Z * a, X), (Z, 1)).copy_from(&v);
         }
         let s_mat = std::mem::replace(&mut ws.s_mat, DMatrix::zeros(0, 0));
         let Some(ch) = Cholesky::<f64, Dyn>::new(s_mat) else {
@@ -465,17 +511,16 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
         ws.s_mat = ch.unpack();
         let (rhs, sol) = (&ws.rhs, &ws.sol);
         // mu += P_sz S^-1 nu, U -= P_sz S^-1 P_sz^T.
-        let (mut dmu, mut du) = (Pose::zeros(), Matrix3::zeros());
+        let (mut dmu, mut du) = (SVector::<f64, X>::zeros(), SMatrix::<f64, X, X>::zeros());
         for row in 0..d {
-            for a in 0..3 {
-                dmu[a] += rhs[(row, a)] * sol[(row, 3)];
-                for b in 0..3 {
+            for a in 0..X {
+                dmu[a] += rhs[(row, a)] * sol[(row, X)];
+                for b in 0..X {
                     du[(a, b)] += rhs[(row, a)] * sol[(row, b)];
                 }
             }
         }
-        self.mean += dmu;
-        self.mean[2] = wrap(self.mean[2]);
+        self.mean = wrap_angles(&self.vehicle.model, self.mean + dmu);
         self.cov = symmetrise(&(self.cov - du));
         chol
     }
@@ -523,33 +568,64 @@ impl<S: InvertibleSensorModel<3, M, Z, Mark = ()>, const M: usize, const Z: usiz
         std::mem::swap(&mut self.bernoullis, &mut ws.next);
     }
 
-    /// The vehicle mean and the Bernoulli means with `r > T_EP`, projected by `to_point`.
-    pub fn estimate_with(&self, to_point: impl Fn(&SVector<f64, M>) -> Point2) -> Estimate {
+    /// The vehicle mean and the means of the mapped Bernoullis (anchors left out) with
+    /// `r > T_EP`, each with its type.
+    pub fn estimate(&self) -> Estimate<X, M> {
         let map = self
             .bernoullis
             .iter()
-            .filter(|b| b.r > self.params.estimate_existence)
-            .map(|b| MapPoint { position: to_point(&b.mean), mark: 0, weight: b.r })
+            .filter(|b| b.r > self.params.estimate_existence && self.model.mapped(S::Mark::from_index(b.mark)))
+            .map(|b| MapPoint { position: b.mean, mark: b.mark, weight: b.r })
             .collect();
         Estimate { pose: self.mean, map }
     }
 }
 
-/// Pose difference with the heading wrapped.
-fn pose_diff(a: &Pose, b: &Pose) -> Pose {
-    let mut d = a - b;
-    d[2] = wrap(d[2]);
-    d
+impl<V, S, const X: usize, const M: usize, const Z: usize> FilterEngine<X, M, Z> for MpmbFilter<V, S, X, M, Z>
+where
+    V: VehicleModel<X, 3> + Send,
+    S: InvertibleSensorModel<X, M, Z>,
+{
+    fn particles(&self) -> usize {
+        1
+    }
+
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, _rng: &mut Rng) -> StepReport<M> {
+        self.step_with(odometry, scan.z.iter().copied())
+    }
+
+    fn estimate(&self) -> Estimate<X, M> {
+        MpmbFilter::estimate(self)
+    }
+
+    /// No particles: the vehicle is one Gaussian.
+    fn particle_poses(&self, _out: &mut Vec<(SVector<f64, X>, f64)>) -> bool {
+        false
+    }
+
+    fn particle_parents(&self, _out: &mut Vec<usize>) -> bool {
+        false
+    }
 }
 
-fn report(components: usize, cholesky_failures: u32) -> StepReport {
+/// `x` with its angular components wrapped.
+fn wrap_angles<V: VehicleModel<X, 3>, const X: usize>(vehicle: &V, mut x: SVector<f64, X>) -> SVector<f64, X> {
+    for (i, c) in vehicle.components().iter().enumerate() {
+        if c.is_angle() {
+            x[i] = wrap(x[i]);
+        }
+    }
+    x
+}
+
+fn report<const M: usize>(components: usize, cholesky_failures: u32) -> StepReport<M> {
     StepReport { components, cholesky_failures, ..StepReport::plain(1) }
 }
 
 /// `mpmb-slam`: marginalized PMB-SLAM (\[Kim2022\] Section IV-D) on a planar sensor of a
 /// scenario (the range-bearing one by default).
 #[derive(Debug, Clone)]
-pub struct MpmbSlam<S: PlanarSensorModel = RangeBearingModel>(pub MpmbFilter<S, 2, 2>);
+pub struct MpmbSlam<S: PlanarSensorModel = RangeBearingModel>(pub MpmbFilter<Motion, S, 3, 2, 2>);
 
 impl<S: PlanarSensorModel> MpmbSlam<S> {
     /// Registered name.
@@ -570,7 +646,7 @@ impl<S: PlanarSensorModel> SlamFilter for MpmbSlam<S> {
     }
 
     fn estimate(&self) -> Estimate {
-        self.0.estimate_with(|m| *m)
+        self.0.estimate()
     }
 }
 
@@ -594,6 +670,6 @@ impl<S: PlanarSensorModel> FilterBuild for MpmbSlam<S> {
     fn build(params: Validated<Self>, models: &SlamModels) -> Self {
         let (params, _) = params.into_parts();
         let model = sensor_model::<S>(&params.sensor_params(), models);
-        MpmbSlam(MpmbFilter::new(params, models, model))
+        MpmbSlam(MpmbFilter::new(params, models.vehicle(), model))
     }
 }

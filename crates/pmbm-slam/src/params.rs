@@ -6,7 +6,7 @@ use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::{ClutterIntensity, ClutterModel, DetectionModel, ParamError, RbpfParams, SlamModels};
 use serde::{Deserialize, Serialize};
 
-use crate::model::{InvertibleSensorModel, chi2_quantile};
+use crate::model::{SensorModel, chi2_quantile};
 use crate::pmbm::{PmbWeight, UpdateSettings};
 use crate::undetected::UndetectedModel;
 
@@ -18,7 +18,7 @@ pub const CELLS_PER_RANGE: f64 = 40.0;
 
 /// The cell side of the thinned intensity's grid: `cell`, or the sensor's maximum range
 /// over [`CELLS_PER_RANGE`] (1 m for a model without a detection sector, which cannot thin).
-pub fn undetected_cell<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Mark = ()>>(
+pub fn undetected_cell<const X: usize, const M: usize, const Z: usize, S: SensorModel<X, M, Z>>(
     cell: Option<f64>,
     model: &S,
 ) -> f64 {
@@ -36,7 +36,7 @@ pub(crate) fn check_cell(cell: Option<f64>) -> Result<(), ParamError> {
 
 /// Refuses the thinned intensity for a model without a detection sector, or with cells so
 /// small that one scan would thin more than [`MAX_CELLS_PER_SCAN`].
-pub(crate) fn check_undetected<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Mark = ()>>(
+pub(crate) fn check_undetected<const X: usize, const M: usize, const Z: usize, S: SensorModel<X, M, Z>>(
     undetected: UndetectedModel,
     cell: Option<f64>,
     model: &S,
@@ -207,7 +207,7 @@ impl Params {
 
     /// Refuses the thinned intensity for a model without a detection sector, or with cells so
     /// small that one scan would thin more than [`MAX_CELLS_PER_SCAN`] of them.
-    pub fn check_undetected<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Mark = ()>>(
+    pub fn check_undetected<const X: usize, const M: usize, const Z: usize, S: SensorModel<X, M, Z>>(
         &self,
         model: &S,
     ) -> Result<(), ParamError> {

@@ -17,11 +17,11 @@ use rfslam_assign::tomb::{GaussianBernoulli, tomb_merge, tomb_new_track};
 use rfslam_assign::{
     AssignError, Assignment, AssociationProblem, BestAssociation, ComponentMurty, LbpOptions, LbpSolver, MurtyOptions,
 };
-use rfslam_core::Pose;
 use rfslam_core::gaussian::symmetrise;
+use rfslam_core::model::LandmarkMark;
 use rfslam_core::rbpf::log_sum_exp;
 
-use crate::model::InvertibleSensorModel;
+use crate::model::{InvertibleSensorModel, typed_birth};
 use crate::undetected::Undetected;
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
@@ -271,18 +271,19 @@ pub struct Workspace<const M: usize> {
 /// inside the gate, `ln nu(z_j) = ln(r p N(z_j; h(m, x), H P H^T + R))`. Returns 1 if the
 /// innovation covariance failed Cholesky (no child then), else 0.
 #[allow(clippy::too_many_arguments)]
-fn detect<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Mark = ()>>(
+fn detect<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorModel<X, M, Z>>(
     h: &LocalHypothesis<M>,
     r: f64,
     p: f64,
-    x: &Pose,
+    x: &SVector<f64, X>,
     z: &[SVector<f64, Z>],
     model: &S,
     s: &UpdateSettings,
     ws: &mut Workspace<M>,
 ) -> u32 {
-    let r_noise = model.noise(());
-    let lin = model.linearise(x, &h.mean, ());
+    let mark = S::Mark::from_index(h.mark);
+    let r_noise = model.noise(mark);
+    let lin = model.linearise(x, &h.mean, mark);
     let s_cov = symmetrise(&(lin.hm * h.cov * lin.hm.transpose() + r_noise));
     let Some(ch) = s_cov.cholesky() else {
         return 1;
@@ -306,7 +307,7 @@ fn detect<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Mark
         });
         let ln_nu = ln_rp - 0.5 * (Z as f64 * LN_2PI + log_det + maha);
         ws.det.push(Detection { j, child: ws.hyps.len() as u32, ln_nu });
-        ws.hyps.push(LocalHypothesis { r: 1.0, mean: h.mean + k * v, cov });
+        ws.hyps.push(LocalHypothesis { r: 1.0, mean: h.mean + k * v, cov, mark: h.mark });
     }
     0
 }
@@ -315,9 +316,9 @@ fn detect<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Mark
 /// fills the workspace's new arena (each prior local hypothesis followed by its missed
 /// child and its detected children, then the two local hypotheses of every measurement's
 /// new track) and the per-hypothesis factors. Returns the Cholesky failures.
-fn children<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Mark = ()>>(
+fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorModel<X, M, Z>>(
     map: &PmbmDensity<M>,
-    x: &Pose,
+    x: &SVector<f64, X>,
     z: &[SVector<f64, Z>],
     model: &S,
     s: &UpdateSettings,
@@ -334,7 +335,8 @@ fn children<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Ma
         ws.track_start.push(ws.hyps.len());
         for h in &map.hyps[map.track_start[t]..map.track_start[t + 1]] {
             ws.det_start.push(ws.det.len());
-            let p = if h.r > 0.0 { model.detection_probability(x, &h.mean, &h.cov, ()) } else { 0.0 };
+            let mark = S::Mark::from_index(h.mark);
+            let p = if h.r > 0.0 { model.detection_probability(x, &h.mean, &h.cov, mark) } else { 0.0 };
             // Survival inside the field of view (1: the static map of [Kim2022]).
             let r = if p > 0.0 { h.r * s.survival } else { h.r };
             let miss = ws.hyps.len();
@@ -355,20 +357,29 @@ fn children<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Ma
     }
     ws.det_start.push(ws.det.len());
     // Step ii: one new track per measurement, local hypotheses "not started" then "exists".
+    // With several mapped landmark types, e_j sums the types' terms and the track takes the
+    // type of the largest (\[Kim2022\] Appendix A; the type estimate is the most likely).
     ws.ln_nu_new.clear();
     ws.r_new.clear();
     for zj in z {
-        let (mean, cov) = model.birth(x, zj, ());
-        // lambda_u,k-1 around the new landmark (`kappa_u` exactly for the constant intensity).
-        let lambda = s.undetected_intensity * map.undetected.birth_multiplier(&mean, &cov);
-        let e = model.detection_probability(x, &mean, &cov, ()) * lambda * model.birth_integral(x, zj, ());
-        let nu = e + model.clutter_intensity(zj).max(s.min_clutter_intensity);
-        let r = (e / nu).clamp(0.0, 1.0);
+        let (e_sum, born) = typed_birth(model, |mark| {
+            let (mean, cov) = model.birth(x, zj, mark);
+            // lambda_u,k-1 around the new landmark (`kappa_u` exactly for the constant intensity).
+            let lambda = s.undetected_intensity * map.undetected.birth_multiplier(&mean, &cov);
+            let e = model.detection_probability(x, &mean, &cov, mark) * lambda * model.birth_integral(x, zj, mark);
+            Some((e, mean, cov))
+        });
+        let b = born.unwrap_or_else(|| {
+            let (mean, cov) = model.birth(x, zj, S::Mark::default());
+            LocalHypothesis { r: 0.0, mean, cov, mark: S::Mark::default().index() }
+        });
+        let nu = e_sum + model.clutter_intensity(zj).max(s.min_clutter_intensity);
+        let r = (e_sum / nu).clamp(0.0, 1.0);
         ws.ln_nu_new.push(nu.ln());
         ws.r_new.push(r);
         ws.track_start.push(ws.hyps.len());
-        ws.hyps.push(LocalHypothesis { r: 0.0, mean, cov });
-        ws.hyps.push(LocalHypothesis { r, mean, cov });
+        ws.hyps.push(b);
+        ws.hyps.push(LocalHypothesis { r, ..b });
     }
     ws.track_start.push(ws.hyps.len());
     chol
@@ -385,9 +396,9 @@ fn children<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Ma
 /// matrix is ranked once, for the largest budget of the hypotheses that share it, and each
 /// of them takes its own budget's prefix of that ranking (Murty's enumeration does not
 /// depend on the budget before it stops, so the prefix is what its own call would return).
-pub fn pmbm_update<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Mark = ()>>(
+pub fn pmbm_update<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorModel<X, M, Z>>(
     map: &mut PmbmDensity<M>,
-    x: &Pose,
+    x: &SVector<f64, X>,
     z: &[SVector<f64, Z>],
     model: &S,
     s: &UpdateSettings,
@@ -845,9 +856,9 @@ fn log_add(a: f64, b: f64) -> f64 {
 /// (eqs. 48-51) back to one Bernoulli per track, tracks with `r < bernoulli_prune`
 /// deleted. `ln_chi` is `-F` (Proposition 2) or the most likely association's log weight
 /// (eq. 47). `map` must hold one global hypothesis (so one local hypothesis per track).
-pub fn pmb_update<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Mark = ()>>(
+pub fn pmb_update<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorModel<X, M, Z>>(
     map: &mut PmbmDensity<M>,
-    x: &Pose,
+    x: &SVector<f64, X>,
     z: &[SVector<f64, Z>],
     model: &S,
     s: &UpdateSettings,

@@ -64,7 +64,7 @@ use rfslam_core::detection::{PD_MAX, PlacedFov};
 use rfslam_core::{DetectionModel, Fov, FovEdge, Point2, Pose};
 use serde::{Deserialize, Serialize};
 
-use crate::model::InvertibleSensorModel;
+use crate::model::SensorModel;
 
 /// Which intensity of undetected landmarks a PMBM filter keeps (the key `undetected`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -733,11 +733,12 @@ impl Undetected {
         }
     }
 
-    /// Step i at pose `x` with `model`'s detection sector: returns
+    /// Step i at the planar pose `x` (the vehicle state's x, y and heading) with `model`'s
+    /// detection sector: returns
     /// `int p_D lambda_u,k-1 / kappa_u` as the grid represents it, then thins (0 and nothing
     /// done for the constant intensity, or for a model without a detection sector, which
     /// validation refuses).
-    pub fn thin<const M: usize, const Z: usize, S: InvertibleSensorModel<3, M, Z, Mark = ()>>(
+    pub fn thin<const X: usize, const M: usize, const Z: usize, S: SensorModel<X, M, Z>>(
         &mut self,
         model: &S,
         x: &Pose,

@@ -127,10 +127,11 @@ fn linear_sensor_equals_the_kalman_filter() {
     let r = Matrix2::new(0.2, 0.05, 0.05, 0.3);
     let r_u = 4.0 * r;
     let params = MpmbParams { undetected_intensity: 0.0, ..MpmbParams::default() };
-    let mut f = MpmbFilter::new(params, &models(), Linear { r });
+    let mut f = MpmbFilter::new(params, models().vehicle(), Linear { r });
     let mu = Pose::new(1.0, 2.0, 0.3);
     let u = Matrix3::new(0.5, 0.1, 0.02, 0.1, 0.4, -0.03, 0.02, -0.03, 0.05);
-    let lm = GaussianBernoulli { r: 1.0, mean: Vector2::new(10.0, -3.0), cov: Matrix2::new(0.6, 0.2, 0.2, 0.9) };
+    let lm =
+        GaussianBernoulli { r: 1.0, mean: Vector2::new(10.0, -3.0), cov: Matrix2::new(0.6, 0.2, 0.2, 0.9), mark: 0 };
     f.mean = mu;
     f.cov = u;
     f.bernoullis = vec![lm];
@@ -164,7 +165,7 @@ fn linear_sensor_equals_the_kalman_filter() {
 
     // A new Bernoulli (no prior landmark; undetected intensity on).
     let params = MpmbParams { undetected_intensity: 1e-3, ..MpmbParams::default() };
-    let mut f = MpmbFilter::new(params, &models(), Linear { r });
+    let mut f = MpmbFilter::new(params, models().vehicle(), Linear { r });
     f.mean = mu;
     f.cov = u;
     f.step_with(&[], [z]);
@@ -186,8 +187,9 @@ fn survival_in_view() {
     let r = Matrix2::new(0.2, 0.05, 0.05, 0.3);
     for (p_s, r0) in [(0.9, 0.8), (0.99, 1.0), (1.0, 1.0)] {
         let params = MpmbParams { survival_fov: p_s, undetected_intensity: 0.0, ..MpmbParams::default() };
-        let mut f = MpmbFilter::new(params, &models(), Linear { r });
-        let lm = GaussianBernoulli { r: r0, mean: Vector2::new(10.0, -3.0), cov: Matrix2::new(0.6, 0.2, 0.2, 0.9) };
+        let mut f = MpmbFilter::new(params, models().vehicle(), Linear { r });
+        let lm =
+            GaussianBernoulli { r: r0, mean: Vector2::new(10.0, -3.0), cov: Matrix2::new(0.6, 0.2, 0.2, 0.9), mark: 0 };
         f.bernoullis = vec![lm];
         f.step_with(&[], std::iter::empty());
         let want = r0 * p_s * (1.0 - PD) / (1.0 - r0 * p_s * PD);

@@ -43,7 +43,7 @@ fn settings(undetected: f64, gate: f64) -> UpdateSettings {
 }
 
 fn bernoulli(r: f64, x: f64, y: f64) -> GaussianBernoulli<2> {
-    GaussianBernoulli { r, mean: Vector2::new(x, y), cov: Matrix2::new(0.2, 0.05, 0.05, 0.3) }
+    GaussianBernoulli { r, mean: Vector2::new(x, y), cov: Matrix2::new(0.2, 0.05, 0.05, 0.3), mark: 0 }
 }
 
 /// `ln nu_i(z) = ln(r p_D N(z; h(m), H P H^T + R))` by hand.
@@ -405,6 +405,7 @@ fn expected_fov_edge_reaches_the_update() {
         r: 1.0,
         mean: Vector2::new(20.0 * 90.5f64.to_radians().cos(), 20.0 * 90.5f64.to_radians().sin()),
         cov: Matrix2::new(0.5, 0.0, 0.0, 0.5),
+        mark: 0,
     };
     let z = [RangeBearing::new(20.0, 89.7f64.to_radians())];
     let s = settings(1e-3, 13.8);

@@ -10,7 +10,7 @@ use pmbm_slam::{
 };
 use rand::SeedableRng;
 use rfslam_core::rng::Rng;
-use rfslam_core::{ControlSegment, DetectionModel, Fov, Pose, SlamModels};
+use rfslam_core::{ControlSegment, DetectionModel, Fov, Motion, Pose, SlamModels};
 use rfslam_sim::ScenarioData;
 
 fn models() -> SlamModels {
@@ -58,17 +58,18 @@ fn weight_factor_of_two_particles_with_different_pasts() {
     // was thinned by the covered fraction only).
     assert!(i1[1] >= (1.0 - pd) * i1[0] && i1[1] < 1.1 * (1.0 - pd) * i1[0], "{} vs {}", i1[1], (1.0 - pd) * i1[0]);
     for variant in [Variant::Pmbm, Variant::Pmb] {
-        let mut f = PmbmFilter::new(variant, params.clone(), &models, model, 2);
+        let mut f = PmbmFilter::new(variant, params.clone(), models.vehicle(), model, 2);
         let mut rng = Rng::seed_from_u64(1);
         let odo: [ControlSegment; 0] = [];
-        let mut scan = |f: &mut PmbmFilter<RangeBearingModel, 2, 2>, poses: [Pose; 2]| {
+        let mut scan = |f: &mut PmbmFilter<Motion, RangeBearingModel, 3, 2, 2>, poses: [Pose; 2]| {
             let mut k = 0;
             f.step_with_proposal(&odo, std::iter::empty::<Vector2<f64>>(), &mut rng, |_, _| {
                 k += 1;
                 PoseDraw { pose: poses[k - 1], log_correction: 0.0, components: 0, cholesky_failures: 0 }
             });
         };
-        let lw = |f: &PmbmFilter<RangeBearingModel, 2, 2>| f.particle_set()[1].log_w - f.particle_set()[0].log_w;
+        let lw =
+            |f: &PmbmFilter<Motion, RangeBearingModel, 3, 2, 2>| f.particle_set()[1].log_w - f.particle_set()[0].log_w;
         scan(&mut f, [plus, minus]);
         let after_one = -kappa_u * (i1[0] - i0[0]);
         assert!((lw(&f) - after_one).abs() < 1e-9, "{variant:?}: {} vs {after_one}", lw(&f));
@@ -78,7 +79,7 @@ fn weight_factor_of_two_particles_with_different_pasts() {
         assert!((lw(&f) - expected).abs() < 1e-9 * expected, "{variant:?}: {} vs {expected}", lw(&f));
         // With the constant intensity the factor is common and dropped: equal weights.
         let constant = Params { undetected: UndetectedModel::Constant, ..params.clone() };
-        let mut f = PmbmFilter::new(variant, constant, &models, model, 2);
+        let mut f = PmbmFilter::new(variant, constant, models.vehicle(), model, 2);
         scan(&mut f, [plus, minus]);
         scan(&mut f, [minus, minus]);
         assert_eq!(lw(&f), 0.0);
@@ -101,7 +102,7 @@ fn zero_detection_probability_equals_the_constant_intensity_bit_for_bit() {
         for variant in [Variant::Pmbm, Variant::Pmb] {
             let run = |undetected| {
                 let params = Params { undetected, ..Params::default() };
-                let mut f = PmbmFilter::new(variant, params, &models, model, 5);
+                let mut f = PmbmFilter::new(variant, params, models.vehicle(), model, 5);
                 let mut rng = Rng::seed_from_u64(9);
                 let mut seg = Vec::new();
                 let mut trace = Vec::new();
@@ -123,7 +124,7 @@ fn zero_detection_probability_equals_the_constant_intensity_bit_for_bit() {
         }
         let run = |undetected| {
             let params = MpmbParams { undetected, ..MpmbParams::default() };
-            let mut f = MpmbFilter::new(params, &models, model);
+            let mut f = MpmbFilter::new(params, models.vehicle(), model);
             let mut seg = Vec::new();
             let mut trace = Vec::new();
             for (k, scan) in ds.scans.iter().enumerate() {

@@ -21,7 +21,7 @@ use crate::AssignError;
 const PROBABILITY_SLACK: f64 = 1e-9;
 
 /// A Bernoulli component with a Gaussian density in `D` dimensions: existence probability
-/// `r` and `N(mean, cov)`.
+/// `r` and `N(mean, cov)`, of the landmark type `mark`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GaussianBernoulli<const D: usize> {
     /// Existence probability.
@@ -30,6 +30,9 @@ pub struct GaussianBernoulli<const D: usize> {
     pub mean: SVector<f64, D>,
     /// Covariance of the density (symmetric positive definite).
     pub cov: SMatrix<f64, D, D>,
+    /// The landmark type's mark (0 in a world of one type); every hypothesis of a track has
+    /// its track's.
+    pub mark: u8,
 }
 
 fn probability(index: usize, what: &'static str, p: f64) -> Result<(), AssignError> {
@@ -84,6 +87,12 @@ pub fn tomb_merge<const D: usize>(
         if !(h.mean.iter().all(|x| x.is_finite()) && h.cov.iter().all(|x| x.is_finite())) {
             return Err(AssignError::InvalidHypothesis { index: k, what: "non-finite mean or covariance" });
         }
+        if h.mark != hypotheses[0].mark {
+            return Err(AssignError::InvalidHypothesis {
+                index: k,
+                what: "hypotheses of one track of different types",
+            });
+        }
     }
     let pairs = || marginals.iter().zip(hypotheses);
     let r: f64 = pairs().map(|(p, h)| p * h.r).sum();
@@ -92,7 +101,7 @@ pub fn tomb_merge<const D: usize>(
     let (mean, cov) = moment_match(weighted(true))
         .or_else(|| moment_match(weighted(false)))
         .ok_or(AssignError::InvalidHypothesis { index: 0, what: "every marginal is zero" })?;
-    Ok(GaussianBernoulli { r: r.min(1.0), mean, cov })
+    Ok(GaussianBernoulli { r: r.min(1.0), mean, cov, mark: hypotheses[0].mark })
 }
 
 /// TOMB/P for the new track of a measurement (\[Kim2022\] eq. (50)): `r = p_0j r_new`, where
@@ -119,7 +128,7 @@ mod tests {
 
     fn random_hypothesis<const D: usize, R: Rng>(rng: &mut R, r: f64) -> GaussianBernoulli<D> {
         let mean = SVector::<f64, D>::from_fn(|_, _| rng.random_range(-10.0..10.0));
-        GaussianBernoulli { r, mean, cov: random_spd(rng) }
+        GaussianBernoulli { r, mean, cov: random_spd(rng), mark: 0 }
     }
 
     /// A single hypothesis, or marginals concentrated on one of several, return that
@@ -222,7 +231,7 @@ mod tests {
 
     #[test]
     fn invalid_inputs_are_refused() {
-        let h = GaussianBernoulli { r: 0.5, mean: Vector2::new(1.0, 2.0), cov: Matrix2::identity() };
+        let h = GaussianBernoulli { r: 0.5, mean: Vector2::new(1.0, 2.0), cov: Matrix2::identity(), mark: 0 };
         let bad = |p: &[f64], hs: &[GaussianBernoulli<2>]| {
             matches!(tomb_merge(p, hs), Err(AssignError::InvalidHypothesis { .. }))
         };
@@ -235,6 +244,7 @@ mod tests {
         assert!(bad(&[1.0], &[GaussianBernoulli { r: 1.5, ..h }]));
         assert!(bad(&[1.0], &[GaussianBernoulli { mean: Vector2::new(f64::NAN, 0.0), ..h }]));
         assert!(bad(&[1.0], &[GaussianBernoulli { cov: Matrix2::identity() * f64::INFINITY, ..h }]));
+        assert!(bad(&[0.5, 0.5], &[h, GaussianBernoulli { mark: 1, ..h }]));
         assert!(tomb_new_track(1.2, 0.5).is_err());
         assert!(tomb_new_track(0.5, -0.5).is_err());
         assert_eq!(tomb_new_track(0.5, 0.5).unwrap(), 0.25);

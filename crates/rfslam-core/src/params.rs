@@ -11,10 +11,11 @@
 //! [`RbpfParams`]), and [`check_keys`] rejects a key no part accepts, listing every key the
 //! filter accepts.
 
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, SMatrix, SVector};
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize};
 
+use crate::model::{Vehicle, VehicleModel};
 use crate::motion::propagate_with_covariance;
 use crate::planar::SlamModels;
 use crate::rbpf::{ResampleRule, ResampleScheme};
@@ -277,6 +278,27 @@ impl RbpfParams {
     pub fn predict(&self, models: &SlamModels, pose: &Pose, odometry: &[ControlSegment]) -> (Pose, Matrix3<f64>) {
         let (x_bar, q) = propagate_with_covariance(&models.motion, pose, odometry, &models.control_noise);
         (x_bar, q + self.jitter())
+    }
+
+    /// [`RbpfParams::predict`] for a vehicle of any state: `x_bar = f(x_{k-1}, u)` through the
+    /// odometry segments and `Q = F_u Q_u F_u^T` (plus the model's additive process noise)
+    /// plus [`RbpfParams::jitter_for`]. For the planar models it is `predict`, bit for bit.
+    pub fn predict_state<V: VehicleModel<X, 3>, const X: usize>(
+        &self,
+        vehicle: &Vehicle<V, X>,
+        x: &SVector<f64, X>,
+        odometry: &[ControlSegment],
+    ) -> (SVector<f64, X>, SMatrix<f64, X, X>) {
+        let (x_bar, q) = propagate_with_covariance(&vehicle.model, x, odometry, &vehicle.control_noise);
+        (x_bar, q + self.jitter_for(&vehicle.model))
+    }
+
+    /// The jitter of a vehicle state: `q_jitter`'s three variances on the state's x, y and
+    /// heading components, and none on any other (height, clock bias) or on a component the
+    /// model does not estimate ([`VehicleModel::planar_diagonal`]). `diag(q_jitter)` for the
+    /// planar pose.
+    pub fn jitter_for<V: VehicleModel<X, 3>, const X: usize>(&self, vehicle: &V) -> SMatrix<f64, X, X> {
+        vehicle.planar_diagonal(self.q_jitter)
     }
 }
 

@@ -6,7 +6,7 @@
 use nalgebra::{Matrix2, Matrix3};
 
 use crate::detection::{ClutterModel, DetectionModel, Fov, SensorKind};
-use crate::model::InvertibleSensorModel;
+use crate::model::{InvertibleSensorModel, Vehicle};
 use crate::motion::Motion;
 use crate::sensor::RangeBearingSensor;
 use crate::types::Pose;
@@ -46,6 +46,12 @@ impl SlamModels {
     /// ([`ClutterModel::intensity`]).
     pub fn clutter_intensity(&self) -> f64 {
         self.clutter.intensity(&self.fov, self.sensor_kind)
+    }
+
+    /// The vehicle as the filters assume it: the odometry's motion model, its noise and the
+    /// initial pose.
+    pub fn vehicle(&self) -> Vehicle<Motion, 3> {
+        Vehicle { model: self.motion, control_noise: self.control_noise, initial_state: self.initial_pose }
     }
 }
 

@@ -6,7 +6,9 @@ use rand::RngExt;
 
 use crate::angle::wrap;
 use crate::gaussian::sample;
+use crate::model::VehicleModel;
 use crate::types::Pose;
+use nalgebra::{SMatrix, SVector};
 
 /// `ln sum_i exp(l_i)`, stable (subtracts the maximum). `-inf` for an empty or all `-inf` slice.
 pub fn log_sum_exp(log_w: &[f64]) -> f64 {
@@ -237,9 +239,13 @@ impl<P: LogWeighted + Clone + Default> ParticleSet<P> {
         &self.family
     }
 
-    /// Every particle's pose (read by `pose`) and log weight into `out`, cleared first: what
+    /// Every particle's vehicle state (read by `pose`) and log weight into `out`, cleared first: what
     /// `SlamFilter::particle_poses` reports.
-    pub fn poses_into(&self, out: &mut Vec<(Pose, f64)>, pose: impl Fn(&P) -> Pose) {
+    pub fn poses_into<const X: usize>(
+        &self,
+        out: &mut Vec<(SVector<f64, X>, f64)>,
+        pose: impl Fn(&P) -> SVector<f64, X>,
+    ) {
         out.clear();
         out.extend(self.particles.iter().map(|p| (pose(p), p.log_weight())));
     }
@@ -358,10 +364,73 @@ pub fn draw_transition<R: rand::Rng + ?Sized>(
     }
 }
 
+/// [`draw_transition`] for a vehicle of any state: `x ~ N(x_bar, Q)` with the angular
+/// components wrapped; a component the model does not estimate (no variance in `Q`) keeps
+/// its predicted value (the factorisation takes a unit variance there, so one standard
+/// normal is drawn for it and discarded). For the planar models it is `draw_transition`,
+/// draw for draw.
+pub fn draw_state<V: VehicleModel<X, 3> + ?Sized, R: rand::Rng + ?Sized, const X: usize>(
+    vehicle: &V,
+    x_bar: &SVector<f64, X>,
+    q: &SMatrix<f64, X, X>,
+    rng: &mut R,
+    chol: &mut u32,
+) -> SVector<f64, X> {
+    let estimated = vehicle.estimated();
+    let mut q_held = *q;
+    for i in (0..X).filter(|&i| !estimated[i]) {
+        q_held[(i, i)] = 1.0;
+    }
+    match sample(x_bar, &q_held, rng) {
+        Some(mut x) => {
+            for (i, c) in vehicle.components().iter().enumerate() {
+                if !estimated[i] {
+                    x[i] = x_bar[i];
+                } else if c.is_angle() {
+                    x[i] = wrap(x[i]);
+                }
+            }
+            x
+        }
+        None => {
+            *chol += 1;
+            *x_bar
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use rand::SeedableRng;
+
+    /// For the planar models `draw_state` is `draw_transition` draw for draw; for the radio
+    /// vehicle it wraps the heading, keeps the held height at its prediction and moves the
+    /// other components with the covariance's spread.
+    #[test]
+    fn draw_state_wraps_holds_and_matches_the_planar_draw() {
+        let (x_bar, q) = (Pose::new(1.0, 2.0, 3.1), nalgebra::Matrix3::from_diagonal(&Pose::new(0.1, 0.2, 0.3)));
+        let (mut a, mut b) = (crate::Rng::seed_from_u64(5), crate::Rng::seed_from_u64(5));
+        let (mut ca, mut cb) = (0, 0);
+        for _ in 0..50 {
+            let pa = draw_transition(&x_bar, &q, &mut a, &mut ca);
+            let pb = draw_state(&crate::Motion::Velocity, &x_bar, &q, &mut b, &mut cb);
+            assert_eq!(pa.map(f64::to_bits), pb.map(f64::to_bits));
+        }
+        let radio = crate::model::RadioVehicle { sigma: [0.2, 0.2, 0.0, 1e-3, 0.2] };
+        let x_bar = SVector::from([5.0, -3.0, 1.5, 3.1, 300.0]);
+        let q = radio.process_noise(0.5).unwrap() * 1e4;
+        let mut rng = crate::Rng::seed_from_u64(6);
+        let (mut chol, mut spread) = (0, 0.0);
+        for _ in 0..2000 {
+            let x = draw_state(&radio, &x_bar, &q, &mut rng, &mut chol);
+            assert_eq!(x[2], 1.5, "the height is held");
+            assert!((-std::f64::consts::PI..std::f64::consts::PI).contains(&x[3]), "heading {}", x[3]);
+            spread += (x[4] - 300.0).powi(2) / 2000.0;
+        }
+        assert_eq!(chol, 0);
+        assert!((spread.sqrt() - 20.0).abs() < 1.5, "clock bias sd {}", spread.sqrt());
+    }
 
     #[test]
     fn lse_matches_direct_sum() {

@@ -3,7 +3,8 @@
 //! - [`World`]: landmarks and true trajectory, from the phd-slam-synthetic CSV layout, the
 //!   MATLAB `Environment_SLAM.mat` (read with [`rfslam_data::mat`]) or procedurally.
 //! - [`simulate()`]: the PHD-SLAM papers' synthetic generator (world + models + run seed ->
-//!   data set with truth labels).
+//!   data set with truth labels); [`simulate_run`] and [`draw_scan`]: the same draws for a
+//!   vehicle and a sensor model of any dimensions (the radio world's), in memory.
 //! - [`glmb_sim`]: the simulated world of delta-GLMB-SLAM 2.0.
 //! - [`VictoriaPark`]: the Victoria Park recording (`measurements.dat`, `inputs.dat`,
 //!   `gps.dat`) imported into a data set with the artificial clutter of PHD-SLAM 3.0
@@ -23,6 +24,6 @@ pub mod victoria_park;
 pub mod world;
 
 pub use scenario::ScenarioData;
-pub use simulate::simulate;
+pub use simulate::{SimulatedRun, draw_scan, simulate, simulate_run};
 pub use victoria_park::VictoriaPark;
 pub use world::World;

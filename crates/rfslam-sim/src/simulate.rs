@@ -2,11 +2,14 @@
 //! \[Kaltiokallio2024\] Section VI-A): a world plus models plus a run seed gives a data set with
 //! truth labels.
 
+use nalgebra::SVector;
 use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 use rfslam_core::model::{RangeBearingModel, RelativePositionModel};
+use rfslam_core::model::{SensorModel, VehicleModel};
+use rfslam_core::rbpf::draw_state;
 use rfslam_core::rng::{purpose, stream};
-use rfslam_core::{PlanarSensorModel, RangeBearing, Rng, Scan, SensorKind};
+use rfslam_core::{Control, ControlSegment, PlanarSensorModel, Rng, Scan, SensorKind};
 
 use rfslam_data::{DataError, Dataset, DatasetMeta, ModelConfig, OdometryRow, TruthPose};
 
@@ -117,26 +120,112 @@ fn draw<S: PlanarSensorModel>(
         }
 
         let (t, x) = world.poses[k];
-        let mut z: Vec<RangeBearing> = Vec::new();
-        let mut labels: Vec<i64> = Vec::new();
-        for lm in &world.landmarks {
-            let pd = sensor.pd_true(&x, &lm.position, ());
-            if pd > 0.0 && rng.random::<f64>() < pd {
-                z.push(sensor.sample(&x, &lm.position, (), &mut rng));
-                labels.push(lm.id);
-            }
-        }
-        sensor.sample_clutter(&x, &mut rng, &mut z);
-        labels.resize(z.len(), -1);
-        shuffle_scan(&mut z, &mut labels, &mut rng);
-        scans.push(Scan { t, z, truth: Some(labels) });
+        let landmarks = world.landmarks.iter().map(|lm| (lm.id, lm.position, ()));
+        scans.push(draw_scan(sensor, t, &x, landmarks, &mut rng));
     }
     (scans, odometry)
 }
 
+/// One scan at time `t` drawn from `sensor` at the true state `x`, for a sensor model of
+/// any dimensions: each landmark `(id, position, type)` in the given order is detected with
+/// probability [`SensorModel::pd_true`] (one uniform draw when it is positive) and measured
+/// by [`SensorModel::sample`]; then the clutter ([`SensorModel::sample_clutter`]); then the
+/// measurements are shuffled with their truth labels (landmark id, `-1` for clutter).
+pub fn draw_scan<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
+    sensor: &S,
+    t: f64,
+    x: &SVector<f64, X>,
+    landmarks: impl IntoIterator<Item = (i64, SVector<f64, M>, S::Mark)>,
+    rng: &mut Rng,
+) -> Scan<Z> {
+    let mut z: Vec<SVector<f64, Z>> = Vec::new();
+    let mut labels: Vec<i64> = Vec::new();
+    for (id, m, mark) in landmarks {
+        let pd = sensor.pd_true(x, &m, mark);
+        if pd > 0.0 && rng.random::<f64>() < pd {
+            z.push(sensor.sample(x, &m, mark, rng));
+            labels.push(id);
+        }
+    }
+    sensor.sample_clutter(x, rng, &mut z);
+    labels.resize(z.len(), -1);
+    shuffle_scan(&mut z, &mut labels, rng);
+    Scan { t, z, truth: Some(labels) }
+}
+
+/// A run simulated in a world of any vehicle and sensor model ([`simulate_run`]): the true
+/// states, the controls the filters receive and the scans.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimulatedRun<const X: usize, const Z: usize> {
+    /// The true state at the time of every scan (`x_0` first).
+    pub truth: Vec<(f64, SVector<f64, X>)>,
+    /// The controls the filters receive, one per transition (at the start of its interval).
+    pub odometry: Vec<ControlSegment>,
+    /// One scan per true state, the first at `x_0`.
+    pub scans: Vec<Scan<Z>>,
+}
+
+/// Simulates `steps` transitions of `dt` seconds from `x0` under the true control `u` and
+/// one scan at each state (the first at `x0`), for any vehicle and sensor model: the true
+/// state moves by the model, `x_k = f(x_{k-1}, u) + q_k` with `q_k ~ N(0, Q)` the model's
+/// additive process noise ([`VehicleModel::process_noise`], drawn by
+/// [`rfslam_core::rbpf::draw_state`]: angles wrapped, held components kept); the filters
+/// receive `u + N(0, diag(control_sigma^2))` (zero sigmas: a known control, as the radio
+/// world's speed and turn rate). The draws per step `k`: the process noise of transition
+/// `k` then the control noise (for `k >= 1`), then the scan ([`draw_scan`]). An error if the
+/// process noise cannot be factorised.
+#[allow(clippy::too_many_arguments)]
+pub fn simulate_run<V, S, const X: usize, const M: usize, const Z: usize>(
+    vehicle: &V,
+    sensor: &S,
+    x0: SVector<f64, X>,
+    u: Control,
+    control_sigma: [f64; 3],
+    dt: f64,
+    steps: usize,
+    landmarks: &[(i64, SVector<f64, M>, S::Mark)],
+    rng: &mut Rng,
+) -> Result<SimulatedRun<X, Z>, DataError>
+where
+    V: VehicleModel<X, 3>,
+    S: SensorModel<X, M, Z>,
+{
+    let mut run = SimulatedRun { truth: Vec::new(), odometry: Vec::new(), scans: Vec::new() };
+    let mut x = x0;
+    for k in 0..=steps {
+        let t = k as f64 * dt;
+        if k > 0 {
+            let x_bar = vehicle.predict(&x, &u, dt);
+            x = match vehicle.process_noise(dt) {
+                Some(q) => {
+                    let mut failed = 0;
+                    let x = draw_state(vehicle, &x_bar, &q, rng, &mut failed);
+                    if failed > 0 {
+                        return Err(DataError::Mismatch(format!(
+                            "the vehicle model's process noise at step {k} is not positive definite on the \
+                             components it estimates"
+                        )));
+                    }
+                    x
+                }
+                None => x_bar,
+            };
+            let mut noisy = u;
+            for (j, s) in control_sigma.iter().enumerate() {
+                let e: f64 = StandardNormal.sample(rng);
+                noisy[j] += s * e;
+            }
+            run.odometry.push(ControlSegment { u: noisy, dt });
+        }
+        run.truth.push((t, x));
+        run.scans.push(draw_scan(sensor, t, &x, landmarks.iter().copied(), rng));
+    }
+    Ok(run)
+}
+
 /// Shuffles a scan's measurements and their truth labels together (Fisher-Yates with the
 /// draws of `rng`), so that the order of the measurements tells nothing.
-pub(crate) fn shuffle_scan(z: &mut [RangeBearing], labels: &mut [i64], rng: &mut Rng) {
+pub(crate) fn shuffle_scan<T>(z: &mut [T], labels: &mut [i64], rng: &mut Rng) {
     for i in (1..z.len()).rev() {
         let j = rng.random_range(0..=i);
         z.swap(i, j);

@@ -135,6 +135,79 @@ pub trait VehicleModel<const X: usize, const U: usize> {
     fn estimated(&self) -> [bool; X] {
         [true; X]
     }
+
+    /// The diagonal matrix with `v[0]`, `v[1]` and `v[2]` on the state's x, y and heading
+    /// components, and 0 on any other and on a component the model does not estimate: how
+    /// a variance given for the planar pose (a jitter, a dithering) applies to this state.
+    fn planar_diagonal(&self, v: [f64; 3]) -> SMatrix<f64, X, X> {
+        let estimated = self.estimated();
+        let mut d = SMatrix::<f64, X, X>::zeros();
+        for (i, c) in self.components().iter().enumerate() {
+            let vi = match c {
+                StateComponent::Position(0) => v[0],
+                StateComponent::Position(1) => v[1],
+                StateComponent::Heading => v[2],
+                _ => 0.0,
+            };
+            d[(i, i)] = if estimated[i] { vi } else { 0.0 };
+        }
+        d
+    }
+
+    /// The planar pose `[x, y, heading]` of state `x` (its first two position coordinates
+    /// and its heading; 0 for a component the model does not have): what the planar field
+    /// of view and the grids over it read.
+    fn planar_pose(&self, x: &SVector<f64, X>) -> crate::types::Pose {
+        let mut pose = crate::types::Pose::zeros();
+        for (i, c) in self.components().iter().enumerate() {
+            match c {
+                StateComponent::Position(0) => pose[0] = x[i],
+                StateComponent::Position(1) => pose[1] = x[i],
+                StateComponent::Heading => pose[2] = x[i],
+                _ => {}
+            }
+        }
+        pose
+    }
+}
+
+/// The vehicle as a filter assumes it: its model, the covariance `Q_u` of the control noise
+/// (zero rows and columns for unused inputs; all zero for a model whose control is known and
+/// whose noise is additive, [`VehicleModel::process_noise`]) and the known initial state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Vehicle<V, const X: usize> {
+    /// The motion model.
+    pub model: V,
+    /// `Q_u`.
+    pub control_noise: SMatrix<f64, 3, 3>,
+    /// `x_0`.
+    pub initial_state: SVector<f64, X>,
+}
+
+/// A landmark type as the filters carry it: every type of the world in the order of its data
+/// sets' marks, and each type's index there (the `mark` of map points, data sets and the
+/// per-type metrics). `()` is the one type of a world whose landmarks are all alike.
+pub trait LandmarkMark: Copy + std::fmt::Debug + Default + PartialEq + Send + Sync + 'static {
+    /// Every type, in the order of the marks.
+    const ALL: &'static [Self];
+
+    /// The mark: this type's index into [`LandmarkMark::ALL`].
+    fn index(self) -> u8;
+
+    /// The type of mark `i` (the default type for an index outside [`LandmarkMark::ALL`]).
+    #[inline]
+    fn from_index(i: u8) -> Self {
+        Self::ALL.get(usize::from(i)).copied().unwrap_or_default()
+    }
+}
+
+impl LandmarkMark for () {
+    const ALL: &'static [()] = &[()];
+
+    #[inline]
+    fn index(self) -> u8 {
+        0
+    }
 }
 
 /// One component of a measurement: its name (the column of `measurements.csv`) and whether
@@ -184,7 +257,7 @@ pub trait SensorModel<const X: usize, const M: usize, const Z: usize>:
 {
     /// The landmark type (a mark carried through maps, estimates and metrics); `()` in a
     /// world whose landmarks are all of one type.
-    type Mark: Copy + std::fmt::Debug + Default + PartialEq + Send + Sync + 'static;
+    type Mark: LandmarkMark;
 
     /// The model's name as a data set or scenario writes it (`range_bearing`).
     const NAME: &'static str;
@@ -241,6 +314,20 @@ pub trait SensorModel<const X: usize, const M: usize, const Z: usize>:
     /// Draws one scan's clutter seen from `x` (a Poisson count, then the measurements),
     /// appended to `out`.
     fn sample_clutter<R: rand::Rng + ?Sized>(&self, x: &SVector<f64, X>, rng: &mut R, out: &mut Vec<SVector<f64, Z>>);
+
+    /// Whether the filters map landmarks of type `mark`, starting them from measurements.
+    /// A type whose landmarks the world knows (the radio world's base station) is not
+    /// mapped: its landmarks are [`SensorModel::anchors`]. Every type by default.
+    fn mapped(&self, _mark: Self::Mark) -> bool {
+        true
+    }
+
+    /// The known landmarks (anchors) of the world, with their types: they belong to the
+    /// world, not to a filter's map; a filter conditions on them (a Bernoulli of existence 1
+    /// and zero covariance in a PMBM map) and never reports them. None by default.
+    fn anchors(&self) -> Vec<(SVector<f64, M>, Self::Mark)> {
+        Vec::new()
+    }
 
     /// The planar sector field of view and the detection model, over the first two state
     /// and landmark coordinates, for filters that keep a grid over it (the thinned undetected
@@ -437,6 +524,34 @@ mod tests {
         for s in [0.8f64, 0.3f64.to_radians(), 1.0, 0.05, 1.0f64.to_radians()] {
             assert_eq!((s * s).sqrt(), s);
         }
+    }
+
+    /// The planar pose and the planar diagonal read the radio state's x, y and heading (not
+    /// the height or the clock bias); for the planar models they are the pose and `diag(v)`.
+    #[test]
+    fn planar_parts_of_a_state() {
+        let radio = RadioVehicle { sigma: [0.2, 0.2, 0.0, 1e-3, 0.2] };
+        let x = SVector::from([1.0, 2.0, 3.0, 0.5, 300.0]);
+        assert_eq!(radio.planar_pose(&x), Pose::new(1.0, 2.0, 0.5));
+        let d = radio.planar_diagonal([1.0, 2.0, 3.0]);
+        assert_eq!(d, SMatrix::<f64, 5, 5>::from_diagonal(&SVector::from([1.0, 2.0, 0.0, 3.0, 0.0])));
+        let held = RadioVehicle { sigma: [0.2, 0.0, 0.0, 1e-3, 0.2] }.planar_diagonal([1.0, 2.0, 3.0]);
+        assert_eq!(held[(1, 1)], 0.0, "a held component takes no variance");
+        let v = Motion::Velocity;
+        assert_eq!(v.planar_pose(&Pose::new(4.0, 5.0, 6.0)), Pose::new(4.0, 5.0, 6.0));
+        assert_eq!(v.planar_diagonal([1.0, 2.0, 3.0]), nalgebra::Matrix3::from_diagonal(&Pose::new(1.0, 2.0, 3.0)));
+    }
+
+    /// Marks index the types in order and back; an unknown index is the default type.
+    #[test]
+    fn landmark_marks_round_trip() {
+        for (i, &t) in <LandmarkType as LandmarkMark>::ALL.iter().enumerate() {
+            assert_eq!(usize::from(t.index()), i);
+            assert_eq!(LandmarkType::from_index(t.index()), t);
+        }
+        assert_eq!(LandmarkType::from_index(9), LandmarkType::default());
+        assert_eq!(<() as LandmarkMark>::ALL.len(), 1);
+        assert_eq!(().index(), 0);
     }
 
     #[test]

@@ -6,7 +6,7 @@ use nalgebra::{Matrix3, RowVector3, SMatrix, SVector, Vector3};
 use rand::RngExt;
 use rand_distr::{Distribution, Poisson, StandardNormal};
 
-use super::{Inverse, InvertibleSensorModel, Linearised, MeasurementComponent, SensorModel};
+use super::{Inverse, InvertibleSensorModel, LandmarkMark, Linearised, MeasurementComponent, SensorModel};
 use crate::angle::wrap;
 
 /// The type of a landmark of the radio world (\[Kim2022\] Section II: `M = {BS, VA, SP}`), in
@@ -34,6 +34,15 @@ impl LandmarkType {
     /// The mark (index into [`LandmarkType::ALL`]).
     pub fn mark(self) -> u8 {
         self as u8
+    }
+}
+
+impl LandmarkMark for LandmarkType {
+    const ALL: &'static [LandmarkType] = &LandmarkType::ALL;
+
+    #[inline]
+    fn index(self) -> u8 {
+        self.mark()
     }
 }
 
@@ -143,6 +152,27 @@ pub struct RadioSensor {
 }
 
 impl RadioSensor {
+    /// The sensor of the published world (\[Kim2022\] Section VI-A with the public codes'
+    /// fixed noise, as the filters' and the simulator's): the base station at (0, 0, 40),
+    /// `sigma = [0.1 m, 0.01 rad x 4]` for every type, `p_D = 0.95`, scattering points seen
+    /// within 50 m and the base station and virtual anchors always; one clutter return per
+    /// scan uniform over 0-200 m of TOA and the angle box, `kappa = 1 / volume`.
+    pub fn published() -> RadioSensor {
+        let mut s = RadioSensor {
+            base_station: Vector3::new(0.0, 0.0, 40.0),
+            sigma: [0.1, 0.01, 0.01, 0.01, 0.01],
+            noise_scale: [1.0, 1.0, 1.0],
+            visibility: [f64::INFINITY, f64::INFINITY, 50.0],
+            pd: 0.95,
+            pd_true: 0.95,
+            clutter_rate: 1.0,
+            toa_max: 200.0,
+            kappa: 0.0,
+        };
+        s.kappa = s.clutter_rate / s.clutter_volume();
+        s
+    }
+
     /// The volume of the clutter box, `toa_max (2 pi)^2 pi^2` (m rad^4).
     pub fn clutter_volume(&self) -> f64 {
         use std::f64::consts::{PI, TAU};
@@ -252,6 +282,17 @@ impl SensorModel<5, 3, 5> for RadioSensor {
 
     fn pd_true(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, mark: LandmarkType) -> f64 {
         if self.in_fov(x, m, mark) { self.pd_true } else { 0.0 }
+    }
+
+    /// The base station is known (\[Kim2022\] Section II): virtual anchors and scattering
+    /// points are mapped.
+    fn mapped(&self, mark: LandmarkType) -> bool {
+        mark != LandmarkType::BaseStation
+    }
+
+    /// The base station at its known position.
+    fn anchors(&self) -> Vec<(Vector3<f64>, LandmarkType)> {
+        vec![(self.base_station, LandmarkType::BaseStation)]
     }
 
     fn sample<R: rand::Rng + ?Sized>(
@@ -374,33 +415,13 @@ mod tests {
     use crate::model::conformance::check_sensor_model;
     use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
-    /// The published world: the base station at (0, 0, 40), the codes' noise, scattering
-    /// points seen within 50 m, the others always; one clutter return per scan over a TOA of
-    /// 0-200 m.
-    fn published() -> RadioSensor {
-        let toa_max = 200.0;
-        let mut s = RadioSensor {
-            base_station: Vector3::new(0.0, 0.0, 40.0),
-            sigma: [0.1, 0.01, 0.01, 0.01, 0.01],
-            noise_scale: [1.0, 1.0, 1.0],
-            visibility: [f64::INFINITY, f64::INFINITY, 50.0],
-            pd: 0.95,
-            pd_true: 0.95,
-            clutter_rate: 1.0,
-            toa_max,
-            kappa: 0.0,
-        };
-        s.kappa = 1.0 / s.clutter_volume();
-        s
-    }
-
     fn state(x: f64, y: f64, heading: f64) -> SVector<f64, 5> {
         SVector::from([x, y, 0.0, heading, 300.0])
     }
 
     #[test]
     fn line_of_sight_by_hand() {
-        let s = published();
+        let s = RadioSensor::published();
         // The vehicle at its start (70.73, 0, 0) heading north (+y).
         let r = 70.7285;
         let z = s.predict(&state(r, 0.0, FRAC_PI_2), &s.base_station, LandmarkType::BaseStation);
@@ -418,7 +439,7 @@ mod tests {
 
     #[test]
     fn virtual_anchor_reflects_in_the_wall() {
-        let s = published();
+        let s = RadioSensor::published();
         // The VA (200, 0, 40) mirrors the BS in the wall x = 100. Vehicle at (0, -50, 0):
         // the path leaves the BS, hits x = 100 at the point on the line from the vehicle to
         // the VA, p = v + t (m - v) with x = 100: t = 1/2, p = (100, -25, 20).
@@ -439,7 +460,7 @@ mod tests {
 
     #[test]
     fn scattering_point_and_azimuth_wrap() {
-        let s = published();
+        let s = RadioSensor::published();
         // An SP at (-65, 65, 20) seen from (-40, 40, 0) heading -3 rad (about -172 deg).
         let x = state(-40.0, 40.0, -3.0);
         let m = Vector3::new(-65.0, 65.0, 20.0);
@@ -468,7 +489,7 @@ mod tests {
     /// instance limits every type's visibility (the check puts a landmark 1e9 m away).
     #[test]
     fn conformance() {
-        let mut s = published();
+        let mut s = RadioSensor::published();
         s.visibility = [1e4, 1e4, 50.0];
         s.noise_scale = [1.0, 4.0, 9.0];
         let mut cases = Vec::new();
@@ -500,7 +521,7 @@ mod tests {
     fn birth_integral_against_monte_carlo() {
         use crate::gaussian::{log_normal, sample};
         use rand::SeedableRng;
-        let mut s = published();
+        let mut s = RadioSensor::published();
         s.noise_scale = [1.0, 4.0, 9.0];
         let mut rng = crate::Rng::seed_from_u64(7);
         let x = state(10.0, -60.0, -3.0);
@@ -534,7 +555,7 @@ mod tests {
     /// DOD of a scattering point does not.
     #[test]
     fn virtual_anchor_dod_moves_with_the_vehicle() {
-        let s = published();
+        let s = RadioSensor::published();
         let x = state(10.0, -60.0, -3.0);
         let m = Vector3::new(200.0, 0.0, 40.0);
         let lin = s.linearise(&x, &m, LandmarkType::VirtualAnchor);
