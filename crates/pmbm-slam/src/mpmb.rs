@@ -31,9 +31,9 @@ use nalgebra::{Cholesky, DMatrix, Dyn, SMatrix, SVector};
 use rfslam_assign::tomb::{GaussianBernoulli, tomb_merge, tomb_new_track};
 use rfslam_assign::{AssociationProblem, BestAssociation, LbpOptions, LbpSolver, MAX_LBP_SWEEPS};
 use rfslam_assign::{DEFAULT_LBP_MAX_SWEEPS, DEFAULT_LBP_TOLERANCE};
-use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::symmetrise;
 use rfslam_core::model::{LandmarkMark, Vehicle, VehicleModel};
+use rfslam_core::state::StateSpace;
 use rfslam_core::motion::{propagate, propagate_with_covariance};
 use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::{
@@ -42,7 +42,7 @@ use rfslam_core::{
 };
 use serde::{Deserialize, Serialize};
 
-use crate::cubature::{InputPoints, PairMoments, PosePoints, lower_factor, state_factor};
+use crate::cubature::{InputPoints, PairMoments, PosePoints, lower_factor};
 use crate::filter::sensor_model;
 use crate::model::{InvertibleSensorModel, RangeBearingModel, chi2_quantile, typed_birth};
 use crate::params::{Params, check_cell, check_undetected, undetected_cell};
@@ -225,8 +225,8 @@ where
     model: S,
     gate: f64,
     lbp: LbpOptions,
-    /// Which state components are estimated, and how many (`d(s)`).
-    estimated: [bool; X],
+    /// The state's angular and held components, and how many are estimated (`d(s)`).
+    space: StateSpace<X>,
     n_s: usize,
     /// `diag(dithering)` on the state.
     dither: SMatrix<f64, X, X>,
@@ -255,7 +255,7 @@ where
     pub fn new(params: MpmbParams, vehicle: Vehicle<V, X>, model: S) -> Self {
         let r: Vec<_> = S::Mark::ALL.iter().map(|&t| model.noise(t)).collect();
         let r_u: Vec<_> = r.iter().map(|r| r * params.noise_inflation).collect();
-        let estimated = vehicle.model.estimated();
+        let space = StateSpace::of(&vehicle.model);
         let bernoullis = model
             .anchors()
             .into_iter()
@@ -267,8 +267,8 @@ where
             l_ru: r_u.iter().map(lower_factor).collect(),
             r_u,
             r,
-            estimated,
-            n_s: estimated.iter().filter(|&&e| e).count(),
+            space,
+            n_s: space.estimated_count(),
             dither: vehicle.model.planar_diagonal(params.dithering),
             mean: vehicle.initial_state,
             cov: SMatrix::zeros(),
@@ -293,17 +293,18 @@ where
     fn predict(&mut self, odometry: &[ControlSegment]) -> u32 {
         let motion = &self.vehicle.model;
         let (_, q) = propagate_with_covariance(motion, &self.mean, odometry, &self.vehicle.control_noise);
-        let Some(l) = state_factor(&self.cov, &self.estimated) else {
+        let Some(l) = self.space.lower_factor(&self.cov) else {
             self.mean = propagate(motion, &self.mean, odometry);
             self.cov = symmetrise(&(self.cov + q + self.dither));
             return 1;
         };
-        let diff = |a: &SVector<f64, X>, b: &SVector<f64, X>| motion.state_difference(a, b);
+        let space = self.space;
+        let diff = |a: &SVector<f64, X>, b: &SVector<f64, X>| space.difference(a, b);
         let pts = PosePoints::new(self.n_s, &self.mean, &l, |s| propagate(motion, s, odometry), diff);
         let w = 0.5 / self.n_s as f64;
         let dmean = pts.sum() * w;
         let cov = pts.outer(&pts) * w - dmean * dmean.transpose();
-        self.mean = wrap_angles(motion, pts.y0 + dmean);
+        self.mean = space.wrapped(pts.y0 + dmean);
         self.cov = symmetrise(&(cov + q + self.dither));
         0
     }
@@ -317,7 +318,7 @@ where
         self.z.clear();
         self.z.extend(z);
         let mut chol = self.predict(odometry);
-        let l_u = state_factor(&self.cov, &self.estimated).unwrap_or_else(|| {
+        let l_u = self.space.lower_factor(&self.cov).unwrap_or_else(|| {
             chol += 1;
             SMatrix::zeros()
         });
@@ -520,7 +521,7 @@ where
                 }
             }
         }
-        self.mean = wrap_angles(&self.vehicle.model, self.mean + dmu);
+        self.mean = self.space.wrapped(self.mean + dmu);
         self.cov = symmetrise(&(self.cov - du));
         chol
     }
@@ -606,16 +607,6 @@ where
     fn particle_parents(&self, _out: &mut Vec<usize>) -> bool {
         false
     }
-}
-
-/// `x` with its angular components wrapped.
-fn wrap_angles<V: VehicleModel<X, 3>, const X: usize>(vehicle: &V, mut x: SVector<f64, X>) -> SVector<f64, X> {
-    for (i, c) in vehicle.components().iter().enumerate() {
-        if c.is_angle() {
-            x[i] = wrap(x[i]);
-        }
-    }
-    x
 }
 
 fn report<const M: usize>(components: usize, cholesky_failures: u32) -> StepReport<M> {

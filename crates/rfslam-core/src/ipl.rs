@@ -14,8 +14,9 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use crate::angle::{diff, wrap};
+use crate::angle::diff;
 use crate::gaussian::symmetrise;
+use crate::state::StateSpace;
 use crate::types::Pose;
 
 /// Settings of [`ipl_update`].
@@ -33,13 +34,14 @@ impl Default for IplSettings {
     }
 }
 
-/// The proposal component `N(mean, cov)` and how it was reached.
+/// The proposal component `N(mean, cov)` over a vehicle state of `X` components (the
+/// planar pose by default) and how it was reached.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct IplResult {
+pub struct IplResult<const X: usize = 3> {
     /// `mu_k^t`.
-    pub mean: Pose,
+    pub mean: SVector<f64, X>,
     /// `Sigma_k^t`.
-    pub cov: Matrix3<f64>,
+    pub cov: SMatrix<f64, X, X>,
     /// Iterations whose result was accepted.
     pub iterations: usize,
     /// Whether an iterate stopped being positive definite (the previous one was kept).
@@ -47,9 +49,9 @@ pub struct IplResult {
 }
 
 /// The linearised sensor for one associated landmark at a linearisation point, for a
-/// measurement of `Z` components (2 for the planar sensors):
+/// measurement of `Z` components (2 for the planar sensors) and a state of `X` (3):
 /// `(z_hat = g(m_i, x_pi), A = G_x, Omega = G_m P_i G_m^T + R)`.
-pub type Linearised<const Z: usize = 2> = (SVector<f64, Z>, SMatrix<f64, Z, 3>, SMatrix<f64, Z, Z>);
+pub type Linearised<const Z: usize = 2, const X: usize = 3> = (SVector<f64, Z>, SMatrix<f64, Z, X>, SMatrix<f64, Z, Z>);
 
 /// `x - y` with the heading wrapped.
 #[inline]
@@ -60,13 +62,26 @@ pub fn pose_diff(x: &Pose, y: &Pose) -> Vector3<f64> {
 /// `KL(N(m0, p0) || N(m1, p1))` in 3 dimensions (heading difference wrapped); `None` if a
 /// covariance is not positive definite.
 pub fn kl_divergence(m0: &Pose, p0: &Matrix3<f64>, m1: &Pose, p1: &Matrix3<f64>) -> Option<f64> {
-    let c1 = p1.cholesky()?;
-    let c0 = p0.cholesky()?;
-    let ld = |c: &nalgebra::Cholesky<f64, nalgebra::U3>| 2.0 * (0..3).map(|i| c.l_dirty()[(i, i)].ln()).sum::<f64>();
-    let d = pose_diff(m0, m1);
-    let tr = (c1.solve(p0)).trace();
+    kl_divergence_in(&StateSpace::PLANAR, m0, p0, m1, p1)
+}
+
+/// [`kl_divergence`] over a vehicle state of `X` components: angular differences wrapped,
+/// the held components (equal in both, no variance) contributing nothing. `None` if a
+/// covariance is not positive definite on the estimated components.
+pub fn kl_divergence_in<const X: usize>(
+    space: &StateSpace<X>,
+    m0: &SVector<f64, X>,
+    p0: &SMatrix<f64, X, X>,
+    m1: &SVector<f64, X>,
+    p1: &SMatrix<f64, X, X>,
+) -> Option<f64> {
+    let c1 = space.factorable(p1).cholesky()?;
+    let c0 = space.factorable(p0).cholesky()?;
+    let ld = |c: &nalgebra::Cholesky<f64, nalgebra::Const<X>>| 2.0 * (0..X).map(|i| c.l_dirty()[(i, i)].ln()).sum::<f64>();
+    let d = space.difference(m0, m1);
+    let tr = (c1.solve(&space.factorable(p0))).trace();
     let maha = d.dot(&c1.solve(&d));
-    Some(0.5 * (tr + maha - 3.0 + ld(&c1) - ld(&c0)))
+    Some(0.5 * (tr + maha - X as f64 + ld(&c1) - ld(&c0)))
 }
 
 /// Algorithm 1 for one mixture component: the prior `N(x_bar, q)` conditioned on the
@@ -104,12 +119,31 @@ pub fn ipl_update_slr<const Z: usize, F, D>(
     x_bar: &Pose,
     q: &Matrix3<f64>,
     z: &[SVector<f64, Z>],
-    mut slr: F,
+    slr: F,
     residual: D,
     settings: &IplSettings,
 ) -> IplResult
 where
     F: FnMut(usize, &Pose, &Matrix3<f64>) -> Option<Linearised<Z>>,
+    D: Fn(&SVector<f64, Z>, &SVector<f64, Z>) -> SVector<f64, Z>,
+{
+    ipl_update_in(&StateSpace::PLANAR, x_bar, q, z, slr, residual, settings)
+}
+
+/// [`ipl_update_slr`] over a vehicle state of `X` components (`space`: its angles, wrapped
+/// at every subtraction and after every update, and its held components, which no update
+/// moves and the definiteness checks skip). For the planar pose it is `ipl_update_slr`.
+pub fn ipl_update_in<const X: usize, const Z: usize, F, D>(
+    space: &StateSpace<X>,
+    x_bar: &SVector<f64, X>,
+    q: &SMatrix<f64, X, X>,
+    z: &[SVector<f64, Z>],
+    mut slr: F,
+    residual: D,
+    settings: &IplSettings,
+) -> IplResult<X>
+where
+    F: FnMut(usize, &SVector<f64, X>, &SMatrix<f64, X, X>) -> Option<Linearised<Z, X>>,
     D: Fn(&SVector<f64, Z>, &SVector<f64, Z>) -> SVector<f64, Z>,
 {
     let (mut m_pi, mut p_pi) = (*x_bar, *q);
@@ -126,7 +160,7 @@ where
                 ok = false;
                 break;
             };
-            let mu_z = z_hat + a * pose_diff(&m_s, &m_pi);
+            let mu_z = z_hat + a * space.difference(&m_s, &m_pi);
             let nu = residual(zk, &mu_z);
             let s = symmetrise(&(a * p_s * a.transpose() + omega));
             let Some(ch) = s.cholesky() else {
@@ -138,13 +172,13 @@ where
             m_s += k_gain * nu;
             p_s = symmetrise(&(p_s - k_gain * s * k_gain.transpose()));
         }
-        m_s[2] = wrap(m_s[2]);
-        if !ok || p_s.cholesky().is_none() {
+        m_s = space.wrapped(m_s);
+        if !ok || space.factorable(&p_s).cholesky().is_none() {
             lost = true;
             break;
         }
         if l > 1 {
-            let kl = kl_divergence(&m_pi, &p_pi, &m_s, &p_s);
+            let kl = kl_divergence_in(space, &m_pi, &p_pi, &m_s, &p_s);
             m_pi = m_s;
             p_pi = p_s;
             accepted = l;

@@ -19,6 +19,8 @@
 //! - [`filter`]: the [`SlamFilter`] and [`FilterBuild`] traits;
 //! - [`planar`]: the [`SlamModels`] a planar world gives its filters and the
 //!   [`PlanarSensorModel`]s built from them;
+//! - [`state`]: the vehicle state's angular and held components as the Gaussian algebra
+//!   sees them ([`state::StateSpace`]);
 //! - [`rng`]: the random generator and seed derivation.
 
 pub mod angle;
@@ -34,6 +36,7 @@ pub mod planar;
 pub mod rbpf;
 pub mod rng;
 pub mod sensor;
+pub mod state;
 pub mod types;
 
 pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov, FovEdge, PlacedFov, SensorKind};

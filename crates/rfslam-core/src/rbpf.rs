@@ -7,6 +7,7 @@ use rand::RngExt;
 use crate::angle::wrap;
 use crate::gaussian::sample;
 use crate::model::VehicleModel;
+use crate::state::StateSpace;
 use crate::types::Pose;
 use nalgebra::{SMatrix, SVector};
 
@@ -376,21 +377,13 @@ pub fn draw_state<V: VehicleModel<X, 3> + ?Sized, R: rand::Rng + ?Sized, const X
     rng: &mut R,
     chol: &mut u32,
 ) -> SVector<f64, X> {
-    let estimated = vehicle.estimated();
-    let mut q_held = *q;
-    for i in (0..X).filter(|&i| !estimated[i]) {
-        q_held[(i, i)] = 1.0;
-    }
-    match sample(x_bar, &q_held, rng) {
+    let space = StateSpace::of(vehicle);
+    match sample(x_bar, &space.factorable(q), rng) {
         Some(mut x) => {
-            for (i, c) in vehicle.components().iter().enumerate() {
-                if !estimated[i] {
-                    x[i] = x_bar[i];
-                } else if c.is_angle() {
-                    x[i] = wrap(x[i]);
-                }
+            for i in (0..X).filter(|&i| space.held[i]) {
+                x[i] = x_bar[i];
             }
-            x
+            space.wrapped(x)
         }
         None => {
             *chol += 1;
