@@ -371,8 +371,8 @@ impl<S: PlanarSensorModel> DaFastSlam<S> {
                     Some(c) if c < nc => {
                         let i = self.cand[c];
                         let lm = &mut child.landmarks[i];
-                        let mut ekf = Landmark { id: 0, mean: lm.mean, cov: lm.cov };
-                        if landmark_update(sensor, &r, &x, &mut ekf, zj).is_some() {
+                        let mut ekf = Landmark { id: 0, mean: lm.mean, cov: lm.cov, mark: 0 };
+                        if landmark_update(sensor, &x, &mut ekf, zj).is_some() {
                             lm.mean = ekf.mean;
                             lm.cov = ekf.cov;
                         } else {

@@ -1,29 +1,40 @@
-//! The oracle FastSLAM 2.0 filter (\[Kaltiokallio2024\] Section VI-A-2).
+//! The oracle FastSLAM 2.0 filter (\[Kaltiokallio2024\] Section VI-A-2), over any vehicle and
+//! sensor model ([`OracleEngine`]) and registered for the planar sensors
+//! ([`OracleFastSlam2`]).
 
+use nalgebra::{SMatrix, SVector};
 use rfslam_core::gaussian::symmetrise;
 use rfslam_core::ipl::IplSettings;
-use rfslam_core::model::RangeBearingModel;
+use rfslam_core::model::{InvertibleSensorModel, LandmarkMark, RangeBearingModel, Vehicle, VehicleModel};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet};
+use rfslam_core::state::StateSpace;
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, MapPoint, ParamError, PlanarSensorModel, Pose, RangeBearing, Rng, Scan,
-    SensorKind, SlamFilter, SlamModels, StepReport, Validated,
+    ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, Motion, ParamError, PlanarSensorModel, Pose, Rng,
+    Scan, SensorKind, SlamFilter, SlamModels, StepReport, Validated,
 };
 
 use crate::params::{Params, WeightMode};
 use crate::proposal::{Landmark, ProposalSampler, landmark_update, oid_proposal, sequential_predictive};
 
-/// One particle: log weight, pose and one EKF per landmark id seen so far.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Particle {
+/// One particle: log weight, vehicle state (`X` components, the planar pose by default) and
+/// one EKF per landmark id seen so far.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Particle<const X: usize = 3, const M: usize = 2> {
     /// Log weight (normalised after every step).
     pub log_w: f64,
-    /// Pose `x_k`.
-    pub pose: Pose,
+    /// Vehicle state `x_k`.
+    pub pose: SVector<f64, X>,
     /// Landmark EKFs, sorted by id (binary search).
-    pub landmarks: Vec<Landmark>,
+    pub landmarks: Vec<Landmark<M>>,
 }
 
-impl Particle {
+impl<const X: usize, const M: usize> Default for Particle<X, M> {
+    fn default() -> Self {
+        Particle { log_w: 0.0, pose: SVector::zeros(), landmarks: Vec::new() }
+    }
+}
+
+impl<const X: usize, const M: usize> Particle<X, M> {
     /// Index of landmark `id` in [`Particle::landmarks`].
     #[inline]
     pub fn find(&self, id: i64) -> Option<usize> {
@@ -31,17 +42,33 @@ impl Particle {
     }
 }
 
-/// `fastslam-2.0-oracle`: FastSLAM 2.0 given the true associations, with the IPL
-/// approximation of the optimal importance density (the Oracle RBPF of \[Kaltiokallio2024\]).
+/// FastSLAM 2.0 given the true associations, with the IPL approximation of the optimal
+/// importance density (the Oracle RBPF of \[Kaltiokallio2024\]), over the vehicle model `V`
+/// (states of `X` components) and the sensor model `S`.
+///
+/// The oracle knows what the truth labels say: which landmark made each measurement and,
+/// through [`OracleEngine::with_landmark_types`], each landmark's type (every landmark is of
+/// the default type otherwise). A landmark of a type the sensor does not map is the
+/// sensor's anchor of that type ([`rfslam_core::SensorModel::anchors`]): it enters the map
+/// at the anchor's position with zero covariance, so it weighs the particles and never
+/// moves, and the estimate leaves it out.
 #[derive(Debug, Clone)]
-pub struct OracleFastSlam2<S: PlanarSensorModel = RangeBearingModel> {
+pub struct OracleEngine<V, S, const X: usize, const M: usize, const Z: usize>
+where
+    V: VehicleModel<X, 3>,
+    S: InvertibleSensorModel<X, M, Z>,
+{
     params: Params,
-    models: SlamModels,
-    /// The sensor model, built from `models`.
+    vehicle: Vehicle<V, X>,
+    space: StateSpace<X>,
+    /// The sensor model.
     sensor: S,
+    /// Landmark types by id (sorted by id), and the anchors.
+    types: Vec<(i64, u8)>,
+    anchors: Vec<(SVector<f64, M>, u8)>,
     ipl: IplSettings,
     /// The particles, their families of identical copies, normalisation and resampling.
-    set: ParticleSet<Particle>,
+    set: ParticleSet<Particle<X, M>>,
     unlabelled_scans: usize,
     // reusable buffers
     /// (measurement index, landmark id) of the scan's labelled measurements.
@@ -49,23 +76,28 @@ pub struct OracleFastSlam2<S: PlanarSensorModel = RangeBearingModel> {
     /// Landmark index (in the group's map) of each measurement of a known landmark...
     known: Vec<usize>,
     /// ... and that measurement.
-    known_z: Vec<RangeBearing>,
+    known_z: Vec<SVector<f64, Z>>,
     /// (measurement index, id) of first sightings.
     fresh: Vec<(usize, i64)>,
 }
 
-impl<S: PlanarSensorModel> OracleFastSlam2<S> {
-    /// Registered name.
-    pub const NAME: &'static str = "fastslam-2.0-oracle";
-
-    /// A filter with `n` particles at the scenario's initial pose with empty maps.
-    fn new(params: Params, models: &SlamModels, n: usize) -> Self {
+impl<V, S, const X: usize, const M: usize, const Z: usize> OracleEngine<V, S, X, M, Z>
+where
+    V: VehicleModel<X, 3>,
+    S: InvertibleSensorModel<X, M, Z>,
+{
+    /// A filter with `n` particles at the initial state of `vehicle` with empty maps.
+    pub fn new(params: Params, vehicle: Vehicle<V, X>, sensor: S, n: usize) -> Self {
         let ipl = IplSettings { max_iterations: params.ipl_iterations, kl_threshold: params.ipl_kl_threshold };
-        let p0 = Particle { log_w: 0.0, pose: models.initial_pose, landmarks: Vec::new() };
-        OracleFastSlam2 {
+        let p0 = Particle { log_w: 0.0, pose: vehicle.initial_state, landmarks: Vec::new() };
+        let anchors = sensor.anchors().into_iter().map(|(m, t)| (m, t.index())).collect();
+        OracleEngine {
             params,
-            models: models.clone(),
-            sensor: S::from_models(models, models.clutter_intensity()),
+            space: StateSpace::of(&vehicle.model),
+            vehicle,
+            sensor,
+            types: Vec::new(),
+            anchors,
             ipl,
             set: ParticleSet::new(p0, n),
             unlabelled_scans: 0,
@@ -76,8 +108,15 @@ impl<S: PlanarSensorModel> OracleFastSlam2<S> {
         }
     }
 
+    /// The landmark types by id (the data set's marks, truth the oracle may use).
+    pub fn with_landmark_types(mut self, types: impl IntoIterator<Item = (i64, S::Mark)>) -> Self {
+        self.types = types.into_iter().map(|(id, t)| (id, t.index())).collect();
+        self.types.sort_by_key(|t| t.0);
+        self
+    }
+
     /// The particles (for inspection and tests).
-    pub fn particle_set(&self) -> &[Particle] {
+    pub fn particle_set(&self) -> &[Particle<X, M>] {
         self.set.particles()
     }
 
@@ -92,9 +131,17 @@ impl<S: PlanarSensorModel> OracleFastSlam2<S> {
         self.unlabelled_scans
     }
 
+    /// The mark of landmark `id` (the default type's when the types are not given).
+    fn mark_of(&self, id: i64) -> u8 {
+        match self.types.binary_search_by_key(&id, |t| t.0) {
+            Ok(i) => self.types[i].1,
+            Err(_) => S::Mark::default().index(),
+        }
+    }
+
     /// Fills `obs` with the labelled measurements of `scan`; `false` if it has no usable
     /// labels.
-    fn collect_labelled(&mut self, scan: &Scan) -> bool {
+    fn collect_labelled(&mut self, scan: &Scan<Z>) -> bool {
         self.obs.clear();
         match &scan.truth {
             Some(t) if t.len() == scan.z.len() => {
@@ -109,30 +156,35 @@ impl<S: PlanarSensorModel> OracleFastSlam2<S> {
             }
         }
     }
-}
 
-impl<S: PlanarSensorModel> SlamFilter for OracleFastSlam2<S> {
-    fn name(&self) -> &str {
-        Self::NAME
+    /// The EKF a first sighting of landmark `id` starts at state `x`: the inverse sensor
+    /// model, or the anchor of its type when the sensor does not map it.
+    fn first_sighting(&self, id: i64, x: &SVector<f64, X>, z: &SVector<f64, Z>) -> Landmark<M> {
+        let mark = self.mark_of(id);
+        let t = S::Mark::from_index(mark);
+        if !self.sensor.mapped(t)
+            && let Some((m, _)) = self.anchors.iter().find(|a| a.1 == mark)
+        {
+            return Landmark { id, mean: *m, cov: SMatrix::zeros(), mark };
+        }
+        let inv = self.sensor.inverse(x, z, t);
+        let r = self.sensor.noise(t);
+        Landmark { id, mean: inv.m, cov: symmetrise(&(inv.jz * r * inv.jz.transpose())), mark }
     }
 
-    fn particles(&self) -> usize {
-        self.set.len()
-    }
-
-    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
+    /// One recursion (see the crate documentation).
+    pub fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
         let labelled = self.collect_labelled(scan);
-        let (models, sensor) = (&self.models, &self.sensor);
-        let r = sensor.noise(());
         let importance = self.params.weight == WeightMode::Importance;
         let mut chol = 0u32;
         let mut families = 0usize;
+        let mut set = std::mem::take(&mut self.set);
 
-        for family in self.set.families_mut() {
+        for family in set.families_mut() {
             families += 1;
             // Prediction, association lookup and proposal, shared by the copies of the family.
             let rep = &family[0];
-            let (x_bar, q) = self.params.rbpf.predict(models, &rep.pose, odometry);
+            let (x_bar, q) = self.params.rbpf.predict_state(&self.vehicle, &rep.pose, odometry);
             self.known.clear();
             self.known_z.clear();
             self.fresh.clear();
@@ -145,21 +197,29 @@ impl<S: PlanarSensorModel> SlamFilter for OracleFastSlam2<S> {
                     None => self.fresh.push((j, id)),
                 }
             }
-            let res = oid_proposal(sensor, &r, &x_bar, &q, &rep.landmarks, &self.known, &self.known_z, &self.ipl);
+            let (sensor, space) = (&self.sensor, &self.space);
+            let res = oid_proposal(sensor, space, &x_bar, &q, &rep.landmarks, &self.known, &self.known_z, &self.ipl);
             if res.lost_definiteness {
                 chol += 1;
             }
             let family_ll = match self.params.weight {
                 WeightMode::Importance => 0.0,
-                WeightMode::Predictive => {
-                    sequential_predictive(sensor, &r, &x_bar, &q, &res.mean, &rep.landmarks, &self.known, &self.known_z)
-                        .unwrap_or_else(|| {
-                            chol += 1;
-                            0.0
-                        })
-                }
+                WeightMode::Predictive => sequential_predictive(
+                    sensor,
+                    space,
+                    &x_bar,
+                    &q,
+                    &res.mean,
+                    &rep.landmarks,
+                    &self.known,
+                    &self.known_z,
+                )
+                .unwrap_or_else(|| {
+                    chol += 1;
+                    0.0
+                }),
             };
-            let sampler = ProposalSampler::new(&res.mean, &res.cov, &x_bar, &q);
+            let sampler = ProposalSampler::new(space, &res.mean, &res.cov, &x_bar, &q);
 
             for p in family.iter_mut() {
                 let drawn = sampler.as_ref().map(|s| s.draw(rng));
@@ -170,7 +230,7 @@ impl<S: PlanarSensorModel> SlamFilter for OracleFastSlam2<S> {
                 p.pose = x;
                 let mut lw = if importance { corr } else { family_ll };
                 for (&i, z) in self.known.iter().zip(&self.known_z) {
-                    match landmark_update(sensor, &r, &x, &mut p.landmarks[i], z) {
+                    match landmark_update(sensor, &x, &mut p.landmarks[i], z) {
                         Some(ll) if importance => lw += ll,
                         Some(_) => {}
                         None => chol += 1,
@@ -184,15 +244,11 @@ impl<S: PlanarSensorModel> SlamFilter for OracleFastSlam2<S> {
                 for &(j, id) in &self.fresh {
                     let z = scan.z[j];
                     match p.landmarks.binary_search_by_key(&id, |l| l.id) {
-                        Err(pos) => {
-                            let inv = sensor.inverse(&x, &z, ());
-                            let (mean, cov) = (inv.m, symmetrise(&(inv.jz * r * inv.jz.transpose())));
-                            p.landmarks.insert(pos, Landmark { id, mean, cov });
-                        }
+                        Err(pos) => p.landmarks.insert(pos, self.first_sighting(id, &x, &z)),
                         // The same new landmark measured twice in one scan: update with the
                         // second measurement (no weight term either).
                         Ok(i) => {
-                            if landmark_update(sensor, &r, &x, &mut p.landmarks[i], &z).is_none() {
+                            if landmark_update(sensor, &x, &mut p.landmarks[i], &z).is_none() {
                                 chol += 1;
                             }
                         }
@@ -203,8 +259,8 @@ impl<S: PlanarSensorModel> SlamFilter for OracleFastSlam2<S> {
 
         // Normalise, estimate (highest weight), resample.
         let (mut components, mut associations) = (0, Vec::new());
-        let rule = self.params.rbpf.rule(self.set.len());
-        let out = self.set.normalise_and_resample(rule, rng, |particles, best| {
+        let rule = self.params.rbpf.rule(set.len());
+        let out = set.normalise_and_resample(rule, rng, |particles, best| {
             let best = &particles[best];
             associations = match (&scan.truth, labelled) {
                 // Every labelled landmark exists in the best particle after this update.
@@ -216,6 +272,7 @@ impl<S: PlanarSensorModel> SlamFilter for OracleFastSlam2<S> {
             };
             components = particles.iter().map(|p| p.landmarks.len()).sum();
         });
+        self.set = set;
         StepReport {
             ess: out.ess,
             resampled: out.resampled,
@@ -226,15 +283,40 @@ impl<S: PlanarSensorModel> SlamFilter for OracleFastSlam2<S> {
         }
     }
 
-    fn estimate(&self) -> Estimate {
+    /// The best particle's state and its mapped landmarks (anchors left out), each with its
+    /// type.
+    pub fn estimate(&self) -> Estimate<X, M> {
         let p = self.set.best_particle();
         Estimate {
             pose: p.pose,
-            map: p.landmarks.iter().map(|l| MapPoint { position: l.mean, mark: 0, weight: 1.0 }).collect(),
+            map: p
+                .landmarks
+                .iter()
+                .filter(|l| self.sensor.mapped(S::Mark::from_index(l.mark)))
+                .map(|l| MapPoint { position: l.mean, mark: l.mark, weight: 1.0 })
+                .collect(),
         }
     }
+}
 
-    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+impl<V, S, const X: usize, const M: usize, const Z: usize> FilterEngine<X, M, Z> for OracleEngine<V, S, X, M, Z>
+where
+    V: VehicleModel<X, 3> + Send,
+    S: InvertibleSensorModel<X, M, Z>,
+{
+    fn particles(&self) -> usize {
+        self.set.len()
+    }
+
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
+        OracleEngine::step(self, odometry, scan, rng)
+    }
+
+    fn estimate(&self) -> Estimate<X, M> {
+        OracleEngine::estimate(self)
+    }
+
+    fn particle_poses(&self, out: &mut Vec<(SVector<f64, X>, f64)>) -> bool {
         self.set.poses_into(out, |p| p.pose);
         true
     }
@@ -242,6 +324,59 @@ impl<S: PlanarSensorModel> SlamFilter for OracleFastSlam2<S> {
     fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
         self.set.parents_into(out);
         true
+    }
+}
+
+/// `fastslam-2.0-oracle`: FastSLAM 2.0 given the true associations, with the IPL
+/// approximation of the optimal importance density (the Oracle RBPF of \[Kaltiokallio2024\]),
+/// on a planar sensor of a scenario (the range-bearing one by default).
+#[derive(Debug, Clone)]
+pub struct OracleFastSlam2<S: PlanarSensorModel = RangeBearingModel>(pub OracleEngine<Motion, S, 3, 2, 2>);
+
+impl<S: PlanarSensorModel> OracleFastSlam2<S> {
+    /// Registered name.
+    pub const NAME: &'static str = "fastslam-2.0-oracle";
+
+    /// The particles (for inspection and tests).
+    pub fn particle_set(&self) -> &[Particle] {
+        self.0.particle_set()
+    }
+
+    /// Index of the particle the estimate comes from.
+    pub fn best_index(&self) -> usize {
+        self.0.best_index()
+    }
+
+    /// Scans with measurements that were processed as prediction only because they had no
+    /// truth labels (or not one per measurement).
+    pub fn unlabelled_scans(&self) -> usize {
+        self.0.unlabelled_scans()
+    }
+}
+
+impl<S: PlanarSensorModel> SlamFilter for OracleFastSlam2<S> {
+    fn name(&self) -> &str {
+        Self::NAME
+    }
+
+    fn particles(&self) -> usize {
+        FilterEngine::particles(&self.0)
+    }
+
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
+        self.0.step(odometry, scan, rng)
+    }
+
+    fn estimate(&self) -> Estimate {
+        self.0.estimate()
+    }
+
+    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+        self.0.particle_poses(out)
+    }
+
+    fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
+        self.0.particle_parents(out)
     }
 }
 
@@ -259,11 +394,12 @@ impl<S: PlanarSensorModel> FilterBuild for OracleFastSlam2<S> {
 
     fn build(params: Validated<Self>, models: &SlamModels) -> Self {
         let (params, particles) = params.into_parts();
-        OracleFastSlam2::new(params, models, particles)
+        let sensor = S::from_models(models, models.clutter_intensity());
+        OracleFastSlam2(OracleEngine::new(params, models.vehicle(), sensor, particles))
     }
 }
 
-impl LogWeighted for Particle {
+impl<const X: usize, const M: usize> LogWeighted for Particle<X, M> {
     fn log_weight(&self) -> f64 {
         self.log_w
     }

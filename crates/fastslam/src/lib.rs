@@ -64,6 +64,17 @@
 //!   TPR/TNR are then 1 up to the harness's nearest-landmark matching.
 //! - `proposal_components` counts the proposals computed (one per group of copies).
 //!
+//! # Any world
+//!
+//! The oracle is written once over the vehicle and sensor models ([`OracleEngine`]`<V, S, X,
+//! M, Z>`): the state of any vehicle model (held components keep their value: no jitter, no
+//! proposal spread, no density), landmarks of any dimension and type, measurements with the
+//! sensor's residual. The landmark types are truth the oracle may use like the labels
+//! ([`OracleEngine::with_landmark_types`]); a landmark of a type the sensor does not map is
+//! the sensor's anchor of that type (the radio world's base station), entered at its known
+//! position with zero covariance and never reported. [`OracleFastSlam2`] is its registered
+//! instance on the planar sensors. `fastslam-1.0` and `mh-fastslam` are still planar.
+//!
 //! Copies of one parent after resampling are identical until they draw, so the prediction,
 //! the association lookup and the proposal (with its Cholesky factors) are computed once
 //! per group. Landmarks are kept in a `Vec` sorted by id: binary-search
@@ -76,7 +87,7 @@ pub mod params;
 pub mod proposal;
 
 pub use baselines::{FastSlam1, FastSlam1Params, MAX_CHILDREN, MhFastSlam, MhParams};
-pub use filter::{OracleFastSlam2, Particle};
+pub use filter::{OracleEngine, OracleFastSlam2, Particle};
 pub use params::{Params, WeightMode};
 pub use proposal::Landmark;
 

@@ -70,7 +70,7 @@ fn main() {
         }
         let res = oid_proposal(
             &rfslam_core::model::RangeBearingModel::new(&models, 0.0),
-            &models.measurement_noise,
+            &rfslam_core::state::StateSpace::PLANAR,
             &x_bar,
             &q,
             &p0.landmarks,

@@ -33,9 +33,9 @@ use rfslam_assign::{AssociationProblem, BestAssociation, LbpOptions, LbpSolver, 
 use rfslam_assign::{DEFAULT_LBP_MAX_SWEEPS, DEFAULT_LBP_TOLERANCE};
 use rfslam_core::gaussian::symmetrise;
 use rfslam_core::model::{LandmarkMark, Vehicle, VehicleModel};
-use rfslam_core::state::StateSpace;
 use rfslam_core::motion::{propagate, propagate_with_covariance};
 use rfslam_core::params::{CountRange, Interval};
+use rfslam_core::state::StateSpace;
 use rfslam_core::{
     ClutterIntensity, ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, Motion, ParamError, Rng, Scan,
     SlamFilter, SlamModels, StepReport, Validated,

@@ -77,7 +77,8 @@ pub fn kl_divergence_in<const X: usize>(
 ) -> Option<f64> {
     let c1 = space.factorable(p1).cholesky()?;
     let c0 = space.factorable(p0).cholesky()?;
-    let ld = |c: &nalgebra::Cholesky<f64, nalgebra::Const<X>>| 2.0 * (0..X).map(|i| c.l_dirty()[(i, i)].ln()).sum::<f64>();
+    let ld =
+        |c: &nalgebra::Cholesky<f64, nalgebra::Const<X>>| 2.0 * (0..X).map(|i| c.l_dirty()[(i, i)].ln()).sum::<f64>();
     let d = space.difference(m0, m1);
     let tr = (c1.solve(&space.factorable(p0))).trace();
     let maha = d.dot(&c1.solve(&d));

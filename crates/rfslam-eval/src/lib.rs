@@ -9,6 +9,8 @@
 //!   `steps.csv` and the map GOSPA over time;
 //! - [`trace`]: the per-step files of `rfslam run` (`steps.csv`, `particles.csv`) and the
 //!   truth and dead-reckoning files a plot of a run needs;
+//! - [`world`]: the same loop and scores over a run simulated in a world of any dimensions
+//!   ([`world::run_world`]: errors per kind of state component, GOSPA per landmark type);
 //! - [`fixtures`]: the data sets and warmed-up filters the filter crates' end-to-end tests
 //!   and recursion benchmarks share.
 //!
@@ -22,6 +24,7 @@ pub mod metric;
 pub mod run;
 pub mod seen;
 pub mod trace;
+pub mod world;
 
 pub use config::{MetricsConfig, MetricsConfigError, OspaNormalise, OspaSettings};
 pub use error::EvalError;
