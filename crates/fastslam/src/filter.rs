@@ -5,12 +5,12 @@
 use nalgebra::{SMatrix, SVector};
 use rfslam_core::gaussian::symmetrise;
 use rfslam_core::ipl::IplSettings;
-use rfslam_core::model::{InvertibleSensorModel, LandmarkMark, RangeBearingModel, Vehicle, VehicleModel};
+use rfslam_core::model::{InvertibleSensorModel, LandmarkMark, Vehicle, VehicleModel};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet};
 use rfslam_core::state::StateSpace;
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, Motion, ParamError, PlanarSensorModel, Pose, Rng,
-    Scan, SensorKind, SlamFilter, SlamModels, StepReport, Validated,
+    ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, Motion, ParamError, PlanarSensorModel, Rng, Scan,
+    SensorKind, SlamModels, StepReport, Validated,
 };
 
 use crate::params::{Params, WeightMode};
@@ -327,16 +327,16 @@ where
     }
 }
 
-/// `fastslam-2.0-oracle`: FastSLAM 2.0 given the true associations, with the IPL
-/// approximation of the optimal importance density (the Oracle RBPF of \[Kaltiokallio2024\]),
-/// on a planar sensor of a scenario (the range-bearing one by default).
-#[derive(Debug, Clone)]
-pub struct OracleFastSlam2<S: PlanarSensorModel = RangeBearingModel>(pub OracleEngine<Motion, S, 3, 2, 2>);
+rfslam_core::filter_variant!(
+    /// `fastslam-2.0-oracle`: FastSLAM 2.0 given the true associations, with the IPL
+    /// approximation of the optimal importance density (the Oracle RBPF of
+    /// \[Kaltiokallio2024\]), on a planar sensor of a scenario (the range-bearing one by
+    /// default).
+    OracleFastSlam2<S>(OracleEngine<Motion, S, 3, 2, 2>),
+    "fastslam-2.0-oracle"
+);
 
 impl<S: PlanarSensorModel> OracleFastSlam2<S> {
-    /// Registered name.
-    pub const NAME: &'static str = "fastslam-2.0-oracle";
-
     /// The particles (for inspection and tests).
     pub fn particle_set(&self) -> &[Particle] {
         self.0.particle_set()
@@ -351,32 +351,6 @@ impl<S: PlanarSensorModel> OracleFastSlam2<S> {
     /// truth labels (or not one per measurement).
     pub fn unlabelled_scans(&self) -> usize {
         self.0.unlabelled_scans()
-    }
-}
-
-impl<S: PlanarSensorModel> SlamFilter for OracleFastSlam2<S> {
-    fn name(&self) -> &str {
-        Self::NAME
-    }
-
-    fn particles(&self) -> usize {
-        FilterEngine::particles(&self.0)
-    }
-
-    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
-        self.0.step(odometry, scan, rng)
-    }
-
-    fn estimate(&self) -> Estimate {
-        self.0.estimate()
-    }
-
-    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
-        self.0.particle_poses(out)
-    }
-
-    fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-        self.0.particle_parents(out)
     }
 }
 
