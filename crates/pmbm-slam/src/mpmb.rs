@@ -554,7 +554,12 @@ where
             } else {
                 ws.missed[i]
             };
-            if merged.r >= self.params.bernoulli_prune {
+            // An anchor is known: it keeps its exact position, zero covariance and r = 1
+            // (the moment matching would leave rounding-level spread that fails Cholesky).
+            let b = &self.bernoullis[i];
+            if !self.model.mapped(S::Mark::from_index(b.mark)) {
+                ws.next.push(*b);
+            } else if merged.r >= self.params.bernoulli_prune {
                 ws.next.push(merged);
             }
         }

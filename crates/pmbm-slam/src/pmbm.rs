@@ -919,7 +919,10 @@ pub fn pmb_update<const X: usize, const M: usize, const Z: usize, S: InvertibleS
         } else {
             Ok(ws.hyps[ws.miss_child[h] as usize])
         };
+        // An anchor is known: it keeps its exact position, zero covariance and r = 1.
+        let prior = ws.hyps[ws.miss_child[h] as usize];
         match merged {
+            _ if !model.mapped(S::Mark::from_index(prior.mark)) => map.hyps.push(LocalHypothesis { r: 1.0, ..prior }),
             Ok(b) if b.r >= s.bernoulli_prune => map.hyps.push(b),
             Ok(_) => {}
             Err(_) => out.association_errors += 1,
