@@ -5,6 +5,7 @@
 //! - [`simulate()`]: the PHD-SLAM papers' synthetic generator (world + models + run seed ->
 //!   data set with truth labels).
 //! - [`glmb_sim`]: the simulated world of delta-GLMB-SLAM 2.0.
+//! - [`loop_world`]: a circuit driven for many laps beside scattered landmarks.
 //! - [`VictoriaPark`]: the Victoria Park recording (`measurements.dat`, `inputs.dat`,
 //!   `gps.dat`) imported into a data set with the artificial clutter of PHD-SLAM 3.0
 //!   Section VI-B ([`victoria_park`]).
@@ -17,6 +18,7 @@
 #![warn(missing_docs)]
 
 pub mod glmb_sim;
+pub mod loop_world;
 pub mod scenario;
 pub mod simulate;
 pub mod victoria_park;
