@@ -22,8 +22,9 @@
 //! 4. Existence (eqs. 29-32): every landmark predicted inside the field of view
 //!    (`pD(m | x) > 0`, before its update) adds `ln(P / (1 - P))` to its log odds, with `P`
 //!    from eq. (31) if it was associated and eq. (32) otherwise (prior `P_E`); landmarks out
-//!    of view are untouched; a landmark whose existence probability falls below
-//!    `delete_existence` is removed.
+//!    of view are untouched, and so are landmarks missed within the band of `[sensor]
+//!    edge = "hold"` ([`rfslam_core::FovEdge::Hold`]: no existence decrease in the band); a
+//!    landmark whose existence probability falls below `delete_existence` is removed.
 //! 5. Population (MH): children replace their parents; when the population exceeds
 //!    `max_population` (125), or the ESS falls to `resample_ess_fraction` of the nominal
 //!    count, systematic resampling draws the nominal number of particles (25). FastSLAM 1.0
@@ -156,6 +157,8 @@ struct Lin {
     log_norm: f64,
     gate_area: f64,
     in_view: bool,
+    /// In the hold band of `[sensor] edge = "hold"`: a miss does not lower the existence.
+    in_band: bool,
     pd: f64,
 }
 
@@ -278,6 +281,7 @@ impl<S: PlanarSensorModel> DaFastSlam<S> {
                 log_norm: -LN_2PI - 0.5 * det.ln(),
                 gate_area: std::f64::consts::PI * self.settings.gate * det.sqrt(),
                 in_view: pd > 0.0,
+                in_band: models.fov.in_hold_band(&x, &lm.mean),
                 pd,
             }));
         }
@@ -389,10 +393,12 @@ impl<S: PlanarSensorModel> DaFastSlam<S> {
                     }
                 }
             }
-            // Existence, eqs. (29)-(32), for the landmarks predicted in view.
+            // Existence, eqs. (29)-(32), for the landmarks predicted in view; a landmark in the
+            // hold band that was missed keeps its existence (edge = "hold").
             for (i, lm) in child.landmarks.iter_mut().enumerate() {
                 if let Some(l) = &self.lin[i]
                     && l.in_view
+                    && (!l.in_band || self.associated[i])
                 {
                     let pf = match (self.associated[i], self.settings.false_alarm) {
                         (false, _) => 0.0,

@@ -311,7 +311,9 @@ impl ThinnedGrid {
             return 0.0;
         };
         let pd_constant = match (*detection, fov.edge) {
-            (DetectionModel::Constant { pd }, FovEdge::Hard | FovEdge::Expected) => Some(pd.clamp(0.0, PD_MAX)),
+            (DetectionModel::Constant { pd }, FovEdge::Hard | FovEdge::Expected | FovEdge::Hold { .. }) => {
+                Some(pd.clamp(0.0, PD_MAX))
+            }
             _ => None,
         };
         if pd_constant == Some(0.0) {

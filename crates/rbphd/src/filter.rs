@@ -7,8 +7,8 @@ use rfslam_core::{
     Pose, RangeBearing, Rng, Scan, SensorKind, SensorModel, SlamFilter, SlamModels, StepReport, Validated,
 };
 
-use crate::gm::{GmMap, ReduceScratch, ReduceSettings, UpdateScratch, UpdateSettings, phd_update, reduce};
-use crate::params::{PhdParams, RbPhdParams};
+use crate::gm::{GmMap, ReduceScratch, ReduceSettings, UpdateScratch, UpdateSettings, phd_update_hold, reduce};
+use crate::params::{EstimateCount, PhdParams, RbPhdParams};
 use crate::proposal::{PoseSample, Proposal, ProposalContext};
 use crate::weighting::{MultiFeatureSettings, StrategyInput, StrategyScratch, Weighting, strategy_log_weight};
 
@@ -41,7 +41,7 @@ pub struct RbPhd<P: Proposal> {
     log_clutter: f64,
     fov_active: Fov,
     estimate_threshold: f64,
-    estimate_rounding: bool,
+    estimate_count: EstimateCount,
     has_associations: bool,
     // reusable buffers
     samples: Vec<PoseSample>,
@@ -70,7 +70,7 @@ impl<P: Proposal> RbPhd<P> {
         let mf = params.multi_feature();
         let fov_active = models.fov.enlarged(params.fov_buffer_range, params.fov_buffer_deg.to_radians());
         let estimate_threshold = params.estimate_threshold(models, P::ESTIMATE_THRESHOLD);
-        let estimate_rounding = params.estimate_rounding.unwrap_or(P::ESTIMATE_ROUNDING);
+        let estimate_count = params.estimate_count(P::ESTIMATE_ROUNDING);
         let p0 = Particle { pose: models.initial_pose, ..Default::default() };
         RbPhd {
             params,
@@ -81,7 +81,7 @@ impl<P: Proposal> RbPhd<P> {
             log_clutter,
             fov_active,
             estimate_threshold,
-            estimate_rounding,
+            estimate_count,
             has_associations: false,
             samples: Vec::new(),
             active: Vec::new(),
@@ -191,13 +191,14 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                 p.log_w += sample.log_correction;
                 let pose = p.pose;
                 let placed = models.fov.at(&pose);
-                let out = phd_update(
+                let out = phd_update_hold(
                     &p.map,
                     &self.active,
                     &pose,
                     &scan.z,
                     sensor,
                     |m, p| models.detection.pd_gaussian_at(&placed, m, p),
+                    |m| placed.in_hold_band(m),
                     &upd_settings,
                     &mut self.upd,
                     &mut self.updated,
@@ -265,16 +266,39 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
 
     fn estimate(&self) -> Estimate {
         let p = self.set.best_particle();
-        let ln_t = self.estimate_threshold.ln();
-        let mut map = Vec::new();
-        for i in (0..p.map.len()).filter(|&i| p.map.log_w[i] > ln_t) {
-            let w = p.map.log_w[i].exp();
-            // Leung et al.: a component of weight w stands for round(w) features (bounded, so
-            // that a corrupt weight cannot make the estimate unbounded).
-            let copies = if self.estimate_rounding { w.round().clamp(1.0, MAX_ROUNDED_COPIES) as usize } else { 1 };
-            map.extend(std::iter::repeat_n(MapPoint { position: p.map.mean[i], mark: 0, weight: w }, copies));
+        Estimate { pose: p.pose, map: map_estimate(&p.map, self.estimate_threshold, self.estimate_count) }
+    }
+}
+
+/// The map estimate of a GM-PHD map: the means of the components of weight above
+/// `threshold`, counted as `count` says ([`EstimateCount`]).
+pub fn map_estimate(map: &GmMap, threshold: f64, count: EstimateCount) -> Vec<MapPoint> {
+    let ln_t = threshold.ln();
+    let point = |i: usize| MapPoint { position: map.mean[i], mark: 0, weight: map.log_w[i].exp() };
+    let above = (0..map.len()).filter(|&i| map.log_w[i] > ln_t);
+    match count {
+        EstimateCount::One => above.map(point).collect(),
+        EstimateCount::Rounded => {
+            let mut out = Vec::new();
+            for i in above {
+                let m = point(i);
+                // Leung et al.: a component of weight w stands for round(w) features (bounded,
+                // so that a corrupt weight cannot make the estimate unbounded).
+                let copies = m.weight.round().clamp(1.0, MAX_ROUNDED_COPIES) as usize;
+                out.extend(std::iter::repeat_n(m, copies));
+            }
+            out
         }
-        Estimate { pose: p.pose, map }
+        EstimateCount::Total => {
+            let mut idx: Vec<usize> = above.collect();
+            let total: f64 = idx.iter().map(|&i| map.log_w[i].exp()).sum();
+            let n = (total.round() as usize).min(idx.len());
+            // heaviest first; ties by index; then back to map order
+            idx.sort_by(|&a, &b| map.log_w[b].total_cmp(&map.log_w[a]).then(a.cmp(&b)));
+            idx.truncate(n);
+            idx.sort_unstable();
+            idx.into_iter().map(point).collect()
+        }
     }
 }
 
@@ -395,6 +419,35 @@ mod tests {
         let kaltiokallio =
             RbPhdParams { estimate_threshold: Some(0.0025), estimate_rounding: Some(false), ..Default::default() };
         assert_eq!(estimated::<true>(kaltiokallio), 4, "the keys override the variant");
+    }
+
+    /// A component of weight 2.6 (a taper-inflated landmark) is three landmarks at one point
+    /// in the rounded estimate, one in the others; the total estimate reports the
+    /// `round(sum w)` heaviest components once each: two halves of a split landmark (0.55 and
+    /// 0.6 at nearly one point) count as one, an isolated 0.7 stays.
+    #[test]
+    fn the_total_estimate_reports_no_point_twice() {
+        let mut map = GmMap::default();
+        let at = |x: f64| Point2::new(x, 0.0);
+        for (w, x) in [(2.6, 0.0), (0.55, 5.0), (0.6, 5.05), (0.7, 9.0), (0.3, 12.0), (1.0, 15.0)] {
+            map.push(f64::ln(w), at(x), Matrix2::identity());
+        }
+        let xs =
+            |map: &GmMap, c: EstimateCount| map_estimate(map, 0.5, c).iter().map(|m| m.position.x).collect::<Vec<_>>();
+        assert_eq!(xs(&map, EstimateCount::Rounded), vec![0.0, 0.0, 0.0, 5.0, 5.05, 9.0, 15.0]);
+        assert_eq!(xs(&map, EstimateCount::One), vec![0.0, 5.0, 5.05, 9.0, 15.0]);
+        // sum above 0.5: 2.6 + 0.55 + 0.6 + 0.7 + 1.0 = 5.45 -> 5: every component once.
+        assert_eq!(xs(&map, EstimateCount::Total), vec![0.0, 5.0, 5.05, 9.0, 15.0]);
+        // Without the inflated component: 0.55 + 0.6 + 0.7 + 1.0 = 2.85 -> 3, the lightest
+        // (0.55, one half of the split landmark) left out.
+        map.log_w[0] = f64::ln(0.1);
+        assert_eq!(xs(&map, EstimateCount::Total), vec![5.05, 9.0, 15.0]);
+        assert_eq!(xs(&map, EstimateCount::One).len(), 4);
+        // The filter reads the key.
+        let p = RbPhdParams { estimate_count: Some(EstimateCount::Total), ..Default::default() };
+        let mut f = RbPhd::new(p, Prior::<true>, &models(), 1);
+        f.set.particles_mut()[0].map.push(2.6f64.ln(), at(1.0), Matrix2::identity());
+        assert_eq!(f.estimate().map.len(), 1);
     }
 
     /// A component of absurd weight stands for at most `MAX_ROUNDED_COPIES` landmarks.

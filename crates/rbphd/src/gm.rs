@@ -110,6 +110,9 @@ pub struct UpdateScratch {
     log_d: Vec<f64>,
     /// Whether measurement j gated with some component.
     pub gated: Vec<bool>,
+    /// Per detectable row: the index in the output of its missed-detection copy, when the
+    /// component is in the hold band ([`phd_update_hold`]).
+    held: Vec<(usize, usize)>,
 }
 
 impl UpdateScratch {
@@ -151,6 +154,31 @@ pub fn phd_update<S: PlanarSensorModel>(
     scratch: &mut UpdateScratch,
     out: &mut GmMap,
 ) -> UpdateOutcome {
+    phd_update_hold(map, active, x, z, sensor, pd, |_| false, settings, scratch, out)
+}
+
+/// [`phd_update`] with the hold band of `[sensor] edge = "hold"` ([`rfslam_core::FovEdge::Hold`]):
+/// a detectable component `i` whose mean is in the band (`in_band(m_i)`) keeps `p_D` in its
+/// update, but its missed-detection copy gets the weight
+/// `(1 - pD_i) eta_i + max(0, pD_i eta_i - sum_j eta_ij)`, where `eta_ij = a_ij / D_j` are
+/// its detection terms (\[LeungInostrozaAdams\] eq. 12's second term): the part of
+/// `pD_i eta_i` that the measurements did not claim returns to it, so that the component's
+/// updated weight `max(eta_i, (1 - pD_i) eta_i + sum_j eta_ij)` is never below its prior
+/// weight. Undetected (no gated measurement) it keeps `eta_i` exactly. Outside the band the
+/// update is [`phd_update`]'s; the measurement term of the particle weight is unchanged.
+#[allow(clippy::too_many_arguments)]
+pub fn phd_update_hold<S: PlanarSensorModel>(
+    map: &GmMap,
+    active: &[usize],
+    x: &Pose,
+    z: &[RangeBearing],
+    sensor: &S,
+    pd: impl Fn(&Point2, &Matrix2<f64>) -> f64,
+    in_band: impl Fn(&Point2) -> bool,
+    settings: &UpdateSettings,
+    scratch: &mut UpdateScratch,
+    out: &mut GmMap,
+) -> UpdateOutcome {
     out.clear();
     let r = &sensor.noise(());
     let nz = z.len();
@@ -163,6 +191,7 @@ pub fn phd_update<S: PlanarSensorModel>(
     s.log_a.clear();
     s.gated.clear();
     s.gated.resize(nz, false);
+    s.held.clear();
     let mut failures = 0u32;
     let mut pd_mass = 0.0;
 
@@ -189,8 +218,11 @@ pub fn phd_update<S: PlanarSensorModel>(
         let ikh = Matrix2::identity() - k * lin.hm;
         let p_upd = symmetrise(&(ikh * p * ikh.transpose() + k * r * k.transpose()));
         // missed-detection copy
-        out.push(lw + (1.0 - p_d).ln(), m, p);
         let row = s.rows.len();
+        if in_band(&m) {
+            s.held.push((row, out.len()));
+        }
+        out.push(lw + (1.0 - p_d).ln(), m, p);
         s.rows.push(i);
         s.zhat.push(lin.z);
         s.gain.push(k);
@@ -230,6 +262,23 @@ pub fn phd_update<S: PlanarSensorModel>(
     }
     if settings.exact_pd_term {
         log_lik -= pd_mass;
+    }
+
+    // The hold band: the unclaimed part of pD eta returns to the missed-detection copy.
+    for &(row, at) in &s.held {
+        let lw = map.log_w[s.rows[row]];
+        // sum_j eta_ij / eta_i, each term a_ij / (D_j eta_i) in the log domain.
+        let mut claimed = 0.0;
+        for j in 0..nz {
+            let la = s.log_a[row * nz + j];
+            if la != f64::NEG_INFINITY {
+                claimed += (la - s.log_d[j] - lw).exp();
+            }
+        }
+        if claimed < s.log_pd[row].exp() {
+            // (1 - pD) eta + (pD eta - sum_j eta_ij) = eta (1 - sum_j eta_ij / eta)
+            out.log_w[at] = lw + (-claimed).ln_1p();
+        }
     }
 
     // Detected components, eq. (20): weight a_ij / D_j, EKF mean, updated covariance.
@@ -411,6 +460,60 @@ mod tests {
         // The exact Poisson likelihood subtracts sum pD eta.
         let o2 = update(true, &mut scratch, &mut out);
         assert_relative_eq!(o2.log_likelihood, o.log_likelihood - 0.9, epsilon = 1e-12);
+    }
+
+    /// The hold band by hand, on the case of `update_matches_hand_computation` (eta = 1, pD
+    /// 0.9, a = 1.41821): with c = 0.01 the detection claims a / D = 0.99300 >= pD eta, so
+    /// the missed copy keeps (1 - pD) eta = 0.1 (total 1.09300); with c = 2 it claims only
+    /// a / D = 0.41490 < 0.9, so the missed copy gets 0.1 + (0.9 - 0.41490) = 0.58510 and the
+    /// total is eta = 1; with no measurement the missed copy keeps eta = 1 (without the hold
+    /// 0.1). A component outside the band is updated as without it.
+    #[test]
+    fn hold_returns_the_unclaimed_detection_mass() {
+        let mut map = one_landmark();
+        map.push(0.5f64.ln(), Point2::new(0.0, -30.0), Matrix2::identity()); // not in the band
+        let r = Matrix2::new(0.01, 0.0, 0.0, 1e-4);
+        let sensor = crate::with_noise(&RangeBearingSensor::default(), &r);
+        let (mut scratch, mut out) = (UpdateScratch::default(), GmMap::default());
+        let mut run = |z: &[RangeBearing], c: f64, hold: bool| {
+            let st = UpdateSettings { gate: 41.4465, log_clutter: c.ln(), exact_pd_term: false };
+            let band = |m: &Point2| hold && m.x > 5.0;
+            let o = phd_update_hold(
+                &map,
+                &[0, 1],
+                &Pose::zeros(),
+                z,
+                &sensor,
+                |_, _| 0.9,
+                band,
+                &st,
+                &mut scratch,
+                &mut out,
+            );
+            let w: Vec<f64> = out.log_w.iter().map(|l| l.exp()).collect();
+            (o.log_likelihood, w)
+        };
+        let z = [RangeBearing::new(10.0, 0.0)];
+        // Detected and claimed: the hold changes nothing.
+        let (ll, w) = run(&z, 0.01, true);
+        assert_eq!((ll, w.clone()), run(&z, 0.01, false));
+        assert_relative_eq!(w[0], 0.1, epsilon = 1e-12);
+        assert_relative_eq!(w[2], 0.99300, epsilon = 1e-5);
+        assert_relative_eq!(w[0] + w[2], 1.09300, epsilon = 1e-5);
+        // Detected, partly claimed: the unclaimed part returns.
+        let (ll, w) = run(&z, 2.0, true);
+        let (ll_free, w_free) = run(&z, 2.0, false);
+        assert_eq!(ll, ll_free, "the particle weight's measurement term is unchanged");
+        assert_relative_eq!(w_free[0], 0.1, epsilon = 1e-12);
+        assert_relative_eq!(w[2], 0.41490, epsilon = 1e-5);
+        assert_relative_eq!(w[0], 0.58510, epsilon = 1e-5);
+        assert_relative_eq!(w[0] + w[2], 1.0, epsilon = 1e-12);
+        // Undetected: the prior weight exactly; the component outside the band loses (1 - pD).
+        let (_, w) = run(&[], 0.01, true);
+        assert_eq!(w[0], 1.0);
+        assert_relative_eq!(w[1], 0.05, epsilon = 1e-12);
+        let (_, w) = run(&[], 0.01, false);
+        assert_relative_eq!(w[0], 0.1, epsilon = 1e-12);
     }
 
     /// With no measurement the Poisson posterior, and so the update, is exact (w_meas = 0, or

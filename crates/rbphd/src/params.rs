@@ -31,7 +31,12 @@ pub struct RbPhdParams {
     /// Map estimate: a component above the threshold stands for `round(w)` landmarks (at
     /// least one) at its mean, as \[LeungInostrozaAdams\] Section IV-B count features, instead
     /// of one; default the variant's ([`crate::Proposal::ESTIMATE_ROUNDING`]).
+    /// `estimate_count` says the same and more; give one of the two.
     pub estimate_rounding: Option<bool>,
+    /// Map estimate: how many landmarks the components above the threshold stand for
+    /// ([`EstimateCount`]: `"one"`, `"rounded"` or `"total"`); unset: `estimate_rounding`'s
+    /// choice (`"rounded"` when true, `"one"` when false).
+    pub estimate_count: Option<EstimateCount>,
     /// `resample_ess_fraction` (\[Kaltiokallio2024\] Table II: 0.2; Table I: 0, never),
     /// `resample_ess` (Victoria Park: 1) and `q_jitter`.
     #[serde(flatten)]
@@ -83,6 +88,7 @@ impl Default for RbPhdParams {
             fov_buffer_deg: 10.0,
             estimate_threshold: None,
             estimate_rounding: None,
+            estimate_count: None,
             rbpf: RbpfParams::with_fraction(0.2),
             exact_pd_term: false,
             clutter_intensity: None,
@@ -99,6 +105,30 @@ impl Default for RbPhdParams {
 }
 
 rfslam_core::flat_params!(RbPhdParams);
+
+/// How the map estimate counts the landmarks of the components above the estimate
+/// threshold (`estimate_count`).
+///
+/// \[LeungInostrozaAdams\] Section IV-B take the means of the Gaussians of weight above 0.5
+/// and round each weight to the number of features it stands for (`Rounded`). A component
+/// whose weight has grown beyond 1.5 (a taper's low `p_D` in the edge band inflates weights:
+/// `w' = 1 + (1 - p_D) w` per detection) then reports two or more landmarks at one point,
+/// which a map of point landmarks never holds. `Total` reads the same section on the map's
+/// total instead: the estimate holds `round(sum_i w_i)` landmarks (the sum over the
+/// components above the threshold), the heaviest components, each once; it never reports a
+/// point twice, and two halves of one split landmark (weights about 0.5 each) count as one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EstimateCount {
+    /// One landmark per component (`estimate_rounding = false`).
+    One,
+    /// `round(w)` landmarks per component, at least one, at its mean (`estimate_rounding =
+    /// true`; \[LeungInostrozaAdams\] Section IV-B per component).
+    Rounded,
+    /// `min(round(sum_i w_i), n)` of the `n` components, the heaviest first, one landmark
+    /// each (\[LeungInostrozaAdams\] Section IV-B on the map's total).
+    Total,
+}
 
 impl RbPhdParams {
     /// The models the filter assumes: the scenario's, with [`RbPhdParams::detection_pd`],
@@ -130,6 +160,9 @@ impl RbPhdParams {
         Interval::BOUNDED_NON_NEGATIVE.check("fov_buffer_range", self.fov_buffer_range)?;
         Interval::closed(0.0, 180.0).check("fov_buffer_deg", self.fov_buffer_deg)?;
         Interval::BOUNDED_POSITIVE.check_opt("estimate_threshold", self.estimate_threshold)?;
+        if self.estimate_rounding.is_some() && self.estimate_count.is_some() {
+            return Err(ParamError::new("estimate_count", "give either estimate_count or estimate_rounding, not both"));
+        }
         self.rbpf.validate(particles)?;
         Interval::PROBABILITY.check_opt("detection_pd", self.detection_pd)?;
         Interval::NON_NEGATIVE.up_to(ClutterModel::MAX_RATE).check_opt("clutter_rate", self.clutter_rate)?;
@@ -146,6 +179,16 @@ impl RbPhdParams {
             terms: self.mf_terms,
             ..MultiFeatureSettings::default()
         }
+    }
+
+    /// The map estimator: `estimate_count`, else `estimate_rounding`, else the variant's
+    /// rounding default `variant_rounding`.
+    pub fn estimate_count(&self, variant_rounding: bool) -> EstimateCount {
+        self.estimate_count.unwrap_or(if self.estimate_rounding.unwrap_or(variant_rounding) {
+            EstimateCount::Rounded
+        } else {
+            EstimateCount::One
+        })
     }
 
     /// The map estimate threshold: the parameter, else the variant's default
@@ -211,6 +254,22 @@ mod tests {
         );
         let vp = p.filter_models(&models(DetectionModel::RangeLinear { pd0: 0.7 }));
         assert_eq!(vp.detection, DetectionModel::RangeLinear { pd0: 0.4 });
+    }
+
+    /// `estimate_count` parses, resolves against `estimate_rounding` and the variant, and
+    /// refuses to be given with `estimate_rounding`.
+    #[test]
+    fn estimate_count_resolution() {
+        let p = |t: &str| -> RbPhdParams { toml::from_str(t).unwrap() };
+        assert_eq!(p("").estimate_count(true), EstimateCount::Rounded);
+        assert_eq!(p("").estimate_count(false), EstimateCount::One);
+        assert_eq!(p("estimate_rounding = false").estimate_count(true), EstimateCount::One);
+        assert_eq!(p("estimate_count = \"total\"").estimate_count(true), EstimateCount::Total);
+        assert_eq!(p("estimate_count = \"rounded\"").estimate_count(false), EstimateCount::Rounded);
+        p("estimate_count = \"total\"").validate(1).unwrap();
+        let e = p("estimate_count = \"total\"\nestimate_rounding = true").validate(1).unwrap_err();
+        assert!(e.to_string().contains("not both"), "{e}");
+        assert!(toml::from_str::<RbPhdParams>("estimate_count = \"twice\"").is_err());
     }
 
     #[test]

@@ -47,6 +47,20 @@ pub enum FovEdge {
     /// (the lower range term dropped when `r_min = 0`, the bearing factor 1 all around).
     /// Positive just outside the FOV too; a point (zero covariance) gets the hard edge.
     Expected,
+    /// `p_D` at the landmark mean as with the hard edge (the model's value, no ramp), and a
+    /// band of `band_range` m / `band_angle` rad inside each limit of the FOV (the taper's
+    /// limits and widths) in which a map component's weight cannot fall below its prior
+    /// weight: a Gaussian-mixture map gives a component in the band the updated weight
+    /// `(1 - p_D) w + max(0, p_D w - sum_j a_j) + sum_j a_j` (`a_j` its detection terms),
+    /// i.e. the part of `p_D w` the measurements did not claim returns to it. The filters
+    /// ask [`Fov::in_hold_band`] / [`PlacedFov::in_hold_band`]; a landmark about to leave
+    /// the field of view is then neither pruned by misses nor inflated by a low `p_D`.
+    Hold {
+        /// Width of the band at the range limits (m).
+        band_range: f64,
+        /// Width of the band at the bearing limits (rad).
+        band_angle: f64,
+    },
 }
 
 impl FovEdge {
@@ -133,6 +147,23 @@ impl Fov {
         let FovEdge::Taper { band_range, band_angle } = self.edge else {
             return 1.0;
         };
+        self.band_factor(x, m, band_range, band_angle)
+    }
+
+    /// Whether `m` lies inside the FOV of pose `x` and within the [`FovEdge::Hold`] band of
+    /// one of its limits (maximum range, minimum range when positive, the bearing limits when
+    /// the FOV is not all around). Always `false` for the other edges.
+    #[inline]
+    pub fn in_hold_band(&self, x: &Pose, m: &Point2) -> bool {
+        let FovEdge::Hold { band_range, band_angle } = self.edge else {
+            return false;
+        };
+        self.contains(x, m) && self.band_factor(x, m, band_range, band_angle) < 1.0
+    }
+
+    /// The product of the linear ramps from 0 at each limit to 1 at the band's inner side.
+    #[inline]
+    fn band_factor(&self, x: &Pose, m: &Point2, band_range: f64, band_angle: f64) -> f64 {
         let d = m - x.xy();
         let r = d.norm();
         let mut f = ramp(self.max_range - r, band_range);
@@ -228,6 +259,12 @@ impl PlacedFov {
     /// The pose it is placed at.
     pub fn pose(&self) -> &Pose {
         &self.pose
+    }
+
+    /// [`Fov::in_hold_band`] at this pose.
+    #[inline]
+    pub fn in_hold_band(&self, m: &Point2) -> bool {
+        matches!(self.fov.edge, FovEdge::Hold { .. }) && self.contains(m) && self.fov.in_hold_band(&self.pose, m)
     }
 
     /// Whether landmark `m` is inside; equal to `fov.contains(pose, m)`.
@@ -509,6 +546,38 @@ mod tests {
         // The generator's view of the same sensor: the hard edge.
         let m = x.xy() + Point2::new(x[2].cos(), x[2].sin()) * 9.9;
         assert_eq!(PD.pd(&f.hard(), &x, &m), 0.9);
+    }
+
+    /// The hold edge keeps the model's `p_D` everywhere inside and marks the taper's band.
+    #[test]
+    fn hold_keeps_pd_and_marks_the_band_at_every_limit() {
+        let f = fov(FovEdge::Hold { band_range: 1.0, band_angle: 10f64.to_radians() });
+        let x = Pose::new(1.0, 2.0, 0.3);
+        let at = |r: f64, b: f64| x.xy() + Point2::new((x[2] + b).cos(), (x[2] + b).sin()) * r;
+        for (r, b, band) in [
+            (5.0, 0.0, false),
+            (8.9, 0.0, false),
+            (9.5, 0.0, true),
+            (1.5, 0.0, true),
+            (2.1, 0.0, false),
+            (5.0, 85f64.to_radians(), true),
+            (5.0, -88f64.to_radians(), true),
+            (5.0, 75f64.to_radians(), false),
+        ] {
+            let m = at(r, b);
+            assert_eq!(f.in_hold_band(&x, &m), band, "r {r} b {b}");
+            assert_eq!(f.at(&x).in_hold_band(&m), band, "r {r} b {b}");
+            assert_eq!(PD.pd(&f, &x, &m), 0.9, "r {r} b {b}");
+            assert_eq!(PD.pd_gaussian_at(&f.at(&x), &m, &Matrix2::identity()), 0.9);
+        }
+        // Outside the FOV: no band and no detection.
+        for m in [at(10.2, 0.0), at(0.8, 0.0), at(5.0, 95f64.to_radians())] {
+            assert!(!f.in_hold_band(&x, &m) && !f.at(&x).in_hold_band(&m));
+            assert_eq!(PD.pd(&f, &x, &m), 0.0);
+        }
+        // Only the hold edge has a band.
+        let taper = fov(FovEdge::Taper { band_range: 1.0, band_angle: 0.2 });
+        assert!(!taper.in_hold_band(&x, &at(9.5, 0.0)) && !fov(FovEdge::Hard).at(&x).in_hold_band(&at(9.5, 0.0)));
     }
 
     #[test]

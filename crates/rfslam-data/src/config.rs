@@ -305,13 +305,13 @@ pub struct SensorConfig {
     #[serde(default, skip_serializing_if = "is_zero")]
     pub min_range: f64,
     /// The filters' treatment of the FOV edge in `p_D` (the generator's sensor always has
-    /// the hard edge): `hard` (default), `taper` or `expected` ([`FovEdge`]).
+    /// the hard edge): `hard` (default), `taper`, `expected` or `hold` ([`FovEdge`]).
     #[serde(default, skip_serializing_if = "EdgeKind::is_hard")]
     pub edge: EdgeKind,
-    /// `edge = "taper"`: width of the band at the range limits (m).
+    /// `edge = "taper"` or `"hold"`: width of the band at the range limits (m).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub edge_band_range: Option<f64>,
-    /// `edge = "taper"`: width of the band at the bearing limits (deg).
+    /// `edge = "taper"` or `"hold"`: width of the band at the bearing limits (deg).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub edge_band_deg: Option<f64>,
 }
@@ -327,6 +327,9 @@ pub enum EdgeKind {
     Taper,
     /// `E{p_D}` under the landmark's Gaussian.
     Expected,
+    /// The model's `p_D`, and no loss of weight by a miss within `edge_band_range` /
+    /// `edge_band_deg` inside each limit ([`FovEdge::Hold`]).
+    Hold,
 }
 
 impl EdgeKind {
@@ -345,8 +348,12 @@ impl SensorConfig {
         let edge = match self.edge {
             EdgeKind::Hard => FovEdge::Hard,
             EdgeKind::Expected => FovEdge::Expected,
-            // Validated: both bands are given with a taper.
+            // Validated: both bands are given with a taper or a hold.
             EdgeKind::Taper => FovEdge::Taper {
+                band_range: self.edge_band_range.unwrap_or(0.0),
+                band_angle: self.edge_band_deg.unwrap_or(0.0).to_radians(),
+            },
+            EdgeKind::Hold => FovEdge::Hold {
                 band_range: self.edge_band_range.unwrap_or(0.0),
                 band_angle: self.edge_band_deg.unwrap_or(0.0).to_radians(),
             },
@@ -403,12 +410,16 @@ impl SensorConfig {
             let got = rfslam_core::params::short(self.min_range);
             return Err(ConfigError::new("min_range", format!("must be in [0, max_range) (got {got})")));
         }
-        // The bands are read by the taper only, but may be given with any edge, so that a
-        // grid over `scenario.sensor.edge` can switch between the treatments.
-        if self.edge == EdgeKind::Taper {
+        // The bands are read by the taper and the hold only, but may be given with any edge,
+        // so that a grid over `scenario.sensor.edge` can switch between the treatments.
+        if let Some(name) = match self.edge {
+            EdgeKind::Taper => Some("taper"),
+            EdgeKind::Hold => Some("hold"),
+            EdgeKind::Hard | EdgeKind::Expected => None,
+        } {
             let bands = [("edge_band_range", self.edge_band_range), ("edge_band_deg", self.edge_band_deg)];
             if let Some((key, _)) = bands.iter().find(|(_, v)| v.is_none()) {
-                return Err(ConfigError::new(*key, "is required with edge = \"taper\""));
+                return Err(ConfigError::new(*key, format!("is required with edge = \"{name}\"")));
             }
         }
         let span = self.max_range - self.min_range;
@@ -640,6 +651,39 @@ mod tests {
         assert_eq!(err("edge_band_deg = 0.0"), "sensor.edge_band_deg must be in (0, 90] (got 0)");
         let e = toml::from_str::<ModelConfig>(&with("edge = \"soft\"")).unwrap_err();
         assert!(e.message().contains("soft"), "{e}");
+    }
+
+    /// `edge = "hold"` takes the taper's band keys, both required and bounded.
+    #[test]
+    fn hold_edge_keys() {
+        let with =
+            |keys: &str| tables().replace("sigma_bearing_deg = 0.3", &format!("sigma_bearing_deg = 0.3\n{keys}"));
+        let c: ModelConfig =
+            toml::from_str(&with("min_range = 0.5\nedge = \"hold\"\nedge_band_range = 0.05\nedge_band_deg = 1.0"))
+                .unwrap();
+        c.validate().unwrap();
+        assert_eq!(c.sensor.fov().edge, FovEdge::Hold { band_range: 0.05, band_angle: 1f64.to_radians() });
+        assert!(toml::to_string(&c).unwrap().contains("edge = \"hold\""));
+        let err = |keys: &str| {
+            let c: ModelConfig = toml::from_str(&with(keys)).unwrap();
+            c.validate().unwrap_err().to_string()
+        };
+        assert_eq!(
+            err("edge = \"hold\"\nedge_band_deg = 5.0"),
+            "sensor.edge_band_range is required with edge = \"hold\""
+        );
+        assert_eq!(
+            err("edge = \"hold\"\nedge_band_range = 1.0"),
+            "sensor.edge_band_deg is required with edge = \"hold\""
+        );
+        assert_eq!(
+            err("edge = \"hold\"\nedge_band_range = -0.1\nedge_band_deg = 1.0"),
+            "sensor.edge_band_range must be in (0, 150] (got -0.1)"
+        );
+        assert_eq!(
+            err("edge = \"hold\"\nedge_band_range = 0.1\nedge_band_deg = 91.0"),
+            "sensor.edge_band_deg must be in (0, 90] (got 91)"
+        );
     }
 
     /// `model = "relative_position"` with `sigma_x`, `sigma_y`; each model's noise keys are

@@ -39,5 +39,6 @@ pub use error::{ConfigError, DataError};
 pub use find::{DATA_ENV, data_dirs, find_data};
 pub use mat::{MatArray, MatError, MatFile};
 pub use scenario::{
-    GLMB_SIM_LAP_LENGTH, GLMB_SIM_LAP_LENGTH_RANGE, GLMB_SIM_LAPS_DRIVEN, ProceduralParams, ScenarioConfig, WorldSpec,
+    GLMB_SIM_LAP_LENGTH, GLMB_SIM_LAP_LENGTH_RANGE, GLMB_SIM_LAPS_DRIVEN, LoopParams, ProceduralParams, ScenarioConfig,
+    WorldSpec,
 };

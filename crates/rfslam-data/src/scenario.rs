@@ -105,6 +105,65 @@ impl ProceduralParams {
     }
 }
 
+/// Parameters of the loop world (`loop_world` of `rfslam-sim`, `[world] kind = "loop"`): a
+/// stadium-shaped circuit of `lap_length` m (two straights of `lap_length / 4` joined by
+/// half circles of radius `lap_length / (4 pi)`) driven anticlockwise at `speed` m/s for
+/// `steps` scans of `dt` s, with `landmarks` landmarks scattered beside it, deterministic
+/// from `seed`. Every field has a default: the issue-31 world (3000 scans of 0.1 s at
+/// 1 m/s, five laps of 60 m, 50 landmarks).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LoopParams {
+    /// World seed (the world stream is `stream(&[seed, purpose::WORLD])`). Default 1.
+    pub seed: u64,
+    /// Number of poses (and controls). Default 3000.
+    pub steps: usize,
+    /// Time step (s). Default 0.1.
+    pub dt: f64,
+    /// Speed (m/s). Default 1.
+    pub speed: f64,
+    /// Length of one lap (m). Default 60.
+    pub lap_length: f64,
+    /// Number of landmarks. Default 50.
+    pub landmarks: usize,
+}
+
+impl Default for LoopParams {
+    fn default() -> Self {
+        LoopParams { seed: 1, steps: 3000, dt: 0.1, speed: 1.0, lap_length: 60.0, landmarks: 50 }
+    }
+}
+
+impl LoopParams {
+    /// Smallest lateral offset of a landmark from the circuit (m).
+    pub const MIN_OFFSET: f64 = 0.6;
+    /// Largest lateral offset of a landmark from the circuit (m).
+    pub const MAX_OFFSET: f64 = 2.0;
+    /// Smallest distance between two landmarks (m).
+    pub const MIN_SEPARATION: f64 = 1.0;
+    /// Bounds of `lap_length` (m): the half circles' radius stays above the largest offset.
+    pub const LAP_LENGTH: Interval = Interval::closed(30.0, 10_000.0);
+
+    /// Checks the values; keys are relative to the `[world]` table.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if !(2..=ProceduralParams::MAX_STEPS).contains(&self.steps) {
+            return Err(ConfigError::new("steps", format!("must be in [2, {}]", ProceduralParams::MAX_STEPS)));
+        }
+        // The landmarks lie in a band of width 2 (MAX_OFFSET - MIN_OFFSET) along the lap,
+        // MIN_SEPARATION apart: refuse counts that cannot fit (a third of the band's area).
+        in_range("lap_length", Self::LAP_LENGTH, self.lap_length)?;
+        let fit = self.lap_length * 2.0 * (Self::MAX_OFFSET - Self::MIN_OFFSET) / 3.0;
+        if self.landmarks as f64 > fit {
+            return Err(ConfigError::new(
+                "landmarks",
+                format!("must be at most {fit:.0} for lap_length = {}", self.lap_length),
+            ));
+        }
+        in_range("dt", Interval::POSITIVE.up_to(limits::MAX_DT), self.dt)?;
+        in_range("speed", Interval::POSITIVE.up_to(limits::MAX_SPEED), self.speed)
+    }
+}
+
 /// The `[world]` table of a scenario, tagged by `kind`.
 ///
 /// Deserialized through a flat table, so that toml reports a wrong value type at the
@@ -160,6 +219,9 @@ pub enum WorldSpec {
         /// Length of one lap of the racetrack (m).
         lap_length: f64,
     },
+    /// A stadium-shaped circuit driven for many laps with landmarks scattered beside it
+    /// ([`LoopParams`]); every field has a default.
+    Loop(LoopParams),
 }
 
 /// Lap length of the default `glmb-sim` racetrack (m): two 30 m straights and two half
@@ -219,6 +281,7 @@ enum WorldKind {
     VictoriaPark,
     #[serde(rename = "glmb-sim")]
     GlmbSim,
+    Loop,
 }
 
 impl TryFrom<RawWorld> for WorldSpec {
@@ -268,6 +331,19 @@ impl TryFrom<RawWorld> for WorldSpec {
                 only_keys("world", "glmb-sim", &given, &["dt", "lap_length"])?;
                 WorldSpec::GlmbSim { dt: r.dt.unwrap_or(1.0), lap_length: r.lap_length.unwrap_or(GLMB_SIM_LAP_LENGTH) }
             }
+            WorldKind::Loop => {
+                let keys = ["seed", "steps", "dt", "speed", "lap_length", "landmarks"];
+                only_keys("world", "loop", &given, &keys)?;
+                let d = LoopParams::default();
+                WorldSpec::Loop(LoopParams {
+                    seed: r.seed.unwrap_or(d.seed),
+                    steps: r.steps.unwrap_or(d.steps),
+                    dt: r.dt.unwrap_or(d.dt),
+                    speed: r.speed.unwrap_or(d.speed),
+                    lap_length: r.lap_length.unwrap_or(d.lap_length),
+                    landmarks: r.landmarks.unwrap_or(d.landmarks),
+                })
+            }
             WorldKind::Procedural => {
                 let keys = ["seed", "steps", "dt", "speed", "max_turn_rate_deg", "extent", "landmarks"];
                 only_keys("world", "procedural", &given, &keys)?;
@@ -296,6 +372,7 @@ impl WorldSpec {
             WorldSpec::Dataset { .. } => "dataset",
             WorldSpec::VictoriaPark { .. } => "victoria-park",
             WorldSpec::GlmbSim { .. } => "glmb-sim",
+            WorldSpec::Loop(_) => "loop",
         }
     }
 
@@ -376,6 +453,7 @@ impl ScenarioConfig {
         self.models().validate()?;
         match &self.world {
             WorldSpec::Procedural(p) => p.validate().map_err(|e| e.prefixed("world"))?,
+            WorldSpec::Loop(p) => p.validate().map_err(|e| e.prefixed("world"))?,
             WorldSpec::GlmbSim { dt, lap_length } => {
                 in_range("world.dt", Interval::POSITIVE.up_to(limits::MAX_DT), *dt)?;
                 in_range("world.lap_length", GLMB_SIM_LAP_LENGTH_RANGE, *lap_length)?;

@@ -6,6 +6,7 @@
 //!   data set with truth labels); [`simulate_run`] and [`draw_scan`]: the same draws for a
 //!   vehicle and a sensor model of any dimensions (the radio world's), in memory.
 //! - [`glmb_sim`]: the simulated world of delta-GLMB-SLAM 2.0.
+//! - [`loop_world`]: a circuit driven for many laps beside scattered landmarks.
 //! - [`RadioWorld`]: the 5G mmWave world of the PMBM-SLAM paper ([`radio5g`]), in memory.
 //! - [`VictoriaPark`]: the Victoria Park recording (`measurements.dat`, `inputs.dat`,
 //!   `gps.dat`) imported into a data set with the artificial clutter of PHD-SLAM 3.0
@@ -19,6 +20,7 @@
 #![warn(missing_docs)]
 
 pub mod glmb_sim;
+pub mod loop_world;
 pub mod radio5g;
 pub mod scenario;
 pub mod simulate;

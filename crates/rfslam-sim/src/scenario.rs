@@ -6,6 +6,7 @@ use rfslam_core::{Pose, SlamModels};
 use rfslam_data::{DataError, Dataset, DatasetMeta, MotionConfig, ScenarioConfig, WorldSpec, find_data};
 
 use crate::glmb_sim::glmb_sim_world;
+use crate::loop_world::loop_world;
 use crate::simulate::simulate;
 use crate::victoria_park::VictoriaPark;
 use crate::world::World;
@@ -40,6 +41,7 @@ impl ScenarioData for ScenarioConfig {
             WorldSpec::Mat { path } => World::from_mat(&find_data(path)?).map(Some),
             WorldSpec::Procedural(p) => World::procedural(p, p.seed).map(Some),
             WorldSpec::GlmbSim { dt, lap_length } => Ok(glmb_sim_world(self.motion.motion(), *dt, *lap_length)),
+            WorldSpec::Loop(p) => loop_world(p).map(Some),
             WorldSpec::Dataset { .. } | WorldSpec::VictoriaPark { .. } => Ok(None),
         }
     }
