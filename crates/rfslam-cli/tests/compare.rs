@@ -144,6 +144,31 @@ fn sweeps_differing_only_in_what_the_filters_assume_are_paired() {
     );
 }
 
+/// Two labels of one sweep with a grid over a key the filters read pair grid point by grid
+/// point (a bug paired every point of A with every point of B: "hard" against "taper").
+#[test]
+fn two_labels_of_one_grid_sweep_pair_point_by_point() {
+    let tmp = TempDir::new("compare-grid-labels");
+    sweep(&tmp, "g", 3, 2.0, "\n[grid]\n\"scenario.sensor.edge\" = [\"hard\", \"expected\"]\n");
+    ok(tmp.path(), &["compare", "g:dr", "g:phd", "--out", "cmp"]);
+    let c = Csv::read(&tmp.join("cmp/compare.csv"));
+    let rows: Vec<usize> = (0..c.rows.len()).filter(|&i| c.get(i, "metric") == "pos_rmse_m").collect();
+    assert_eq!(rows.len(), 2, "one row per grid point, not per pair of grid points");
+    let runs = Csv::read(&tmp.join("g/runs.csv"));
+    for i in rows {
+        let edge = c.get(i, "scenario.sensor.edge");
+        let mean = |label: &str| {
+            let v: Vec<f64> = (0..runs.rows.len())
+                .filter(|&r| runs.get(r, "filter") == label && runs.get(r, "scenario.sensor.edge") == edge)
+                .map(|r| runs.num(r, "pos_rmse_m"))
+                .collect();
+            v.iter().sum::<f64>() / v.len() as f64
+        };
+        assert!((c.num(i, "mean_a") - mean("dr")).abs() < 1e-9, "{edge}: A");
+        assert!((c.num(i, "mean_b") - mean("phd")).abs() < 1e-9, "{edge}: B is phd at the same grid point");
+    }
+}
+
 #[test]
 fn nan_cells_and_unknown_metrics_are_refused() {
     let tmp = TempDir::new("compare-nan");

@@ -507,8 +507,12 @@ pub fn compare(sides: &[Side], metrics: Option<&[String]>, command: &str) -> Res
                     filter.then_some((i, scenario))
                 })
                 .collect();
-            // Candidates that agree on the scenario grid keys first: their difference is the one to name.
-            candidates.sort_by_key(|(_, scenario)| !scenario);
+            // A grid point of B that agrees with A's on every scenario key both grids have is
+            // its pair (two labels of one grid sweep pair point by point); only when none does
+            // is each of B's points a treatment to compare with (their difference is named).
+            if candidates.iter().any(|(_, scenario)| *scenario) {
+                candidates.retain(|(_, scenario)| *scenario);
+            }
             let mut found = false;
             for (i, _) in candidates {
                 let gb = &b_groups[i];
