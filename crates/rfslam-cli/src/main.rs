@@ -132,15 +132,18 @@ enum Command {
     /// labels, rows of the same filter label pair; `DIR:LABEL` chooses one label on a side (the
     /// other side takes the same label unless it names its own), and `DIR:LABEL@N` (or
     /// `DIR:@N`) one particle count, so one filter pairs with itself at another N on the same
-    /// runs (`results/table2:phd-3.0@10 results/table2:phd-3.0@100`). Per (grid point, filter pair,
+    /// runs (`results/table2:phd-3.0@10 results/table2:phd-3.0@100`), and `#KEY=VALUE` one
+    /// value of a grid key, so two grid points of one sweep pair
+    /// (`DIR:LABEL#scenario.sensor.edge=hard DIR:LABEL#scenario.sensor.edge=hold`). Per (grid point, filter pair,
     /// N) and metric: pairs, means of A and B, mean of B - A with its 95 % t interval, median,
     /// wins (runs where B is better: lower, but higher for ESS, TPR and TNR), ties and the
     /// two-sided exact sign test. Markdown to stdout; with --out also compare.md and compare.csv
     /// (columns: docs/datasets.md). Refuses (exit 2) sweeps of another scenario or metric
     /// settings, a run seed whose data differ, and NaN/inf cells.
     Compare {
-        /// Sweep directories, each optionally `:LABEL` and `@N`; the first is the reference A.
-        #[arg(required = true, num_args = 2.., value_name = "DIR[:LABEL][@N]")]
+        /// Sweep directories, each optionally `:LABEL`, `@N` and `#KEY=VALUE`; the first is the
+        /// reference A.
+        #[arg(required = true, num_args = 2.., value_name = "DIR[:LABEL][@N][#KEY=VALUE]")]
         sides: Vec<String>,
         /// Also write compare.md and compare.csv here.
         #[arg(long)]

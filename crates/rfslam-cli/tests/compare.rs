@@ -169,6 +169,31 @@ fn two_labels_of_one_grid_sweep_pair_point_by_point() {
     }
 }
 
+/// Two grid points of one sweep pair when each side chooses its point (`#KEY=VALUE`): the
+/// means are those of the two points; a key the grid lacks is refused, naming it.
+#[test]
+fn two_grid_points_of_one_sweep_pair_when_chosen() {
+    let tmp = TempDir::new("compare-grid-points");
+    sweep(&tmp, "g", 3, 2.0, "\n[grid]\n\"scenario.sensor.edge\" = [\"hard\", \"expected\"]\n");
+    let (a, b) = ("g:phd#scenario.sensor.edge=hard", "g:phd#scenario.sensor.edge=expected");
+    let o = ok(tmp.path(), &["compare", a, b, "--out", "cmp"]);
+    assert!(o.stdout.contains("differs from A in `scenario.sensor.edge` (\"hard\" vs \"expected\")"), "{}", o.stdout);
+    let c = Csv::read(&tmp.join("cmp/compare.csv"));
+    let rows: Vec<usize> = (0..c.rows.len()).filter(|&i| c.get(i, "metric") == "gospa_m").collect();
+    assert_eq!(rows.len(), 1);
+    let runs = Csv::read(&tmp.join("g/runs.csv"));
+    let mean = |edge: &str| {
+        let v: Vec<f64> = (0..runs.rows.len())
+            .filter(|&r| runs.get(r, "filter") == "phd" && runs.get(r, "scenario.sensor.edge") == format!("\"{edge}\""))
+            .map(|r| runs.num(r, "gospa_m"))
+            .collect();
+        v.iter().sum::<f64>() / v.len() as f64
+    };
+    assert!((c.num(rows[0], "mean_a") - mean("hard")).abs() < 1e-9);
+    assert!((c.num(rows[0], "mean_b") - mean("expected")).abs() < 1e-9);
+    fails(tmp.path(), &["compare", "g:phd#scenario.clutter.rate=2", b], 2, &["no grid key `scenario.clutter.rate`"]);
+}
+
 #[test]
 fn nan_cells_and_unknown_metrics_are_refused() {
     let tmp = TempDir::new("compare-nan");

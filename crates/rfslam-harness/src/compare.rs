@@ -39,20 +39,36 @@ pub struct Side {
     /// The particle count chosen in it (`DIR:LABEL@N` or `DIR:@N`), so that one filter can be
     /// paired with itself at another N on the same runs.
     pub particles: Option<usize>,
+    /// The grid point chosen in it (`...#KEY=VALUE`, one per grid key chosen), so that two
+    /// grid points of one sweep can be paired (`DIR:LABEL#scenario.sensor.edge=hard` against
+    /// `DIR:LABEL#scenario.sensor.edge=hold`).
+    pub grid: Vec<(String, String)>,
 }
 
 impl Side {
-    /// Parses `DIR[:LABEL][@N]` (`DIR:@N` chooses N alone). An argument that names an
-    /// existing directory is a directory even if it holds a colon; otherwise the text after
-    /// the last colon is the label, and a trailing `@N` (N a positive integer) the count.
+    /// Parses `DIR[:LABEL][@N][#KEY=VALUE]...` (`DIR:@N` chooses N alone, `DIR#KEY=VALUE` a
+    /// grid point alone). An argument that names an existing directory is a directory even if
+    /// it holds a colon or a `#`; otherwise each trailing `#KEY=VALUE` chooses a grid value,
+    /// the text after the last colon is the label, and a trailing `@N` (N a positive integer)
+    /// the count.
     pub fn parse(arg: &str) -> Side {
-        let whole = || Side { dir: arg.into(), label: None, particles: None };
+        let whole = |a: &str, grid: Vec<(String, String)>| Side { dir: a.into(), label: None, particles: None, grid };
         if Path::new(arg).is_dir() {
-            return whole();
+            return whole(arg, Vec::new());
         }
-        let Some((d, l)) = arg.rsplit_once(':') else { return whole() };
+        let mut rest = arg;
+        let mut grid = Vec::new();
+        while let Some((head, sel)) = rest.rsplit_once('#') {
+            let Some((k, v)) = sel.split_once('=').filter(|(k, v)| !k.is_empty() && !v.is_empty()) else { break };
+            grid.insert(0, (k.to_string(), v.to_string()));
+            rest = head;
+        }
+        if Path::new(rest).is_dir() {
+            return whole(rest, grid);
+        }
+        let Some((d, l)) = rest.rsplit_once(':') else { return whole(rest, grid) };
         if d.is_empty() || l.is_empty() || l.contains('/') {
-            return whole();
+            return whole(rest, grid);
         }
         let (label, particles) = match l.rsplit_once('@') {
             Some((label, n)) => match n.parse::<usize>() {
@@ -61,7 +77,7 @@ impl Side {
             },
             None => (l, None),
         };
-        Side { dir: d.into(), label: (!label.is_empty()).then(|| label.to_string()), particles }
+        Side { dir: d.into(), label: (!label.is_empty()).then(|| label.to_string()), particles, grid }
     }
 
     fn show(&self) -> String {
@@ -75,7 +91,35 @@ impl Side {
         if let Some(n) = self.particles {
             s.push_str(&format!("@{n}"));
         }
+        for (k, v) in &self.grid {
+            s.push_str(&format!("#{k}={v}"));
+        }
         s
+    }
+
+    /// Whether grid point `point` of `sweep` is the one this side chooses (every point when
+    /// it chooses none); an error names a chosen key the sweep's grid does not have.
+    fn chooses(&self, sweep: &Sweep, point: &[String]) -> Result<bool, HarnessError> {
+        for (k, v) in &self.grid {
+            let Some(i) = sweep.layout.grid_keys.iter().position(|g| g == k) else {
+                return Err(HarnessError::CompareInput(format!(
+                    "{}: `#{k}={v}`: the sweep has no grid key `{k}` (its grid keys: {})",
+                    self.dir.display(),
+                    if sweep.layout.grid_keys.is_empty() {
+                        "none".to_string()
+                    } else {
+                        sweep.layout.grid_keys.join(", ")
+                    }
+                )));
+            };
+            // runs.csv writes a string grid value as TOML (`"hold"`); the argument may omit
+            // the quotes.
+            let unquoted = point[i].strip_prefix('"').and_then(|p| p.strip_suffix('"'));
+            if !same_value(&point[i], v) && unquoted != Some(v.as_str()) {
+                return Ok(false);
+            }
+        }
+        Ok(true)
     }
 }
 
@@ -481,6 +525,7 @@ pub fn compare(sides: &[Side], metrics: Option<&[String]>, command: &str) -> Res
     }
     let a = &sweeps[0];
     let a_groups = a.groups()?;
+    let a_chosen = a_groups.iter().map(|g| sides[0].chooses(a, g.grid)).collect::<Result<Vec<bool>, _>>()?;
     let mut rows = Vec::new();
     let mut notes = Vec::new();
     let mut treatments = Vec::new();
@@ -492,16 +537,18 @@ pub fn compare(sides: &[Side], metrics: Option<&[String]>, command: &str) -> Res
         let (la, lb) = both_sides(sides[0].label.as_deref(), sides[bi].label.as_deref());
         let (na, nb) = both_sides(sides[0].particles, sides[bi].particles);
         let b_groups = b.groups()?;
+        let b_chosen = b_groups.iter().map(|g| sides[bi].chooses(b, g.grid)).collect::<Result<Vec<bool>, _>>()?;
         let mut paired_b = vec![false; b_groups.len()];
         let mut scenario_difference: Option<String> = None;
         let mut compared = 0;
-        for ga in a_groups.iter().filter(|g| la.is_none_or(|l| l == g.label) && na.is_none_or(|n| n == g.particles)) {
+        let a_side = a_groups.iter().zip(&a_chosen).filter(|(_, c)| **c).map(|(g, _)| g);
+        for ga in a_side.filter(|g| la.is_none_or(|l| l == g.label) && na.is_none_or(|n| n == g.particles)) {
             let want = lb.unwrap_or(ga.label);
             let want_n = nb.unwrap_or(ga.particles);
             let mut candidates: Vec<(usize, bool)> = b_groups
                 .iter()
                 .enumerate()
-                .filter(|(_, g)| g.label == want && g.particles == want_n)
+                .filter(|(i, g)| b_chosen[*i] && g.label == want && g.particles == want_n)
                 .filter_map(|(i, g)| {
                     let (filter, scenario) = grids_agree(a, ga.grid, b, g.grid);
                     filter.then_some((i, scenario))
@@ -623,7 +670,7 @@ pub fn compare(sides: &[Side], metrics: Option<&[String]>, command: &str) -> Res
             )));
         }
         for (i, g) in b_groups.iter().enumerate() {
-            if !paired_b[i] && lb.is_none_or(|l| l == g.label) && nb.is_none_or(|n| n == g.particles) {
+            if !paired_b[i] && b_chosen[i] && lb.is_none_or(|l| l == g.label) && nb.is_none_or(|n| n == g.particles) {
                 notes.push(format!("B{bi}: B's {} has no counterpart", g.describe(&b.layout.grid_keys)));
             }
         }
@@ -715,6 +762,9 @@ impl Comparison {
             let mut label = info.side.label.as_ref().map(|l| format!(", filter `{l}`")).unwrap_or_default();
             if let Some(n) = info.side.particles {
                 label.push_str(&format!(", N = {n}"));
+            }
+            for (k, v) in &info.side.grid {
+                label.push_str(&format!(", `{k}` = {v}"));
             }
             let _ = writeln!(
                 s,
@@ -979,6 +1029,7 @@ mod tests {
             dir: dir.into(),
             label: label.map(String::from),
             particles,
+            grid: Vec::new(),
         };
         assert_eq!(Side::parse("results/x:phd-3.0"), side("results/x", Some("phd-3.0"), None));
         assert_eq!(Side::parse("results/x"), side("results/x", None, None));
@@ -989,6 +1040,19 @@ mod tests {
         assert_eq!(Side::parse("results/x:a@b"), side("results/x", Some("a@b"), None));
         assert_eq!(Side::parse("results/x:a@0"), side("results/x", Some("a@0"), None));
         assert_eq!(Side::parse("results/x:phd-3.0@100").show(), "results/x:phd-3.0@100");
+        // Grid points: trailing `#KEY=VALUE`s, on a label, a count or the directory alone.
+        let edge = |v: &str| vec![("scenario.sensor.edge".to_string(), v.to_string())];
+        let hold = Side::parse("results/x:phd-3.0@10#scenario.sensor.edge=hold");
+        assert_eq!(hold, Side { grid: edge("hold"), ..side("results/x", Some("phd-3.0"), Some(10)) });
+        assert_eq!(hold.show(), "results/x:phd-3.0@10#scenario.sensor.edge=hold");
+        assert_eq!(
+            Side::parse("results/x#scenario.sensor.edge=hard"),
+            Side { grid: edge("hard"), ..side("results/x", None, None) }
+        );
+        let two = Side::parse("results/x:f#a=1#b=2");
+        assert_eq!(two.grid, vec![("a".to_string(), "1".to_string()), ("b".to_string(), "2".to_string())]);
+        // Not a selection: part of the label.
+        assert_eq!(Side::parse("results/x:a#b"), side("results/x", Some("a#b"), None));
     }
 
     #[test]
