@@ -135,11 +135,6 @@ impl<const V: usize, const K: usize, const X: usize> PairMoments<V, K, X> {
     }
 }
 
-/// A lower factor `L` with `L L^T = P`: the Cholesky factor, or zero for `P = 0` (a known
-/// pose); `None` if `P` is not positive definite otherwise.
-pub fn lower_factor<const D: usize>(p: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
-    if p.iter().all(|&v| v == 0.0) {
-        return Some(SMatrix::zeros());
-    }
-    p.cholesky().map(|c| c.l())
-}
+/// A lower factor `L` with `L L^T = P` (zero for a known state, `P = 0`): rfslam-core's,
+/// which the vehicle's [`rfslam_core::state::StateSpace::lower_factor`] builds on too.
+pub use rfslam_core::gaussian::lower_factor;

@@ -57,6 +57,15 @@ pub fn sample<const D: usize, R: rand::Rng + ?Sized>(
     Some(mean + l * e)
 }
 
+/// A lower factor `L` with `L L^T = P`: the Cholesky factor, or zero for `P = 0` (a known
+/// state or landmark); `None` if `P` is not positive definite otherwise.
+pub fn lower_factor<const D: usize>(p: &SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
+    if p.iter().all(|&v| v == 0.0) {
+        return Some(SMatrix::zeros());
+    }
+    p.cholesky().map(|c| c.l())
+}
+
 /// `(P + P^T) / 2`.
 #[inline]
 pub fn symmetrise<const D: usize>(p: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {

@@ -71,8 +71,8 @@ impl<const X: usize> StateSpace<X> {
     /// zero for `p = 0` (a known state); `None` if `p` is not positive definite on the
     /// estimated components.
     pub fn lower_factor(&self, p: &SMatrix<f64, X, X>) -> Option<SMatrix<f64, X, X>> {
-        if p.iter().all(|&v| v == 0.0) {
-            return Some(SMatrix::zeros());
+        if !self.holds_any() || p.iter().all(|&v| v == 0.0) {
+            return crate::gaussian::lower_factor(p);
         }
         let mut l = self.factorable(p).cholesky()?.l();
         for i in (0..X).filter(|&i| self.held[i]) {
