@@ -7,7 +7,8 @@
 //!   segments a filter predicts through ([`Dataset::segments_for_scan`]).
 //! - [`ModelConfig`]: the `[motion]`, `[sensor]`, `[detection]` and `[clutter]` tables
 //!   shared by `dataset.toml` and scenario files, converted to [`rfslam_core::SlamModels`].
-//! - [`ScenarioConfig`]: scenario files (world + models) as the harness uses them.
+//! - [`ScenarioConfig`]: scenario files (world + models) as the harness uses them;
+//!   [`RadioScenario`]: those of the 5G radio world (`[world] kind = "radio5g"`).
 //! - [`mat`]: a reader of MATLAB MAT v5 files (numeric arrays, compressed or not).
 //! - [`csvio`]: CSV reading and writing whose errors name `file:line` and the column.
 //! - [`find_data`]: external data through `RFSLAM_DATA`, `../shared/data`, `./data`.
@@ -27,6 +28,7 @@ pub mod error;
 pub mod find;
 pub mod locate;
 pub mod mat;
+pub mod radio;
 pub mod scenario;
 
 /// Helpers for the tests of this crate and of the crates that read its formats (always
@@ -38,6 +40,7 @@ pub use dataset::{Dataset, DatasetMeta, Landmark, LandmarkTypes, OdometryRow, Tr
 pub use error::{ConfigError, DataError};
 pub use find::{DATA_ENV, data_dirs, find_data};
 pub use mat::{MatArray, MatError, MatFile};
+pub use radio::{RadioScenario, is_radio};
 pub use scenario::{
     GLMB_SIM_LAP_LENGTH, GLMB_SIM_LAP_LENGTH_RANGE, GLMB_SIM_LAPS_DRIVEN, LoopParams, ProceduralParams, ScenarioConfig,
     WorldSpec,

@@ -27,7 +27,7 @@ pub mod simulate;
 pub mod victoria_park;
 pub mod world;
 
-pub use radio5g::RadioWorld;
+pub use radio5g::{RadioWorld, radio_run, radio_sensor, radio_vehicle};
 pub use scenario::ScenarioData;
 pub use simulate::{SimulatedRun, draw_scan, simulate, simulate_run};
 pub use victoria_park::VictoriaPark;

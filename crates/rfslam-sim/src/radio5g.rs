@@ -7,7 +7,7 @@
 use nalgebra::{SVector, Vector3};
 use rfslam_core::model::{LandmarkType, RadioSensor, RadioVehicle};
 use rfslam_core::{Control, Rng};
-use rfslam_data::DataError;
+use rfslam_data::{DataError, RadioScenario};
 
 use crate::simulate::{SimulatedRun, simulate_run};
 
@@ -53,6 +53,21 @@ impl RadioWorld {
         }
     }
 
+    /// The world of a radio scenario: the published geometry with the scenario's lap
+    /// (`world.steps`, `world.dt`) and the scattering points' heights drawn from
+    /// `U[world.sp_height_min, world.sp_height_max]` with `world.seed` (one draw per
+    /// scenario, shared by every run).
+    pub fn from_scenario(sc: &RadioScenario) -> RadioWorld {
+        use rand::RngExt;
+        let w = &sc.world;
+        let mut rng = rfslam_core::rng::stream(&[w.seed, rfslam_core::rng::purpose::WORLD]);
+        let heights = std::array::from_fn(|_| {
+            let u: f64 = rng.random();
+            w.sp_height_min + u * (w.sp_height_max - w.sp_height_min)
+        });
+        RadioWorld { dt: w.dt, steps: w.steps, ..RadioWorld::published(heights) }
+    }
+
     /// One run: the vehicle moves by `vehicle` (its process noise on the truth), the
     /// filters receive the known control, and `sensor` draws the scans.
     pub fn simulate(
@@ -63,6 +78,41 @@ impl RadioWorld {
     ) -> Result<SimulatedRun<5, 5>, DataError> {
         simulate_run(vehicle, sensor, self.x0, self.u, [0.0; 3], self.dt, self.steps, &self.landmarks, rng)
     }
+}
+
+/// The radio vehicle of a scenario (`[vehicle] sigma`), as it moves and as the filters
+/// assume it.
+pub fn radio_vehicle(sc: &RadioScenario) -> RadioVehicle {
+    RadioVehicle { sigma: sc.vehicle.sigma }
+}
+
+/// The radio sensor of a scenario: as it is (`filters = false`: the simulator's `p_D`, `R`
+/// unscaled) or as the filters assume it (`filters = true`: `filter_pd`, `R` scaled per
+/// landmark type by `filter_noise_scale`). The clutter intensity is the rate over the
+/// clutter box's volume in both.
+pub fn radio_sensor(sc: &RadioScenario, filters: bool) -> RadioSensor {
+    let s = &sc.sensor;
+    let mut out = RadioSensor {
+        sigma: s.sigma,
+        noise_scale: if filters { s.filter_noise_scale } else { [1.0; 3] },
+        pd: if filters { s.filter_pd } else { s.pd },
+        pd_true: s.pd,
+        clutter_rate: sc.clutter.rate,
+        toa_max: sc.clutter.toa_max,
+        ..RadioSensor::published()
+    };
+    out.visibility[LandmarkType::ScatteringPoint.mark() as usize] = s.sp_visibility;
+    out.kappa = out.clutter_rate / out.clutter_volume();
+    out
+}
+
+/// One run of a radio scenario with run seed `seed` (the data stream
+/// `stream(&[seed, purpose::SCENARIO])`), with its world.
+pub fn radio_run(sc: &RadioScenario, seed: u64) -> Result<(RadioWorld, SimulatedRun<5, 5>), DataError> {
+    let world = RadioWorld::from_scenario(sc);
+    let mut rng = rfslam_core::rng::stream(&[seed, rfslam_core::rng::purpose::SCENARIO]);
+    let run = world.simulate(&radio_vehicle(sc), &radio_sensor(sc, false), &mut rng)?;
+    Ok((world, run))
 }
 
 #[cfg(test)]
@@ -93,5 +143,25 @@ mod tests {
                 assert_eq!(labels.contains(&id), near, "step {k}: scattering point {id}");
             }
         }
+    }
+
+    /// A scenario's world: its lap and heights within the range, one draw per scenario
+    /// seed; the filters' sensor scales R and the simulator's does not.
+    #[test]
+    fn world_and_sensors_of_a_scenario() {
+        let text = "name = \"r\"\n[world]\nkind = \"radio5g\"\nsteps = 80\nsp_height_min = 5.0\nsp_height_max = 10.0\n[sensor]\nfilter_noise_scale = [4.0, 4.0, 4.0]\n";
+        let sc = RadioScenario::from_toml_str(text, "r.toml").unwrap();
+        let w = RadioWorld::from_scenario(&sc);
+        assert_eq!(w.steps, 80);
+        let h: Vec<f64> = w.landmarks[5..].iter().map(|l| l.1.z).collect();
+        assert!(h.iter().all(|&h| (5.0..=10.0).contains(&h)), "{h:?}");
+        assert!(h.windows(2).any(|p| p[0] != p[1]), "drawn, not equal: {h:?}");
+        assert_eq!(RadioWorld::from_scenario(&sc), w, "one draw per scenario");
+        let (truth, filters) = (radio_sensor(&sc, false), radio_sensor(&sc, true));
+        assert_eq!((truth.noise_scale, filters.noise_scale), ([1.0; 3], [4.0; 3]));
+        assert_eq!(truth.kappa, RadioSensor::published().kappa);
+        let (_, run) = radio_run(&sc, 3).unwrap();
+        assert_eq!(run.scans.len(), 81);
+        assert_eq!(radio_run(&sc, 3).unwrap().1, run, "same seed, same run");
     }
 }

@@ -1,0 +1,239 @@
+//! Scenario files of the 5G mmWave radio world of the PMBM-SLAM paper (\[Kim2022\] Section
+//! VI-A): a vehicle driving a 70.7 m circle around a known base station, mapping virtual
+//! anchors and scattering points from time-of-arrival and direction-of-departure/arrival
+//! measurements. Every key has the published value (or the public codes' where the paper
+//! gives none) as its default, so the smallest scenario is
+//!
+//! ```toml
+//! name = "radio5g"
+//! [world]
+//! kind = "radio5g"
+//! ```
+//!
+//! and a scenario writes only what it changes (the keys and their sources:
+//! docs/configuration.md).
+
+use rfslam_core::params::Interval;
+use serde::{Deserialize, Serialize};
+
+use crate::config::{in_range, limits};
+use crate::error::{ConfigError, DataError};
+
+/// The `[world]` table of a radio scenario: the lap, the scattering points' heights.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RadioWorldConfig {
+    /// Always `"radio5g"`.
+    pub kind: RadioKind,
+    /// Transitions (one scan more): 40 of 0.5 s is the paper's one lap, 80 two laps.
+    pub steps: usize,
+    /// Step length (s).
+    pub dt: f64,
+    /// The scattering points' heights are drawn from `U[sp_height_min, sp_height_max]` (m)
+    /// once per scenario with `seed`, shared by every run (as the code of the paper's
+    /// reference \[4\] draws them once before its Monte Carlo loop).
+    pub sp_height_min: f64,
+    /// Upper end of the scattering points' heights (m).
+    pub sp_height_max: f64,
+    /// Seed of the height draw.
+    pub seed: u64,
+}
+
+/// The one kind of radio world (a tag, so that `[world] kind` reads as in planar scenarios).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum RadioKind {
+    /// The world of \[Kim2022\] Section VI-A.
+    #[default]
+    #[serde(rename = "radio5g")]
+    Radio5g,
+}
+
+impl Default for RadioWorldConfig {
+    fn default() -> Self {
+        RadioWorldConfig {
+            kind: RadioKind::Radio5g,
+            steps: 40,
+            dt: 0.5,
+            sp_height_min: 0.0,
+            sp_height_max: 40.0,
+            seed: 1,
+        }
+    }
+}
+
+/// The `[vehicle]` table: the process noise added once per step to the true state and
+/// assumed by the filters (\[Kim2022\] eq. 1), standard deviations of
+/// `[x, y, z, heading, clock bias]` (m, m, m, rad, m). A zero is a component the filters
+/// hold at its true value (the height).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RadioVehicleConfig {
+    /// The standard deviations.
+    pub sigma: [f64; 5],
+}
+
+impl Default for RadioVehicleConfig {
+    fn default() -> Self {
+        RadioVehicleConfig { sigma: [0.2, 0.2, 0.0, 1e-3, 0.2] }
+    }
+}
+
+/// The `[sensor]` table: measurement noise, visibility and detection.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RadioSensorConfig {
+    /// Standard deviations of `[toa, dod_az, dod_el, doa_az, doa_el]` (m, rad x 4).
+    pub sigma: [f64; 5],
+    /// The filters' `R` is the sensor's times this scale, per landmark type
+    /// `[base station, virtual anchor, scattering point]`; default 1. (\[Kim2022\] Section
+    /// VI-A replaces `R` by `R_U = 4 R` in the updates of steps ii and iv: `mpmb-slam` does
+    /// that with its own `noise_inflation`, the particle filters have no such key, and this
+    /// scale inflates `R` in every update of every filter.)
+    pub filter_noise_scale: [f64; 3],
+    /// The simulator's detection probability of a visible landmark.
+    pub pd: f64,
+    /// The filters' detection probability of a visible landmark.
+    pub filter_pd: f64,
+    /// Distance (m) within which a scattering point is visible; the base station and the
+    /// virtual anchors are always visible.
+    pub sp_visibility: f64,
+}
+
+impl Default for RadioSensorConfig {
+    fn default() -> Self {
+        RadioSensorConfig {
+            sigma: [0.1, 0.01, 0.01, 0.01, 0.01],
+            filter_noise_scale: [1.0; 3],
+            pd: 0.95,
+            filter_pd: 0.95,
+            sp_visibility: 50.0,
+        }
+    }
+}
+
+/// The `[clutter]` table: a Poisson number of returns per scan, uniform over the box of
+/// time of arrival `[0, toa_max]` and every direction.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RadioClutterConfig {
+    /// Mean clutter returns per scan.
+    pub rate: f64,
+    /// Upper end of the clutter's time of arrival (m).
+    pub toa_max: f64,
+}
+
+impl Default for RadioClutterConfig {
+    fn default() -> Self {
+        RadioClutterConfig { rate: 1.0, toa_max: 200.0 }
+    }
+}
+
+/// A radio scenario (`[world] kind = "radio5g"`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RadioScenario {
+    /// Short name.
+    pub name: String,
+    /// Free text.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
+    /// `[world]`.
+    pub world: RadioWorldConfig,
+    /// `[vehicle]`.
+    #[serde(default)]
+    pub vehicle: RadioVehicleConfig,
+    /// `[sensor]`.
+    #[serde(default)]
+    pub sensor: RadioSensorConfig,
+    /// `[clutter]`.
+    #[serde(default)]
+    pub clutter: RadioClutterConfig,
+}
+
+/// Most transitions of a radio world (a hundred laps).
+pub const MAX_RADIO_STEPS: usize = 4000;
+
+impl RadioScenario {
+    /// Checks every value (keys as in the file: `sensor.pd`, `world.steps`).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let w = &self.world;
+        if w.steps == 0 || w.steps > MAX_RADIO_STEPS {
+            return Err(ConfigError::new("world.steps", format!("must be 1 to {MAX_RADIO_STEPS}, not {}", w.steps)));
+        }
+        in_range("world.dt", Interval::POSITIVE.up_to(limits::MAX_DT), w.dt)?;
+        let height = Interval::magnitude(limits::MAX_DISTANCE);
+        in_range("world.sp_height_min", height, w.sp_height_min)?;
+        in_range("world.sp_height_max", height, w.sp_height_max)?;
+        if w.sp_height_max < w.sp_height_min {
+            return Err(ConfigError::new("world.sp_height_max", "must not be below world.sp_height_min"));
+        }
+        let sigma = Interval::NON_NEGATIVE.up_to(limits::MAX_SIGMA);
+        for (i, s) in self.vehicle.sigma.iter().enumerate() {
+            in_range(&format!("vehicle.sigma[{i}]"), sigma, *s)?;
+        }
+        for (i, s) in self.sensor.sigma.iter().enumerate() {
+            in_range(&format!("sensor.sigma[{i}]"), Interval::POSITIVE.up_to(limits::MAX_SIGMA), *s)?;
+        }
+        for (i, s) in self.sensor.filter_noise_scale.iter().enumerate() {
+            in_range(&format!("sensor.filter_noise_scale[{i}]"), Interval::POSITIVE.up_to(1e6), *s)?;
+        }
+        in_range("sensor.pd", Interval::UNIT, self.sensor.pd)?;
+        in_range("sensor.filter_pd", Interval::UNIT, self.sensor.filter_pd)?;
+        in_range(
+            "sensor.sp_visibility",
+            Interval::NON_NEGATIVE.up_to(limits::MAX_DISTANCE),
+            self.sensor.sp_visibility,
+        )?;
+        in_range("clutter.rate", Interval::NON_NEGATIVE.up_to(1e4), self.clutter.rate)?;
+        in_range("clutter.toa_max", Interval::POSITIVE.up_to(limits::MAX_DISTANCE), self.clutter.toa_max)?;
+        Ok(())
+    }
+
+    /// Parses and validates a radio scenario; errors name `file_name`, the line and the key.
+    pub fn from_toml_str(text: &str, file_name: impl AsRef<std::path::Path>) -> Result<RadioScenario, DataError> {
+        let path = file_name.as_ref();
+        let sc: RadioScenario = toml::from_str(text).map_err(|e| DataError::toml(path, text, &e))?;
+        sc.validate().map_err(|e| DataError::config_in(path, text, e))?;
+        Ok(sc)
+    }
+}
+
+/// Whether a scenario table is of the radio world (`[world] kind = "radio5g"`).
+pub fn is_radio(table: &toml::Table) -> bool {
+    table.get("world").and_then(|w| w.get("kind")).and_then(|k| k.as_str()) == Some("radio5g")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_smallest_scenario_is_the_published_world() {
+        let sc = RadioScenario::from_toml_str("name = \"r\"\n[world]\nkind = \"radio5g\"\n", "r.toml").unwrap();
+        assert_eq!(sc.world, RadioWorldConfig::default());
+        assert_eq!((sc.world.steps, sc.world.dt), (40, 0.5));
+        assert_eq!(sc.sensor.filter_noise_scale, [1.0; 3]);
+        assert!(is_radio(&toml::from_str("[world]\nkind = \"radio5g\"").unwrap()));
+        assert!(!is_radio(&toml::from_str("[world]\nkind = \"procedural\"").unwrap()));
+    }
+
+    #[test]
+    fn bad_values_name_their_key_and_line() {
+        let bad = |extra: &str| {
+            let text = format!("name = \"r\"\n[world]\nkind = \"radio5g\"\n{extra}\n");
+            RadioScenario::from_toml_str(&text, "r.toml").unwrap_err().to_string()
+        };
+        let e = bad("steps = 0");
+        assert!(e.contains("world.steps") && e.contains("r.toml"), "{e}");
+        let e = bad("sp_height_min = 30.0\nsp_height_max = 10.0");
+        assert!(e.contains("world.sp_height_max"), "{e}");
+        let e = bad("[sensor]\npd = 1.5");
+        assert!(e.contains("sensor.pd"), "{e}");
+        let e = bad("[sensor]\nsigma = [0.1, 0.0, 0.01, 0.01, 0.01]");
+        assert!(e.contains("sensor.sigma[1]"), "{e}");
+        let e = bad("[sensor]\nrange = 3.0");
+        assert!(e.contains("range"), "{e}");
+        let e = bad("[vehicle]\nsigma = [0.2, 0.2, 0.0, 0.001]");
+        assert!(e.contains("sigma"), "{e}");
+    }
+}
