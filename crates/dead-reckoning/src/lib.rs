@@ -74,6 +74,24 @@ impl FilterBuild for DeadReckoning {
     }
 }
 
+impl<V, S, const X: usize, const M: usize, const Z: usize> rfslam_core::WorldBuild<V, S, X, M, Z> for DeadReckoning
+where
+    V: VehicleModel<X, 3> + Clone + Send + 'static,
+    S: rfslam_core::InvertibleSensorModel<X, M, Z>,
+{
+    fn build_world(
+        _params: Params,
+        models: &rfslam_core::WorldModels<V, S, X, M, Z>,
+        particles: usize,
+    ) -> Result<Box<dyn SlamFilter<X, M, Z>>, ParamError> {
+        if particles != 1 {
+            return Err(ParamError::new("particles", "dead-reckoning has no particles: use 1"));
+        }
+        let v = &models.vehicle;
+        Ok(Box::new(DeadReckoning::<V, X, M, Z>::new(v.model.clone(), v.initial_state)))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

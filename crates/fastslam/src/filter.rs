@@ -373,6 +373,24 @@ impl<S: PlanarSensorModel> FilterBuild for OracleFastSlam2<S> {
     }
 }
 
+impl<V, S, const X: usize, const M: usize, const Z: usize> rfslam_core::WorldBuild<V, S, X, M, Z> for OracleFastSlam2
+where
+    V: VehicleModel<X, 3> + Clone + Send + 'static,
+    S: InvertibleSensorModel<X, M, Z>,
+{
+    /// The oracle is given the landmark types by id, as it is given the associations.
+    fn build_world(
+        params: Params,
+        models: &rfslam_core::WorldModels<V, S, X, M, Z>,
+        particles: usize,
+    ) -> Result<Box<dyn rfslam_core::SlamFilter<X, M, Z>>, ParamError> {
+        params.validate(particles)?;
+        let engine = OracleEngine::new(params, models.vehicle.clone(), models.sensor.clone(), particles)
+            .with_landmark_types(models.landmark_types.iter().copied());
+        Ok(Box::new(rfslam_core::Named { name: Self::NAME, engine }))
+    }
+}
+
 impl<const X: usize, const M: usize> LogWeighted for Particle<X, M> {
     fn log_weight(&self) -> f64 {
         self.log_w

@@ -343,6 +343,24 @@ macro_rules! variant_filter {
                 $ty(PmbmFilter::new($variant, params, models.vehicle(), model, particles))
             }
         }
+
+        impl<V, S2, const X: usize, const M: usize, const Z: usize> rfslam_core::WorldBuild<V, S2, X, M, Z> for $ty
+        where
+            V: VehicleModel<X, 3> + Clone + Send + 'static,
+            S2: InvertibleSensorModel<X, M, Z>,
+        {
+            fn build_world(
+                params: Params,
+                models: &rfslam_core::WorldModels<V, S2, X, M, Z>,
+                particles: usize,
+            ) -> Result<Box<dyn rfslam_core::SlamFilter<X, M, Z>>, ParamError> {
+                params.validate(particles)?;
+                crate::params::refuse_planar_keys(params.detection_pd, params.clutter_rate)?;
+                params.check_undetected(&models.sensor)?;
+                let engine = PmbmFilter::new($variant, params, models.vehicle.clone(), models.sensor.clone(), particles);
+                Ok(Box::new(rfslam_core::Named { name: $name, engine }))
+            }
+        }
     };
 }
 

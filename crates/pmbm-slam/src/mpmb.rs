@@ -669,3 +669,24 @@ impl<S: PlanarSensorModel> FilterBuild for MpmbSlam<S> {
         MpmbSlam(MpmbFilter::new(params, models.vehicle(), model))
     }
 }
+
+impl<V, S2, const X: usize, const M: usize, const Z: usize> rfslam_core::WorldBuild<V, S2, X, M, Z> for MpmbSlam
+where
+    V: VehicleModel<X, 3> + Clone + Send + 'static,
+    S2: InvertibleSensorModel<X, M, Z>,
+{
+    fn build_world(
+        params: MpmbParams,
+        models: &rfslam_core::WorldModels<V, S2, X, M, Z>,
+        particles: usize,
+    ) -> Result<Box<dyn rfslam_core::SlamFilter<X, M, Z>>, ParamError> {
+        if particles != 1 {
+            return Err(ParamError::new("particles", "mpmb-slam has no particles (one Gaussian vehicle): use 1"));
+        }
+        params.validate()?;
+        crate::params::refuse_planar_keys(params.detection_pd, params.clutter_rate)?;
+        check_undetected(params.undetected, params.undetected_cell, &models.sensor)?;
+        let engine = MpmbFilter::new(params, models.vehicle.clone(), models.sensor.clone());
+        Ok(Box::new(rfslam_core::Named { name: Self::NAME, engine }))
+    }
+}

@@ -97,7 +97,7 @@ pub fn init_dataset(out: &Path) -> Result<(), Failure> {
     let readme = out.join("README.md");
     std::fs::write(&readme, TEMPLATE_README).with_context(|| format!("writing {}", readme.display()))?;
     let n_z: usize = ds.scans.iter().map(|s| s.z.len()).sum();
-    println!(
+    outln!(
         "wrote a template data set ({} scans, {} measurements, {} landmarks) to {}: replace its files with your log as {} says, then `rfslam run --dataset {} --filter phd-3.0 --out run`",
         ds.scans.len(),
         n_z,

@@ -9,6 +9,23 @@
 // `<experiment name>` there is a placeholder, not an HTML tag.
 #![allow(rustdoc::invalid_html_tags)]
 
+/// `print!` to standard output that never panics: when the reader has gone (`rfslam filters
+/// | head`), the rest of the output is dropped and the command ends as it would have.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
+
+/// `println!` to standard output that never panics (see `out!`).
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
+
 mod init_dataset;
 mod plot;
 mod run;
@@ -215,6 +232,17 @@ pub(crate) fn scenario_with_overrides(
     sets: &[(String, toml::Value)],
 ) -> Result<rfslam_data::ScenarioConfig, Failure> {
     let (text, mut table) = load_scenario_table(path)?;
+    if rfslam_data::is_radio(&table) {
+        return Err(HarnessError::Config {
+            file: path.to_path_buf(),
+            line: rfslam_data::locate::locate(&text, "world.kind"),
+            key: "world.kind".into(),
+            message: "the radio5g world runs through `rfslam sweep` (an experiment naming this scenario); \
+                      `rfslam run` and `rfslam simulate` work on the planar worlds and data sets"
+                .into(),
+        }
+        .into());
+    }
     for (k, v) in sets {
         set_dotted(&mut table, k, v.clone()).map_err(|m| usage(format!("--set scenario.{k}: {m}")))?;
     }
@@ -246,7 +274,7 @@ fn simulate(scenario: &Path, seed: u64, set: &[String], out: &Path) -> Result<()
     // Writing the data set is a failure while running (exit 1), not bad input.
     ds.write(out).map_err(|e| anyhow!("{e}"))?;
     let n_z: usize = ds.scans.iter().map(|s| s.z.len()).sum();
-    println!("wrote {} ({} scans, {} measurements) to {}", ds.meta.name, ds.scans.len(), n_z, out.display());
+    outln!("wrote {} ({} scans, {} measurements) to {}", ds.meta.name, ds.scans.len(), n_z, out.display());
     Ok(())
 }
 
@@ -269,7 +297,8 @@ fn main() -> ExitCode {
         Command::InitDataset { dir } => init_dataset::init_dataset(&dir),
         Command::Filters => {
             for e in registry::REGISTRY {
-                println!("{:<22} {}", e.name, e.summary);
+                let radio = if e.radio.is_some() { " [also the radio5g world]" } else { "" };
+                outln!("{:<22} {}{radio}", e.name, e.summary);
             }
             Ok(())
         }
@@ -278,13 +307,13 @@ fn main() -> ExitCode {
         Command::Plot(args) => plot::plot(&args),
         Command::Report { dir } => (|| {
             let n = rfslam_harness::sweep::report_dir(&dir)?;
-            println!("{n} rows -> {}/summary.csv, {}/report.md", dir.display(), dir.display());
+            outln!("{n} rows -> {}/summary.csv, {}/report.md", dir.display(), dir.display());
             Ok(())
         })(),
         Command::Compare { sides, out, metrics } => (|| {
             let parsed: Vec<Side> = sides.iter().map(|s| Side::parse(s)).collect();
             let c = rfslam_harness::compare::compare(&parsed, metrics.as_deref(), &command_line())?;
-            print!("{}", c.markdown());
+            out!("{}", c.markdown());
             if let Some(out) = &out {
                 c.write(out)?;
                 eprintln!("wrote {}/compare.md, {}/compare.csv", out.display(), out.display());
@@ -296,8 +325,8 @@ fn main() -> ExitCode {
             for d in &o.identical_duplicates {
                 eprintln!("warning: duplicated job with identical rows, kept once: {d}");
             }
-            print!("{}", o.table);
-            println!(
+            out!("{}", o.table);
+            outln!(
                 "merged {} shard directories ({} jobs) -> {}/runs.csv, {}/summary.csv, {}/report.md",
                 o.shards,
                 o.jobs,
@@ -358,8 +387,8 @@ fn main() -> ExitCode {
                 Some(s) => format!(" [shard {s}: {} jobs]", o.total),
                 None => String::new(),
             };
-            print!("{}", o.table);
-            println!(
+            out!("{}", o.table);
+            outln!(
                 "{} jobs run ({} already done){part} in {:.1} s -> {}/summary.csv, {}/report.md",
                 o.ran,
                 o.skipped,

@@ -83,6 +83,6 @@ pub fn plot(args: &PlotArgs) -> Result<(), Failure> {
     for n in &o.notes {
         eprintln!("note: {n}");
     }
-    println!("{} figure ({} x {} px) -> {}", o.kind.name(), o.size.0, o.size.1, args.out.display());
+    outln!("{} figure ({} x {} px) -> {}", o.kind.name(), o.size.0, o.size.1, args.out.display());
     Ok(())
 }

@@ -168,7 +168,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     write_map(out, &o)?;
     trace::write_run_context(&ds, out)?;
     write_metrics(args, &ds, &o, &ov.metrics)?;
-    println!(
+    outln!(
         "{filter} N={} seed={}: {} steps, pos RMSE {} m, heading RMSE {} deg, GOSPA {} m, {} ms/step -> {}",
         args.particles,
         args.seed,

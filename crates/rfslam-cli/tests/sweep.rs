@@ -15,7 +15,25 @@ fn filters_lists_every_registered_filter() {
     assert_eq!(listed, registered, "{}", o.stdout);
     for e in REGISTRY {
         assert!(o.stdout.contains(e.summary), "{} lacks its summary:\n{}", e.name, o.stdout);
+        let line = o.stdout.lines().find(|l| l.split_whitespace().next() == Some(e.name)).unwrap();
+        assert_eq!(line.ends_with("[also the radio5g world]"), e.radio.is_some(), "{line}");
     }
+}
+
+/// A reader that stops early (`rfslam filters | head -1`) ends the listing quietly: no
+/// panic on the broken pipe, exit 0.
+#[test]
+fn a_closed_stdout_is_not_a_panic() {
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_rfslam"))
+        .arg("filters")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && !stderr.contains("panicked"), "{:?}: {stderr}", out.status);
 }
 
 /// Every registered filter (dead reckoning twice, under two labels) with the particle

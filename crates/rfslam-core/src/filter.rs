@@ -238,3 +238,72 @@ pub trait FilterBuild: SlamFilter + Sized + 'static {
         Ok(Self::build(Self::validate(params, models, particles)?, models))
     }
 }
+
+/// The models a registered filter is built for in a world beyond the planar ones (the 5G
+/// radio world): the vehicle and the sensor as the filters assume them, and the landmark
+/// types by id, truth that only the oracle filters read (as they read the associations).
+#[derive(Debug, Clone)]
+pub struct WorldModels<V, S, const X: usize, const M: usize, const Z: usize>
+where
+    S: crate::model::SensorModel<X, M, Z>,
+{
+    /// The vehicle: its model, control noise and known initial state.
+    pub vehicle: crate::model::Vehicle<V, X>,
+    /// The sensor model.
+    pub sensor: S,
+    /// The landmark types by id.
+    pub landmark_types: Vec<(i64, S::Mark)>,
+}
+
+/// A registered filter that also runs in the world of vehicle model `V` and sensor model
+/// `S`: the same parameters as in the planar worlds, checked for that world, and the
+/// family's engine built on its models. A filter without this implementation is refused
+/// for that world when the experiment is validated.
+pub trait WorldBuild<V, S, const X: usize, const M: usize, const Z: usize>: FilterBuild
+where
+    V: crate::model::VehicleModel<X, 3>,
+    S: crate::model::InvertibleSensorModel<X, M, Z>,
+{
+    /// Checks `params` for `particles` in this world and builds the filter.
+    fn build_world(
+        params: Self::Params,
+        models: &WorldModels<V, S, X, M, Z>,
+        particles: usize,
+    ) -> Result<Box<dyn SlamFilter<X, M, Z>>, ParamError>;
+}
+
+/// A family's engine under a registered name: the [`SlamFilter`] of a filter built by
+/// [`WorldBuild`].
+#[derive(Debug, Clone)]
+pub struct Named<E> {
+    /// The registered name.
+    pub name: &'static str,
+    /// The engine.
+    pub engine: E,
+}
+
+impl<E: FilterEngine<X, M, Z>, const X: usize, const M: usize, const Z: usize> SlamFilter<X, M, Z> for Named<E> {
+    fn name(&self) -> &str {
+        self.name
+    }
+
+    fn particles(&self) -> usize {
+        self.engine.particles()
+    }
+
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
+        self.engine.step(odometry, scan, rng)
+    }
+
+    fn estimate(&self) -> Estimate<X, M> {
+        self.engine.estimate()
+    }
+
+    fn particle_poses(&self, out: &mut Vec<(SVector<f64, X>, f64)>) -> bool {
+        self.engine.particle_poses(out)
+    }
+
+    fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
+        self.engine.particle_parents(out)
+    }
+}

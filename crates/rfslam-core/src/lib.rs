@@ -40,7 +40,7 @@ pub mod state;
 pub mod types;
 
 pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov, FovEdge, PlacedFov, SensorKind};
-pub use filter::{FilterBuild, FilterEngine, SlamFilter, Validated};
+pub use filter::{FilterBuild, FilterEngine, Named, SlamFilter, Validated, WorldBuild, WorldModels};
 pub use model::{InvertibleSensorModel, SensorModel, VehicleModel};
 pub use motion::{AckermannModel, Motion, MotionModel, OdometryModel, VelocityModel};
 pub use params::{ParamError, RbpfParams};

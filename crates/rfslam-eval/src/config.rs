@@ -51,6 +51,11 @@ pub struct MetricsConfig {
     /// adds 0.53 s; 10 is the recommended spacing.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gospa_every: Option<usize>,
+    /// Whether the experiment runs in a world of landmark types beyond the planar ones (the
+    /// 5G radio world): its per-type GOSPA and clock-bias columns are written. Set by the
+    /// harness from the scenario, never from a file.
+    #[serde(skip)]
+    pub typed_world: bool,
 }
 
 fn is_false(b: &bool) -> bool {
@@ -108,6 +113,7 @@ impl Default for MetricsConfig {
             split_step: None,
             ancestry: false,
             gospa_every: None,
+            typed_world: false,
         }
     }
 }

@@ -94,8 +94,8 @@ impl Better {
 /// The family of a metric's columns in reports (one table per family).
 const fn family_of(metric: &'static str) -> &'static str {
     match metric.as_bytes() {
-        b"pose" | b"aligned_pose" | b"xy" | b"split" => "localisation",
-        b"map_gospa" | b"ospa" | b"landmarks" | b"map_gospa_time" => "map",
+        b"pose" | b"aligned_pose" | b"xy" | b"split" | b"clock" => "localisation",
+        b"map_gospa" | b"ospa" | b"landmarks" | b"map_gospa_time" | b"typed" => "map",
         b"association" => "data association",
         b"time" => "cost",
         _ => "filter",
@@ -455,6 +455,61 @@ pub static COLUMNS: &[Column] = &[
         ),
         Better::Neither,
     ),
+    summarised(
+        real("clock_rmse_m", "clock", "m", "clock-bias RMSE over the scored steps (worlds whose state has one)"),
+        "clock_rmse_m",
+        Some("clock_std_m"),
+        SCORED,
+        "clock-bias RMSE [m]",
+    ),
+    summarised(
+        real(
+            "va_gospa_m",
+            "typed",
+            "m",
+            "GOSPA of the final map's virtual anchors against every true one (c, p of [metrics]; the radio world)",
+        ),
+        "va_gospa_m",
+        Some("va_gospa_std_m"),
+        Pool::Mean,
+        "VA GOSPA, final [m]",
+    ),
+    summarised(
+        real(
+            "sp_gospa_m",
+            "typed",
+            "m",
+            "GOSPA of the final map's scattering points against every true one (c, p of [metrics]; the radio world)",
+        ),
+        "sp_gospa_m",
+        Some("sp_gospa_std_m"),
+        Pool::Mean,
+        "SP GOSPA, final [m]",
+    ),
+    summarised(
+        real(
+            "va_gospa_mean_m",
+            "typed",
+            "m",
+            "mean over the steps of the virtual anchors' GOSPA (Kim et al. 2022 Fig. 3)",
+        ),
+        "va_gospa_mean_m",
+        Some("va_gospa_mean_std_m"),
+        Pool::Mean,
+        "VA GOSPA, mean over steps [m]",
+    ),
+    summarised(
+        real(
+            "sp_gospa_mean_m",
+            "typed",
+            "m",
+            "mean over the steps of the scattering points' GOSPA (Kim et al. 2022 Fig. 3)",
+        ),
+        "sp_gospa_mean_m",
+        Some("sp_gospa_mean_std_m"),
+        Pool::Mean,
+        "SP GOSPA, mean over steps [m]",
+    ),
 ];
 
 /// A metric: a named observer of runs that fills its columns of [`COLUMNS`].
@@ -509,7 +564,20 @@ pub static METRICS: &[MetricDecl] = &[
         enabled: |m| m.gospa_every.is_some(),
         observer: |m, s| Box::new(GospaTimeMetric::new(m, s.dataset)),
     },
+    // Scored by `crate::world::world_values` in the worlds beyond the planar ones, whose
+    // runs do not go through the planar observers; never on in a planar world.
+    MetricDecl { name: "clock", enabled: |m| m.typed_world, observer: |_, _| Box::new(NoObserver) },
+    MetricDecl { name: "typed", enabled: |m| m.typed_world, observer: |_, _| Box::new(NoObserver) },
 ];
+
+/// The observer of a metric the planar run loop does not score.
+struct NoObserver;
+
+impl Observer for NoObserver {
+    fn observe(&mut self, _: &StepRecord) {}
+
+    fn finish(&mut self, _: &RunEnd, _: &mut Values) {}
+}
 
 /// The column named `name`.
 pub fn column(name: &str) -> Option<&'static Column> {

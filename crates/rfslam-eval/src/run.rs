@@ -138,26 +138,33 @@ impl JobOutcome {
     /// is over (a map estimate that was not finite at a checkpoint). NaN elsewhere means "not available" (no true heading, landmarks or labels). A
     /// run with such a score failed: its scores are never written as a row.
     pub fn not_finite(&self, m: &MetricsConfig) -> Option<String> {
-        let get = |name: &str| self.values.get(name).unwrap_or(f64::NAN);
-        for c in crate::metric::columns(m) {
-            let v = get(c.name);
-            if v.is_infinite() {
-                return Some(format!("{} is {v}", c.name));
-            }
-            let over = match c.figure.map(|f| f.pool) {
-                Some(crate::metric::Pool::Rmse { steps }) if c.name == "pos_rmse_m" => Some((steps, "scored steps")),
-                Some(crate::metric::Pool::Rate { events }) => Some((events, "events")),
-                _ => crate::metric::gospa_time_over(c.name),
-            };
-            if let Some((count, what)) = over
-                && v.is_nan()
-                && get(count) > 0.0
-            {
-                return Some(format!("{} is NaN over {} {what}", c.name, get(count)));
-            }
-        }
-        None
+        not_finite(&self.values, m)
     }
+}
+
+/// What makes a run's `values` not a result (see [`JobOutcome::not_finite`]): an infinite
+/// score in a column `m` writes, or a NaN position RMSE, rate or GOSPA over time where there
+/// was something to score. Shared by the planar run loop and the typed worlds'.
+pub fn not_finite(values: &crate::metric::Values, m: &MetricsConfig) -> Option<String> {
+    let get = |name: &str| values.get(name).unwrap_or(f64::NAN);
+    for c in crate::metric::columns(m) {
+        let v = get(c.name);
+        if v.is_infinite() {
+            return Some(format!("{} is {v}", c.name));
+        }
+        let over = match c.figure.map(|f| f.pool) {
+            Some(crate::metric::Pool::Rmse { steps }) if c.name == "pos_rmse_m" => Some((steps, "scored steps")),
+            Some(crate::metric::Pool::Rate { events }) => Some((events, "events")),
+            _ => crate::metric::gospa_time_over(c.name),
+        };
+        if let Some((count, what)) = over
+            && v.is_nan()
+            && get(count) > 0.0
+        {
+            return Some(format!("{} is NaN over {} {what}", c.name, get(count)));
+        }
+    }
+    None
 }
 
 #[cfg(test)]

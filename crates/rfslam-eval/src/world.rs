@@ -7,6 +7,8 @@
 //! The planar data sets run through [`crate::run_filter`]; this is the in-memory loop of the
 //! worlds that the data sets and the sweeps do not carry yet (the 5G radio world).
 
+use std::time::Instant;
+
 use nalgebra::SVector;
 use rfslam_core::model::StateComponent;
 use rfslam_core::rng::{purpose, stream};
@@ -38,6 +40,10 @@ pub struct WorldStep<const X: usize, const M: usize> {
     pub estimate: Estimate<X, M>,
     /// Whether the filter's report was finite (its ESS a number).
     pub finite: bool,
+    /// The filter's report.
+    pub report: StepReport<M>,
+    /// Wall time of the recursion (s).
+    pub time_s: f64,
 }
 
 impl<const X: usize, const M: usize> WorldStep<X, M> {
@@ -68,13 +74,62 @@ pub fn run_world<const X: usize, const M: usize, const Z: usize>(
     let mut out = Vec::with_capacity(run.scans.len());
     for (k, scan) in run.scans.iter().enumerate() {
         let odometry = if k == 0 { &[][..] } else { &run.odometry[k - 1..k] };
+        let start = Instant::now();
         let (report, estimate) = step(odometry, scan, &mut rng);
+        let time_s = start.elapsed().as_secs_f64();
         let truth = run.truth[k].1;
         let mut pose = PoseErrors::new();
         pose.push_state(components, &estimate.pose, &std::array::from_fn(|i| Some(truth[i])));
         let points: Vec<(u8, SVector<f64, M>)> = estimate.map.iter().map(|p| (p.mark, p.position)).collect();
         let gospa = gospa_per_mark(&scoring.truth, &points, scoring.marks, scoring.c, scoring.p, &mut scratch)?;
-        out.push(WorldStep { pose, gospa, estimate, finite: report.ess.is_finite() });
+        out.push(WorldStep { pose, gospa, estimate, finite: report.ess.is_finite(), report, time_s });
     }
     Ok(out)
+}
+
+/// The columns of the metric table a run in a typed world scores ([`crate::metric::COLUMNS`]):
+/// the pose errors and the clock bias over every step, the final GOSPA of the mapped types
+/// together (`gospa_m` and its parts) and per type (the radio world's virtual anchors,
+/// mark 1, and scattering points, mark 2: final and mean over the steps), the filter's
+/// effective sample size, resampling and Cholesky failures for `particles` particles, the
+/// mean wall time of a recursion; with `[metrics] landmarks`, the final map's size.
+pub fn world_values<const X: usize, const M: usize>(
+    steps: &[WorldStep<X, M>],
+    scoring: &WorldScoring<M>,
+    particles: usize,
+    metrics: &crate::config::MetricsConfig,
+) -> Result<crate::metric::Values, MetricError> {
+    let mut v = crate::metric::Values::default();
+    let mut pose = PoseErrors::new();
+    steps.iter().for_each(|s| pose.merge(&s.pose));
+    let n = steps.len() as f64;
+    let nan = f64::NAN;
+    v.set("pos_rmse_m", pose.pos_rmse().unwrap_or(nan));
+    v.set("head_rmse_deg", pose.head_rmse_deg().unwrap_or(nan));
+    v.set("clock_rmse_m", pose.clock_rmse().unwrap_or(nan));
+    v.set("steps", n);
+    v.set("scored_steps", pose.steps() as f64);
+    v.set("ess_pct", steps.iter().map(|s| s.report.ess).sum::<f64>() / n / particles as f64 * 100.0);
+    v.set("resampling_pct", steps.iter().filter(|s| s.report.resampled).count() as f64 / n * 100.0);
+    v.set("cholesky_failures", steps.iter().map(|s| f64::from(s.report.cholesky_failures)).sum());
+    v.set("time_ms_per_step", steps.iter().map(|s| s.time_s).sum::<f64>() / n * 1e3);
+    if let Some(last) = steps.last() {
+        let truth: Vec<SVector<f64, M>> = scoring.truth.iter().map(|t| t.1).collect();
+        let est: Vec<SVector<f64, M>> = last.estimate.map.iter().map(|p| p.position).collect();
+        let g = rfslam_metrics::gospa(&truth, &est, metrics.gospa_c, metrics.gospa_p)?;
+        v.set("gospa_m", g.total);
+        v.set("gospa_loc_m", g.loc_term.powf(1.0 / metrics.gospa_p));
+        v.set("gospa_missed", g.missed as f64);
+        v.set("gospa_false", g.false_count as f64);
+        if metrics.landmarks {
+            v.set("landmarks", last.estimate.map.len() as f64);
+        }
+    }
+    for (mark, final_col, mean_col) in [(1, "va_gospa_m", "va_gospa_mean_m"), (2, "sp_gospa_m", "sp_gospa_mean_m")] {
+        if mark < scoring.marks {
+            v.set(final_col, steps.last().map_or(nan, |s| s.gospa[mark].total));
+            v.set(mean_col, steps.iter().map(|s| s.gospa[mark].total).sum::<f64>() / n);
+        }
+    }
+    Ok(v)
 }

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use rfslam_data::ScenarioConfig;
+use rfslam_data::{RadioScenario, ScenarioConfig, is_radio};
 use rfslam_sim::ScenarioData;
 use rfslam_sim::World;
 use serde::{Deserialize, Serialize};
@@ -155,13 +155,40 @@ pub struct ResolvedFilter {
     pub particles: Vec<usize>,
 }
 
+/// A scenario at one grid point: a planar world, or the 5G radio world
+/// (`[world] kind = "radio5g"`), whose runs are simulated per job and run by the filters
+/// built for it ([`registry::FilterEntry::radio`]).
+#[derive(Debug, Clone)]
+pub enum Scenario {
+    /// A planar world or data set.
+    Planar(ScenarioConfig),
+    /// The 5G radio world.
+    Radio(RadioScenario),
+}
+
+/// The models the filters of a radio scenario assume: the vehicle (its noise, the known
+/// initial state and control), the sensor with the filters' `p_D` and `R`, and the landmark
+/// types by id (for the oracle).
+pub fn radio_models(sc: &RadioScenario) -> registry::RadioModels {
+    let world = rfslam_sim::RadioWorld::from_scenario(sc);
+    rfslam_core::WorldModels {
+        vehicle: rfslam_core::model::Vehicle {
+            model: rfslam_sim::radio_vehicle(sc),
+            control_noise: nalgebra::Matrix3::zeros(),
+            initial_state: world.x0,
+        },
+        sensor: rfslam_sim::radio_sensor(sc, true),
+        landmark_types: world.landmarks.iter().map(|l| (l.0, l.2)).collect(),
+    }
+}
+
 /// One point of the grid (the only point when there is no grid).
 #[derive(Debug, Clone)]
 pub struct GridPoint {
     /// Value of each grid key, in [`Plan::grid_keys`] order.
     pub values: Vec<toml::Value>,
     /// The scenario with the overrides applied.
-    pub scenario: ScenarioConfig,
+    pub scenario: Scenario,
     /// The filters with the overrides applied.
     pub filters: Vec<ResolvedFilter>,
     /// The world, loaded once and shared (None for data-set scenarios).
@@ -340,7 +367,11 @@ pub fn parse_cli_value(s: &str) -> toml::Value {
 pub fn load_scenario_table(path: &Path) -> Result<(String, toml::Table), HarnessError> {
     let text = read(path)?;
     let table: toml::Table = toml::from_str(&text).map_err(|e| toml_error(path, &text, &e))?;
-    let _: ScenarioConfig = toml::from_str(&text).map_err(|e| toml_error(path, &text, &e))?;
+    if is_radio(&table) {
+        let _: RadioScenario = toml::from_str(&text).map_err(|e| toml_error(path, &text, &e))?;
+    } else {
+        let _: ScenarioConfig = toml::from_str(&text).map_err(|e| toml_error(path, &text, &e))?;
+    }
     Ok((text, table))
 }
 
@@ -355,6 +386,21 @@ pub fn scenario_from_table(
         origin(&key, msg)
     })?;
     sc.validate().map_err(|e| origin(e.key().unwrap_or_default(), e.to_string()))?;
+    Ok(sc)
+}
+
+/// Deserializes and validates a radio scenario table; `origin` says where an error should
+/// point.
+fn radio_from_table(
+    table: &toml::Table,
+    origin: &dyn Fn(&str, String) -> HarnessError,
+) -> Result<RadioScenario, HarnessError> {
+    let sc: RadioScenario = toml::Value::Table(table.clone()).try_into().map_err(|e: toml::de::Error| {
+        let msg = e.message().trim().to_string();
+        let key = msg.split('`').nth(1).unwrap_or("").to_string();
+        origin(&key, msg)
+    })?;
+    sc.validate().map_err(|e| origin(e.key().unwrap_or_default(), e.message().to_string()))?;
     Ok(sc)
 }
 
@@ -472,6 +518,9 @@ impl Plan {
             return Err(err("scenario", format!("scenario file {} not found", scenario_path.display())));
         }
         let (_, scenario_table) = load_scenario_table(&scenario_path)?;
+        let radio = is_radio(&scenario_table);
+        let mut config = config;
+        config.metrics.typed_world = radio;
 
         let published = match &config.published {
             Some(p) => Some(crate::report::PublishedTable::read(&dir.join(p)).map_err(|e| err("published", e))?),
@@ -592,6 +641,55 @@ impl Plan {
                     })
                     .map(|(g, ..)| g)
             };
+            let origin = |key: &str, msg: String| match set_by(key) {
+                Some(g) => err(
+                    &format!("grid.\"{g}\""),
+                    match key {
+                        "" => format!("at grid point ({}): {msg}", at(&values)),
+                        _ => format!("at grid point ({}): scenario key `{key}`: {msg}", at(&values)),
+                    },
+                ),
+                None => config_error(
+                    &scenario_path,
+                    &read(&scenario_path).unwrap_or_default(),
+                    key,
+                    format!("{msg}{point}"),
+                ),
+            };
+            if is_radio(&sc_table) != radio {
+                return Err(origin("world.kind", "a grid may not change whether the world is the radio world".into()));
+            }
+            if radio {
+                let sc = radio_from_table(&sc_table, &origin)?;
+                let models = radio_models(&sc);
+                for (i, f) in filters.iter().enumerate() {
+                    let entry = registry::find(&f.name).expect("checked above");
+                    let Some(build) = entry.radio else {
+                        let can: Vec<&str> =
+                            registry::REGISTRY.iter().filter(|e| e.radio.is_some()).map(|e| e.name).collect();
+                        return Err(err(
+                            &format!("filters[{i}].name"),
+                            format!(
+                                "filter `{}` does not run in the radio5g world (it is built for the planar worlds only); the filters that do: {}",
+                                f.label,
+                                can.join(", ")
+                            ),
+                        ));
+                    };
+                    for &n in &f.particles {
+                        build(&f.params, &models, n).map_err(|e| {
+                            let key = if e.key == "particles" {
+                                format!("filters[{i}].particles")
+                            } else {
+                                format!("filters[{i}].params.{}", e.key)
+                            };
+                            err(&key, format!("filter `{}`: {e}{point}", f.label))
+                        })?;
+                    }
+                }
+                points.push(GridPoint { values, scenario: Scenario::Radio(sc), filters, world: None });
+                continue;
+            }
             let scenario = scenario_from_table(&sc_table, &|key: &str, msg: String| match set_by(key) {
                 Some(g) => err(
                     &format!("grid.\"{g}\""),
@@ -670,7 +768,7 @@ impl Plan {
                     }
                 }
             }
-            points.push(GridPoint { values, scenario, filters, world });
+            points.push(GridPoint { values, scenario: Scenario::Planar(scenario), filters, world });
         }
         let plan = Plan {
             path: path.to_path_buf(),

@@ -1,11 +1,18 @@
 //! The filter registry: name -> typed parameters -> filter. Adding a filter is one line in
 //! [`REGISTRY`] (and one dependency in this crate's Cargo.toml).
 
-use rfslam_core::model::{RangeBearingModel, RelativePositionModel};
-use rfslam_core::{FilterBuild, ParamError, SensorKind, SlamFilter, SlamModels};
+use rfslam_core::model::{RadioSensor, RadioVehicle, RangeBearingModel, RelativePositionModel};
+use rfslam_core::{FilterBuild, ParamError, SensorKind, SlamFilter, SlamModels, WorldBuild, WorldModels};
 
 /// Builds a boxed filter from a parameter table, the scenario's models and a particle count.
 pub type BuildFn = fn(&toml::Table, &SlamModels, usize) -> Result<Box<dyn SlamFilter>, ParamError>;
+
+/// The models of the 5G radio world (\[Kim2022\]) as the filters assume them.
+pub type RadioModels = WorldModels<RadioVehicle, RadioSensor, 5, 3, 5>;
+
+/// Builds a boxed filter of the 5G radio world from a parameter table, the world's models
+/// and a particle count.
+pub type RadioBuildFn = fn(&toml::Table, &RadioModels, usize) -> Result<Box<dyn SlamFilter<5, 3, 5>>, ParamError>;
 
 /// One registered filter.
 pub struct FilterEntry {
@@ -24,6 +31,9 @@ pub struct FilterEntry {
     pub build: BuildFn,
     /// The default parameters, as a table (written into resolved configurations).
     pub defaults: fn() -> toml::Table,
+    /// Builds the filter in the 5G radio world; `None` for a filter that does not run there
+    /// (refused when an experiment on that world is validated).
+    pub radio: Option<RadioBuildFn>,
 }
 
 /// Parses a parameter table into `P`. An unknown key, a missing key or a value of the wrong
@@ -88,6 +98,14 @@ fn build_with<F: FilterBuild>(t: &toml::Table, m: &SlamModels, n: usize) -> Resu
     Ok(Box::new(F::try_build(filter_params::<F>(t)?, m, n)?))
 }
 
+fn radio_with<F: WorldBuild<RadioVehicle, RadioSensor, 5, 3, 5>>(
+    t: &toml::Table,
+    m: &RadioModels,
+    n: usize,
+) -> Result<Box<dyn SlamFilter<5, 3, 5>>, ParamError> {
+    F::build_world(filter_params::<F>(t)?, m, n)
+}
+
 fn defaults_with<F: FilterBuild>() -> toml::Table {
     match toml::Value::try_from(F::Params::default()) {
         Ok(toml::Value::Table(t)) => t,
@@ -95,11 +113,19 @@ fn defaults_with<F: FilterBuild>() -> toml::Table {
     }
 }
 
-macro_rules! entry {
-    ($name:literal, $ty:ty, $summary:literal) => {
-        entry!($name, $ty, $summary, false)
+/// The radio-world builder of an entry: `radio` where the filter implements
+/// [`WorldBuild`] for the radio world, nothing where it does not run there.
+macro_rules! radio_build {
+    ($ty:ty) => {
+        None
     };
-    ($name:literal, $ty:ty, $summary:literal, $baseline:literal) => {
+    ($ty:ty, radio) => {
+        Some(radio_with::<$ty>)
+    };
+}
+
+macro_rules! entry {
+    ($name:literal, $ty:ty, $summary:literal, $baseline:literal $(, $radio:ident)?) => {
         FilterEntry {
             name: $name,
             summary: $summary,
@@ -108,6 +134,7 @@ macro_rules! entry {
             validate: validate_with::<$ty>,
             build: build_with::<$ty>,
             defaults: defaults_with::<$ty>,
+            radio: radio_build!($ty $(, $radio)?),
         }
     };
 }
@@ -115,7 +142,7 @@ macro_rules! entry {
 /// An entry for a filter generic over the planar sensor model (`$ty<S>`): validated and
 /// built with the model of the sensor the scenario declares.
 macro_rules! planar_entry {
-    ($name:literal, $($ty:ident)::+, $summary:literal) => {
+    ($name:literal, $($ty:ident)::+, $summary:literal $(, $radio:ident)?) => {
         FilterEntry {
             name: $name,
             summary: $summary,
@@ -130,6 +157,7 @@ macro_rules! planar_entry {
                 SensorKind::RelativePosition => build_with::<$($ty)::+<RelativePositionModel>>(t, m, n),
             },
             defaults: defaults_with::<$($ty)::+<RangeBearingModel>>,
+            radio: radio_build!($($ty)::+<RangeBearingModel> $(, $radio)?),
         }
     };
 }
@@ -140,7 +168,8 @@ pub static REGISTRY: &[FilterEntry] = &[
         "dead-reckoning",
         dead_reckoning::DeadReckoning,
         "odometry only, no map: the baseline every SLAM filter must beat",
-        true
+        true,
+        radio
     ),
     planar_entry!(
         "phd-1.0",
@@ -175,7 +204,8 @@ pub static REGISTRY: &[FilterEntry] = &[
     planar_entry!(
         "fastslam-2.0-oracle",
         fastslam::OracleFastSlam2,
-        "oracle RBPF of Kaltiokallio et al. 2024: FastSLAM 2.0 with the true associations and the IPL importance density"
+        "oracle RBPF of Kaltiokallio et al. 2024: FastSLAM 2.0 with the true associations and the IPL importance density",
+        radio
     ),
     planar_entry!(
         "fastslam-1.0",
@@ -205,7 +235,8 @@ pub static REGISTRY: &[FilterEntry] = &[
     planar_entry!(
         "pmbm-slam",
         pmbm_slam::PmbmSlam,
-        "PMBM-SLAM (Kim et al. 2022): PMBM map per particle, Murty k-best global hypotheses (B_max 200), transition density as proposal"
+        "PMBM-SLAM (Kim et al. 2022): PMBM map per particle, Murty k-best global hypotheses (B_max 200), transition density as proposal",
+        radio
     ),
     planar_entry!(
         "pmbm-slam-mh",
@@ -215,12 +246,14 @@ pub static REGISTRY: &[FilterEntry] = &[
     planar_entry!(
         "pmb-slam",
         pmbm_slam::PmbSlam,
-        "PMB-SLAM (Kim et al. 2022): PMB map per particle, LBP marginals and TOMB/P, Bethe free-energy particle weight"
+        "PMB-SLAM (Kim et al. 2022): PMB map per particle, LBP marginals and TOMB/P, Bethe free-energy particle weight",
+        radio
     ),
     planar_entry!(
         "mpmb-slam",
         pmbm_slam::MpmbSlam,
-        "Marginalized PMB-SLAM (Kim et al. 2022): no particles, CKF vehicle, LBP + TOMB/P map, stacked update with the most likely association"
+        "Marginalized PMB-SLAM (Kim et al. 2022): no particles, CKF vehicle, LBP + TOMB/P map, stacked update with the most likely association",
+        radio
     ),
 ];
 

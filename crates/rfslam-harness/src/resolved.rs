@@ -108,7 +108,11 @@ impl ResolvedExperiment {
 
     /// Parses a resolved experiment; the error says what is wrong.
     pub fn parse(text: &str) -> Result<ResolvedExperiment, String> {
-        toml::from_str(text).map_err(|e: toml::de::Error| e.message().trim().to_string())
+        let mut r: ResolvedExperiment =
+            toml::from_str(text).map_err(|e: toml::de::Error| e.message().trim().to_string())?;
+        // What the scenario says, as when the plan was loaded (never written to the file).
+        r.metrics.typed_world = rfslam_data::is_radio(&r.scenario);
+        Ok(r)
     }
 
     /// Reads `dir/experiment.resolved.toml`; `None` when there is none.

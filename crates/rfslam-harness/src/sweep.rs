@@ -17,7 +17,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::error::HarnessError;
-use crate::experiment::{ExperimentConfig, Job, JobFilter, Plan};
+use crate::experiment::{ExperimentConfig, Job, JobFilter, Plan, Scenario};
 use crate::invocations::{self, Invocation, Tracker};
 use crate::lock::DirLock;
 use crate::registry;
@@ -27,7 +27,12 @@ use crate::runs::JobKey;
 use crate::runs::{RunRow, RunsAppender, read_job_rows, read_rows, write_rows};
 use crate::shard::{Shard, ShardRecord};
 use crate::summary::{summarise, write_summary};
+use rfslam_core::SensorModel;
+use rfslam_core::model::{LandmarkType, VehicleModel};
+use rfslam_data::RadioScenario;
+use rfslam_eval::metric::Values;
 use rfslam_eval::run_filter;
+use rfslam_eval::world::{WorldScoring, run_world, world_values};
 use rfslam_sim::ScenarioData;
 
 /// Options of one sweep invocation.
@@ -66,10 +71,14 @@ pub struct SweepOutcome {
 }
 
 /// Runs one job: builds its data set and filter, runs, scores.
-pub fn run_job(plan: &Plan, job: &Job) -> Result<RunRow, HarnessError> {
+pub fn run_job(plan: &Plan, job: &Job, steps_dir: Option<&Path>) -> Result<RunRow, HarnessError> {
     let point = &plan.points[job.point];
     let f = &point.filters[job.filter];
-    let dataset = point.scenario.build_dataset(point.world.as_deref(), job.seed).map_err(HarnessError::Data)?;
+    let scenario = match &point.scenario {
+        Scenario::Planar(sc) => sc,
+        Scenario::Radio(sc) => return run_radio_job(plan, job, sc, steps_dir),
+    };
+    let dataset = scenario.build_dataset(point.world.as_deref(), job.seed).map_err(HarnessError::Data)?;
     let models = dataset.models();
     let entry = registry::find(&f.name).ok_or_else(|| HarnessError::Run(format!("unknown filter {}", f.name)))?;
     registry::check_dataset(entry, &dataset)
@@ -84,8 +93,15 @@ pub fn run_job(plan: &Plan, job: &Job) -> Result<RunRow, HarnessError> {
     {
         eprintln!("warning: run {} of {} N={}: {w} (said once)", job.run, f.label, job.particles);
     }
-    // A result that is not a finite number is a failed job, never a row.
-    if let Some(what) = o.not_finite(&plan.config.metrics) {
+    finite_row(plan, job, o.not_finite(&plan.config.metrics), o.values)
+}
+
+/// The row of a finished job; a result that is not a finite number (`not_finite` names it)
+/// is a failed job, never a row.
+fn finite_row(plan: &Plan, job: &Job, not_finite: Option<String>, values: Values) -> Result<RunRow, HarnessError> {
+    let point = &plan.points[job.point];
+    let f = &point.filters[job.filter];
+    if let Some(what) = not_finite {
         let at = if plan.grid_keys.is_empty() { String::new() } else { format!(" at grid point {}", job.point + 1) };
         return Err(HarnessError::Run(format!(
             "run {} of {} N={}{at} (seed {}) failed: {what}, not a finite number; no row is written",
@@ -97,9 +113,84 @@ pub fn run_job(plan: &Plan, job: &Job) -> Result<RunRow, HarnessError> {
         filter: f.label.clone(),
         particles: job.particles,
         seed: job.seed,
-        values: o.values,
+        values,
         grid: point.values.iter().map(|v| v.to_string()).collect(),
     })
+}
+
+/// The directory of a sweep's per-step scores (the typed worlds': one file per job,
+/// [`steps_file`]).
+pub const STEPS_DIR: &str = "steps";
+
+/// The per-step file of a job: `<label>-N<particles>-p<grid point>-run<run>.csv`.
+pub fn steps_file(label: &str, particles: usize, point: usize, run: usize) -> String {
+    format!("{label}-N{particles}-p{point}-run{run}.csv")
+}
+
+/// The header of a per-step file.
+pub const STEPS_HEADER: &str = "step,t_s,pos_err_m,head_err_deg,clock_err_m,va_gospa_m,sp_gospa_m,landmarks";
+
+/// Writes the scores of every step of a job into `dir` ([`steps_file`], [`STEPS_HEADER`]):
+/// to a temporary file renamed into place, so that a file is whole or absent; written
+/// before the job's row, so that every job in `runs.csv` has its steps (a job killed in
+/// between is run again and writes the same file).
+fn write_steps(
+    dir: &Path,
+    plan: &Plan,
+    job: &Job,
+    times: &[f64],
+    steps: &[rfslam_eval::world::WorldStep<5, 3>],
+) -> Result<(), HarnessError> {
+    use std::fmt::Write as _;
+    let f = &plan.points[job.point].filters[job.filter];
+    std::fs::create_dir_all(dir).map_err(|e| HarnessError::io(dir, e))?;
+    let mut text = format!("{STEPS_HEADER}\n");
+    for (k, (s, t)) in steps.iter().zip(times).enumerate() {
+        let opt = |v: Option<f64>| v.map(|v| v.to_string()).unwrap_or_default();
+        let _ = writeln!(
+            text,
+            "{k},{t},{},{},{},{},{},{}",
+            opt(s.pose.pos_rmse()),
+            opt(s.pose.head_rmse_deg()),
+            opt(s.pose.clock_rmse()),
+            s.gospa[LandmarkType::VirtualAnchor.mark() as usize].total,
+            s.gospa[LandmarkType::ScatteringPoint.mark() as usize].total,
+            s.estimate.map.len()
+        );
+    }
+    let path = dir.join(steps_file(&f.label, job.particles, job.point, job.run));
+    let tmp = path.with_extension("csv.tmp");
+    std::fs::write(&tmp, text).map_err(|e| HarnessError::io(&tmp, e))?;
+    std::fs::rename(&tmp, &path).map_err(|e| HarnessError::io(&path, e))
+}
+
+/// Runs one job of the 5G radio world: simulates the run of the job's seed, builds the
+/// filter for the world's models, runs it (the filter stream of the seed) and scores every
+/// step ([`rfslam_eval::world::world_values`]); with `steps_dir`, writes the per-step scores
+/// there ([`STEPS_DIR`]).
+fn run_radio_job(plan: &Plan, job: &Job, sc: &RadioScenario, steps_dir: Option<&Path>) -> Result<RunRow, HarnessError> {
+    let f = &plan.points[job.point].filters[job.filter];
+    let entry = registry::find(&f.name).ok_or_else(|| HarnessError::Run(format!("unknown filter {}", f.name)))?;
+    let build =
+        entry.radio.ok_or_else(|| HarnessError::Run(format!("filter {} does not run in the radio5g world", f.name)))?;
+    let (world, run) = rfslam_sim::radio_run(sc, job.seed).map_err(HarnessError::Data)?;
+    let models = crate::experiment::radio_models(sc);
+    let mut filter = build(&f.params, &models, job.particles)
+        .map_err(|source| HarnessError::Parameter { filter: f.label.clone(), source })?;
+    let metrics = &plan.config.metrics;
+    let truth = world.landmarks.iter().filter(|l| models.sensor.mapped(l.2)).map(|l| (l.2.mark(), l.1)).collect();
+    let scoring = WorldScoring { truth, marks: LandmarkType::ALL.len(), c: metrics.gospa_c, p: metrics.gospa_p };
+    let comps = models.vehicle.model.components();
+    let steps = run_world(&run, &comps, &scoring, job.seed, |u, z, rng| (filter.step(u, z, rng), filter.estimate()))
+        .map_err(|e| HarnessError::Run(format!("run {} of {}: {e}", job.run, f.label)))?;
+    let values = world_values(&steps, &scoring, job.particles, metrics)
+        .map_err(|e| HarnessError::Run(format!("run {} of {}: {e}", job.run, f.label)))?;
+    let row = finite_row(plan, job, rfslam_eval::run::not_finite(&values, metrics), values)?;
+    if let Some(dir) = steps_dir {
+        let times: Vec<f64> = run.truth.iter().map(|t| t.0).collect();
+        write_steps(dir, plan, job, &times, &steps)?;
+    }
+    Ok(row)
 }
 
 enum Progress {
@@ -259,6 +350,7 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
         .build()
         .map_err(|e| HarnessError::Run(format!("thread pool: {e}")))?;
     let appender = Mutex::new(RunsAppender::open(&runs_path, &plan.layout())?);
+    let steps_dir = out.join(STEPS_DIR);
     let tracker = Mutex::new(Tracker::new(out, threads, start));
     let failure: Mutex<Option<HarnessError>> = Mutex::new(None);
     let progress = Progress::new(todo.len(), opts.quiet);
@@ -270,7 +362,7 @@ pub fn sweep(plan: &Plan, opts: &SweepOptions) -> Result<SweepOutcome, HarnessEr
             if failure.lock().map(|f| f.is_some()).unwrap_or(true) {
                 return;
             }
-            let res = run_job(plan, job).and_then(|row| {
+            let res = run_job(plan, job, Some(&steps_dir)).and_then(|row| {
                 appender.lock().unwrap_or_else(|p| p.into_inner()).append(&row)?;
                 tracker.lock().unwrap_or_else(|p| p.into_inner()).job_done()?;
                 progress.tick(&row);

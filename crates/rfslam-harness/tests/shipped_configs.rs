@@ -38,6 +38,10 @@ fn external_data(path: &Path) -> Option<String> {
         panic!("{}: no `scenario` key", path.display());
     });
     let scenario = path.parent().unwrap().join(scenario);
+    let table: toml::Table = std::fs::read_to_string(&scenario).unwrap().parse().unwrap();
+    if rfslam_data::is_radio(&table) {
+        return None;
+    }
     let sc = ScenarioConfig::from_file(&scenario).unwrap_or_else(|e| panic!("{}: {e}", scenario.display()));
     let data = match &sc.world {
         WorldSpec::Environment { path } | WorldSpec::Mat { path } | WorldSpec::Dataset { path } => path,

@@ -1,0 +1,106 @@
+//! The 5G radio world through the CLI: `scenarios/radio5g.toml` swept by the filters built
+//! for it, scored per landmark type and with the clock bias; the filters that do not run
+//! there, the keys that mean nothing there and `rfslam run` refused with exit 2, naming why.
+
+mod common;
+
+use common::*;
+
+/// The shipped radio scenario.
+const SCENARIO: &str = include_str!("../../../scenarios/radio5g.toml");
+
+fn entries(extra: &str) -> String {
+    let mut s = String::from("name = \"radio\"\nscenario = \"radio5g.toml\"\nruns = 2\nseed = 7\n");
+    for (name, n, params) in [
+        ("dead-reckoning", 1, ""),
+        ("fastslam-2.0-oracle", 10, ""),
+        ("pmbm-slam", 10, "params = { undetected = \"constant\" }\n"),
+        ("mpmb-slam", 1, "params = { undetected = \"constant\" }\n"),
+    ] {
+        s.push_str(&format!("\n[[filters]]\nname = \"{name}\"\nparticles = [{n}]\n{params}"));
+    }
+    s.push_str(extra);
+    s
+}
+
+/// Every registered filter that runs there gives finite rows with the typed columns; the
+/// oracle (true associations and types) localises better than dead reckoning in each run and
+/// maps the virtual anchors (final VA GOSPA under 5 m with c = 20 m, where an empty map scores
+/// sqrt(4 c^2 / 2) = 28.28 m, as dead reckoning's does); each job's per-step scores are in
+/// `steps/`; rows and steps do not depend on the number of threads.
+#[test]
+fn radio_world_sweeps_with_typed_columns() {
+    let dir = TempDir::new("radio-sweep");
+    dir.write("radio5g.toml", SCENARIO);
+    let exp = dir.write("radio.toml", &entries(""));
+    let exp = exp.to_str().unwrap();
+    ok(dir.path(), &["sweep", exp, "--out", "one", "--jobs", "1", "--quiet"]);
+    ok(dir.path(), &["sweep", exp, "--out", "two", "--jobs", "2", "--quiet"]);
+    let runs = Csv::read(&dir.join("one/runs.csv"));
+    for col in ["clock_rmse_m", "va_gospa_m", "sp_gospa_m", "va_gospa_mean_m", "sp_gospa_mean_m"] {
+        runs.col(col);
+    }
+    assert_eq!(runs.rows.len(), 8);
+    let row = |filter: &str, run: &str| {
+        (0..runs.rows.len()).find(|&i| runs.get(i, "filter") == filter && runs.get(i, "run") == run).unwrap()
+    };
+    for run in ["0", "1"] {
+        let (dr, oracle) = (row("dead-reckoning", run), row("fastslam-2.0-oracle", run));
+        assert!(runs.num(oracle, "pos_rmse_m") < runs.num(dr, "pos_rmse_m"), "run {run}");
+        assert!(runs.num(oracle, "va_gospa_m") < 5.0, "run {run}: {}", runs.num(oracle, "va_gospa_m"));
+        assert!((runs.num(dr, "va_gospa_m") - (4.0f64 * 400.0 / 2.0).sqrt()).abs() < 1e-9);
+        for i in 0..runs.rows.len() {
+            assert!(runs.num(i, "clock_rmse_m").is_finite() && runs.num(i, "sp_gospa_mean_m").is_finite());
+        }
+    }
+    let two = Csv::read(&dir.join("two/runs.csv"));
+    assert_eq!(runs.without(&["time_ms_per_step"]).maps(), two.without(&["time_ms_per_step"]).maps());
+    // The report rewritten from runs.csv alone reads the typed columns back.
+    let summary = dir.read("one/summary.csv");
+    assert!(summary.contains("va_gospa_m") && summary.contains("clock_rmse_m"));
+    ok(dir.path(), &["report", "one"]);
+    assert_eq!(dir.read("one/summary.csv"), summary);
+    // Every job's steps: 41 scans, the last one's per-type GOSPA the row's final one, the
+    // mean over them the row's mean; the same files whatever the thread count.
+    for i in 0..runs.rows.len() {
+        let name = format!("{}-N{}-p0-run{}.csv", runs.get(i, "filter"), runs.get(i, "particles"), runs.get(i, "run"));
+        let steps = Csv::read(&dir.join(&format!("one/steps/{name}")));
+        assert_eq!(steps.rows.len(), 41, "{name}");
+        assert_eq!(steps.num(40, "va_gospa_m"), runs.num(i, "va_gospa_m"), "{name}");
+        let mean = (0..41).map(|k| steps.num(k, "sp_gospa_m")).sum::<f64>() / 41.0;
+        assert!((mean - runs.num(i, "sp_gospa_mean_m")).abs() < 1e-9, "{name}");
+        assert_eq!(steps.maps(), Csv::read(&dir.join(&format!("two/steps/{name}"))).maps(), "{name}");
+    }
+}
+
+/// A filter built for the planar worlds only, a key of the planar models, the thinned
+/// undetected intensity (which needs a planar field of view) and `rfslam run` are refused
+/// with exit 2, each saying why.
+#[test]
+fn radio_world_refusals_say_why() {
+    let dir = TempDir::new("radio-refuse");
+    dir.write("radio5g.toml", SCENARIO);
+    let planar = entries("\n[[filters]]\nname = \"phd-3.0\"\nparticles = [10]\n");
+    let exp = dir.write("planar.toml", &planar);
+    fails(
+        dir.path(),
+        &["sweep", exp.to_str().unwrap(), "--out", "o"],
+        2,
+        &["planar.toml", "filters[4].name", "`phd-3.0` does not run in the radio5g world", "pmbm-slam"],
+    );
+    let thinned = entries("").replace("params = { undetected = \"constant\" }\n", "");
+    let exp = dir.write("thinned.toml", &thinned);
+    fails(dir.path(), &["sweep", exp.to_str().unwrap(), "--out", "o"], 2, &["filters[2].params.undetected"]);
+    let keyed = entries("").replace("undetected = \"constant\" }", "undetected = \"constant\", detection_pd = 0.9 }");
+    let exp = dir.write("keyed.toml", &keyed);
+    fails(dir.path(), &["sweep", exp.to_str().unwrap(), "--out", "o"], 2, &["detection_pd", "planar scenarios"]);
+    fails(
+        dir.path(),
+        &["run", "--scenario", "radio5g.toml", "--filter", "pmbm-slam", "--out", "o"],
+        2,
+        &["radio5g.toml:", "world.kind", "rfslam sweep"],
+    );
+    dir.write("bad.toml", &SCENARIO.replace("pd = 0.95", "pd = 1.5"));
+    let exp = dir.write("bad-exp.toml", &entries("").replace("radio5g.toml", "bad.toml"));
+    fails(dir.path(), &["sweep", exp.to_str().unwrap(), "--out", "o"], 2, &["bad.toml:", "sensor.pd"]);
+}
