@@ -4,10 +4,12 @@
 //! `mh-fastslam` (each particle branches into at most 4 copies with its most likely
 //! associations; resampling whenever the population exceeds 125), both with the binary
 //! Bayes existence filter of eqs. (29)-(32) (prior 0.5) for map management. The machinery
-//! is [`crate::da::DaFastSlam`]; neither filter reads truth labels.
+//! is [`crate::da::DaFastSlam`], written over any vehicle and sensor model; the registered
+//! filters are its instances on the planar sensors (the odometry's motion model, the
+//! scenario's sensor). Neither filter reads truth labels.
 
 use rfslam_core::params::{CountRange, Interval, MAX_PARAM};
-use rfslam_core::{FilterBuild, ParamError, PlanarSensorModel, RbpfParams, SensorKind, SlamModels, Validated};
+use rfslam_core::{FilterBuild, Motion, ParamError, PlanarSensorModel, RbpfParams, SensorKind, SlamModels, Validated};
 use serde::{Deserialize, Serialize};
 
 use crate::da::{DaFastSlam, DaSettings};
@@ -129,11 +131,34 @@ impl FastSlam1Params {
     }
 }
 
+impl MhParams {
+    /// The engine's settings of MH-FastSLAM: the branching, and the rest as
+    /// [`FastSlam1Params::settings`].
+    pub fn settings(&self) -> DaSettings {
+        DaSettings {
+            hypotheses: self.hypotheses,
+            max_population: Some(self.max_population),
+            max_ambiguous_measurements: Some(self.max_ambiguous_measurements),
+            hypothesis_log_cut: self.hypothesis_log_cut,
+            ..self.base.settings()
+        }
+    }
+}
+
+/// The planar sensor of `models` as the existence filter reads it: the clutter intensity in
+/// measurement space, the rate over the measurement volume the field of view covers (0 for
+/// an empty one), whatever units `[clutter] intensity` gives the other filters.
+pub(crate) fn planar_sensor<S: PlanarSensorModel>(models: &SlamModels) -> S {
+    let volume = models.sensor_kind.measurement_volume(&models.fov);
+    let kappa = if volume > 0.0 { models.clutter.rate / volume } else { 0.0 };
+    S::from_models(models, kappa)
+}
+
 rfslam_core::filter_variant!(
     /// `fastslam-1.0`: FastSLAM 1.0 with the most likely (gated, one-to-one) association per
     /// particle, new landmarks otherwise, and the existence filter of Leung, Inostroza, Adams,
     /// eqs. (29)-(32).
-    FastSlam1<S>(DaFastSlam<S>),
+    FastSlam1<S>(DaFastSlam<Motion, S, 3, 2, 2>),
     "fastslam-1.0"
 );
 rfslam_core::filter_variant!(
@@ -141,7 +166,7 @@ rfslam_core::filter_variant!(
     /// Inostroza, Adams): at most `hypotheses` children per particle with its most likely
     /// associations, resampling to the nominal count when the population exceeds
     /// `max_population`, existence filter of eqs. (29)-(32).
-    MhFastSlam<S>(DaFastSlam<S>),
+    MhFastSlam<S>(DaFastSlam<Motion, S, 3, 2, 2>),
     "mh-fastslam"
 );
 
@@ -152,13 +177,15 @@ impl<S: PlanarSensorModel> FilterBuild for FastSlam1<S> {
         sensor == S::KIND
     }
 
-    fn check(params: &FastSlam1Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
-        params.validate(particles)
+    fn check(params: &FastSlam1Params, models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+        params.validate(particles)?;
+        DaFastSlam::<Motion, S, 3, 2, 2>::check_model(&planar_sensor(models))
     }
 
     fn build(params: Validated<Self>, models: &SlamModels) -> Self {
         let settings = params.params().settings();
-        FastSlam1(DaFastSlam::new(Self::NAME, settings, models, params.particles()))
+        let sensor = planar_sensor(models);
+        FastSlam1(DaFastSlam::new(Self::NAME, settings, models.vehicle(), sensor, params.particles()))
     }
 }
 
@@ -169,7 +196,7 @@ impl<S: PlanarSensorModel> FilterBuild for MhFastSlam<S> {
         sensor == S::KIND
     }
 
-    fn check(params: &MhParams, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+    fn check(params: &MhParams, models: &SlamModels, particles: usize) -> Result<(), ParamError> {
         params.base.validate(particles)?;
         CountRange::ITERATIONS.check("hypotheses", params.hypotheses)?;
         CountRange::new(particles, MAX_POPULATION)
@@ -187,18 +214,12 @@ impl<S: PlanarSensorModel> FilterBuild for MhFastSlam<S> {
                 ),
             ));
         }
-        Ok(())
+        DaFastSlam::<Motion, S, 3, 2, 2>::check_model(&planar_sensor(models))
     }
 
     fn build(params: Validated<Self>, models: &SlamModels) -> Self {
-        let p = params.params();
-        let settings = DaSettings {
-            hypotheses: p.hypotheses,
-            max_population: Some(p.max_population),
-            max_ambiguous_measurements: Some(p.max_ambiguous_measurements),
-            hypothesis_log_cut: p.hypothesis_log_cut,
-            ..p.base.settings()
-        };
-        MhFastSlam(DaFastSlam::new(Self::NAME, settings, models, params.particles()))
+        let settings = params.params().settings();
+        let sensor = planar_sensor(models);
+        MhFastSlam(DaFastSlam::new(Self::NAME, settings, models.vehicle(), sensor, params.particles()))
     }
 }

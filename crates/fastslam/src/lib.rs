@@ -73,7 +73,10 @@
 //! ([`OracleEngine::with_landmark_types`]); a landmark of a type the sensor does not map is
 //! the sensor's anchor of that type (the radio world's base station), entered at its known
 //! position with zero covariance and never reported. [`OracleFastSlam2`] is its registered
-//! instance on the planar sensors. `fastslam-1.0` and `mh-fastslam` are still planar.
+//! instance on the planar sensors. `fastslam-1.0` and `mh-fastslam` are written the same
+//! way ([`DaFastSlam`]`<V, S, X, M, Z>`, registered on the planar sensors as
+//! [`FastSlam1`] and [`MhFastSlam`]): a new landmark takes the mapped type with the largest
+//! birth likelihood, and every particle conditions on the sensor's anchors ([`da`]).
 //!
 //! Copies of one parent after resampling are identical until they draw, so the prediction,
 //! the association lookup and the proposal (with its Cholesky factors) are computed once
@@ -87,6 +90,7 @@ pub mod params;
 pub mod proposal;
 
 pub use baselines::{FastSlam1, FastSlam1Params, MAX_CHILDREN, MhFastSlam, MhParams};
+pub use da::{DaFastSlam, DaLandmark, DaParticle, DaSettings};
 pub use filter::{OracleEngine, OracleFastSlam2, Particle};
 pub use params::{Params, WeightMode};
 pub use proposal::Landmark;

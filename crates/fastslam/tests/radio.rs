@@ -1,12 +1,13 @@
-//! The oracle FastSLAM 2.0 on a world that is not planar: the 5G mmWave radio vehicle of Kim
+//! The FastSLAM family on a world that is not planar: the 5G mmWave radio vehicle of Kim
 //! et al. (2022) (state `[x, y, z, heading, clock bias]`, landmarks in 3-D of three types,
 //! 5-D measurements), reached only through the vehicle and sensor traits, on the paper's
-//! world (`rfslam_sim::RadioWorld`) scored by `rfslam_eval::world::run_world`.
+//! world (`rfslam_sim::RadioWorld`) scored by `rfslam_eval::world::run_world`: the oracle
+//! FastSLAM 2.0, and FastSLAM 1.0 and MH-FastSLAM with unknown associations.
 
-use fastslam::{OracleEngine, Params};
+use fastslam::{DaFastSlam, FastSlam1Params, MhParams, OracleEngine, Params};
 use rfslam_core::model::{LandmarkType, RadioSensor, RadioVehicle, Vehicle, VehicleModel};
-use rfslam_eval::world::{WorldScoring, run_world};
-use rfslam_sim::RadioWorld;
+use rfslam_eval::world::{WorldScoring, WorldStep, run_world};
+use rfslam_sim::{RadioWorld, SimulatedRun};
 
 /// With the true associations and the landmark types, the oracle localises to about one
 /// step's process noise (0.28 m horizontally; lap RMSE of the position under 0.5 m and of
@@ -51,5 +52,99 @@ fn oracle_fastslam_on_the_radio_world() {
              ({seen_sp} SPs seen)",
             last.gospa[1].total, last.gospa[2].total
         );
+    }
+}
+
+/// The chi-square quantile with 5 degrees of freedom at 0.99: the gate for the radio
+/// sensor's five measurement components (as 9.21 is chi^2_2 at 0.99 for the planar ones).
+const GATE_CHI2_5_099: f64 = 15.086;
+
+/// Dead reckoning's position error at the last step (the known control integrated from the
+/// known start).
+fn dead_reckoning_error(w: &RadioWorld, vehicle: &Vehicle<RadioVehicle, 5>, run: &SimulatedRun<5, 5>) -> f64 {
+    let mut dr = dead_reckoning::DeadReckoning::<RadioVehicle, 5, 3, 5>::new(vehicle.model, w.x0);
+    let comps = vehicle.model.components();
+    let scoring = WorldScoring { truth: Vec::new(), marks: 3, c: 20.0, p: 2.0 };
+    let steps = run_world(run, &comps, &scoring, 7, |u, z, rng| {
+        (rfslam_core::SlamFilter::step(&mut dr, u, z, rng), rfslam_core::SlamFilter::estimate(&dr))
+    })
+    .unwrap();
+    steps.last().unwrap().pose.pos_rmse().unwrap()
+}
+
+/// FastSLAM 1.0 and MH-FastSLAM (N = 20, the published sensor with `R` scaled by 4 as the
+/// oracle's, the default settings but the gate, chi^2_5 at 0.99) on the radio world, two
+/// seeds: the vehicle stays localised (far better than dead reckoning; the clock bias
+/// bounded), every virtual anchor is mapped with its type within 5 m at the end of the lap,
+/// and the base station's path is explained by the base station, an anchor every particle
+/// conditions on: no landmark is reported within 5 m of it at any step, nor any of its type.
+///
+/// Measured (seeds 3 and 4, FastSLAM 1.0 / MH-FastSLAM): final position error 0.28 / 0.18 m
+/// and 0.105 / 0.16 m against dead reckoning's 2.20 and 1.35 m (at most 0.13 of it; asserted
+/// under 0.25, a margin of 2); lap RMSE of the position 0.55 / 0.46 and 0.31 / 0.29 m
+/// (asserted under 1 m, a margin of 1.8) and of the clock bias 0.20 / 0.22 and 0.22 / 0.19 m
+/// (asserted under 0.5 m, a margin of 2.2); 4 virtual anchors of 4 found; no step with a
+/// landmark within 5 m of the base station. Without the anchor (no anchor in the engine) the
+/// base station's path starts a landmark at the base station, reported at 31 and 37
+/// of the 41 steps of seed 3 and at 1 step of seed 4 (MH-FastSLAM, whose final position
+/// error is then 0.50 m, over the bound): the test fails. (FastSLAM 1.0 on seed 4 passed
+/// without it: the localisation comes from the known start and the mapped paths as much as
+/// from the anchor.)
+///
+/// As in the PMBM family's test, one measurement does not tell a virtual anchor from a
+/// scattering point and a landmark takes its type at birth (the larger birth likelihood,
+/// the virtual anchor's for these geometries), so the scattering points' GOSPA is printed,
+/// not asserted on.
+#[test]
+fn fastslam1_and_mh_fastslam_on_the_radio_world() {
+    let w = RadioWorld::published([12.0, 25.0, 8.0, 18.0]);
+    let model = RadioVehicle { sigma: [0.2, 0.2, 0.0, 1e-3, 0.2] };
+    let vehicle = Vehicle { model, control_noise: nalgebra::Matrix3::zeros(), initial_state: w.x0 };
+    let truth: Vec<_> =
+        w.landmarks.iter().filter(|l| l.2 != LandmarkType::BaseStation).map(|l| (l.2.mark(), l.1)).collect();
+    let scoring = WorldScoring { truth, marks: 3, c: 20.0, p: 2.0 };
+    let comps = model.components();
+    let bs = RadioSensor::published().base_station;
+    let va = LandmarkType::VirtualAnchor.mark();
+    let base = FastSlam1Params { gate: GATE_CHI2_5_099, ..FastSlam1Params::default() };
+    let mh = MhParams { base: base.clone(), ..MhParams::default() };
+    for seed in [3, 4] {
+        let mut rng = rfslam_core::rng::stream(&[seed, rfslam_core::rng::purpose::SCENARIO]);
+        let run = w.simulate(&model, &RadioSensor::published(), &mut rng).unwrap();
+        let dr = dead_reckoning_error(&w, &vehicle, &run);
+        let sensor = RadioSensor { noise_scale: [4.0; 3], ..RadioSensor::published() };
+        let filters: [(&str, fastslam::DaSettings); 2] =
+            [("fastslam-1.0", base.settings()), ("mh-fastslam", mh.settings())];
+        for (name, settings) in filters {
+            let mut f =
+                DaFastSlam::<RadioVehicle, RadioSensor, 5, 3, 5>::try_new(name, settings, vehicle, sensor, 20).unwrap();
+            let steps: Vec<WorldStep<5, 3>> =
+                run_world(&run, &comps, &scoring, seed, |u, z, rng| (f.step(u, z, rng), f.estimate())).unwrap();
+            let mut lap = rfslam_metrics::PoseErrors::new();
+            steps.iter().for_each(|s| lap.merge(&s.pose));
+            let last = steps.last().unwrap();
+            let (pos, lap_pos, bias) =
+                (last.pose.pos_rmse().unwrap(), lap.pos_rmse().unwrap(), lap.clock_rmse().unwrap());
+            let near_bs =
+                steps.iter().filter(|s| s.estimate.map.iter().any(|p| (p.position - bs).norm() <= 5.0)).count();
+            eprintln!(
+                "seed {seed} {name}: final position error {pos:.3} m (dead reckoning {dr:.3} m), lap RMSE position \
+                 {lap_pos:.3} m, clock bias {bias:.3} m, VAs found {}, final VA GOSPA {:.2}, SP GOSPA {:.2}, \
+                 {} landmarks reported, steps with a landmark at the base station {near_bs}",
+                last.found(&scoring, va, 5.0),
+                last.gospa[1].total,
+                last.gospa[2].total,
+                last.estimate.map.len()
+            );
+            assert!(steps.iter().all(|s| s.finite), "{name}: finite");
+            assert!(pos < 0.25 * dr, "seed {seed} {name}: final position error {pos} m, dead reckoning {dr} m");
+            assert!(lap_pos < 1.0 && bias < 0.5, "seed {seed} {name}: lap RMSE {lap_pos} m, clock bias {bias} m");
+            assert_eq!(last.found(&scoring, va, 5.0), 4, "seed {seed} {name}: virtual anchors found");
+            assert_eq!(near_bs, 0, "seed {seed} {name}: a landmark at the base station");
+            assert!(
+                steps.iter().all(|s| s.estimate.map.iter().all(|p| p.mark != LandmarkType::BaseStation.mark())),
+                "{name}: the anchor's type is reported"
+            );
+        }
     }
 }

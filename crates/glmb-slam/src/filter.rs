@@ -1,13 +1,15 @@
-//! The Rao-Blackwellised particle filters: `glmb-1.0`, `glmb-2.0` and `lmb-slam`.
+//! The Rao-Blackwellised particle filters `glmb-1.0`, `glmb-2.0` and `lmb-slam` over any
+//! vehicle model and any invertible sensor model ([`GlmbSlam`]), and their registration for
+//! the planar sensors.
 
-use nalgebra::Matrix3;
-use rfslam_core::angle::wrap;
+use nalgebra::{SMatrix, SVector};
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
-use rfslam_core::model::RangeBearingModel;
-use rfslam_core::rbpf::{LogWeighted, ParticleSet, draw_transition};
+use rfslam_core::model::{InvertibleSensorModel, LandmarkMark, RangeBearingModel, Vehicle, VehicleModel};
+use rfslam_core::rbpf::{LogWeighted, ParticleSet, draw_state};
+use rfslam_core::state::StateSpace;
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, ParamError, PlanarSensorModel, Pose, RangeBearing,
-    Rng, Scan, SensorKind, SlamModels, StepReport, Validated,
+    ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, Motion, ParamError, PlanarSensorModel, Rng, Scan,
+    SensorKind, SlamModels, StepReport, Validated,
 };
 
 use crate::map::{
@@ -27,23 +29,36 @@ pub enum Variant {
     Lmb,
 }
 
-/// One particle: pose `x_k`, its map (delta-GLMB or LMB) and `r_U` of the last scan's
+/// One particle: vehicle state `x_k` (`X` components, the planar pose by default), its map
+/// of `M`-dimensional landmarks (delta-GLMB or LMB) and `r_U` of the last scan's
 /// measurements (adaptive birth).
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Particle {
+#[derive(Debug, Clone, PartialEq)]
+pub struct Particle<const X: usize = 3, const M: usize = 2> {
     /// Log weight (normalised after every step).
     pub log_w: f64,
-    /// Pose.
-    pub pose: Pose,
+    /// Vehicle state.
+    pub pose: SVector<f64, X>,
     /// delta-GLMB map (glmb-1.0, glmb-2.0).
-    pub glmb: GlmbMap,
+    pub glmb: GlmbMap<M>,
     /// LMB map (lmb-slam).
-    pub lmb: LmbMap,
+    pub lmb: LmbMap<M>,
     /// `r_U(z_j)` of the previous scan.
     pub ru: Vec<f64>,
 }
 
-impl LogWeighted for Particle {
+impl<const X: usize, const M: usize> Default for Particle<X, M> {
+    fn default() -> Self {
+        Particle {
+            log_w: 0.0,
+            pose: SVector::zeros(),
+            glmb: GlmbMap::default(),
+            lmb: LmbMap::default(),
+            ru: Vec::new(),
+        }
+    }
+}
+
+impl<const X: usize, const M: usize> LogWeighted for Particle<X, M> {
     fn log_weight(&self) -> f64 {
         self.log_w
     }
@@ -56,51 +71,96 @@ impl LogWeighted for Particle {
 /// Diagnostics of one particle's proposal in the last step (for inspection and tests):
 /// the predicted pose `x_bar` and transition covariance `Q` (eq. 32) and, for `glmb-2.0`,
 /// the moment-matched optimal kernel `N(mu, Sigma)` (eqs. 30-31) and its components.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct ProposalTrace {
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProposalTrace<const X: usize = 3> {
     /// `f(x_{k-1}, u)`.
-    pub x_bar: Pose,
-    /// `Q = F_u Q_u F_u^T` (+ jitter).
-    pub q: Matrix3<f64>,
+    pub x_bar: SVector<f64, X>,
+    /// `Q = F_u Q_u F_u^T` (+ the model's process noise and the jitter).
+    pub q: SMatrix<f64, X, X>,
     /// Proposal mean (`x_bar` for the transition density).
-    pub mu: Pose,
+    pub mu: SVector<f64, X>,
     /// Proposal covariance (`Q` for the transition density).
-    pub sig: Matrix3<f64>,
+    pub sig: SMatrix<f64, X, X>,
     /// Associations in the mixture (0 for the transition density).
     pub components: usize,
 }
 
-/// The filter shared by the three variants.
-#[derive(Debug, Clone)]
-pub struct GlmbSlam<S: PlanarSensorModel = RangeBearingModel> {
-    variant: Variant,
-    params: Params,
-    models: SlamModels,
-    /// The sensor model, built from `models`.
-    sensor: S,
-    log_kappa: f64,
-    /// The particles (every one its own family: each draws its own proposal), normalisation
-    /// and resampling.
-    set: ParticleSet<Particle>,
-    step: u64,
-    prev_z: Vec<RangeBearing>,
-    ws: Workspace,
-    trace: Vec<ProposalTrace>,
+impl<const X: usize> Default for ProposalTrace<X> {
+    fn default() -> Self {
+        let (v, m) = (SVector::zeros(), SMatrix::zeros());
+        ProposalTrace { x_bar: v, q: m, mu: v, sig: m, components: 0 }
+    }
 }
 
-impl<S: PlanarSensorModel> GlmbSlam<S> {
-    /// A filter with `n` particles at the initial pose with empty maps (through
-    /// [`FilterBuild::build`] of a variant: validated).
-    fn new(variant: Variant, params: Params, models: &SlamModels, n: usize) -> Self {
-        let kappa = models.clutter_intensity();
-        let log_kappa = kappa.max(params.min_clutter_intensity).ln();
-        let p0 = Particle { pose: models.initial_pose, ..Default::default() };
+/// The filter shared by the three variants, over the vehicle model `V` (states of `X`
+/// components) and the sensor model `S` (landmarks in `M`, measurements in `Z` dimensions,
+/// landmark types `S::Mark`).
+///
+/// - **Landmark types** (multi-class labelled births; our choice, the papers have one
+///   type): every measurement of the previous scan starts one birth track per type the
+///   sensor maps (`S::Mark::ALL` filtered by [`rfslam_core::SensorModel::mapped`]), each
+///   with the scan's birth existence `r_B` and the type's inverse
+///   ([`InvertibleSensorModel::birth`]); the types compete through the update like any two
+///   tracks. A track keeps its type; its update uses the type's `R`, `p_D` and prediction.
+///   With one type (`()`, the planar worlds) this is the single birth of eq. (27).
+/// - **Anchors** ([`rfslam_core::SensorModel::anchors`], the radio world's base station):
+///   known landmarks in every hypothesis of every particle, existence 1 and zero
+///   covariance. They are rows of every sampler table (missed or detected, never dead), so
+///   their detections weigh the hypotheses and the particles, explain their measurements
+///   (`r_U`) and, in glmb-2.0, condition the proposal; they are never updated, pruned or
+///   estimated.
+#[derive(Debug, Clone)]
+pub struct GlmbSlam<V = Motion, S = RangeBearingModel, const X: usize = 3, const M: usize = 2, const Z: usize = 2>
+where
+    V: VehicleModel<X, 3>,
+    S: InvertibleSensorModel<X, M, Z>,
+{
+    variant: Variant,
+    params: Params,
+    vehicle: Vehicle<V, X>,
+    space: StateSpace<X>,
+    /// The sensor model.
+    sensor: S,
+    /// `R` of each landmark type, by mark.
+    noise: Vec<SMatrix<f64, Z, Z>>,
+    /// The sensor's anchors as tracks (existence 1, zero covariance).
+    anchors: Vec<Track<M>>,
+    /// The particles (every one its own family: each draws its own proposal), normalisation
+    /// and resampling.
+    set: ParticleSet<Particle<X, M>>,
+    step: u64,
+    prev_z: Vec<SVector<f64, Z>>,
+    ws: Workspace<X, M>,
+    trace: Vec<ProposalTrace<X>>,
+}
+
+impl<V, S, const X: usize, const M: usize, const Z: usize> GlmbSlam<V, S, X, M, Z>
+where
+    V: VehicleModel<X, 3>,
+    S: InvertibleSensorModel<X, M, Z>,
+{
+    /// A filter with `n` particles at the initial state of `vehicle` with empty maps; the
+    /// sensor's anchors are known to every hypothesis. `sensor` is the sensor as the filter
+    /// assumes it (its clutter intensity floored at `params.min_clutter_intensity`). The
+    /// registered variants build it through [`FilterBuild::build`] (validated); a caller
+    /// checks `params` with [`Params::validate`].
+    pub fn new(variant: Variant, params: Params, vehicle: Vehicle<V, X>, sensor: S, n: usize) -> Self {
+        let p0 = Particle { pose: vehicle.initial_state, ..Default::default() };
+        let noise = S::Mark::ALL.iter().map(|&t| sensor.noise(t)).collect();
+        let anchors = sensor
+            .anchors()
+            .into_iter()
+            .enumerate()
+            .map(|(i, (mean, t))| Track { label: u64::MAX - i as u64, mean, cov: SMatrix::zeros(), mark: t.index() })
+            .collect();
         GlmbSlam {
             variant,
             params,
-            models: models.clone(),
-            sensor: S::from_models(models, kappa),
-            log_kappa,
+            space: StateSpace::of(&vehicle.model),
+            vehicle,
+            sensor,
+            noise,
+            anchors,
             set: ParticleSet::new(p0, n),
             step: 0,
             prev_z: Vec::new(),
@@ -110,13 +170,18 @@ impl<S: PlanarSensorModel> GlmbSlam<S> {
     }
 
     /// The particles (for inspection and tests).
-    pub fn particle_set(&self) -> &[Particle] {
+    pub fn particle_set(&self) -> &[Particle<X, M>] {
         self.set.particles()
+    }
+
+    /// The sensor's anchors as the filter holds them (existence 1, zero covariance).
+    pub fn anchors(&self) -> &[Track<M>] {
+        &self.anchors
     }
 
     /// The proposal of every particle in the last step, in the order of the particles
     /// before resampling.
-    pub fn proposal_trace(&self) -> &[ProposalTrace] {
+    pub fn proposal_trace(&self) -> &[ProposalTrace<X>] {
         &self.trace
     }
 
@@ -126,16 +191,16 @@ impl<S: PlanarSensorModel> GlmbSlam<S> {
     }
 
     /// One recursion (what `SlamFilter::step` of the three variants calls).
-    pub fn step_impl(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
+    pub fn step_impl(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
         self.step += 1;
-        let (models, sensor) = (&self.models, &self.sensor);
+        let (sensor, space) = (&self.sensor, self.space);
         let p = &self.params;
         let um = UpdateModels {
             sensor,
-            r: sensor.noise(()),
-            fov: models.fov,
-            detection: models.detection,
-            log_kappa: self.log_kappa,
+            noise: &self.noise,
+            anchors: &self.anchors,
+            space,
+            min_clutter_intensity: p.min_clutter_intensity,
             survival: p.survival_fov,
             gate: p.gate,
         };
@@ -146,19 +211,23 @@ impl<S: PlanarSensorModel> GlmbSlam<S> {
         let ws = &mut self.ws;
         self.trace.clear();
         for part in self.set.particles_mut() {
-            // Adaptive birth from the previous scan at the previous pose (eq. 27).
+            // Adaptive birth from the previous scan at the previous state (eq. 27), one track
+            // per mapped landmark type.
             ws.births.clear();
             for (j, zj) in self.prev_z.iter().enumerate() {
-                let inv = sensor.inverse(&part.pose, zj, ());
-                let (mean, cov) = (inv.m, symmetrise(&(inv.jz * um.r * inv.jz.transpose())));
                 let explained = part.ru.get(j).is_some_and(|&r| r >= p.explained_threshold);
                 let rb = if explained { p.birth_existing } else { p.birth_new };
-                if rb > 0.0 {
-                    ws.births.push((Track { label: birth_label(self.step, j), mean, cov }, rb.ln()));
+                if rb <= 0.0 {
+                    continue;
+                }
+                for &t in S::Mark::ALL.iter().filter(|&&t| sensor.mapped(t)) {
+                    let (mean, cov) = sensor.birth(&part.pose, zj, t);
+                    let mark = t.index();
+                    ws.births.push((Track { label: birth_label(self.step, j, mark), mean, cov, mark }, rb.ln()));
                 }
             }
             // Proposal: transition density (eq. 32) or the optimal kernel (eqs. 30-31).
-            let (x_bar, q) = p.rbpf.predict(models, &part.pose, odometry);
+            let (x_bar, q) = p.rbpf.predict_state(&self.vehicle, &part.pose, odometry);
             let q = symmetrise(&q);
             // `marginal`: the weight of eq. (33), replacing the update's `ln Delta w(x_k)`.
             let mut marginal = None;
@@ -181,12 +250,17 @@ impl<S: PlanarSensorModel> GlmbSlam<S> {
                 if p.proposal_weight == ProposalWeight::Marginal && log_c.is_finite() {
                     marginal = Some(log_c);
                 }
-                match sample(&mu, &sig, rng) {
-                    Some(x) => {
-                        let x = Pose::new(x[0], x[1], wrap(x[2]));
-                        let dq = Pose::new(x[0] - x_bar[0], x[1] - x_bar[1], wrap(x[2] - x_bar[2]));
-                        let dp = Pose::new(x[0] - mu[0], x[1] - mu[1], wrap(x[2] - mu[2]));
-                        match (log_normal(&dq, &q), log_normal(&dp, &sig)) {
+                // A held component has no variance: a unit one for the factorisations, its
+                // draw discarded (it keeps mu's value, x_bar's) and its residuals zero.
+                match sample(&mu, &space.factorable(&sig), rng) {
+                    Some(mut x) => {
+                        for i in (0..X).filter(|&i| space.held[i]) {
+                            x[i] = mu[i];
+                        }
+                        let x = space.wrapped(x);
+                        let dq = space.difference(&x, &x_bar);
+                        let dp = space.difference(&x, &mu);
+                        match (log_normal(&dq, &space.factorable(&q)), log_normal(&dp, &space.factorable(&sig))) {
                             (Some(lf), Some(lq)) => (x, lf - lq),
                             _ => {
                                 chol += 1;
@@ -198,11 +272,11 @@ impl<S: PlanarSensorModel> GlmbSlam<S> {
                         // The draw fell back to the transition density: weight by Delta w(x_k).
                         chol += 1;
                         marginal = None;
-                        (draw_transition(&x_bar, &q, rng, &mut chol), 0.0)
+                        (draw_state(&self.vehicle.model, &x_bar, &q, rng, &mut chol), 0.0)
                     }
                 }
             } else {
-                (draw_transition(&x_bar, &q, rng, &mut chol), 0.0)
+                (draw_state(&self.vehicle.model, &x_bar, &q, rng, &mut chol), 0.0)
             };
             self.trace.push(tr);
             part.pose = x;
@@ -241,8 +315,10 @@ impl<S: PlanarSensorModel> GlmbSlam<S> {
         }
     }
 
-    /// The estimate (what `SlamFilter::estimate` of the three variants returns).
-    pub fn estimate_impl(&self) -> Estimate {
+    /// The estimate (what `SlamFilter::estimate` of the three variants returns): the best
+    /// particle's state and its mapped landmarks, each with its type (anchors are never
+    /// in a map).
+    pub fn estimate_impl(&self) -> Estimate<X, M> {
         let p = self.set.best_particle();
         let map = match self.variant {
             Variant::Lmb => p
@@ -251,7 +327,7 @@ impl<S: PlanarSensorModel> GlmbSlam<S> {
                 .iter()
                 .zip(&p.lmb.r)
                 .filter(|(_, r)| **r > self.params.existence_estimate)
-                .map(|(t, r)| MapPoint { position: t.mean, mark: 0, weight: *r })
+                .map(|(t, r)| MapPoint { position: t.mean, mark: t.mark, weight: *r })
                 .collect(),
             _ => {
                 let h = p.glmb.map_hypothesis();
@@ -259,7 +335,10 @@ impl<S: PlanarSensorModel> GlmbSlam<S> {
                 p.glmb
                     .members_of(h)
                     .iter()
-                    .map(|&t| MapPoint { position: p.glmb.tracks[t as usize].mean, mark: 0, weight: w })
+                    .map(|&t| {
+                        let t = &p.glmb.tracks[t as usize];
+                        MapPoint { position: t.mean, mark: t.mark, weight: w }
+                    })
                     .collect()
             }
         };
@@ -267,20 +346,24 @@ impl<S: PlanarSensorModel> GlmbSlam<S> {
     }
 }
 
-impl<S: PlanarSensorModel> FilterEngine for GlmbSlam<S> {
+impl<V, S, const X: usize, const M: usize, const Z: usize> FilterEngine<X, M, Z> for GlmbSlam<V, S, X, M, Z>
+where
+    V: VehicleModel<X, 3> + Send,
+    S: InvertibleSensorModel<X, M, Z>,
+{
     fn particles(&self) -> usize {
         self.set.len()
     }
 
-    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
         self.step_impl(odometry, scan, rng)
     }
 
-    fn estimate(&self) -> Estimate {
+    fn estimate(&self) -> Estimate<X, M> {
         self.estimate_impl()
     }
 
-    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+    fn particle_poses(&self, out: &mut Vec<(SVector<f64, X>, f64)>) -> bool {
         self.set.poses_into(out, |p| p.pose);
         true
     }
@@ -291,10 +374,11 @@ impl<S: PlanarSensorModel> FilterEngine for GlmbSlam<S> {
     }
 }
 
-/// A registered variant of [`GlmbSlam`] and its [`FilterBuild`].
+/// A registered variant of [`GlmbSlam`], on the planar vehicle and a planar sensor model, and
+/// its [`FilterBuild`].
 macro_rules! variant_filter {
     ($(#[$doc:meta])* $ty:ident, $variant:expr, $name:literal) => {
-        rfslam_core::filter_variant!($(#[$doc])* $ty<S>(GlmbSlam<S>), $name);
+        rfslam_core::filter_variant!($(#[$doc])* $ty<S>(GlmbSlam<Motion, S, 3, 2, 2>), $name);
 
         impl<S: PlanarSensorModel> FilterBuild for $ty<S> {
             type Params = Params;
@@ -309,7 +393,8 @@ macro_rules! variant_filter {
 
             fn build(params: Validated<Self>, models: &SlamModels) -> Self {
                 let (params, particles) = params.into_parts();
-                $ty(GlmbSlam::new($variant, params, models, particles))
+                let sensor = S::from_models(models, models.clutter_intensity());
+                $ty(GlmbSlam::new($variant, params, models.vehicle(), sensor, particles))
             }
         }
     };

@@ -4,6 +4,20 @@
 //! Every filter is a Rao-Blackwellised particle filter (\[Moratuwage2019\] eq. 2): a particle
 //! carries a pose and a landmark map conditioned on its trajectory.
 //!
+//! The filters reach the vehicle only through `rfslam_core::VehicleModel` (any state of `X`
+//! components: the planar pose, or the radio world's position, heading and clock bias; the
+//! angular components wrapped and the held ones never moved, `rfslam_core::state::StateSpace`)
+//! and the sensor only through `rfslam_core::InvertibleSensorModel` (prediction, Jacobians,
+//! residual, inverse, noise and detection probability per landmark type, clutter intensity,
+//! the types it maps and the anchors it knows): [`GlmbSlam`]`<V, S, X, M, Z>` takes any of
+//! them. A track carries its landmark type (`mark`); a measurement starts one birth track per
+//! mapped type (multi-class labelled births, our choice); the sensor's anchors (the radio
+//! world's base station) are known landmarks in every hypothesis, existence 1 and zero
+//! covariance, whose detections are assigned like any track's and which are never updated,
+//! pruned or estimated. The registered filters are instantiated for the planar vehicle and
+//! sensor models (`rfslam_core::PlanarSensorModel`), where all of this reduces to the
+//! single-type filters of the papers.
+//!
 //! - **Map** ([`map::GlmbMap`]): a Gaussian delta-GLMB density (eqs. 10, 23), a table of
 //!   labelled Gaussian tracks (label = birth step and measurement, kept forever; landmarks
 //!   static) and hypotheses `(ln w_h, I_h)`, heaviest first.
@@ -17,7 +31,8 @@
 //!   innovation (`gate`); children with equal track sets are merged; weights below `1e-5`
 //!   pruned; at most `max_hypotheses` kept.
 //! - **Adaptive birth** (eq. 27, \[Reuter2014\]): one birth track per measurement of the
-//!   previous scan at the previous pose, `N(g^-1(z, x_{k-1}), J_z R J_z^T)`, with
+//!   previous scan (and per mapped landmark type) at the previous pose,
+//!   `N(g^-1(z, x_{k-1}), J_z R J_z^T)`, with
 //!   `r_B = 1e-4` when the measurement's association probability `r_U(z)` was below
 //!   `explained_threshold` and `5e-5` otherwise (\[Moratuwage2019\] Section 4.1 gives "1e-4 for new
 //!   features and 5e-5 for existing ones"; reading "existing" as explained by a track is ours).

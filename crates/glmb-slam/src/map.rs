@@ -11,34 +11,54 @@
 //! surviving, undetected track keeps its Gaussian and its table entry. `p_S = 1` and
 //! `p_D = 0` outside the FOV (eqs. 5, 7-9): such a track has `eta = (0, 1, 0...)` and is
 //! left out of the sampler (it survives unchanged in every child hypothesis).
+//!
+//! Everything is generic over the sensor model `S: SensorModel<X, M, Z>` (vehicle states of
+//! `X` components, landmarks of `M` dimensions, measurements of `Z`), reached only through
+//! the trait: the prediction and its Jacobians, the residual (angles wrapped), the noise and
+//! the detection probability of each track's landmark type (`Track::mark`) and the clutter
+//! intensity of each measurement. The sensor's anchors (known landmarks,
+//! [`UpdateModels::anchors`]) are tracks present in every hypothesis with existence 1 and
+//! zero covariance: they are rows of every sampler table like the tracks (their detections
+//! weigh the hypotheses and, in the glmb-2.0 proposal, move the pose), but a child never
+//! holds them as members, so they are never updated, pruned or estimated.
 
-use nalgebra::{Matrix2, Matrix3, Matrix3x2};
+use nalgebra::{SMatrix, SVector};
 use rand::Rng;
 use rfslam_assign::gibbs::{DEAD, GibbsSampler, GibbsTable, MISSED};
-use rfslam_core::PlanarSensorModel;
-use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::symmetrise;
-use rfslam_core::model::RangeBearingModel;
+use rfslam_core::model::{LandmarkMark, RangeBearingModel, SensorModel};
 use rfslam_core::rbpf::log_sum_exp;
-use rfslam_core::{DetectionModel, Fov, Point2, Pose, RangeBearing};
+use rfslam_core::state::StateSpace;
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 const NONE: u32 = u32::MAX;
 
-/// A labelled landmark density `N(m; mean, cov)` with label `(birth step, measurement)`.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Track {
-    /// Label `l = (k << 20) | j`: born at step `k` from measurement `j` of scan `k - 1`.
+/// A labelled landmark density `N(m; mean, cov)` of one landmark type, with label
+/// `(birth step, measurement, type)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Track<const M: usize = 2> {
+    /// Label ([`birth_label`]): born at step `k` from measurement `j` of scan `k - 1` as a
+    /// landmark of type `mark`.
     pub label: u64,
     /// Mean (m).
-    pub mean: Point2,
+    pub mean: SVector<f64, M>,
     /// Covariance (m^2).
-    pub cov: Matrix2<f64>,
+    pub cov: SMatrix<f64, M, M>,
+    /// The landmark type ([`LandmarkMark::index`] of the sensor's `Mark`; 0 in a world of
+    /// one type): its noise `R`, its `p_D` and its prediction are that type's.
+    pub mark: u8,
 }
 
-/// The label of the birth track of measurement `j` at step `k`.
-pub fn birth_label(k: u64, j: usize) -> u64 {
-    (k << 20) | j as u64
+impl<const M: usize> Default for Track<M> {
+    fn default() -> Self {
+        Track { label: 0, mean: SVector::zeros(), cov: SMatrix::zeros(), mark: 0 }
+    }
+}
+
+/// The label of the birth track of measurement `j` at step `k` for landmark type `mark`:
+/// `(mark << 56) | (k << 20) | j` (`(k << 20) | j` for the one type of the planar worlds).
+pub fn birth_label(k: u64, j: usize, mark: u8) -> u64 {
+    (u64::from(mark) << 56) | (k << 20) | j as u64
 }
 
 /// One hypothesis `(I_h, w_h)`: its tracks are `members[start..start + len]` (indices into
@@ -55,23 +75,23 @@ pub struct Hypothesis {
 
 /// A Gaussian delta-GLMB map density (\[Moratuwage2019\] eq. 23), hypotheses sorted by weight.
 #[derive(Debug, Clone, PartialEq)]
-pub struct GlmbMap {
+pub struct GlmbMap<const M: usize = 2> {
     /// Track table.
-    pub tracks: Vec<Track>,
+    pub tracks: Vec<Track<M>>,
     /// Hypotheses, heaviest first.
     pub hyps: Vec<Hypothesis>,
     /// Track indices of every hypothesis.
     pub members: Vec<u32>,
 }
 
-impl Default for GlmbMap {
+impl<const M: usize> Default for GlmbMap<M> {
     /// The empty map: one hypothesis (no landmark) of weight 1.
     fn default() -> Self {
         GlmbMap { tracks: Vec::new(), hyps: vec![Hypothesis { log_w: 0.0, start: 0, len: 0 }], members: Vec::new() }
     }
 }
 
-impl GlmbMap {
+impl<const M: usize> GlmbMap<M> {
     /// Track indices of hypothesis `h`.
     pub fn members_of(&self, h: usize) -> &[u32] {
         let hy = self.hyps[h];
@@ -99,26 +119,30 @@ impl GlmbMap {
 
 /// A labelled multi-Bernoulli map `{(r_l, N(m; mean_l, P_l))}` (LMB-SLAM).
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct LmbMap {
+pub struct LmbMap<const M: usize = 2> {
     /// Tracks.
-    pub tracks: Vec<Track>,
+    pub tracks: Vec<Track<M>>,
     /// Existence probability of each track.
     pub r: Vec<f64>,
 }
 
 /// The scan-level models of an update.
 #[derive(Debug, Clone, Copy)]
-pub struct UpdateModels<'a, S: PlanarSensorModel = RangeBearingModel> {
-    /// Sensor model.
+pub struct UpdateModels<'a, S = RangeBearingModel, const X: usize = 3, const M: usize = 2, const Z: usize = 2> {
+    /// Sensor model: prediction, Jacobians, residual, `p_D(m | x)` of a track's type with
+    /// the field of view (0 outside, eq. 5) and the clutter intensity `kappa(z)`.
     pub sensor: &'a S,
-    /// Measurement noise `R`.
-    pub r: Matrix2<f64>,
-    /// Field of view.
-    pub fov: Fov,
-    /// `p_D(m | x)` inside the FOV, 0 outside (eq. 5).
-    pub detection: DetectionModel,
-    /// `ln kappa(z)` (uniform clutter intensity).
-    pub log_kappa: f64,
+    /// Measurement noise `R` of each landmark type, indexed by mark (the sensor's
+    /// `noise(mark)`, computed once).
+    pub noise: &'a [SMatrix<f64, Z, Z>],
+    /// The anchors: known landmarks (existence 1, zero covariance) present in every
+    /// hypothesis, never updated, pruned or estimated.
+    pub anchors: &'a [Track<M>],
+    /// The vehicle state's angular and held components (angles wrapped at every subtraction
+    /// in the glmb-2.0 proposal).
+    pub space: StateSpace<X>,
+    /// Lower bound of `kappa(z)`, so that `ln kappa` stays finite without clutter.
+    pub min_clutter_intensity: f64,
     /// `p_S` inside the FOV (1 outside, eqs. 7-9).
     pub survival: f64,
     /// Gate on the squared Mahalanobis distance.
@@ -129,26 +153,40 @@ pub struct UpdateModels<'a, S: PlanarSensorModel = RangeBearingModel> {
 /// linearised likelihood of eq. 26): `ln q = ln N(z; h(m, x), H_m P H_m^T + R)` and the
 /// updated Gaussian.
 #[derive(Debug, Clone, Copy)]
-pub struct Lik {
+pub struct Lik<const M: usize = 2> {
     /// Measurement index (0-based).
     pub j: u32,
     /// `ln q`.
     pub log_q: f64,
     /// Updated mean.
-    pub mean: Point2,
+    pub mean: SVector<f64, M>,
     /// Updated covariance (Joseph form).
-    pub cov: Matrix2<f64>,
+    pub cov: SMatrix<f64, M, M>,
 }
 
-/// A sampler-table row: a track in the FOV (or a birth).
+/// What a sampler-table row stands for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Source {
+    /// A track of the map.
+    Track,
+    /// An anchor (known landmark).
+    Anchor,
+    /// A birth track.
+    Birth,
+}
+
+/// A sampler-table row: a track in the FOV, an anchor in view, or a birth. The rows are
+/// laid out tracks, then anchors (from `Workspace::first_anchor_row`), then births (the
+/// last `births.len()`).
 #[derive(Debug, Clone, Copy)]
 struct Row {
-    /// Track index (existing rows) or birth index (birth rows).
+    /// Track, anchor or birth index.
     src: u32,
+    kind: Source,
     pd: f64,
-    /// `ln r` of the track (0 for a delta-GLMB track, `ln r_B` for a birth).
+    /// `ln r` of the track (0 for a delta-GLMB track and an anchor, `ln r_B` for a birth).
     log_r: f64,
-    /// `p_S` (1 for births).
+    /// `p_S` (1 for births and anchors).
     ps: f64,
     lik_start: u32,
     lik_end: u32,
@@ -156,20 +194,23 @@ struct Row {
 
 /// Reusable buffers of the updates (one per filter; no allocation once warm).
 #[derive(Debug, Clone, Default)]
-pub struct Workspace {
+pub struct Workspace<const X: usize = 3, const M: usize = 2> {
     /// Birth tracks of this step for the current particle, with `ln r_B` (filled by the
     /// caller before an update).
-    pub births: Vec<(Track, f64)>,
+    pub births: Vec<(Track<M>, f64)>,
     /// After an update: `r_U(z_j)`, the probability that measurement `j` was assigned to a
-    /// track (the adaptive birth of \[Reuter2014\]).
+    /// track or an anchor (the adaptive birth of \[Reuter2014\]).
     pub ru: Vec<f64>,
     rows: Vec<Row>,
+    first_anchor_row: usize,
     row_of: Vec<u32>,
-    liks: Vec<Lik>,
+    liks: Vec<Lik<M>>,
+    /// `ln kappa(z_j)` of the scan being processed.
+    log_kappa: Vec<f64>,
     table: GibbsTable,
     gibbs: GibbsSampler,
     table_rows: Vec<u32>,
-    new_tracks: Vec<Track>,
+    new_tracks: Vec<Track<M>>,
     new_hyps: Vec<Hypothesis>,
     new_members: Vec<u32>,
     hyp_meas: Vec<(u32, u32)>,
@@ -181,35 +222,41 @@ pub struct Workspace {
     keep: Vec<Hypothesis>,
     keep_members: Vec<u32>,
     acc: Vec<f64>,
-    comps: Vec<(f64, Pose, Matrix3<f64>)>,
+    comps: Vec<(f64, SVector<f64, X>, SMatrix<f64, X, X>)>,
     r_new: Vec<f64>,
 }
 
 /// `ln N(z; h, S)` for every gated `z_j` and the EKF updates, for a track `(mean, cov)` seen
 /// from `x`; with `pose_cov = Some(Q)` the pose-marginalised likelihood
 /// (`S = H_x Q H_x^T + H_m P H_m^T + R`) and no update. Appends to `liks`;
-/// returns `false` if `S` failed Cholesky (then nothing is appended).
+/// returns `false` if `S` failed Cholesky (then nothing is appended). The prediction, `R`
+/// and the update are those of the track's landmark type `mark`.
 #[allow(clippy::too_many_arguments)]
-fn likelihoods<S: PlanarSensorModel>(
-    m: &UpdateModels<S>,
-    x: &Pose,
-    mean: &Point2,
-    cov: &Matrix2<f64>,
-    pose_cov: Option<&Matrix3<f64>>,
-    z: &[RangeBearing],
-    liks: &mut Vec<Lik>,
+fn likelihoods<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
+    m: &UpdateModels<S, X, M, Z>,
+    x: &SVector<f64, X>,
+    t: &Track<M>,
+    pose_cov: Option<&SMatrix<f64, X, X>>,
+    z: &[SVector<f64, Z>],
+    liks: &mut Vec<Lik<M>>,
 ) -> bool {
-    let lin = m.sensor.linearise(x, mean, ());
+    let (mean, cov) = (&t.mean, &t.cov);
+    let r = &m.noise[usize::from(t.mark)];
+    let lin = m.sensor.linearise(x, mean, S::Mark::from_index(t.mark));
     let ph = cov * lin.hm.transpose();
-    let mut s = lin.hm * ph + m.r;
+    let mut s = lin.hm * ph + r;
     if let Some(q) = pose_cov {
         s += lin.hx * q * lin.hx.transpose();
     }
     let Some(ch) = symmetrise(&s).cholesky() else { return false };
     let l = ch.l_dirty();
-    let log_det = 2.0 * (l[(0, 0)].ln() + l[(1, 1)].ln());
+    let mut half_log_det = 0.0;
+    for i in 0..Z {
+        half_log_det += l[(i, i)].ln();
+    }
+    let log_det = 2.0 * half_log_det;
     let gain = ch.solve(&ph.transpose()).transpose();
-    let ikh = Matrix2::identity() - gain * lin.hm;
+    let ikh = SMatrix::<f64, M, M>::identity() - gain * lin.hm;
     let mut upd_cov = None;
     for (j, zj) in z.iter().enumerate() {
         let nu = m.sensor.residual(zj, &lin.z);
@@ -218,12 +265,12 @@ fn likelihoods<S: PlanarSensorModel>(
         if maha.is_nan() || maha > m.gate {
             continue;
         }
-        let log_q = -0.5 * (2.0 * LN_2PI + log_det + maha);
+        let log_q = -0.5 * (Z as f64 * LN_2PI + log_det + maha);
         let (mean_u, cov_u) = if pose_cov.is_some() {
             (*mean, *cov)
         } else {
             let c = *upd_cov
-                .get_or_insert_with(|| symmetrise(&(ikh * cov * ikh.transpose() + gain * m.r * gain.transpose())));
+                .get_or_insert_with(|| symmetrise(&(ikh * cov * ikh.transpose() + gain * r * gain.transpose())));
             (mean + gain * nu, c)
         };
         liks.push(Lik { j: j as u32, log_q, mean: mean_u, cov: cov_u });
@@ -231,58 +278,106 @@ fn likelihoods<S: PlanarSensorModel>(
     true
 }
 
-impl Workspace {
-    /// Builds the sampler rows at pose `x`: the given tracks inside the FOV (with existence
-    /// `r` from `log_r`), then every birth. Returns the Cholesky failures.
-    fn build_rows<S: PlanarSensorModel>(
+impl<const X: usize, const M: usize> Workspace<X, M> {
+    /// Builds the sampler rows at state `x`: the given tracks inside the FOV (with existence
+    /// `r` from `log_r`), then the anchors in view, then every birth; and `ln kappa(z_j)`.
+    /// Returns the Cholesky failures.
+    fn build_rows<S: SensorModel<X, M, Z>, const Z: usize>(
         &mut self,
-        m: &UpdateModels<S>,
-        x: &Pose,
-        tracks: &[Track],
+        m: &UpdateModels<S, X, M, Z>,
+        x: &SVector<f64, X>,
+        tracks: &[Track<M>],
         log_r: Option<&[f64]>,
-        pose_cov: Option<&Matrix3<f64>>,
-        z: &[RangeBearing],
+        pose_cov: Option<&SMatrix<f64, X, X>>,
+        z: &[SVector<f64, Z>],
     ) -> u32 {
         let mut chol = 0;
         self.rows.clear();
         self.liks.clear();
         self.row_of.clear();
         self.row_of.resize(tracks.len(), NONE);
-        let items = tracks.iter().map(|t| (t, None)).chain(self.births.iter().map(|(t, lr)| (t, Some(*lr))));
-        for (idx, (t, birth_lr)) in items.enumerate() {
-            let pd = m.detection.pd_gaussian(&m.fov, x, &t.mean, &t.cov);
-            let is_birth = birth_lr.is_some();
-            if pd <= 0.0 && !is_birth {
+        self.log_kappa.clear();
+        self.log_kappa.extend(z.iter().map(|zj| m.sensor.clutter_intensity(zj).max(m.min_clutter_intensity).ln()));
+        let pd_of = |t: &Track<M>| m.sensor.detection_probability(x, &t.mean, &t.cov, S::Mark::from_index(t.mark));
+        for (idx, t) in tracks.iter().enumerate() {
+            let pd = pd_of(t);
+            if pd <= 0.0 {
                 continue; // out of the FOV: p_S = 1, p_D = 0, deterministic
             }
             let start = self.liks.len() as u32;
-            if pd > 0.0 && !likelihoods(m, x, &t.mean, &t.cov, pose_cov, z, &mut self.liks) {
+            if !likelihoods(m, x, t, pose_cov, z, &mut self.liks) {
                 chol += 1;
             }
-            let (src, lr, ps) = match birth_lr {
-                Some(lr) => ((idx - tracks.len()) as u32, lr, 1.0),
-                None => {
-                    self.row_of[idx] = self.rows.len() as u32;
-                    (idx as u32, log_r.map_or(0.0, |l| l[idx]), m.survival)
-                }
-            };
-            self.rows.push(Row { src, pd, log_r: lr, ps, lik_start: start, lik_end: self.liks.len() as u32 });
+            self.row_of[idx] = self.rows.len() as u32;
+            let (kind, lr, ps) = (Source::Track, log_r.map_or(0.0, |l| l[idx]), m.survival);
+            let lik_end = self.liks.len() as u32;
+            self.rows.push(Row { src: idx as u32, kind, pd, log_r: lr, ps, lik_start: start, lik_end });
+        }
+        // Anchors: r = 1, p_S = 1 (never dead); out of view they are certainly missed and
+        // change nothing.
+        self.first_anchor_row = self.rows.len();
+        for (a, t) in m.anchors.iter().enumerate() {
+            let pd = pd_of(t);
+            if pd <= 0.0 {
+                continue;
+            }
+            let start = self.liks.len() as u32;
+            if !likelihoods(m, x, t, pose_cov, z, &mut self.liks) {
+                chol += 1;
+            }
+            let lik_end = self.liks.len() as u32;
+            self.rows.push(Row {
+                src: a as u32,
+                kind: Source::Anchor,
+                pd,
+                log_r: 0.0,
+                ps: 1.0,
+                lik_start: start,
+                lik_end,
+            });
+        }
+        for (b, (t, lr)) in self.births.iter().enumerate() {
+            let pd = pd_of(t);
+            let start = self.liks.len() as u32;
+            if pd > 0.0 && !likelihoods(m, x, t, pose_cov, z, &mut self.liks) {
+                chol += 1;
+            }
+            let lik_end = self.liks.len() as u32;
+            self.rows.push(Row {
+                src: b as u32,
+                kind: Source::Birth,
+                pd,
+                log_r: *lr,
+                ps: 1.0,
+                lik_start: start,
+                lik_end,
+            });
         }
         chol
     }
 
+    /// The track, anchor or birth of row `r` (`tracks` the map's tracks).
+    fn track_of<'t>(&'t self, r: usize, tracks: &'t [Track<M>], anchors: &'t [Track<M>]) -> &'t Track<M> {
+        let row = self.rows[r];
+        match row.kind {
+            Source::Track => &tracks[row.src as usize],
+            Source::Anchor => &anchors[row.src as usize],
+            Source::Birth => &self.births[row.src as usize].0,
+        }
+    }
+
     /// Adds row `r` to the table (eqs. 12-15 for one label: `1 - r p_S`, `r p_S (1 - p_D)`,
-    /// `r p_S p_D q / kappa`).
-    fn push_row(&mut self, r: usize, log_kappa: f64) {
+    /// `r p_S p_D q / kappa(z)`). An anchor (`r p_S = 1`) has no "dead" option.
+    fn push_row(&mut self, r: usize) {
         let row = self.rows[r];
         let rps = row.log_r.exp() * row.ps;
         self.table.push(DEAD, (1.0 - rps).ln());
         let lrps = row.log_r + row.ps.ln();
         self.table.push(MISSED, lrps + (1.0 - row.pd).ln());
-        let det = lrps + row.pd.ln() - log_kappa;
+        let det = lrps + row.pd.ln();
         for e in row.lik_start..row.lik_end {
             let l = self.liks[e as usize];
-            self.table.push(l.j as i32 + 1, det + l.log_q);
+            self.table.push(l.j as i32 + 1, det - self.log_kappa[l.j as usize] + l.log_q);
         }
         self.table.end_row();
         self.table_rows.push(r as u32);
@@ -312,26 +407,32 @@ pub struct GlmbSettings {
 }
 
 /// The joint prediction and update of the efficient delta-GLMB filter (\[Moratuwage2019\] eqs.
-/// 11-16) of `map` at pose `x` with the births in `ws.births` and the scan `z`.
+/// 11-16) of `map` at state `x` with the births in `ws.births` and the scan `z`.
 ///
-/// For every prior hypothesis `h` the table `eta` over its in-FOV tracks and the births is
+/// For every prior hypothesis `h` the table `eta` over its in-FOV tracks, the anchors in
+/// view (in every hypothesis, `r = p_S = 1`) and the births is
 /// sampled for `T_h = max(1, ceil(sweeps w_h))` sweeps; each distinct state `gamma` gives a
 /// child `(I+, w_h prod_i eta_i(gamma_i))` (eq. 12) whose tracks are the cached EKF updates
 /// (eq. 16). Returns `ln Delta w = ln sum_children w` (the normalising constant of eq. 11
 /// relative to the all-clutter likelihood `e^{-<kappa,1>} kappa^Z`: the particle's weight
 /// factor, eq. 22) and the Cholesky failures. Children with equal track sets are merged,
 /// then weights below `prune` are removed (the heaviest is always kept), at most
-/// `max_hypotheses` are kept, and the weights are renormalised. `ws.ru` receives `r_U(z_j)`.
-/// If no child is possible the map is left as it was and `-inf` is returned.
-pub fn glmb_update<S: PlanarSensorModel, R: Rng + ?Sized>(
-    map: &mut GlmbMap,
-    x: &Pose,
-    z: &[RangeBearing],
-    m: &UpdateModels<S>,
+/// `max_hypotheses` are kept, and the weights are renormalised. `ws.ru` receives `r_U(z_j)`
+/// (a detection of an anchor counts). A child holds no anchor: the anchors stay as they
+/// are. If no child is possible the map is left as it was and `-inf` is returned.
+pub fn glmb_update<S, R, const X: usize, const M: usize, const Z: usize>(
+    map: &mut GlmbMap<M>,
+    x: &SVector<f64, X>,
+    z: &[SVector<f64, Z>],
+    m: &UpdateModels<S, X, M, Z>,
     s: &GlmbSettings,
-    ws: &mut Workspace,
+    ws: &mut Workspace<X, M>,
     rng: &mut R,
-) -> (f64, u32) {
+) -> (f64, u32)
+where
+    S: SensorModel<X, M, Z>,
+    R: Rng + ?Sized,
+{
     let chol = ws.build_rows(m, x, &map.tracks, None, None, z);
     ws.new_tracks.clear();
     ws.new_hyps.clear();
@@ -344,7 +445,6 @@ pub fn glmb_update<S: PlanarSensorModel, R: Rng + ?Sized>(
     ws.remap_lik.resize(ws.liks.len(), NONE);
     ws.remap_birth.clear();
     ws.remap_birth.resize(ws.births.len(), NONE);
-    let first_birth_row = ws.rows.len() - ws.births.len();
 
     for h in 0..map.hyps.len() {
         let hy = map.hyps[h];
@@ -354,11 +454,11 @@ pub fn glmb_update<S: PlanarSensorModel, R: Rng + ?Sized>(
         for &t in members {
             let r = ws.row_of[t as usize];
             if r != NONE {
-                ws.push_row(r as usize, m.log_kappa);
+                ws.push_row(r as usize);
             }
         }
-        for r in first_birth_row..ws.rows.len() {
-            ws.push_row(r, m.log_kappa);
+        for r in ws.first_anchor_row..ws.rows.len() {
+            ws.push_row(r);
         }
         let sweeps = ((s.sweeps as f64 * hy.log_w.exp()).ceil() as usize).max(1);
         ws.gibbs.run(&ws.table, if ws.table.rows() == 0 { 0 } else { sweeps }, rng);
@@ -381,27 +481,27 @@ pub fn glmb_update<S: PlanarSensorModel, R: Rng + ?Sized>(
                 let g = ws.gibbs.sample(smp)[i];
                 let r = ws.table_rows[i] as usize;
                 let row = ws.rows[r];
-                let birth = r >= first_birth_row;
-                let id = match g {
-                    DEAD => continue,
-                    MISSED if birth => {
+                let id = match (g, row.kind) {
+                    (DEAD, _) | (MISSED, Source::Anchor) => continue,
+                    (MISSED, Source::Birth) => {
                         let b = row.src as usize;
                         remap(&mut ws.remap_birth[b], &mut ws.new_tracks, ws.births[b].0)
                     }
-                    MISSED => {
+                    (MISSED, Source::Track) => {
                         let t = row.src as usize;
                         remap(&mut ws.remap_old[t], &mut ws.new_tracks, map.tracks[t])
                     }
-                    g => {
+                    (g, Source::Anchor) => {
+                        ws.meas.push(g as u32 - 1);
+                        continue;
+                    }
+                    (g, _) => {
                         let e = ws.lik_of(r, g);
                         let l = ws.liks[e];
-                        let label = if birth {
-                            ws.births[row.src as usize].0.label
-                        } else {
-                            map.tracks[row.src as usize].label
-                        };
+                        let Track { label, mark, .. } = *ws.track_of(r, &map.tracks, m.anchors);
                         ws.meas.push(g as u32 - 1);
-                        remap(&mut ws.remap_lik[e], &mut ws.new_tracks, Track { label, mean: l.mean, cov: l.cov })
+                        let updated = Track { label, mean: l.mean, cov: l.cov, mark };
+                        remap(&mut ws.remap_lik[e], &mut ws.new_tracks, updated)
                     }
                 };
                 ws.new_members.push(id);
@@ -501,7 +601,7 @@ pub fn glmb_update<S: PlanarSensorModel, R: Rng + ?Sized>(
 
 /// `slot` if set, else appends `t` to `tracks` and records its index in `slot`.
 #[inline]
-fn remap(slot: &mut u32, tracks: &mut Vec<Track>, t: Track) -> u32 {
+fn remap<const M: usize>(slot: &mut u32, tracks: &mut Vec<Track<M>>, t: Track<M>) -> u32 {
     if *slot == NONE {
         *slot = tracks.len() as u32;
         tracks.push(t);
@@ -520,19 +620,24 @@ fn log_sum_exp_iter(it: impl Iterator<Item = f64> + Clone) -> f64 {
 /// LMB-SLAM's update (\[Deusch2015\], as compared in \[Moratuwage2019\]): the LMB `map` is one
 /// prior hypothesis with `eta_i = (1 - r_i p_S, r_i p_S (1 - p_D), r_i p_S p_D q_ij / kappa)`,
 /// sampled with `sweeps` Gibbs sweeps, then collapsed back to an LMB ([`collapse`]); tracks with
-/// `r < prune` are removed. Returns `ln Delta w` and the Cholesky failures; `ws.ru`
-/// receives `r_U(z_j)`.
+/// `r < prune` are removed. The anchors are rows of the table with `r = p_S = 1` and are not
+/// collapsed (they stay outside the map). Returns `ln Delta w` and the Cholesky failures;
+/// `ws.ru` receives `r_U(z_j)`.
 #[allow(clippy::too_many_arguments)]
-pub fn lmb_update<S: PlanarSensorModel, R: Rng + ?Sized>(
-    map: &mut LmbMap,
-    x: &Pose,
-    z: &[RangeBearing],
-    m: &UpdateModels<S>,
+pub fn lmb_update<S, R, const X: usize, const M: usize, const Z: usize>(
+    map: &mut LmbMap<M>,
+    x: &SVector<f64, X>,
+    z: &[SVector<f64, Z>],
+    m: &UpdateModels<S, X, M, Z>,
     sweeps: usize,
     prune: f64,
-    ws: &mut Workspace,
+    ws: &mut Workspace<X, M>,
     rng: &mut R,
-) -> (f64, u32) {
+) -> (f64, u32)
+where
+    S: SensorModel<X, M, Z>,
+    R: Rng + ?Sized,
+{
     ws.acc.clear();
     ws.acc.extend(map.r.iter().map(|r| r.ln()));
     let log_r = std::mem::take(&mut ws.acc);
@@ -541,7 +646,7 @@ pub fn lmb_update<S: PlanarSensorModel, R: Rng + ?Sized>(
     ws.table.clear(z.len());
     ws.table_rows.clear();
     for r in 0..ws.rows.len() {
-        ws.push_row(r, m.log_kappa);
+        ws.push_row(r);
     }
     ws.gibbs.run(&ws.table, if ws.rows.is_empty() { 0 } else { sweeps }, rng);
     ws.gibbs.distinct();
@@ -588,15 +693,17 @@ pub fn lmb_update<S: PlanarSensorModel, R: Rng + ?Sized>(
     }
     for i in 0..n_rows {
         let row = ws.rows[i];
-        let prior =
-            if i >= n_rows - ws.births.len() { ws.births[row.src as usize].0 } else { map.tracks[row.src as usize] };
+        if row.kind == Source::Anchor {
+            continue;
+        }
+        let prior = *ws.track_of(i, &map.tracks, m.anchors);
         let parts = std::iter::once((acc[base + i], prior.mean, prior.cov)).chain(
             (row.lik_start..row.lik_end)
                 .map(|e| (acc[base + n_rows + e as usize], ws.liks[e as usize].mean, ws.liks[e as usize].cov)),
         );
         let (r, mean, cov) = collapse(parts);
         if r >= prune {
-            ws.new_tracks.push(Track { label: prior.label, mean, cov });
+            ws.new_tracks.push(Track { mean, cov, ..prior });
             ws.r_new.push(r.min(1.0));
         }
     }
@@ -613,14 +720,16 @@ pub fn lmb_update<S: PlanarSensorModel, R: Rng + ?Sized>(
 /// `r = sum w_k` and the moment-matched Gaussian (mean `sum w_k m_k / r`, covariance
 /// `sum w_k (P_k + (m_k - mean)(m_k - mean)^T) / r`), which preserves the existence
 /// probability and the first two moments of the mixture.
-pub fn collapse(parts: impl Iterator<Item = (f64, Point2, Matrix2<f64>)> + Clone) -> (f64, Point2, Matrix2<f64>) {
+pub fn collapse<const M: usize>(
+    parts: impl Iterator<Item = (f64, SVector<f64, M>, SMatrix<f64, M, M>)> + Clone,
+) -> (f64, SVector<f64, M>, SMatrix<f64, M, M>) {
     let r: f64 = parts.clone().map(|p| p.0).sum();
     if r <= 0.0 {
-        let (_, m, p) = parts.clone().next().unwrap_or((0.0, Point2::zeros(), Matrix2::identity()));
+        let (_, m, p) = parts.clone().next().unwrap_or((0.0, SVector::zeros(), SMatrix::identity()));
         return (0.0, m, p);
     }
-    let mean = parts.clone().fold(Point2::zeros(), |a, (w, m, _)| a + m * w) / r;
-    let cov = parts.fold(Matrix2::zeros(), |a, (w, m, p)| {
+    let mean = parts.clone().fold(SVector::zeros(), |a, (w, m, _)| a + m * w) / r;
+    let cov = parts.fold(SMatrix::zeros(), |a, (w, m, p)| {
         let d = m - mean;
         a + (p + d * d.transpose()) * w
     }) / r;
@@ -628,30 +737,35 @@ pub fn collapse(parts: impl Iterator<Item = (f64, Point2, Matrix2<f64>)> + Clone
 }
 
 /// The glmb-2.0 proposal (\[Moratuwage2019\] eqs. 30-32): the pose-marginalised update of
-/// the `n_hyp` heaviest hypotheses at the predicted pose `x_bar` (covariance `q`), each
-/// distinct sampled association `gamma` giving the pose Gaussian conditioned on its
-/// detections (sequential EKF) with weight `w_h prod_i eta_i(gamma_i)`, moment-matched into
-/// one Gaussian `(mean, cov)`. Uses `ws.births`. Returns `(mean, cov, components,
+/// the `n_hyp` heaviest hypotheses at the predicted state `x_bar` (covariance `q`), each
+/// distinct sampled association `gamma` giving the state Gaussian conditioned on its
+/// detections (sequential EKF; a detection of an anchor included, with the anchor's zero
+/// covariance) with weight `w_h prod_i eta_i(gamma_i)`, moment-matched into one Gaussian
+/// `(mean, cov)` (offsets from `x_bar` with the angular components wrapped). A held state
+/// component (zero rows and columns in `q`) is never moved. Uses `ws.births`. Returns `(mean, cov, components,
 /// cholesky failures, ln c)` where `c` is the proposal's normalising constant (eq. 30),
 /// `sum_{(h, gamma)} w_h prod_i eta_i(gamma_i)` over the distinct associations found, divided
 /// by the prior weight of the hypotheses searched: the approximation of the integral of
 /// eq. (33), `integral g(Z | M, x) p(M) q(x | x_{k-1}, u) dM dx`, relative to the all-clutter
 /// likelihood (as `ln Delta w` of [`glmb_update`]).
-#[allow(clippy::too_many_arguments)]
-pub fn optimal_proposal<S: PlanarSensorModel, R: Rng + ?Sized>(
-    map: &GlmbMap,
-    x_bar: &Pose,
-    q: &Matrix3<f64>,
-    z: &[RangeBearing],
-    m: &UpdateModels<S>,
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub fn optimal_proposal<S, R, const X: usize, const M: usize, const Z: usize>(
+    map: &GlmbMap<M>,
+    x_bar: &SVector<f64, X>,
+    q: &SMatrix<f64, X, X>,
+    z: &[SVector<f64, Z>],
+    m: &UpdateModels<S, X, M, Z>,
     n_hyp: usize,
     sweeps: usize,
-    ws: &mut Workspace,
+    ws: &mut Workspace<X, M>,
     rng: &mut R,
-) -> (Pose, Matrix3<f64>, usize, u32, f64) {
+) -> (SVector<f64, X>, SMatrix<f64, X, X>, usize, u32, f64)
+where
+    S: SensorModel<X, M, Z>,
+    R: Rng + ?Sized,
+{
     let mut chol = ws.build_rows(m, x_bar, &map.tracks, None, Some(q), z);
     let mut searched = f64::NEG_INFINITY;
-    let first_birth_row = ws.rows.len() - ws.births.len();
     ws.comps.clear();
     for h in 0..map.hyps.len().min(n_hyp) {
         let hy = map.hyps[h];
@@ -661,11 +775,11 @@ pub fn optimal_proposal<S: PlanarSensorModel, R: Rng + ?Sized>(
         for &t in &map.members[hy.start as usize..(hy.start + hy.len) as usize] {
             let r = ws.row_of[t as usize];
             if r != NONE {
-                ws.push_row(r as usize, m.log_kappa);
+                ws.push_row(r as usize);
             }
         }
-        for r in first_birth_row..ws.rows.len() {
-            ws.push_row(r, m.log_kappa);
+        for r in ws.first_anchor_row..ws.rows.len() {
+            ws.push_row(r);
         }
         ws.gibbs.run(&ws.table, if ws.table.rows() == 0 { 0 } else { sweeps }, rng);
         ws.gibbs.distinct();
@@ -681,10 +795,8 @@ pub fn optimal_proposal<S: PlanarSensorModel, R: Rng + ?Sized>(
                 if g <= 0 {
                     continue;
                 }
-                let r = ws.table_rows[i] as usize;
-                let row = ws.rows[r];
-                let t = if r >= first_birth_row { ws.births[row.src as usize].0 } else { map.tracks[row.src as usize] };
-                if !pose_ekf(m, &mut mu, &mut sig, &t, &z[g as usize - 1]) {
+                let t = ws.track_of(ws.table_rows[i] as usize, &map.tracks, m.anchors);
+                if !pose_ekf(m, &mut mu, &mut sig, t, &z[g as usize - 1]) {
                     chol += 1;
                 }
             }
@@ -698,15 +810,15 @@ pub fn optimal_proposal<S: PlanarSensorModel, R: Rng + ?Sized>(
     let max = ws.comps.iter().map(|c| c.0).fold(f64::NEG_INFINITY, f64::max);
     let total: f64 = ws.comps.iter().map(|c| (c.0 - max).exp()).sum();
     let log_c = max + total.ln() - searched;
-    // Offsets from x_bar with the heading wrapped (headings either side of ±pi
+    // Offsets from x_bar with the angles wrapped (headings either side of ±pi
     // average correctly).
-    let off = |p: &Pose| Pose::new(p[0] - x_bar[0], p[1] - x_bar[1], wrap(p[2] - x_bar[2]));
-    let d_mean = ws.comps.iter().fold(Pose::zeros(), |a, c| a + off(&c.1) * ((c.0 - max).exp() / total));
-    let cov = ws.comps.iter().fold(Matrix3::zeros(), |a, c| {
+    let off = |p: &SVector<f64, X>| m.space.difference(p, x_bar);
+    let d_mean = ws.comps.iter().fold(SVector::zeros(), |a, c| a + off(&c.1) * ((c.0 - max).exp() / total));
+    let cov = ws.comps.iter().fold(SMatrix::zeros(), |a, c| {
         let d = off(&c.1) - d_mean;
         a + (c.2 + d * d.transpose()) * ((c.0 - max).exp() / total)
     });
-    let mean = Pose::new(x_bar[0] + d_mean[0], x_bar[1] + d_mean[1], wrap(x_bar[2] + d_mean[2]));
+    let mean = m.space.wrapped(x_bar + d_mean);
     (mean, symmetrise(&cov), n, chol, log_c)
 }
 
@@ -716,26 +828,26 @@ fn log_add(a: f64, b: f64) -> f64 {
     if m == f64::NEG_INFINITY { m } else { m + ((a - m).exp() + (b - m).exp()).ln() }
 }
 
-/// One EKF update of the pose `(mu, sig)` by measurement `z` of landmark `t`, the landmark
-/// uncertainty entering as noise `H_m P H_m^T + R` (Joseph form). `false` on a Cholesky
-/// failure (the pose is left unchanged).
-fn pose_ekf<S: PlanarSensorModel>(
-    m: &UpdateModels<S>,
-    mu: &mut Pose,
-    sig: &mut Matrix3<f64>,
-    t: &Track,
-    z: &RangeBearing,
+/// One EKF update of the state `(mu, sig)` by measurement `z` of landmark `t` (of its type),
+/// the landmark uncertainty entering as noise `H_m P H_m^T + R` (Joseph form), the angles
+/// wrapped. `false` on a Cholesky failure (the state is left unchanged).
+fn pose_ekf<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
+    m: &UpdateModels<S, X, M, Z>,
+    mu: &mut SVector<f64, X>,
+    sig: &mut SMatrix<f64, X, X>,
+    t: &Track<M>,
+    z: &SVector<f64, Z>,
 ) -> bool {
-    let lin = m.sensor.linearise(mu, &t.mean, ());
-    let noise = lin.hm * t.cov * lin.hm.transpose() + m.r;
-    let ph: Matrix3x2<f64> = *sig * lin.hx.transpose();
+    let lin = m.sensor.linearise(mu, &t.mean, S::Mark::from_index(t.mark));
+    let noise = lin.hm * t.cov * lin.hm.transpose() + m.noise[usize::from(t.mark)];
+    let ph: SMatrix<f64, X, Z> = *sig * lin.hx.transpose();
     let s = symmetrise(&(lin.hx * ph + noise));
     let Some(ch) = s.cholesky() else { return false };
-    let gain: Matrix3x2<f64> = ch.solve(&ph.transpose()).transpose();
+    let gain: SMatrix<f64, X, Z> = ch.solve(&ph.transpose()).transpose();
     let nu = m.sensor.residual(z, &lin.z);
     let dx = gain * nu;
-    *mu = Pose::new(mu[0] + dx[0], mu[1] + dx[1], wrap(mu[2] + dx[2]));
-    let ikh = Matrix3::identity() - gain * lin.hx;
+    *mu = m.space.wrapped(*mu + dx);
+    let ikh = SMatrix::<f64, X, X>::identity() - gain * lin.hx;
     *sig = symmetrise(&(ikh * *sig * ikh.transpose() + gain * noise * gain.transpose()));
     true
 }

@@ -39,7 +39,8 @@ pub struct Params {
     /// `r_U(z) = sum_h w_h 1[z assigned in h]` reaches this (our choice: 0.5).
     pub explained_threshold: f64,
     /// Gate on the squared Mahalanobis distance of the innovation (chi-square, 2 dof;
-    /// default 13.8155, tail probability 1e-3).
+    /// default 13.8155, tail probability 1e-3; for a sensor of `Z` measurement components
+    /// the quantile of `Z` degrees of freedom, e.g. 20.515 for the radio world's 5).
     pub gate: f64,
     /// Hypotheses whose normalised weight falls below this are pruned (\[Moratuwage2019\]: 1e-5).
     pub hypothesis_prune: f64,

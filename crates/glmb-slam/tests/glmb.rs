@@ -9,6 +9,7 @@ use rand::SeedableRng;
 use rfslam_core::gaussian::log_normal;
 use rfslam_core::model::RangeBearingModel;
 use rfslam_core::sensor::RangeBearingSensor;
+use rfslam_core::state::StateSpace;
 use rfslam_core::{DetectionModel, Fov, Point2, Pose, RangeBearing};
 use rfslam_sim::ScenarioData;
 
@@ -29,26 +30,28 @@ fn sensor() -> RangeBearingModel {
     }
 }
 
+/// The update models over `sensor` (its field of view, `p_D = PD` and `kappa = KAPPA`), no
+/// anchor.
 fn models(sensor: &RangeBearingModel, survival: f64) -> UpdateModels<'_> {
     UpdateModels {
         sensor,
-        r: sensor.r,
-        fov: Fov::new(3.0, std::f64::consts::PI),
-        detection: DetectionModel::Constant { pd: PD },
-        log_kappa: KAPPA.ln(),
+        noise: std::slice::from_ref(&sensor.r),
+        anchors: &[],
+        space: StateSpace::PLANAR,
+        min_clutter_intensity: 1e-12,
         survival,
         gate: 1e6,
     }
 }
 
 fn track() -> Track {
-    Track { label: 7, mean: Point2::new(1.5, 0.4), cov: Matrix2::new(0.01, 0.002, 0.002, 0.02) }
+    Track { label: 7, mean: Point2::new(1.5, 0.4), cov: Matrix2::new(0.01, 0.002, 0.002, 0.02), mark: 0 }
 }
 
 /// `q_j = N(z_j; h(m, x), H_m P H_m^T + R)` by hand.
 fn q(m: &UpdateModels, x: &Pose, t: &Track, z: &RangeBearing) -> f64 {
     let lin = m.sensor.sensor.linearise(x, &t.mean);
-    let s = lin.hm * t.cov * lin.hm.transpose() + m.r;
+    let s = lin.hm * t.cov * lin.hm.transpose() + m.noise[0];
     log_normal(&RangeBearingSensor::residual(z, &lin.z), &s).unwrap().exp()
 }
 
@@ -185,7 +188,7 @@ fn proposal_weight_is_the_pose_marginal_likelihood() {
     // whose weight is negligible may never be drawn; it is then also negligible below).
     assert!((3..=2 + z.len()).contains(&n), "{n} components");
     let lin = sensor.linearise(&x_bar, &t.mean);
-    let s = lin.hx * q * lin.hx.transpose() + lin.hm * t.cov * lin.hm.transpose() + m.r;
+    let s = lin.hx * q * lin.hx.transpose() + lin.hm * t.cov * lin.hm.transpose() + m.noise[0];
     let sum_q: f64 = z.iter().map(|zj| log_normal(&RangeBearingSensor::residual(zj, &lin.z), &s).unwrap().exp()).sum();
     let c = (1.0 - ps) + ps * (1.0 - PD) + ps * PD * sum_q / KAPPA;
     assert!((log_c - c.ln()).abs() < 1e-6, "{log_c} vs {}", c.ln());
@@ -252,7 +255,7 @@ fn proposal_matches_the_moment_matched_mixture() {
     assert_eq!((n, chol), (2 + z.len(), 0));
 
     let lin = sensor.linearise(&x_bar, &t.mean);
-    let noise = lin.hm * t.cov * lin.hm.transpose() + m.r;
+    let noise = lin.hm * t.cov * lin.hm.transpose() + m.noise[0];
     let s = lin.hx * q * lin.hx.transpose() + noise;
     let gain = q * lin.hx.transpose() * s.try_inverse().unwrap();
     let ikh = Matrix3::identity() - gain * lin.hx;
@@ -297,7 +300,7 @@ fn proposal_wraps_bearings_at_the_seam() {
     let m = models(&rb, 1.0);
     let x_bar = Pose::new(0.0, 0.0, 0.0);
     let q = Matrix3::from_diagonal(&Vector3::new(0.02f64.powi(2), 0.02f64.powi(2), 0.005f64.powi(2)));
-    let t = Track { label: 3, mean: Point2::new(-1.5, 0.002), cov: Matrix2::identity() * 1e-4 };
+    let t = Track { label: 3, mean: Point2::new(-1.5, 0.002), cov: Matrix2::identity() * 1e-4, mark: 0 };
     let map = GlmbMap { tracks: vec![t], hyps: vec![Hypothesis { log_w: 0.0, start: 0, len: 1 }], members: vec![0] };
     let pred = sensor.predict(&x_bar, &t.mean);
     assert!(pred[1] > 3.1, "predicted bearing {}", pred[1]);
