@@ -132,6 +132,28 @@ impl FastSlam1Params {
 }
 
 impl MhParams {
+    /// Checks the parameters for `particles` particles (the branching within its bounds).
+    pub fn validate(&self, particles: usize) -> Result<(), ParamError> {
+        self.base.validate(particles)?;
+        CountRange::ITERATIONS.check("hypotheses", self.hypotheses)?;
+        CountRange::new(particles, MAX_POPULATION)
+            .check("max_population", self.max_population)
+            .map_err(|e| ParamError::new(e.key, format!("{} (at least the number of particles)", e.message)))?;
+        CountRange::HYPOTHESES.from(0).check("max_ambiguous_measurements", self.max_ambiguous_measurements)?;
+        Interval::BOUNDED_NON_NEGATIVE.check_opt("hypothesis_log_cut", self.hypothesis_log_cut)?;
+        // The children of one step: up to `max_population` parents times `hypotheses`.
+        let children = self.max_population.saturating_mul(self.hypotheses);
+        if children > MAX_CHILDREN {
+            return Err(ParamError::new(
+                "hypotheses",
+                format!(
+                    "max_population x hypotheses = {children} children per step, more than {MAX_CHILDREN} (each a copy of its parent's map)"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     /// The engine's settings of MH-FastSLAM: the branching, and the rest as
     /// [`FastSlam1Params::settings`].
     pub fn settings(&self) -> DaSettings {
@@ -197,23 +219,7 @@ impl<S: PlanarSensorModel> FilterBuild for MhFastSlam<S> {
     }
 
     fn check(params: &MhParams, models: &SlamModels, particles: usize) -> Result<(), ParamError> {
-        params.base.validate(particles)?;
-        CountRange::ITERATIONS.check("hypotheses", params.hypotheses)?;
-        CountRange::new(particles, MAX_POPULATION)
-            .check("max_population", params.max_population)
-            .map_err(|e| ParamError::new(e.key, format!("{} (at least the number of particles)", e.message)))?;
-        CountRange::HYPOTHESES.from(0).check("max_ambiguous_measurements", params.max_ambiguous_measurements)?;
-        Interval::BOUNDED_NON_NEGATIVE.check_opt("hypothesis_log_cut", params.hypothesis_log_cut)?;
-        // The children of one step: up to `max_population` parents times `hypotheses`.
-        let children = params.max_population.saturating_mul(params.hypotheses);
-        if children > MAX_CHILDREN {
-            return Err(ParamError::new(
-                "hypotheses",
-                format!(
-                    "max_population x hypotheses = {children} children per step, more than {MAX_CHILDREN} (each a copy of its parent's map)"
-                ),
-            ));
-        }
+        params.validate(particles)?;
         DaFastSlam::<Motion, S, 3, 2, 2>::check_model(&planar_sensor(models))
     }
 
@@ -223,3 +229,30 @@ impl<S: PlanarSensorModel> FilterBuild for MhFastSlam<S> {
         MhFastSlam(DaFastSlam::new(Self::NAME, settings, models.vehicle(), sensor, params.particles()))
     }
 }
+
+/// FastSLAM 1.0 and MH-FastSLAM in a world beyond the planar ones: the same parameters
+/// (the gate an absolute threshold on the squared Mahalanobis distance in the sensor's
+/// measurement dimension: set it for a sensor of other than two components) and the
+/// engine built on the world's models.
+macro_rules! world_build {
+    ($ty:ident, $params:ty) => {
+        impl<V, S, const X: usize, const M: usize, const Z: usize> rfslam_core::WorldBuild<V, S, X, M, Z> for $ty
+        where
+            V: rfslam_core::VehicleModel<X, 3> + Clone + Send + 'static,
+            S: rfslam_core::InvertibleSensorModel<X, M, Z>,
+        {
+            fn build_world(
+                params: $params,
+                models: &rfslam_core::WorldModels<V, S, X, M, Z>,
+                particles: usize,
+            ) -> Result<Box<dyn rfslam_core::SlamFilter<X, M, Z>>, ParamError> {
+                params.validate(particles)?;
+                let (v, s) = (models.vehicle.clone(), models.sensor.clone());
+                let engine = DaFastSlam::try_new(Self::NAME, params.settings(), v, s, particles)?;
+                Ok(Box::new(rfslam_core::Named { name: Self::NAME, engine }))
+            }
+        }
+    };
+}
+world_build!(FastSlam1, FastSlam1Params);
+world_build!(MhFastSlam, MhParams);

@@ -397,6 +397,26 @@ macro_rules! variant_filter {
                 $ty(GlmbSlam::new($variant, params, models.vehicle(), sensor, particles))
             }
         }
+
+        /// In a world beyond the planar ones: the same parameters (the gate an absolute
+        /// threshold in the sensor's measurement dimension: set it for a sensor of other than
+        /// two components) and the engine built on the world's models.
+        impl<V, S2, const X: usize, const M: usize, const Z: usize> rfslam_core::WorldBuild<V, S2, X, M, Z> for $ty
+        where
+            V: VehicleModel<X, 3> + Clone + Send + 'static,
+            S2: InvertibleSensorModel<X, M, Z>,
+        {
+            fn build_world(
+                params: Params,
+                models: &rfslam_core::WorldModels<V, S2, X, M, Z>,
+                particles: usize,
+            ) -> Result<Box<dyn rfslam_core::SlamFilter<X, M, Z>>, ParamError> {
+                params.validate(particles)?;
+                let (v, s) = (models.vehicle.clone(), models.sensor.clone());
+                let engine = GlmbSlam::new($variant, params, v, s, particles);
+                Ok(Box::new(rfslam_core::Named { name: $name, engine }))
+            }
+        }
     };
 }
 

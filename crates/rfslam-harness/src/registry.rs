@@ -210,27 +210,32 @@ pub static REGISTRY: &[FilterEntry] = &[
     planar_entry!(
         "fastslam-1.0",
         fastslam::FastSlam1,
-        "FastSLAM 1.0: most likely gated association per particle, new landmarks otherwise, existence filter (Leung et al. eqs. 29-32)"
+        "FastSLAM 1.0: most likely gated association per particle, new landmarks otherwise, existence filter (Leung et al. eqs. 29-32)",
+        radio
     ),
     planar_entry!(
         "mh-fastslam",
         fastslam::MhFastSlam,
-        "MH-FastSLAM (Nieto et al. 2003, as in Leung et al.): up to 4 association hypotheses per particle, resampling above 125, existence filter"
+        "MH-FastSLAM (Nieto et al. 2003, as in Leung et al.): up to 4 association hypotheses per particle, resampling above 125, existence filter",
+        radio
     ),
     planar_entry!(
         "glmb-1.0",
         glmb_slam::Glmb1,
-        "delta-GLMB-SLAM 1.0 (Moratuwage et al. 2018): delta-GLMB map per particle, Gibbs joint prediction/update, transition density as proposal"
+        "delta-GLMB-SLAM 1.0 (Moratuwage et al. 2018): delta-GLMB map per particle, Gibbs joint prediction/update, transition density as proposal",
+        radio
     ),
     planar_entry!(
         "glmb-2.0",
         glmb_slam::Glmb2,
-        "delta-GLMB-SLAM 2.0 (Moratuwage et al. 2019): as glmb-1.0 with the optimal-kernel pose proposal (eqs. 30-33)"
+        "delta-GLMB-SLAM 2.0 (Moratuwage et al. 2019): as glmb-1.0 with the optimal-kernel pose proposal (eqs. 30-33)",
+        radio
     ),
     planar_entry!(
         "lmb-slam",
         glmb_slam::LmbSlam,
-        "LMB-SLAM (Deusch et al. 2015): LMB map per particle, Gibbs update then LMB collapse, existence pruning 0.019"
+        "LMB-SLAM (Deusch et al. 2015): LMB map per particle, Gibbs update then LMB collapse, existence pruning 0.019",
+        radio
     ),
     planar_entry!(
         "pmbm-slam",
