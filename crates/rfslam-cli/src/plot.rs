@@ -25,7 +25,10 @@ pub struct PlotArgs {
     /// filter), bars (a sweep's default: a summary column per filter and N with +-1 std),
     /// rms (the RMS over runs at every time step of the x, y, heading and position errors,
     /// one line per group of runs: the runs with the same --label or, without labels, the
-    /// run directories in the same parent directory; needs `run --save-steps`).
+    /// run directories in the same parent directory; needs `run --save-steps`), radio (a
+    /// 5G radio-world sweep over time: the mean over runs of the virtual anchors' and the
+    /// scattering points' GOSPA, the RMSE of the position, clock bias and heading, one line
+    /// per filter and N; Kim et al. 2022 Figs. 3 and 4).
     #[arg(long)]
     kind: Option<String>,
     /// Summary column for metric and bars: pos_rmse_m (default), pos_rmse_se2_m,

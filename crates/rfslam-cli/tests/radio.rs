@@ -60,6 +60,9 @@ fn radio_world_sweeps_with_typed_columns() {
     assert!(summary.contains("va_gospa_m") && summary.contains("clock_rmse_m"));
     ok(dir.path(), &["report", "one"]);
     assert_eq!(dir.read("one/summary.csv"), summary);
+    // Kim et al. 2022 Figs. 3 and 4 from the sweep.
+    ok(dir.path(), &["plot", "one", "--kind", "radio", "--out", "radio.png"]);
+    assert!(std::fs::metadata(dir.join("radio.png")).unwrap().len() > 10_000);
     // Every job's steps: 41 scans, the last one's per-type GOSPA the row's final one, the
     // mean over them the row's mean; the same files whatever the thread count.
     for i in 0..runs.rows.len() {

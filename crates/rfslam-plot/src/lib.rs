@@ -53,17 +53,21 @@ pub enum Kind {
     /// RMS over runs at every step of the x, y, heading and position errors (`steps.csv`),
     /// one line per group of runs.
     Rms,
+    /// A 5G radio-world sweep over time (its `steps/`): GOSPA per landmark type, RMSE of the
+    /// position, clock bias and heading (\[Kim2022\] Figs. 3 and 4).
+    Radio,
 }
 
 impl Kind {
     /// Every kind, by name.
-    pub const ALL: [(&'static str, Kind); 6] = [
+    pub const ALL: [(&'static str, Kind); 7] = [
         ("map", Kind::Map),
         ("steps", Kind::Steps),
         ("particles", Kind::Particles),
         ("metric", Kind::Metric),
         ("bars", Kind::Bars),
         ("rms", Kind::Rms),
+        ("radio", Kind::Radio),
     ];
 
     /// The kind called `name`, or an error listing the kinds.
@@ -227,6 +231,14 @@ pub fn plot(req: &PlotRequest) -> Result<PlotOutcome, PlotError> {
         Kind::Rms => {
             let dirs: Vec<&Path> = req.inputs.iter().map(PathBuf::as_path).collect();
             let fig = StepsFigure::rms(&dirs, &req.labels, req.title.clone(), width)?;
+            render(&fig, &req.out)?;
+            fig.size()
+        }
+        Kind::Radio => {
+            if req.metric.is_some() || req.x.is_some() || !req.conditions.is_empty() || req.log_y {
+                return Err(PlotError::Usage("--metric, --x, --where and --log-y are not for --kind radio".into()));
+            }
+            let fig = StepsFigure::radio(&req.inputs[0], req.title.clone(), width)?;
             render(&fig, &req.out)?;
             fig.size()
         }

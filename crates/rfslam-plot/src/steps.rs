@@ -110,11 +110,19 @@ fn groups<'a>(dirs: &[&'a Path], labels: &[String]) -> Vec<Group<'a>> {
 /// The RMS over the runs in `dirs` at every step of the `RMS_PANELS` columns (NaN where no
 /// run has a value), against the step index. Every run must have the same steps.
 fn rms(dirs: &[&Path]) -> Result<StepsRun, PlotError> {
+    let files: Vec<PathBuf> = dirs.iter().map(|d| d.join(files::STEPS)).collect();
+    pool(&files, &RMS_PANELS, &[true; 4])
+}
+
+/// Over the runs whose per-step files are `files`, at every step, each panel's column
+/// pooled: its RMS where `root_mean_square[p]`, else its mean (NaN where no run has a
+/// value), against the step index. Every run must have the same steps.
+fn pool(files: &[PathBuf], panels: &[Panel], root_mean_square: &[bool]) -> Result<StepsRun, PlotError> {
     let mut steps: Option<(Vec<f64>, PathBuf)> = None;
-    let mut sums = vec![Vec::new(); RMS_PANELS.len()];
-    let mut counts = vec![Vec::new(); RMS_PANELS.len()];
-    for dir in dirs {
-        let t = read_steps(dir)?;
+    let mut sums = vec![Vec::new(); panels.len()];
+    let mut counts = vec![Vec::new(); panels.len()];
+    for file in files {
+        let t = Table::read(file, Some("write it with `rfslam run ... --save-steps` into that directory"))?;
         let k = t.nums("step")?;
         match &steps {
             None => {
@@ -128,7 +136,7 @@ fn rms(dirs: &[&Path]) -> Result<StepsRun, PlotError> {
                 return Err(PlotError::file(
                     &t.path,
                     format!(
-                        "its steps differ from those of {} ({} against {} rows): an RMS over runs needs runs of the same length",
+                        "its steps differ from those of {} ({} against {} rows): a figure over runs needs runs of the same length",
                         path.display(),
                         k.len(),
                         first.len()
@@ -137,22 +145,84 @@ fn rms(dirs: &[&Path]) -> Result<StepsRun, PlotError> {
             }
             Some(_) => {}
         }
-        for (p, (col, _, _)) in RMS_PANELS.iter().enumerate() {
+        for (p, (col, _, _)) in panels.iter().enumerate() {
             for (i, v) in t.nums(col)?.into_iter().enumerate() {
                 if v.is_finite() {
-                    sums[p][i] += v * v;
+                    sums[p][i] += if root_mean_square[p] { v * v } else { v };
                     counts[p][i] += 1;
                 }
             }
         }
     }
-    let (t, _) = steps.ok_or_else(|| PlotError::Usage("--kind rms needs at least one run directory".into()))?;
+    let (t, _) = steps.ok_or_else(|| PlotError::Usage("a figure over runs needs at least one run".into()))?;
     let values = sums
         .iter()
         .zip(&counts)
-        .map(|(s, c)| s.iter().zip(c).map(|(s, &c)| if c > 0 { (s / c as f64).sqrt() } else { f64::NAN }).collect())
+        .zip(root_mean_square)
+        .map(|((s, c), &rms)| {
+            s.iter()
+                .zip(c)
+                .map(|(s, &c)| match (c, rms) {
+                    (0, _) => f64::NAN,
+                    (c, true) => (s / c as f64).sqrt(),
+                    (c, false) => s / c as f64,
+                })
+                .collect()
+        })
         .collect();
     Ok(StepsRun { t, values })
+}
+
+/// The panels of the `radio` figure: the virtual anchors' and the scattering points' GOSPA
+/// (\[Kim2022\] Fig. 3, a mean over runs), the errors of the position, the clock bias and
+/// the heading (Fig. 4, an RMSE over runs).
+const RADIO_PANELS: [Panel; 5] = [
+    ("va_gospa_m", "GOSPA of the virtual anchors, mean over runs [m]", false),
+    ("sp_gospa_m", "GOSPA of the scattering points, mean over runs [m]", false),
+    ("pos_err_m", "RMSE of the position [m]", false),
+    ("clock_err_m", "RMSE of the clock bias [m]", false),
+    ("head_err_deg", "RMSE of the heading [deg]", false),
+];
+
+/// Which of [`RADIO_PANELS`] pool as an RMS over runs (the others as a mean).
+const RADIO_RMS: [bool; 5] = [false, false, true, true, true];
+
+/// The groups of a sweep's per-step files (`steps/<label>-N<n>-p<point>-run<run>.csv`):
+/// one per label, particle count and grid point, in the order of the sorted file names,
+/// labelled `<label> N=<n>` (and the grid point where the sweep has several).
+fn sweep_groups(dir: &Path) -> Result<Vec<(String, Vec<PathBuf>)>, PlotError> {
+    let steps = dir.join("steps");
+    let hint = "a sweep in the 5G radio world writes it (`[world] kind = \"radio5g\"`)";
+    let entries = std::fs::read_dir(&steps)
+        .map_err(|_| PlotError::Missing { path: steps.clone(), hint: Some(hint.to_string()) })?;
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "csv"))
+        .collect();
+    files.sort();
+    let mut groups: Vec<((String, String), Vec<PathBuf>)> = Vec::new();
+    for f in files {
+        let stem = f.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let parsed = stem.rsplit_once("-run").and_then(|(rest, _)| rest.rsplit_once("-p")).and_then(|(rest, point)| {
+            let (label, n) = rest.rsplit_once("-N")?;
+            Some((format!("{label} N={n}"), point.to_string()))
+        });
+        let key = parsed.ok_or_else(|| {
+            PlotError::file(&f, "not a per-step file of a sweep (<label>-N<particles>-p<point>-run<run>.csv)")
+        })?;
+        match groups.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, g)) => g.push(f),
+            None => groups.push((key, vec![f])),
+        }
+    }
+    let several_points = groups.iter().any(|((_, p), _)| p != "0");
+    Ok(groups
+        .into_iter()
+        .map(|((label, point), files)| {
+            let label = if several_points { format!("{label} (grid point {point})") } else { label };
+            (label, files)
+        })
+        .collect())
 }
 
 /// The height of a figure of `panels` panels with `title` and `entries`, `width` wide.
@@ -203,6 +273,28 @@ impl StepsFigure {
         let title = title.or_else(|| Some("RMS error over runs".to_string()));
         let size = (width, height(RMS_PANELS.len(), title.as_deref(), &entries, width));
         Ok(StepsFigure { runs, panels: &RMS_PANELS, x_desc: "time step", stroke: 2, title, entries, size })
+    }
+}
+
+impl StepsFigure {
+    /// The `radio` figure of the sweep in `dir`: per step, the mean over runs of the virtual
+    /// anchors' and the scattering points' GOSPA and the RMSE over runs of the position, the
+    /// clock bias and the heading (\[Kim2022\] Figs. 3 and 4), one line per filter, particle
+    /// count (and grid point), from the sweep's `steps/`.
+    pub fn radio(dir: &Path, title: Option<String>, width: u32) -> Result<StepsFigure, PlotError> {
+        let mut runs = Vec::new();
+        let mut entries = Vec::new();
+        for (i, (label, files)) in sweep_groups(dir)?.iter().enumerate() {
+            runs.push(pool(files, &RADIO_PANELS, &RADIO_RMS)?);
+            let label = format!("{label} ({} runs)", files.len());
+            entries.push(Entry::new(label, Symbol::Line { color: style::color(i).to_rgba(), width: 3, dashed: false }));
+        }
+        if runs.is_empty() {
+            return Err(PlotError::Usage(format!("{}: steps/ holds no per-step file", dir.display())));
+        }
+        let title = title.or_else(|| Some("GOSPA per landmark type and vehicle errors over time".to_string()));
+        let size = (width, height(RADIO_PANELS.len(), title.as_deref(), &entries, width));
+        Ok(StepsFigure { runs, panels: &RADIO_PANELS, x_desc: "time step", stroke: 2, title, entries, size })
     }
 }
 
@@ -272,6 +364,32 @@ impl Figure for StepsFigure {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A radio sweep's per-step files group by label, particle count and grid point (labels
+    /// with dashes kept whole); the GOSPA panels pool as means, the errors as RMS.
+    #[test]
+    fn radio_groups_and_pools_runs() {
+        let dir = std::env::temp_dir().join(format!("rfslam-plot-radio-{}", std::process::id()));
+        let steps = dir.join("steps");
+        std::fs::create_dir_all(&steps).unwrap();
+        let header = "step,t_s,pos_err_m,head_err_deg,clock_err_m,va_gospa_m,sp_gospa_m,landmarks\n";
+        for (run, (e, g)) in [(3.0, 10.0), (4.0, 20.0)].into_iter().enumerate() {
+            for name in [format!("pmb-slam-N10-p0-run{run}.csv"), format!("dead-reckoning-N1-p0-run{run}.csv")] {
+                let text = format!("{header}0,0,{e},0,{e},{g},{g},0\n1,0.5,{e},0,,{g},{g},0\n");
+                std::fs::write(steps.join(name), text).unwrap();
+            }
+        }
+        let groups = sweep_groups(&dir).unwrap();
+        let labels: Vec<&str> = groups.iter().map(|g| g.0.as_str()).collect();
+        assert_eq!(labels, ["dead-reckoning N=1", "pmb-slam N=10"]);
+        let r = pool(&groups[1].1, &RADIO_PANELS, &RADIO_RMS).unwrap();
+        assert_eq!(r.values[0], [15.0, 15.0], "GOSPA: the mean over runs");
+        assert_eq!(r.values[2], [12.5f64.sqrt(); 2], "position: the RMS over runs");
+        assert!(r.values[3][1].is_nan(), "no clock error at step 1");
+        std::fs::write(steps.join("stray.csv"), header).unwrap();
+        assert!(sweep_groups(&dir).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     /// A directory `root/rel` holding a `steps.csv` with the given `(x, y, heading)` errors.
     fn run_dir(root: &Path, rel: &str, errs: &[(f64, f64, f64)]) -> PathBuf {
