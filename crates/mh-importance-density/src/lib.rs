@@ -20,19 +20,27 @@
 //! component weight (eq. 44) are a type parameter, [`PoseSlr`]: phd-3.0 is
 //! `MhProposal<TaylorSlr>` (the paper's first-order Taylor expansion); `phd-3.0-sp`
 //! (crate `phd-slam-3sp`) plugs in sigma points.
+//!
+//! The density is written over any vehicle model and any invertible sensor model: states of
+//! `X` components (the IPL of [`rfslam_core::ipl::ipl_update_in`]: angles wrapped at every
+//! subtraction, the components [`rfslam_core::state::StateSpace`] holds never moved, skipped
+//! by the factorisations and left out of the densities), landmarks of `M` coordinates with
+//! their types (each row with the noise of its type; the anchors of the filter's map are rows
+//! of weight 1 and zero covariance) and measurements of `Z` components with the sensor's
+//! residual. The planar world is the default.
 
-use nalgebra::{Matrix2, Matrix3};
+use nalgebra::{SMatrix, SVector};
 use rand::RngExt;
 pub use rbphd::MissedCost;
 use rbphd::{CostMatrixBuffers, PoseSample, Proposal, ProposalContext, ProposalStats};
 use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
-use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
-use rfslam_core::ipl::{IplSettings, Linearised, ipl_update_slr, pose_diff};
-use rfslam_core::model::RangeBearingModel;
+use rfslam_core::ipl::{IplSettings, Linearised, ipl_update_in};
+use rfslam_core::model::{LandmarkMark, RangeBearingModel, VehicleModel};
 use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::rbpf::log_sum_exp;
-use rfslam_core::{ParamError, PlanarSensorModel, Point2, Pose, RangeBearing, Rng, SlamModels};
+use rfslam_core::state::StateSpace;
+use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Rng, SensorModel};
 use serde::{Deserialize, Serialize};
 use std::marker::PhantomData;
 
@@ -71,31 +79,36 @@ impl Default for MhParams {
 /// How the multi-hypotheses importance density linearises the sensor `g(m, x)` in the pose:
 /// the statistical linear regression of Algorithm 1 step 5 (\[Kaltiokallio2024\] eq. 42, put in the
 /// form of eq. 43 as [`rfslam_core::ipl::ipl_update_slr`] takes it), and the detected
-/// factor `N(z; g(m_i, mu_t), S_t,i)` of the component weight, eq. (44).
-pub trait PoseSlr: Clone + Send + 'static {
-    /// Eq. (42) for the landmark `N(m, p)` under the linearisation density
+/// factor `N(z; g(m_i, mu_t), S_t,i)` of the component weight, eq. (44), for states of `X`
+/// components, landmarks of `M` coordinates and measurements of `Z` components (the planar
+/// world by default).
+pub trait PoseSlr<const X: usize = 3, const M: usize = 2, const Z: usize = 2>: Clone + Send + 'static {
+    /// Eq. (42) for the landmark `N(m, p)` of type `mark` under the linearisation density
     /// `pi = N(m_pi, p_pi)`, as `(mu~^z, B, Omega)` (see [`rfslam_core::ipl::ipl_update_slr`]);
     /// `None` if it cannot be formed (a covariance failed Cholesky).
-    fn linearise<Sn: PlanarSensorModel>(
-        &self,
-        sensor: &Sn,
-        m_pi: &Pose,
-        p_pi: &Matrix3<f64>,
-        m: &Point2,
-        p: &Matrix2<f64>,
-    ) -> Option<Linearised>;
-
-    /// The detected factor of eq. (44), `ln N(z; mu^z, S)` for the landmark `N(m, p)` and
-    /// the component `N(mean, cov)`; `None` if `S` fails Cholesky.
     #[allow(clippy::too_many_arguments)]
-    fn log_likelihood<Sn: PlanarSensorModel>(
+    fn linearise<Sn: SensorModel<X, M, Z>>(
         &self,
         sensor: &Sn,
-        mean: &Pose,
-        cov: &Matrix3<f64>,
-        m: &Point2,
-        p: &Matrix2<f64>,
-        z: &RangeBearing,
+        m_pi: &SVector<f64, X>,
+        p_pi: &SMatrix<f64, X, X>,
+        m: &SVector<f64, M>,
+        p: &SMatrix<f64, M, M>,
+        mark: Sn::Mark,
+    ) -> Option<Linearised<Z, X>>;
+
+    /// The detected factor of eq. (44), `ln N(z; mu^z, S)` for the landmark `N(m, p)` of
+    /// type `mark` and the component `N(mean, cov)`; `None` if `S` fails Cholesky.
+    #[allow(clippy::too_many_arguments)]
+    fn log_likelihood<Sn: SensorModel<X, M, Z>>(
+        &self,
+        sensor: &Sn,
+        mean: &SVector<f64, X>,
+        cov: &SMatrix<f64, X, X>,
+        m: &SVector<f64, M>,
+        p: &SMatrix<f64, M, M>,
+        mark: Sn::Mark,
+        z: &SVector<f64, Z>,
     ) -> Option<f64>;
 }
 
@@ -105,30 +118,34 @@ pub trait PoseSlr: Clone + Send + 'static {
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct TaylorSlr;
 
-impl PoseSlr for TaylorSlr {
-    fn linearise<Sn: PlanarSensorModel>(
+impl<const X: usize, const M: usize, const Z: usize> PoseSlr<X, M, Z> for TaylorSlr {
+    #[inline(always)]
+    fn linearise<Sn: SensorModel<X, M, Z>>(
         &self,
         sensor: &Sn,
-        m_pi: &Pose,
-        _p_pi: &Matrix3<f64>,
-        m: &Point2,
-        p: &Matrix2<f64>,
-    ) -> Option<Linearised> {
-        let lin = sensor.linearise(m_pi, m, ());
-        Some((lin.z, lin.hx, lin.hm * p * lin.hm.transpose() + sensor.noise(())))
+        m_pi: &SVector<f64, X>,
+        _p_pi: &SMatrix<f64, X, X>,
+        m: &SVector<f64, M>,
+        p: &SMatrix<f64, M, M>,
+        mark: Sn::Mark,
+    ) -> Option<Linearised<Z, X>> {
+        let lin = sensor.linearise(m_pi, m, mark);
+        Some((lin.z, lin.hx, lin.hm * p * lin.hm.transpose() + sensor.noise(mark)))
     }
 
-    fn log_likelihood<Sn: PlanarSensorModel>(
+    #[inline(always)]
+    fn log_likelihood<Sn: SensorModel<X, M, Z>>(
         &self,
         sensor: &Sn,
-        mean: &Pose,
-        cov: &Matrix3<f64>,
-        m: &Point2,
-        p: &Matrix2<f64>,
-        z: &RangeBearing,
+        mean: &SVector<f64, X>,
+        cov: &SMatrix<f64, X, X>,
+        m: &SVector<f64, M>,
+        p: &SMatrix<f64, M, M>,
+        mark: Sn::Mark,
+        z: &SVector<f64, Z>,
     ) -> Option<f64> {
-        let lin = sensor.linearise(mean, m, ());
-        let r = sensor.noise(());
+        let lin = sensor.linearise(mean, m, mark);
+        let r = sensor.noise(mark);
         let s = symmetrise(&(lin.hx * cov * lin.hx.transpose() + lin.hm * p * lin.hm.transpose() + r));
         let nu = sensor.residual(z, &lin.z);
         log_normal(&nu, &s)
@@ -136,45 +153,58 @@ impl PoseSlr for TaylorSlr {
 }
 
 /// One component of the GM-ID: association, moments and log weight.
-#[derive(Debug, Clone, Default)]
-struct Component {
+#[derive(Debug, Clone)]
+struct Component<const X: usize> {
     /// Measurement index of each cost-matrix row (`None`: missed), eq. (33).
     phi: Vec<Option<usize>>,
-    mean: Pose,
-    cov: Matrix3<f64>,
+    mean: SVector<f64, X>,
+    cov: SMatrix<f64, X, X>,
     log_w: f64,
     /// Cholesky of `cov` succeeded (else the component is not sampled from).
     chol_ok: bool,
 }
 
+impl<const X: usize> Default for Component<X> {
+    fn default() -> Self {
+        Component { phi: Vec::new(), mean: SVector::zeros(), cov: SMatrix::zeros(), log_w: 0.0, chol_ok: false }
+    }
+}
+
 /// The multi-hypotheses importance density of \[Kaltiokallio2024\] Section V, with the statistical
-/// linear regression `S` (default: the paper's Taylor expansion), on the planar sensor model
-/// `Sn` (default: range-bearing).
+/// linear regression `S` (default: the paper's Taylor expansion), on the sensor model `Sn` and
+/// the vehicle model `V` (default: the planar range-bearing world).
 #[derive(Clone)]
-pub struct MhProposal<S: PoseSlr = TaylorSlr, Sn: PlanarSensorModel = RangeBearingModel> {
-    sensor: PhantomData<Sn>,
+pub struct MhProposal<
+    S = TaylorSlr,
+    Sn = RangeBearingModel,
+    V = Motion,
+    const X: usize = 3,
+    const M: usize = 2,
+    const Z: usize = 2,
+> {
+    models: PhantomData<(Sn, V)>,
     params: MhParams,
     slr: S,
     murty: Murty,
     ranked: Vec<Assignment>,
-    components: Vec<Component>,
+    components: Vec<Component<X>>,
     n_components: usize,
     /// Cost-matrix row -> map component index, of the last call.
     rows: Vec<usize>,
     n_meas: usize,
     cost: CostMatrixBuffers,
-    pairs_z: Vec<RangeBearing>,
+    pairs_z: Vec<SVector<f64, Z>>,
     pairs_row: Vec<usize>,
     log_w: Vec<f64>,
     /// Terms of the mixture density eq. (48), reused.
     terms: Vec<f64>,
 }
 
-impl<S: PoseSlr, Sn: PlanarSensorModel> MhProposal<S, Sn> {
+impl<S, Sn, V, const X: usize, const M: usize, const Z: usize> MhProposal<S, Sn, V, X, M, Z> {
     /// The mixture of the last [`Proposal::propose`] call, in Murty's order (the all-missed
     /// component last): for each component its association (measurement index per
     /// detectable component, `None` = missed), mean, covariance and normalised log weight.
-    pub fn mixture(&self) -> impl Iterator<Item = (&[Option<usize>], &Pose, &Matrix3<f64>, f64)> {
+    pub fn mixture(&self) -> impl Iterator<Item = (&[Option<usize>], &SVector<f64, X>, &SMatrix<f64, X, X>, f64)> {
         self.components[..self.n_components]
             .iter()
             .zip(&self.log_w)
@@ -185,7 +215,7 @@ impl<S: PoseSlr, Sn: PlanarSensorModel> MhProposal<S, Sn> {
         self.params.missed_cost.log_missed(pd, log_eta)
     }
 
-    fn component_slot(&mut self) -> &mut Component {
+    fn component_slot(&mut self) -> &mut Component<X> {
         if self.n_components == self.components.len() {
             self.components.push(Component::default());
         }
@@ -194,7 +224,12 @@ impl<S: PoseSlr, Sn: PlanarSensorModel> MhProposal<S, Sn> {
     }
 }
 
-impl<S: PoseSlr, Sn: PlanarSensorModel> MhProposal<S, Sn> {
+impl<S, Sn, V, const X: usize, const M: usize, const Z: usize> MhProposal<S, Sn, V, X, M, Z>
+where
+    S: PoseSlr<X, M, Z>,
+    Sn: InvertibleSensorModel<X, M, Z>,
+    V: VehicleModel<X, 3>,
+{
     /// Checks the parameters (errors name the key).
     pub fn validate_params(p: &MhParams) -> Result<(), ParamError> {
         CountRange::HYPOTHESES.check("max_assignments", p.max_assignments)?;
@@ -206,7 +241,7 @@ impl<S: PoseSlr, Sn: PlanarSensorModel> MhProposal<S, Sn> {
     /// The importance density with parameters `params` and the SLR `slr`.
     pub fn with_slr(params: &MhParams, slr: S) -> Self {
         MhProposal {
-            sensor: PhantomData,
+            models: PhantomData,
             params: params.clone(),
             slr,
             murty: Murty::new(),
@@ -226,11 +261,39 @@ impl<S: PoseSlr, Sn: PlanarSensorModel> MhProposal<S, Sn> {
     /// [`Proposal::propose`]: Algorithm 2 steps 2-9 for one particle (or group of copies).
     pub fn propose_mh(
         &mut self,
-        ctx: &ProposalContext<Sn>,
+        ctx: &ProposalContext<Sn, V, X, M, Z>,
         n: usize,
         rng: &mut Rng,
-        out: &mut Vec<PoseSample>,
+        out: &mut Vec<PoseSample<X>>,
     ) -> ProposalStats {
+        // The planar pose's state space as constants, so that the compiler folds its angle
+        // and held-component tests away (the same arithmetic, without the tests).
+        if ctx.space == Self::PLANAR_SPACE {
+            self.propose_in::<true>(ctx, n, rng, out)
+        } else {
+            self.propose_in::<false>(ctx, n, rng, out)
+        }
+    }
+
+    /// `[x, y, heading]`'s state space when `X = 3` (the heading third, nothing held).
+    const PLANAR_SPACE: StateSpace<X> = {
+        let mut angular = [false; X];
+        if X == 3 {
+            angular[2] = true;
+        }
+        StateSpace { angular, held: [false; X] }
+    };
+
+    /// [`MhProposal::propose_mh`] with the state space of `ctx`, or the planar one as
+    /// constants when `PLANAR`.
+    fn propose_in<const PLANAR: bool>(
+        &mut self,
+        ctx: &ProposalContext<Sn, V, X, M, Z>,
+        n: usize,
+        rng: &mut Rng,
+        out: &mut Vec<PoseSample<X>>,
+    ) -> ProposalStats {
+        let space = if PLANAR { &Self::PLANAR_SPACE } else { &ctx.space };
         let sensor = ctx.sensor;
         let (x_bar, q) = (ctx.predicted, ctx.q);
         let nz = ctx.z.len();
@@ -282,13 +345,15 @@ impl<S: PoseSlr, Sn: PlanarSensorModel> MhProposal<S, Sn> {
                 }
             }
             let (rows, pairs_row, slr) = (&self.rows, &self.pairs_row, &self.slr);
-            let res = ipl_update_slr(
+            let res = ipl_update_in(
+                space,
                 &x_bar,
                 &q,
                 &self.pairs_z,
                 |k, m_pi, p_pi| {
                     let i = rows[pairs_row[k]];
-                    slr.linearise(sensor, m_pi, p_pi, &ctx.map.mean[i], &ctx.map.cov[i])
+                    let mark = Sn::Mark::from_index(ctx.map.mark[i]);
+                    slr.linearise(sensor, m_pi, p_pi, &ctx.map.mean[i], &ctx.map.cov[i], mark)
                 },
                 |a, b| sensor.residual(a, b),
                 &ipl,
@@ -305,7 +370,8 @@ impl<S: PoseSlr, Sn: PlanarSensorModel> MhProposal<S, Sn> {
                     None => log_w += self.log_missed(pd, lw),
                     Some(j) => {
                         let (m_i, p_i) = (&ctx.map.mean[i], &ctx.map.cov[i]);
-                        match self.slr.log_likelihood(sensor, &res.mean, &res.cov, m_i, p_i, &ctx.z[*j]) {
+                        let mark = Sn::Mark::from_index(ctx.map.mark[i]);
+                        match self.slr.log_likelihood(sensor, &res.mean, &res.cov, m_i, p_i, mark, &ctx.z[*j]) {
                             Some(l) => log_w += pd.ln() + lw - ctx.log_clutter + l,
                             None => {
                                 stats.cholesky_failures += 1;
@@ -315,7 +381,7 @@ impl<S: PoseSlr, Sn: PlanarSensorModel> MhProposal<S, Sn> {
                     }
                 }
             }
-            let chol_ok = res.cov.cholesky().is_some();
+            let chol_ok = space.factorable(&res.cov).cholesky().is_some();
             let slot = &mut self.components[t];
             slot.phi = phi;
             slot.mean = res.mean;
@@ -356,20 +422,26 @@ impl<S: PoseSlr, Sn: PlanarSensorModel> MhProposal<S, Sn> {
                 }
             }
             let c = &self.components[t];
-            let Some(mut x) = sample(&c.mean, &c.cov, rng) else {
+            let Some(mut x) = sample(&c.mean, &space.factorable(&c.cov), rng) else {
                 // Keep the predicted mean and leave the weight (the public code's fallback).
                 stats.cholesky_failures += 1;
                 out.push(PoseSample { pose: x_bar, log_correction: 0.0, component: t });
                 continue;
             };
-            x[2] = wrap(x[2]);
-            let log_prior = log_normal(&pose_diff(&x, &x_bar), &q).unwrap_or(f64::NEG_INFINITY);
+            for i in (0..X).filter(|&i| space.held[i]) {
+                x[i] = c.mean[i];
+            }
+            let x = space.wrapped(x);
+            // The held components (equal everywhere, unit variance in the factorisations)
+            // add the same constant to every density and cancel in the correction.
+            let log_prior =
+                log_normal(&space.difference(&x, &x_bar), &space.factorable(&q)).unwrap_or(f64::NEG_INFINITY);
             terms.clear();
             for (k, comp) in self.components[..self.n_components].iter().enumerate() {
                 if self.log_w[k] == f64::NEG_INFINITY {
                     continue;
                 }
-                if let Some(l) = log_normal(&pose_diff(&x, &comp.mean), &comp.cov) {
+                if let Some(l) = log_normal(&space.difference(&x, &comp.mean), &space.factorable(&comp.cov)) {
                     terms.push(self.log_w[k] + l);
                 }
             }
@@ -397,25 +469,30 @@ impl<S: PoseSlr, Sn: PlanarSensorModel> MhProposal<S, Sn> {
     }
 }
 
-impl<Sn: PlanarSensorModel> Proposal for MhProposal<TaylorSlr, Sn> {
+impl<Sn, V, const X: usize, const M: usize, const Z: usize> Proposal<X, M, Z> for MhProposal<TaylorSlr, Sn, V, X, M, Z>
+where
+    Sn: InvertibleSensorModel<X, M, Z>,
+    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
+{
     const NAME: &'static str = "phd-3.0";
     type Params = MhParams;
+    type Vehicle = V;
     type Sensor = Sn;
 
     fn validate(p: &MhParams) -> Result<(), ParamError> {
         Self::validate_params(p)
     }
 
-    fn new(params: &MhParams, _models: &SlamModels) -> Self {
+    fn new(params: &MhParams) -> Self {
         Self::with_slr(params, TaylorSlr)
     }
 
     fn propose(
         &mut self,
-        ctx: &ProposalContext<Sn>,
+        ctx: &ProposalContext<Sn, V, X, M, Z>,
         n: usize,
         rng: &mut Rng,
-        out: &mut Vec<PoseSample>,
+        out: &mut Vec<PoseSample<X>>,
     ) -> ProposalStats {
         self.propose_mh(ctx, n, rng, out)
     }
@@ -429,9 +506,10 @@ impl<Sn: PlanarSensorModel> Proposal for MhProposal<TaylorSlr, Sn> {
 mod tests {
     use super::*;
     use nalgebra::Matrix2;
+    use nalgebra::Matrix3;
     use rand::SeedableRng;
     use rbphd::GmMap;
-    use rfslam_core::Point2;
+    use rfslam_core::{Point2, Pose, RangeBearing};
 
     use rfslam_eval::fixtures::phd_slam_synthetic_models as models;
 
@@ -454,7 +532,8 @@ mod tests {
         let z = [z1, RangeBearing::new(60.0, 0.0), z0]; // order must not matter
         let rb = rfslam_core::model::RangeBearingModel::new(&m, 0.0);
         let ctx = ProposalContext {
-            models: &m,
+            vehicle: &m.vehicle(),
+            space: rfslam_core::state::StateSpace::PLANAR,
             sensor: &rb,
             z: &z,
             prior_pose: x_bar,
@@ -469,7 +548,7 @@ mod tests {
         let mut rng = Rng::seed_from_u64(1);
         let mut out = Vec::new();
         let all = MhParams { assignment_ratio: 1e-300, append_all_missed: false, ..Default::default() };
-        let mut p = MhProposal::new(&all, &m);
+        let mut p = <MhProposal as Proposal>::new(&all);
         let stats = p.propose(&ctx, 4, &mut rng, &mut out);
         let phis: Vec<Vec<Option<usize>>> = p.mixture().map(|(phi, ..)| phi.to_vec()).collect();
         assert_eq!(stats.components, 4);
@@ -486,7 +565,7 @@ mod tests {
         assert!(p.associations(0, &mut assoc));
         assert_eq!(assoc, vec![Some(1), None, Some(0)]);
 
-        let mut p = MhProposal::new(&MhParams::default(), &m);
+        let mut p = <MhProposal as Proposal>::new(&MhParams::default());
         let stats = p.propose(&ctx, 4, &mut rng, &mut out);
         let phis: Vec<Vec<Option<usize>>> = p.mixture().map(|(phi, ..)| phi.to_vec()).collect();
         assert_eq!(stats.components, 2);
@@ -507,7 +586,8 @@ mod tests {
         let z = [RangeBearing::new(10.0, 0.1)];
         let rb = rfslam_core::model::RangeBearingModel::new(&m, 0.0);
         let ctx = ProposalContext {
-            models: &m,
+            vehicle: &m.vehicle(),
+            space: rfslam_core::state::StateSpace::PLANAR,
             sensor: &rb,
             z: &z,
             prior_pose: Pose::zeros(),
@@ -519,7 +599,7 @@ mod tests {
             log_clutter: -9.0,
             gate: 41.4465,
         };
-        let mut p = MhProposal::new(&MhParams::default(), &m);
+        let mut p = <MhProposal as Proposal>::new(&MhParams::default());
         let mut out = Vec::new();
         let stats = p.propose(&ctx, 3, &mut Rng::seed_from_u64(2), &mut out);
         assert_eq!(stats.components, 1);

@@ -5,10 +5,17 @@
 //! with eq. (46) as the tables of \[Kaltiokallio2024\] were (the paper does not say which weighting
 //! its PHD 1.0 rows used; \[PHD-SLAM-3.0-code\] has one update computing eq. (46) for every
 //! variant).
+//!
+//! The proposal reads no measurement, so the filter runs on any vehicle and any invertible
+//! sensor model: [`TransitionProposal`]`<S, V>` is a [`Proposal`] for every `V:
+//! VehicleModel<X, 3>` and `S: InvertibleSensorModel<X, M, Z>`, and
+//! `RbPhd<TransitionProposal<S, V>, X, M, Z>` is the bootstrap RB-PHD filter on that world,
+//! with the engine's typed births and anchors (the multi-model RB-PHD filter of the 5G radio
+//! world, see `rbphd::RbPhd`). [`PhdSlam1`] is its registered planar instance.
 
 use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, sample_transition};
-use rfslam_core::model::RangeBearingModel;
-use rfslam_core::{ParamError, PlanarSensorModel, Rng, SlamModels};
+use rfslam_core::model::{RangeBearingModel, VehicleModel};
+use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Rng};
 use serde::{Deserialize, Serialize};
 use std::marker::PhantomData;
 
@@ -17,40 +24,48 @@ use std::marker::PhantomData;
 #[serde(deny_unknown_fields)]
 pub struct TransitionParams {}
 
-/// The transition density as importance density (eq. 26), on the planar sensor model `S`
-/// (it reads no measurement; the filter's update does).
+/// The transition density as importance density (eq. 26), on the sensor model `S` and the
+/// vehicle model `V` (it reads no measurement; the filter's update does).
 #[derive(Debug, Clone)]
-pub struct TransitionProposal<S = RangeBearingModel>(PhantomData<S>);
+pub struct TransitionProposal<S = RangeBearingModel, V = Motion>(PhantomData<(S, V)>);
 
-impl<S> Default for TransitionProposal<S> {
+impl<S, V> Default for TransitionProposal<S, V> {
     fn default() -> Self {
         TransitionProposal(PhantomData)
     }
 }
 
-impl<S: PlanarSensorModel> Proposal for TransitionProposal<S> {
+impl<S, V, const X: usize, const M: usize, const Z: usize> Proposal<X, M, Z> for TransitionProposal<S, V>
+where
+    S: InvertibleSensorModel<X, M, Z>,
+    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
+{
     const NAME: &'static str = "phd-1.0";
     type Params = TransitionParams;
+    type Vehicle = V;
     type Sensor = S;
 
     fn validate(_: &TransitionParams) -> Result<(), ParamError> {
         Ok(())
     }
 
-    fn new(_: &TransitionParams, _: &SlamModels) -> Self {
+    fn new(_: &TransitionParams) -> Self {
         TransitionProposal::default()
     }
 
     fn propose(
         &mut self,
-        ctx: &ProposalContext<S>,
+        ctx: &ProposalContext<S, V, X, M, Z>,
         n: usize,
         rng: &mut Rng,
-        out: &mut Vec<PoseSample>,
+        out: &mut Vec<PoseSample<X>>,
     ) -> ProposalStats {
         sample_transition(ctx, n, rng, out)
     }
 }
 
-/// PHD-SLAM 1.0 on the planar sensor model `S`.
+/// PHD-SLAM 1.0 on the planar sensor model `S`: the registered `phd-1.0`.
 pub type PhdSlam1<S = RangeBearingModel> = RbPhd<TransitionProposal<S>>;
+
+/// PHD-SLAM 1.0 on the vehicle model `V` and the sensor model `S` of any world.
+pub type PhdSlam1In<V, S, const X: usize, const M: usize, const Z: usize> = RbPhd<TransitionProposal<S, V>, X, M, Z>;

@@ -73,6 +73,23 @@
 //! the original.
 //! [`ProposalStats::components`] reports the number of Gaussians merged (`1 +` gated pairs);
 //! one Gaussian is sampled from.
+//!
+//! # Planar only
+//! The proposal is written for the planar world (pose `[x, y, heading]`, point landmarks,
+//! a two-component measurement): it is a [`Proposal`] only for the planar sensor models
+//! ([`rfslam_core::PlanarSensorModel`]), so `phd-2.0a` has no instance on another world and
+//! a program that asks for one is refused when it is built, never run silently:
+//!
+//! ```compile_fail
+//! // The 5G radio sensor is not planar: there is no `phd-2.0a` on it.
+//! let _ = std::mem::size_of::<phd_slam_2a::PhdSlam2a<rfslam_core::model::RadioSensor>>();
+//! ```
+//!
+//! The planar sensors are served (the registered filter checks the world's sensor kind):
+//!
+//! ```
+//! let _ = std::mem::size_of::<phd_slam_2a::PhdSlam2a<rfslam_core::model::RelativePositionModel>>();
+//! ```
 
 use nalgebra::{Matrix3, Matrix3x2, Vector3};
 use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
@@ -80,7 +97,7 @@ use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
 use rfslam_core::ipl::pose_diff;
 use rfslam_core::model::RangeBearingModel;
-use rfslam_core::{ParamError, PlanarSensorModel, Pose, Rng, SlamModels};
+use rfslam_core::{ParamError, PlanarSensorModel, Pose, Rng};
 use serde::{Deserialize, Serialize};
 use std::marker::PhantomData;
 
@@ -316,13 +333,14 @@ where
 impl<S: PlanarSensorModel> Proposal for Gao2021Proposal<S> {
     const NAME: &'static str = "phd-2.0a";
     type Params = Gao2021Params;
+    type Vehicle = rfslam_core::Motion;
     type Sensor = S;
 
     fn validate(_: &Gao2021Params) -> Result<(), ParamError> {
         Ok(())
     }
 
-    fn new(params: &Gao2021Params, _models: &SlamModels) -> Self {
+    fn new(params: &Gao2021Params) -> Self {
         Gao2021Proposal {
             sensor: PhantomData,
             params: params.clone(),
@@ -419,6 +437,7 @@ mod tests {
     use rand::SeedableRng;
     use rbphd::GmMap;
     use rfslam_core::RangeBearingSensor;
+    use rfslam_core::SlamModels;
     use rfslam_core::{Point2, RangeBearing};
     use std::f64::consts::PI;
 
@@ -444,7 +463,8 @@ mod tests {
         log_clutter: f64,
     ) -> ProposalContext<'a> {
         ProposalContext {
-            models: m,
+            vehicle: Box::leak(Box::new(m.vehicle())),
+            space: rfslam_core::state::StateSpace::PLANAR,
             // Leaked: a test helper returns a context borrowing it.
             sensor: Box::leak(Box::new(rfslam_core::model::RangeBearingModel::new(m, 0.0))),
             z,
@@ -460,7 +480,7 @@ mod tests {
     }
 
     fn proposal(use_mean: bool, norm: PairNormalisation) -> Gao2021Proposal {
-        <Gao2021Proposal>::new(&Gao2021Params { use_mean, pair_normalisation: norm }, &models())
+        <Gao2021Proposal as Proposal>::new(&Gao2021Params { use_mean, pair_normalisation: norm })
     }
 
     /// Jacobians of the sensor by central differences (independent of `linearise`).

@@ -18,6 +18,23 @@
 //! The association is recorded for the TPR/TNR of \[Kaltiokallio2024\] Section VI-A-1. Known
 //! failure mode (\[Kaltiokallio2024\] Fig. 2): a wrong best association pulls the proposal away and
 //! nothing corrects it.
+//!
+//! # Planar only
+//! The proposal is written for the planar world (pose `[x, y, heading]`, point landmarks,
+//! a two-component measurement): it is a [`Proposal`] only for the planar sensor models
+//! ([`rfslam_core::PlanarSensorModel`]), so `phd-2.0b` has no instance on another world and
+//! a program that asks for one is refused when it is built, never run silently:
+//!
+//! ```compile_fail
+//! // The 5G radio sensor is not planar: there is no `phd-2.0b` on it.
+//! let _ = std::mem::size_of::<phd_slam_2b::PhdSlam2b<rfslam_core::model::RadioSensor>>();
+//! ```
+//!
+//! The planar sensors are served (the registered filter checks the world's sensor kind):
+//!
+//! ```
+//! let _ = std::mem::size_of::<phd_slam_2b::PhdSlam2b<rfslam_core::model::RelativePositionModel>>();
+//! ```
 
 use nalgebra::{Matrix2, Matrix3};
 use rbphd::{
@@ -30,7 +47,7 @@ use rfslam_core::ipl::pose_diff;
 use rfslam_core::joint_ipl::{JointIpl, JointIplSettings, KlOn};
 use rfslam_core::model::RangeBearingModel;
 use rfslam_core::params::{CountRange, Interval};
-use rfslam_core::{ParamError, PlanarSensorModel, Point2, Pose, RangeBearing, Rng, SlamModels};
+use rfslam_core::{ParamError, PlanarSensorModel, Point2, Pose, RangeBearing, Rng};
 use serde::{Deserialize, Serialize};
 use std::marker::PhantomData;
 
@@ -105,6 +122,7 @@ impl<S: PlanarSensorModel> JointProposal<S> {
 impl<S: PlanarSensorModel> Proposal for JointProposal<S> {
     const NAME: &'static str = "phd-2.0b";
     type Params = JointParams;
+    type Vehicle = rfslam_core::Motion;
     type Sensor = S;
 
     fn validate(p: &JointParams) -> Result<(), ParamError> {
@@ -112,7 +130,7 @@ impl<S: PlanarSensorModel> Proposal for JointProposal<S> {
         Interval::BOUNDED_NON_NEGATIVE.check("ipl_kl_threshold", p.ipl_kl_threshold)
     }
 
-    fn new(params: &JointParams, _models: &SlamModels) -> Self {
+    fn new(params: &JointParams) -> Self {
         JointProposal {
             sensor: PhantomData,
             params: params.clone(),
@@ -247,6 +265,7 @@ mod tests {
     use nalgebra::Vector3;
     use rand::SeedableRng;
     use rbphd::GmMap;
+    use rfslam_core::SlamModels;
 
     use rfslam_eval::fixtures::phd_slam_synthetic_models as models;
 
@@ -260,7 +279,8 @@ mod tests {
         q: Matrix3<f64>,
     ) -> ProposalContext<'a> {
         ProposalContext {
-            models: m,
+            vehicle: Box::leak(Box::new(m.vehicle())),
+            space: rfslam_core::state::StateSpace::PLANAR,
             // Leaked: a test helper returns a context borrowing it.
             sensor: Box::leak(Box::new(rfslam_core::model::RangeBearingModel::new(m, 0.0))),
             z,
@@ -285,7 +305,7 @@ mod tests {
         let x_bar = Pose::new(1.0, 0.0, 0.2);
         let z = [RangeBearing::new(10.0, 0.1)];
         let c = ctx(&m, &map, &z, &[], &[], x_bar, q);
-        let mut p = <JointProposal>::new(&JointParams::default(), &m);
+        let mut p = <JointProposal as Proposal>::new(&JointParams::default());
         let mut out = Vec::new();
         let stats = p.propose(&c, 3, &mut Rng::seed_from_u64(2), &mut out);
         assert_eq!(stats.components, 1);
@@ -317,7 +337,7 @@ mod tests {
         map.push(0.0, lm, Matrix2::identity() * 0.01);
         let z = [RangeBearing::new(80.0, -0.9), sensor.predict(&truth, &lm)];
         let c = ctx(&m, &map, &z, &[0], &[0.95], x_bar, q);
-        let mut p = <JointProposal>::new(&JointParams::default(), &m);
+        let mut p = <JointProposal as Proposal>::new(&JointParams::default());
         let mut out = Vec::new();
         let stats = p.propose(&c, 50, &mut Rng::seed_from_u64(5), &mut out);
         assert_eq!(stats.cholesky_failures, 0);
@@ -371,7 +391,7 @@ mod tests {
             map.push(0.0, second, Matrix2::identity() * 0.01);
             let x_bar = Pose::new(0.0, 1.0, 0.0);
             let c = ctx(&m, &map, &z, &[0, 1], &[0.95, 0.95], x_bar, q);
-            let mut p = <JointProposal>::new(&JointParams::default(), &m);
+            let mut p = <JointProposal as Proposal>::new(&JointParams::default());
             let mut out = Vec::new();
             p.propose(&c, 1, &mut Rng::seed_from_u64(1), &mut out);
             let (phi, mean, _) = p.last();
@@ -388,12 +408,12 @@ mod tests {
         map.push(0.0, b, Matrix2::identity() * 0.01);
         let x_bar = Pose::new(0.0, 0.0, 0.0);
         let c = ctx(&m, &map, &z, &[0, 1], &[0.95, 0.95], x_bar, q);
-        let mut p = <JointProposal>::new(&JointParams::default(), &m);
+        let mut p = <JointProposal as Proposal>::new(&JointParams::default());
         let mut out = Vec::new();
         p.propose(&c, 1, &mut Rng::seed_from_u64(1), &mut out);
         let forced = [z[1], z[0]];
         let c = ctx(&m, &map, &forced, &[0, 1], &[0.95, 0.95], x_bar, q);
-        let mut p2 = <JointProposal>::new(&JointParams::default(), &m);
+        let mut p2 = <JointProposal as Proposal>::new(&JointParams::default());
         p2.propose(&c, 1, &mut Rng::seed_from_u64(1), &mut out);
         let (phi2, mean2, _) = p2.last();
         assert_eq!(phi2, &[Some(1), Some(0)], "the association follows the measurements");

@@ -51,6 +51,23 @@
 //! landmark seen near +-pi is averaged across the cut. Every Cholesky (of `Sigma~^xx`, of
 //! the innovation covariance) that fails is handled (the iteration keeps its last accepted
 //! iterate, a component weight becomes zero) and counted in `StepReport::cholesky_failures`.
+//!
+//! # Planar only
+//! The proposal is written for the planar world (pose `[x, y, heading]`, point landmarks,
+//! a two-component measurement): it is a [`Proposal`] only for the planar sensor models
+//! ([`rfslam_core::PlanarSensorModel`]), so `phd-3.0-sp` has no instance on another world and
+//! a program that asks for one is refused when it is built, never run silently:
+//!
+//! ```compile_fail
+//! // The 5G radio sensor is not planar: there is no `phd-3.0-sp` on it.
+//! let _ = std::mem::size_of::<phd_slam_3sp::PhdSlam3Sp<rfslam_core::model::RadioSensor>>();
+//! ```
+//!
+//! The planar sensors are served (the registered filter checks the world's sensor kind):
+//!
+//! ```
+//! let _ = std::mem::size_of::<phd_slam_3sp::PhdSlam3Sp<rfslam_core::model::RelativePositionModel>>();
+//! ```
 
 pub mod sigma;
 
@@ -61,7 +78,7 @@ use rfslam_core::gaussian::{log_normal, symmetrise};
 use rfslam_core::ipl::Linearised;
 use rfslam_core::model::RangeBearingModel;
 use rfslam_core::params::{Interval, MAX_PARAM};
-use rfslam_core::{ParamError, PlanarSensorModel, Point2, Pose, RangeBearing, Rng, SlamModels};
+use rfslam_core::{ParamError, PlanarSensorModel, Point2, Pose, RangeBearing, Rng, SensorModel};
 use serde::{Deserialize, Serialize};
 
 pub use sigma::{Moments, SigmaRule, sigma_moments};
@@ -175,21 +192,22 @@ impl SigmaPointSlr {
     /// The SLR of `g(m, x)` for `x ~ N(mean, cov)` and the landmark `N(m, p)`: `E[g]`,
     /// `Sigma~^zz` of eq. (42b) including `R`, and `Sigma~^zx` of eq. (42c) (2 x 3).
     /// `None` if a covariance fails Cholesky.
-    pub fn moments<Sn: PlanarSensorModel>(
+    pub fn moments<Sn: SensorModel<3, 2, 2>>(
         &self,
         sensor: &Sn,
         mean: &Pose,
         cov: &Matrix3<f64>,
         m: &Point2,
         p: &Matrix2<f64>,
+        mark: Sn::Mark,
     ) -> Option<(RangeBearing, Matrix2<f64>, Matrix2x3<f64>)> {
-        let r = sensor.noise(());
+        let r = sensor.noise(mark);
         // The measurement's angular component, averaged on the circle.
         let angle = sensor.components().iter().position(|c| c.angle);
         match self.space {
             SlrSpace::Pose => {
                 let mo = sigma_moments::<3, 2, _>(mean, cov, &self.rule, angle, |x| {
-                    let lin = sensor.linearise(x, m, ());
+                    let lin = sensor.linearise(x, m, mark);
                     (lin.z, lin.hm * p * lin.hm.transpose())
                 })?;
                 Some((mo.mean, mo.cov + mo.extra + r, mo.cross))
@@ -201,7 +219,7 @@ impl SigmaPointSlr {
                 c.fixed_view_mut::<2, 2>(3, 3).copy_from(p);
                 let mo = sigma_moments::<5, 2, _>(&v, &c, &self.rule, angle, |v| {
                     let x = Pose::new(v[0], v[1], v[2]);
-                    (sensor.predict(&x, &Point2::new(v[3], v[4]), ()), SMatrix::zeros())
+                    (sensor.predict(&x, &Point2::new(v[3], v[4]), mark), SMatrix::zeros())
                 })?;
                 Some((mo.mean, mo.cov + r, mo.cross.fixed_view::<2, 3>(0, 0).into_owned()))
             }
@@ -212,31 +230,33 @@ impl SigmaPointSlr {
 impl PoseSlr for SigmaPointSlr {
     /// Eq. (42) by sigma points of `pi = N(m_pi, p_pi)`, returned as `(mu~^z, B, Omega)`
     /// with `B = Sigma~^zx (Sigma~^xx)^-1` (43a) and `Omega = Sigma~^zz - B Sigma~^xx B^T`.
-    fn linearise<Sn: PlanarSensorModel>(
+    fn linearise<Sn: SensorModel<3, 2, 2>>(
         &self,
         sensor: &Sn,
         m_pi: &Pose,
         p_pi: &Matrix3<f64>,
         m: &Point2,
         p: &Matrix2<f64>,
+        mark: Sn::Mark,
     ) -> Option<Linearised> {
-        let (mu_z, s_zz, s_zx) = self.moments(sensor, m_pi, p_pi, m, p)?;
+        let (mu_z, s_zz, s_zx) = self.moments(sensor, m_pi, p_pi, m, p, mark)?;
         let b = p_pi.cholesky()?.solve(&s_zx.transpose()).transpose();
         let omega = symmetrise(&(s_zz - b * p_pi * b.transpose()));
         Some((mu_z, b, omega))
     }
 
     /// Eq. (44)'s detected factor with the SLR moments at the component `N(mean, cov)`.
-    fn log_likelihood<Sn: PlanarSensorModel>(
+    fn log_likelihood<Sn: SensorModel<3, 2, 2>>(
         &self,
         sensor: &Sn,
         mean: &Pose,
         cov: &Matrix3<f64>,
         m: &Point2,
         p: &Matrix2<f64>,
+        mark: Sn::Mark,
         z: &RangeBearing,
     ) -> Option<f64> {
-        let (mu_z, s_zz, _) = self.moments(sensor, mean, cov, m, p)?;
+        let (mu_z, s_zz, _) = self.moments(sensor, mean, cov, m, p, mark)?;
         let nu = sensor.residual(z, &mu_z);
         log_normal(&nu, &s_zz)
     }
@@ -257,6 +277,7 @@ impl<S: PlanarSensorModel> SpProposal<S> {
 impl<S: PlanarSensorModel> Proposal for SpProposal<S> {
     const NAME: &'static str = "phd-3.0-sp";
     type Params = SpParams;
+    type Vehicle = rfslam_core::Motion;
     type Sensor = S;
 
     fn validate(p: &SpParams) -> Result<(), ParamError> {
@@ -264,7 +285,7 @@ impl<S: PlanarSensorModel> Proposal for SpProposal<S> {
         p.sigma.validate()
     }
 
-    fn new(p: &SpParams, _models: &SlamModels) -> Self {
+    fn new(p: &SpParams) -> Self {
         SpProposal(MhProposal::with_slr(&p.mh, SigmaPointSlr { rule: p.sigma.rule(), space: p.sigma.slr_space }))
     }
 
@@ -357,16 +378,16 @@ mod tests {
         let p_pi = Matrix3::from_diagonal(&nalgebra::Vector3::new(1e-4, 2e-4, 1e-8));
         let m = Point2::new(600.0, 520.0);
         let pm = Matrix2::identity() * 1e-3;
-        let (tz, tb, to) = TaylorSlr.linearise(&model(), &x, &p_pi, &m, &pm).unwrap();
+        let (tz, tb, to) = TaylorSlr.linearise(&model(), &x, &p_pi, &m, &pm, ()).unwrap();
         let z = sensor.predict(&x, &m) + RangeBearing::new(0.5, 1e-3);
-        let tl = TaylorSlr.log_likelihood(&model(), &x, &p_pi, &m, &pm, &z).unwrap();
+        let tl = TaylorSlr.log_likelihood(&model(), &x, &p_pi, &m, &pm, (), &z).unwrap();
         for space in [SlrSpace::Pose, SlrSpace::Joint] {
             let slr = SigmaPointSlr { space, ..Default::default() };
-            let (sz, sb, so) = slr.linearise(&model(), &x, &p_pi, &m, &pm).unwrap();
+            let (sz, sb, so) = slr.linearise(&model(), &x, &p_pi, &m, &pm, ()).unwrap();
             assert_relative_eq!(sz, tz, max_relative = 1e-6);
             assert_relative_eq!(sb, tb, max_relative = 1e-4, epsilon = 1e-9);
             assert_relative_eq!(so, to, max_relative = 1e-4, epsilon = 1e-12);
-            let sl = slr.log_likelihood(&model(), &x, &p_pi, &m, &pm, &z).unwrap();
+            let sl = slr.log_likelihood(&model(), &x, &p_pi, &m, &pm, (), &z).unwrap();
             assert_relative_eq!(sl, tl, max_relative = 1e-4);
         }
     }
@@ -381,19 +402,19 @@ mod tests {
         let p_pi = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.01, 0.01, 3f64.to_radians().powi(2)));
         let m = Point2::new(-40.0, 1e-3);
         let pm = Matrix2::identity() * 0.05;
-        let (tz, tb, to) = TaylorSlr.linearise(&model(), &x, &p_pi, &m, &pm).unwrap();
+        let (tz, tb, to) = TaylorSlr.linearise(&model(), &x, &p_pi, &m, &pm, ()).unwrap();
         for space in [SlrSpace::Pose, SlrSpace::Joint] {
             let slr = SigmaPointSlr { space, ..Default::default() };
-            let (sz, sb, so) = slr.linearise(&model(), &x, &p_pi, &m, &pm).unwrap();
+            let (sz, sb, so) = slr.linearise(&model(), &x, &p_pi, &m, &pm, ()).unwrap();
             assert!(rfslam_core::angle::diff(sz[1], tz[1]).abs() < 1e-3, "{sz:?} vs {tz:?}");
             assert!(sz[1].abs() > 3.1, "mean bearing {} should be near +-pi", sz[1]);
             assert_relative_eq!(sb, tb, max_relative = 1e-2, epsilon = 1e-4);
             assert_relative_eq!(so, to, max_relative = 1e-2, epsilon = 1e-9);
-            let (_, s_zz, _) = slr.moments(&model(), &x, &p_pi, &m, &pm).unwrap();
+            let (_, s_zz, _) = slr.moments(&model(), &x, &p_pi, &m, &pm, ()).unwrap();
             assert!(s_zz[(1, 1)] < 0.01, "bearing variance {}", s_zz[(1, 1)]);
             // A measurement on the other side of the cut is a small innovation.
             let z = RangeBearing::new(40.0, -std::f64::consts::PI + 0.01);
-            let l = slr.log_likelihood(&model(), &x, &p_pi, &m, &pm, &z).unwrap();
+            let l = slr.log_likelihood(&model(), &x, &p_pi, &m, &pm, (), &z).unwrap();
             assert!(l > -10.0, "log-likelihood {l}");
         }
     }
@@ -404,13 +425,13 @@ mod tests {
         let bad = Matrix3::new(1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0);
         let slr = SigmaPointSlr::default();
         let (x, m, pm) = (Pose::zeros(), Point2::new(10.0, 0.0), Matrix2::identity());
-        assert!(slr.linearise(&model(), &x, &bad, &m, &pm).is_none());
-        assert!(slr.log_likelihood(&model(), &x, &bad, &m, &pm, &RangeBearing::new(10.0, 0.0)).is_none());
+        assert!(slr.linearise(&model(), &x, &bad, &m, &pm, ()).is_none());
+        assert!(slr.log_likelihood(&model(), &x, &bad, &m, &pm, (), &RangeBearing::new(10.0, 0.0)).is_none());
         let res = ipl_update_slr(
             &x,
             &bad,
             &[RangeBearing::new(10.0, 0.0)],
-            |_, m_pi, p_pi| slr.linearise(&model(), m_pi, p_pi, &m, &pm),
+            |_, m_pi, p_pi| slr.linearise(&model(), m_pi, p_pi, &m, &pm, ()),
             RangeBearingSensor::residual,
             &IplSettings::default(),
         );

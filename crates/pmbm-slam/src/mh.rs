@@ -21,6 +21,7 @@
 use mh_importance_density::{MhParams, MhProposal, TaylorSlr};
 use rbphd::{GmMap, PoseSample, ProposalContext};
 use rfslam_core::params::Interval;
+use rfslam_core::state::StateSpace;
 use rfslam_core::{
     ControlSegment, Estimate, FilterBuild, Motion, ParamError, Pose, Rng, Scan, SlamFilter, SlamModels, StepReport,
     Validated,
@@ -90,8 +91,6 @@ impl<S: PlanarSensorModel> std::fmt::Debug for MhDraw<S> {
 pub struct PmbmSlamMh<S: PlanarSensorModel = RangeBearingModel> {
     /// The PMBM filter on the planar sensor model `S`.
     pub filter: PmbmFilter<Motion, S, 3, 2, 2>,
-    /// The scenario's models (the importance density reads them).
-    models: SlamModels,
     mh: MhDraw<S>,
     /// `ln max(kappa, min_clutter_intensity)`, the importance density's clutter term.
     log_clutter: f64,
@@ -114,7 +113,6 @@ impl<S: PlanarSensorModel> SlamFilter for PmbmSlamMh<S> {
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
         let mh = &mut self.mh;
         let log_clutter = self.log_clutter;
-        let models = &self.models;
         self.filter.step_with_proposal(odometry, scan.z.iter().copied(), rng, |ctx, rng| {
             mh.map.clear();
             mh.detectable.clear();
@@ -134,7 +132,8 @@ impl<S: PlanarSensorModel> SlamFilter for PmbmSlamMh<S> {
                 return PoseDraw::transition(ctx, rng);
             }
             let pctx = ProposalContext {
-                models,
+                vehicle: ctx.vehicle,
+                space: StateSpace::PLANAR,
                 sensor: ctx.model,
                 z: ctx.z,
                 prior_pose: ctx.particle.pose,
@@ -197,6 +196,6 @@ impl<S: PlanarSensorModel> FilterBuild for PmbmSlamMh<S> {
         };
         let log_clutter = params.pmbm.clutter_intensity(models).max(params.pmbm.min_clutter_intensity).ln();
         let filter = PmbmFilter::new(Variant::Pmbm, params.pmbm, models.vehicle(), model, particles);
-        PmbmSlamMh { filter, models: models.clone(), mh, log_clutter }
+        PmbmSlamMh { filter, mh, log_clutter }
     }
 }

@@ -15,7 +15,7 @@ use std::time::Instant;
 
 use rbphd::PhdParams;
 use rbphd_mf::{MfParams, RbPhdMf, Strategy};
-use rfslam_core::{ControlSegment, FilterBuild, SlamFilter};
+use rfslam_core::{ControlSegment, FilterBuild};
 use rfslam_data::ScenarioConfig;
 use rfslam_sim::ScenarioData;
 

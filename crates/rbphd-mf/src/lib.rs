@@ -20,8 +20,8 @@
 //! multi-feature settings `mf_*`; `weighting` must be left out (or agree with `strategy`).
 
 use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, Weighting, sample_transition};
-use rfslam_core::model::RangeBearingModel;
-use rfslam_core::{ParamError, PlanarSensorModel, Rng, SlamModels};
+use rfslam_core::model::{RangeBearingModel, VehicleModel};
+use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Rng};
 use serde::{Deserialize, Serialize};
 use std::marker::PhantomData;
 
@@ -58,39 +58,45 @@ pub struct MfParams {
 }
 
 /// The transition density as importance density (\[LeungInostrozaAdams\] eq. 9), on the
-/// planar sensor model `S`.
+/// sensor model `S` and the vehicle model `V` of any world (the planar range-bearing one by
+/// default).
 #[derive(Debug, Clone)]
-pub struct BootstrapProposal<S = RangeBearingModel>(PhantomData<S>);
+pub struct BootstrapProposal<S = RangeBearingModel, V = Motion>(PhantomData<(S, V)>);
 
-impl<S> Default for BootstrapProposal<S> {
+impl<S, V> Default for BootstrapProposal<S, V> {
     fn default() -> Self {
         BootstrapProposal(PhantomData)
     }
 }
 
-impl<S: PlanarSensorModel> Proposal for BootstrapProposal<S> {
+impl<S, V, const X: usize, const M: usize, const Z: usize> Proposal<X, M, Z> for BootstrapProposal<S, V>
+where
+    S: InvertibleSensorModel<X, M, Z>,
+    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
+{
     const NAME: &'static str = "rbphd-mf";
     /// \[LeungInostrozaAdams\] Section IV-B: "the means of all the Gaussians that have a weight
     /// higher than 0.5", each weight "rounded to the nearest integer" features.
     const ESTIMATE_THRESHOLD: Option<f64> = Some(0.5);
     const ESTIMATE_ROUNDING: bool = true;
     type Params = MfParams;
+    type Vehicle = V;
     type Sensor = S;
 
     fn validate(_: &MfParams) -> Result<(), ParamError> {
         Ok(())
     }
 
-    fn new(_: &MfParams, _: &SlamModels) -> Self {
+    fn new(_: &MfParams) -> Self {
         BootstrapProposal::default()
     }
 
     fn propose(
         &mut self,
-        ctx: &ProposalContext<S>,
+        ctx: &ProposalContext<S, V, X, M, Z>,
         n: usize,
         rng: &mut Rng,
-        out: &mut Vec<PoseSample>,
+        out: &mut Vec<PoseSample<X>>,
     ) -> ProposalStats {
         sample_transition(ctx, n, rng, out)
     }
@@ -104,11 +110,16 @@ impl<S: PlanarSensorModel> Proposal for BootstrapProposal<S> {
 /// planar sensor model `S`.
 pub type RbPhdMf<S = RangeBearingModel> = RbPhd<BootstrapProposal<S>>;
 
+/// `rbphd-mf` on the vehicle model `V` and the sensor model `S` of any world (build it with
+/// `RbPhd::new` and the weighting set in its parameters; each feature's likelihood uses the
+/// noise of its type).
+pub type RbPhdMfIn<V, S, const X: usize, const M: usize, const Z: usize> = RbPhd<BootstrapProposal<S, V>, X, M, Z>;
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use rbphd::PhdParams;
-    use rfslam_core::FilterBuild;
+    use rfslam_core::{FilterBuild, SlamModels};
 
     fn params(text: &str) -> Result<PhdParams<MfParams>, String> {
         toml::from_str(text).map_err(|e| e.message().to_string())
@@ -136,7 +147,7 @@ mod tests {
         let m = models();
         let default = params("").unwrap();
         assert_eq!(default.proposal.strategy, Strategy::Multi);
-        assert_eq!(<BootstrapProposal>::weighting(&default.proposal), Some(Weighting::Multi));
+        assert_eq!(<BootstrapProposal as Proposal>::weighting(&default.proposal), Some(Weighting::Multi));
         for (s, w) in [("empty", Weighting::Empty), ("single", Weighting::Single), ("multi", Weighting::Multi)] {
             let p = params(&format!("strategy = \"{s}\"\nresample_ess = 6.25")).unwrap();
             assert_eq!(p.proposal.strategy.weighting(), w);
@@ -155,7 +166,7 @@ mod tests {
     #[test]
     fn each_strategy_runs() {
         use rand::SeedableRng;
-        use rfslam_core::{ControlSegment, Scan, SlamFilter};
+        use rfslam_core::{ControlSegment, Scan};
         let m = models();
         let odo = [ControlSegment { dt: 1.0, u: rfslam_core::Control::new(1.0, 0.0, 0.0) }];
         for s in ["empty", "single", "multi"] {

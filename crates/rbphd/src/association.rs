@@ -2,8 +2,10 @@
 //! that condition on ranked associations (PHD-SLAM 2.0b uses the best one, 3.0 the Gamma
 //! best).
 
-use rfslam_core::PlanarSensorModel;
+use nalgebra::SMatrix;
+use rfslam_core::InvertibleSensorModel;
 use rfslam_core::gaussian::symmetrise;
+use rfslam_core::model::{LandmarkMark, VehicleModel};
 use serde::{Deserialize, Serialize};
 
 use crate::proposal::ProposalContext;
@@ -57,41 +59,62 @@ impl CostMatrixBuffers {
     /// predicted pose covariance in the innovation covariance
     /// `S_i = G_m P_i G_m^T + G_x Q G_x^T + R`; a pair is allowed when its squared
     /// Mahalanobis distance is within the gate. Returns the number of `S_i` that failed
-    /// Cholesky (their rows can only be missed).
-    pub fn fill<S: PlanarSensorModel>(&mut self, ctx: &ProposalContext<S>, missed: MissedCost) -> u32 {
+    /// Cholesky (their rows can only be missed). Each row uses the noise of its component's
+    /// type; an anchor row (zero covariance) has `S_i = G_x Q G_x^T + R`.
+    pub fn fill<S, V, const X: usize, const M: usize, const Z: usize>(
+        &mut self,
+        ctx: &ProposalContext<S, V, X, M, Z>,
+        missed: MissedCost,
+    ) -> u32
+    where
+        S: InvertibleSensorModel<X, M, Z>,
+        V: VehicleModel<X, 3>,
+    {
         self.fill_with(ctx, missed, true)
     }
 
     /// [`CostMatrixBuffers::fill`], with the predicted pose covariance term `G_x Q G_x^T`
     /// left out of `S_i` when `pose_uncertainty` is false (the innovation covariance of a
     /// landmark update at a known pose).
-    pub fn fill_with<S: PlanarSensorModel>(
+    pub fn fill_with<S, V, const X: usize, const M: usize, const Z: usize>(
         &mut self,
-        ctx: &ProposalContext<S>,
+        ctx: &ProposalContext<S, V, X, M, Z>,
         missed: MissedCost,
         pose_uncertainty: bool,
-    ) -> u32 {
-        let (sensor, r, x_bar) = (ctx.sensor, ctx.sensor.noise(()), ctx.predicted);
-        let q = if pose_uncertainty { ctx.q } else { nalgebra::Matrix3::zeros() };
+    ) -> u32
+    where
+        S: InvertibleSensorModel<X, M, Z>,
+        V: VehicleModel<X, 3>,
+    {
+        let (sensor, x_bar) = (ctx.sensor, ctx.predicted);
+        let q = if pose_uncertainty { ctx.q } else { SMatrix::<f64, X, X>::zeros() };
         let mut failures = 0;
         self.detection.clear();
         self.missed.clear();
         for (row, &i) in ctx.detectable.iter().enumerate() {
             let (mi, pi, lw, pd) = (ctx.map.mean[i], ctx.map.cov[i], ctx.map.log_w[i], ctx.pd[row]);
-            let lin = sensor.linearise(&x_bar, &mi, ());
+            let t = S::Mark::from_index(ctx.map.mark[i]);
+            let r = sensor.noise(t);
+            let lin = sensor.linearise(&x_bar, &mi, t);
             let s = symmetrise(&(lin.hm * pi * lin.hm.transpose() + lin.hx * q * lin.hx.transpose() + r));
             let ch = s.cholesky();
             if ch.is_none() {
                 failures += 1;
             }
-            let log_det = ch.as_ref().map(|c| 2.0 * (c.l_dirty()[(0, 0)].ln() + c.l_dirty()[(1, 1)].ln()));
+            let log_det = ch.as_ref().map(|c| {
+                let mut l = 0.0;
+                for k in 0..Z {
+                    l += c.l_dirty()[(k, k)].ln();
+                }
+                2.0 * l
+            });
             for zj in ctx.z {
                 let cost = match (&ch, log_det) {
                     (Some(c), Some(ld)) => {
                         let nu = sensor.residual(zj, &lin.z);
                         let maha = nu.dot(&c.solve(&nu));
                         if maha <= ctx.gate {
-                            -(pd.ln() + lw - ctx.log_clutter - 0.5 * (2.0 * LN_2PI + ld + maha))
+                            -(pd.ln() + lw - ctx.log_clutter - 0.5 * (Z as f64 * LN_2PI + ld + maha))
                         } else {
                             f64::INFINITY
                         }

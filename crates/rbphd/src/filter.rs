@@ -1,10 +1,15 @@
-//! The RB-PHD SLAM filter (\[Kaltiokallio2024\] Algorithm 3) generic over the importance density.
+//! The RB-PHD SLAM filter (\[Kaltiokallio2024\] Algorithm 3) generic over the importance density,
+//! the vehicle model and the sensor model ([`RbPhd`]), and its registration on the planar
+//! worlds.
 
-use nalgebra::Matrix2;
+use nalgebra::{SMatrix, SVector};
+use rfslam_core::model::{LandmarkMark, Vehicle, VehicleModel};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet};
+use rfslam_core::state::StateSpace;
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, Fov, InvertibleSensorModel, MapPoint, ParamError, PlanarSensorModel, Point2,
-    Pose, RangeBearing, Rng, Scan, SensorKind, SensorModel, SlamFilter, SlamModels, StepReport, Validated,
+    ControlSegment, DetectionModel, Estimate, FilterBuild, Fov, InvertibleSensorModel, MapPoint, Motion, ParamError,
+    PlacedFov, PlanarSensorModel, Point2, Rng, Scan, SensorKind, SensorModel, SlamFilter, SlamModels, StepReport,
+    Validated,
 };
 
 use crate::gm::{GmMap, ReduceScratch, ReduceSettings, UpdateScratch, UpdateSettings, phd_update_hold, reduce};
@@ -12,74 +17,238 @@ use crate::params::{EstimateCount, PhdParams, RbPhdParams};
 use crate::proposal::{PoseSample, Proposal, ProposalContext};
 use crate::weighting::{MultiFeatureSettings, StrategyInput, StrategyScratch, Weighting, strategy_log_weight};
 
-/// One particle: weight, pose, GM-PHD map and the measurements to be born next step.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Particle {
+/// One particle: weight, vehicle state, GM-PHD map and the measurements to be born next step
+/// (states of `X` components, landmarks of `M` coordinates, measurements of `Z` components;
+/// the planar world by default).
+#[derive(Debug, PartialEq)]
+pub struct Particle<const X: usize = 3, const M: usize = 2, const Z: usize = 2> {
     /// Log weight (normalised after every step).
     pub log_w: f64,
-    /// Pose `x_k`.
-    pub pose: Pose,
-    /// GM-PHD map `v_k` (active and set-aside components together).
-    pub map: GmMap,
+    /// Vehicle state `x_k`.
+    pub pose: SVector<f64, X>,
+    /// GM-PHD map `v_k` (the anchors, then the active and set-aside components together).
+    pub map: GmMap<M>,
     /// `Z^B_k`: measurements of the last scan that gated with no component (eq. 19).
-    pub birth: Vec<RangeBearing>,
-    /// Association of the last scan's measurements (world position of the component),
+    pub birth: Vec<SVector<f64, Z>>,
+    /// Association of the last scan's measurements (position of the component),
     /// when the proposal makes explicit associations.
-    pub associations: Vec<Option<Point2>>,
+    pub associations: Vec<Option<SVector<f64, M>>>,
 }
 
-/// Rao-Blackwellised PHD-SLAM with importance density `P`.
+impl<const X: usize, const M: usize, const Z: usize> Clone for Particle<X, M, Z> {
+    fn clone(&self) -> Self {
+        Particle {
+            log_w: self.log_w,
+            pose: self.pose,
+            map: self.map.clone(),
+            birth: self.birth.clone(),
+            associations: self.associations.clone(),
+        }
+    }
+
+    /// Reuses the allocations of `self`: resampling copies each parent into a spare.
+    fn clone_from(&mut self, src: &Self) {
+        self.log_w = src.log_w;
+        self.pose = src.pose;
+        self.map.clone_from(&src.map);
+        self.birth.clone_from(&src.birth);
+        self.associations.clone_from(&src.associations);
+    }
+}
+
+impl<const X: usize, const M: usize, const Z: usize> Default for Particle<X, M, Z> {
+    fn default() -> Self {
+        Particle {
+            log_w: 0.0,
+            pose: SVector::zeros(),
+            map: GmMap::default(),
+            birth: Vec::new(),
+            associations: Vec::new(),
+        }
+    }
+}
+
+/// A sensor's planar sector ([`SensorModel::detection_sector`]) as the engine uses it: the
+/// field of view and detection model, and the field of view enlarged by the active set's
+/// buffer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Sector {
+    fov: Fov,
+    active: Fov,
+    detection: DetectionModel,
+}
+
+/// The first two coordinates of a landmark (the planar sector's plane).
+#[inline]
+fn planar<const M: usize>(m: &SVector<f64, M>) -> Point2 {
+    Point2::new(m[0], m[1])
+}
+
+/// The field of view from one vehicle state: the sensor's planar sector placed once at the
+/// state's planar pose (one placement per particle, no `atan2` per landmark), or, for a
+/// sensor without a sector, the sensor's own `p_D`.
+struct Sight<'a, S, const X: usize> {
+    sensor: &'a S,
+    x: SVector<f64, X>,
+    placed: Option<(PlacedFov, DetectionModel)>,
+}
+
+impl<'a, S, const X: usize> Sight<'a, S, X> {
+    #[inline]
+    fn new<V: VehicleModel<X, 3>>(sensor: &'a S, sector: Option<&Sector>, vehicle: &V, x: &SVector<f64, X>) -> Self {
+        let placed = sector.map(|s| (s.fov.at(&vehicle.planar_pose(x)), s.detection));
+        Sight { sensor, x: *x, placed }
+    }
+
+    /// [`Sight::new`] and the active set's enlarged sector at the same state, placed
+    /// together (one heading's sine and cosine for both).
+    #[inline]
+    fn with_active<V: VehicleModel<X, 3>>(
+        sensor: &'a S,
+        sector: Option<&Sector>,
+        vehicle: &V,
+        x: &SVector<f64, X>,
+    ) -> (Self, Option<PlacedFov>) {
+        match sector {
+            Some(s) => {
+                let pose = vehicle.planar_pose(x);
+                let (active, sensed) = (s.active.at(&pose), s.fov.at(&pose));
+                (Sight { sensor, x: *x, placed: Some((sensed, s.detection)) }, Some(active))
+            }
+            None => (Sight { sensor, x: *x, placed: None }, None),
+        }
+    }
+
+    /// `p_D` of a landmark of type `mark` with density `N(m, cov)`: the sector's (over the
+    /// first two coordinates, the sector's edge treatment), else the sensor's
+    /// [`SensorModel::detection_probability`]. For the planar sensors both are the same
+    /// function of the same numbers.
+    #[inline]
+    fn pd<const M: usize, const Z: usize>(&self, m: &SVector<f64, M>, cov: &SMatrix<f64, M, M>, mark: u8) -> f64
+    where
+        S: SensorModel<X, M, Z>,
+    {
+        match &self.placed {
+            Some((placed, detection)) => {
+                let c = cov.fixed_view::<2, 2>(0, 0).into_owned();
+                detection.pd_gaussian_at(placed, &planar(m), &c)
+            }
+            None => self.sensor.detection_probability(&self.x, m, cov, S::Mark::from_index(mark)),
+        }
+    }
+
+    /// Whether `m` is in the hold band of the sector (never without one).
+    #[inline]
+    fn in_hold_band<const M: usize>(&self, m: &SVector<f64, M>) -> bool {
+        match &self.placed {
+            Some((placed, _)) => placed.in_hold_band(&planar(m)),
+            None => false,
+        }
+    }
+}
+
+/// Rao-Blackwellised PHD-SLAM with the importance density `P`, over `P`'s vehicle model
+/// (states of `X` components) and invertible sensor model (landmarks of `M` coordinates and
+/// the sensor's types, measurements of `Z` components); the planar world by default.
+///
+/// - **Typed births**: each measurement of `Z^B_{k-1}` starts one component per landmark type
+///   the sensor maps (`S::Mark::ALL` filtered by [`SensorModel::mapped`]), each with the birth
+///   weight and that type's inverse `N(h^-1(z, x), J_z R J_z^T)`; with one type (`()`, the
+///   planar worlds) exactly eq. (19). One mixture whose components carry their type is the
+///   multi-model RB-PHD filter that \[Kim2022\] compare against (Kim et al. 2020, one
+///   Gaussian mixture per landmark type); the update keeps each component's type and uses
+///   its noise, the reduction never merges two types.
+/// - **Anchors** ([`SensorModel::anchors`], the radio world's base station): every particle's
+///   map starts with them as components of weight 1 and zero covariance
+///   ([`GmMap::anchors`]). They are detectable rows of every proposal (their innovation
+///   covariance is `G_x Q G_x^T + R`) and of every update, where they count in each `D_j`
+///   of eq. (46) (so a measurement they explain weighs the particle and starts no birth),
+///   but the update outputs nothing for them: they are never changed, pruned, merged or
+///   reported. (Our choice: the filter conditions on the known landmarks as a PMBM filter
+///   conditions on Bernoullis of existence 1.)
+/// - **The active set** (\[Kaltiokallio2024\]: work only on landmarks near the field of
+///   view): where the sensor has a planar sector ([`SensorModel::detection_sector`]), the
+///   components inside the sector enlarged by `fov_buffer_range` / `fov_buffer_deg` at the
+///   predicted pose; components outside are set aside untouched. A sensor without a sector
+///   (the radio sensor) has every component active.
+/// - **`p_D`**: the sector's at the particle's pose (one placement per particle) where the
+///   sensor has one, which for the planar sensors is their
+///   [`SensorModel::detection_probability`]; otherwise that function. The hold band of
+///   `edge = "hold"` exists only with a sector.
+/// - **Clutter**: eq. (46)'s `c(z)` is uniform; the engine reads it once, as the sensor's
+///   [`SensorModel::clutter_intensity`] at the zero measurement (every sensor model of
+///   rfslam has a uniform one).
 #[derive(Clone)]
-pub struct RbPhd<P: Proposal> {
+pub struct RbPhd<P: Proposal<X, M, Z>, const X: usize = 3, const M: usize = 2, const Z: usize = 2> {
     params: RbPhdParams,
-    models: SlamModels,
-    /// The sensor model, built from the filter's models.
+    vehicle: Vehicle<P::Vehicle, X>,
+    space: StateSpace<X>,
+    /// The sensor model as the filter assumes it.
     sensor: P::Sensor,
+    /// The mapped landmark types, in the order of their marks.
+    types: Vec<<P::Sensor as SensorModel<X, M, Z>>::Mark>,
+    sector: Option<Sector>,
     proposal: P,
     /// The particles, their families of identical copies, normalisation and resampling.
-    set: ParticleSet<Particle>,
+    set: ParticleSet<Particle<X, M, Z>>,
     log_clutter: f64,
-    fov_active: Fov,
+    clutter_rate: f64,
     estimate_threshold: f64,
     estimate_count: EstimateCount,
     has_associations: bool,
     // reusable buffers
-    samples: Vec<PoseSample>,
+    samples: Vec<PoseSample<X>>,
     active: Vec<usize>,
     is_active: Vec<bool>,
     detectable: Vec<usize>,
     pd: Vec<f64>,
-    updated: GmMap,
-    upd: UpdateScratch,
+    updated: GmMap<M>,
+    upd: UpdateScratch<M, Z>,
     red: ReduceScratch,
     assoc_idx: Vec<Option<usize>>,
     mf: MultiFeatureSettings,
-    strategy: StrategyScratch,
+    strategy: StrategyScratch<Z>,
 }
 
-impl<P: Proposal> RbPhd<P> {
-    /// A filter with `n` particles at the scenario's initial pose, empty maps.
-    /// The filter assumes the scenario's models with the overrides of
-    /// [`RbPhdParams::filter_models`]. (Through [`FilterBuild::build`]: validated.)
-    fn new(params: RbPhdParams, proposal: P, models: &SlamModels, n: usize) -> Self {
-        let models = &params.filter_models(models);
+impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd<P, X, M, Z> {
+    /// A filter with `n` particles at the initial state of `vehicle`, maps holding only the
+    /// sensor's anchors; `vehicle` and `sensor` are the models as the filter assumes them.
+    /// The map-estimate threshold, when neither `estimate_threshold` nor the variant sets it,
+    /// is `(1 - p_D)^2` of the sensor's sector detection model, and 0.5 for a sensor without
+    /// a sector (our choice). `params.detection_pd`, `clutter_rate` and `clutter_intensity`
+    /// act on a planar world's models ([`RbPhd::from_models`]); here the sensor is given as
+    /// assumed.
+    pub fn new(params: RbPhdParams, proposal: P, vehicle: Vehicle<P::Vehicle, X>, sensor: P::Sensor, n: usize) -> Self {
         // A zero clutter rate makes c(z) = 0; keep ln c finite so unexplained measurements
         // do not produce NaN weights.
-        let kappa = models.clutter_intensity();
+        let kappa = sensor.clutter_intensity(&SVector::zeros());
         let log_clutter = kappa.max(1e-300).ln();
         let mf = params.multi_feature();
-        let fov_active = models.fov.enlarged(params.fov_buffer_range, params.fov_buffer_deg.to_radians());
-        let estimate_threshold = params.estimate_threshold(models, P::ESTIMATE_THRESHOLD);
+        let sector = sensor.detection_sector().map(|(fov, detection)| Sector {
+            fov,
+            active: fov.enlarged(params.fov_buffer_range, params.fov_buffer_deg.to_radians()),
+            detection,
+        });
+        let estimate_threshold = params.estimate_threshold_for(sector.map(|s| s.detection), P::ESTIMATE_THRESHOLD);
         let estimate_count = params.estimate_count(P::ESTIMATE_ROUNDING);
-        let p0 = Particle { pose: models.initial_pose, ..Default::default() };
+        let mut map = GmMap::default();
+        for (m, t) in sensor.anchors() {
+            map.push_anchor(m, t.index());
+        }
+        let all = <<P::Sensor as SensorModel<X, M, Z>>::Mark as LandmarkMark>::ALL;
+        let types = all.iter().copied().filter(|&t| sensor.mapped(t)).collect();
+        let p0 = Particle { pose: vehicle.initial_state, map, ..Default::default() };
         RbPhd {
             params,
-            models: models.clone(),
-            sensor: P::Sensor::from_models(models, kappa),
+            space: StateSpace::of(&vehicle.model),
+            vehicle,
+            sensor,
+            types,
+            sector,
             proposal,
             set: ParticleSet::new(p0, n),
             log_clutter,
-            fov_active,
+            clutter_rate: 0.0,
             estimate_threshold,
             estimate_count,
             has_associations: false,
@@ -97,37 +266,46 @@ impl<P: Proposal> RbPhd<P> {
         }
     }
 
+    /// The mean number of clutter measurements per scan `N_c` of the weighting strategies
+    /// (\[LeungInostrozaAdams\] eq. 21). It is common to every particle, so it does not change
+    /// the normalised weights; [`RbPhd::new`] leaves it at 0.
+    pub fn with_clutter_rate(mut self, rate: f64) -> Self {
+        self.clutter_rate = rate;
+        self
+    }
+
     /// The particles (for inspection and tests).
-    pub fn particles(&self) -> &[Particle] {
+    pub fn particles(&self) -> &[Particle<X, M, Z>] {
         self.set.particles()
     }
 
-    /// Births (eq. 19): each `z` of `Z^B_{k-1}` becomes a component placed with the pose at
-    /// k-1 through the inverse sensor model, covariance `J_z R J_z^T`, weight `birth_weight`.
-    fn add_births(sensor: &P::Sensor, ln_birth: f64, p: &mut Particle) {
-        let r = sensor.noise(());
+    /// The sensor model as the filter assumes it.
+    pub fn sensor(&self) -> &P::Sensor {
+        &self.sensor
+    }
+
+    /// Typed births (eq. 19): each `z` of `Z^B_{k-1}` becomes one component per mapped type
+    /// `t`, placed with the state at k-1 through that type's inverse sensor model,
+    /// covariance `J_z R_t J_z^T`, weight `birth_weight`.
+    fn add_births(
+        sensor: &P::Sensor,
+        types: &[<P::Sensor as SensorModel<X, M, Z>>::Mark],
+        ln_birth: f64,
+        p: &mut Particle<X, M, Z>,
+    ) {
         for z in &p.birth {
-            let inv = sensor.inverse(&p.pose, z, ());
-            p.map.push(ln_birth, inv.m, inv.jz * r * inv.jz.transpose());
+            for &t in types {
+                let r = sensor.noise(t);
+                let inv = sensor.inverse(&p.pose, z, t);
+                p.map.push_marked(ln_birth, inv.m, inv.jz * r * inv.jz.transpose(), t.index());
+            }
         }
         p.birth.clear();
     }
-}
 
-/// Most landmarks one component stands for in the rounded map estimate.
-const MAX_ROUNDED_COPIES: f64 = 1000.0;
-
-impl<P: Proposal> SlamFilter for RbPhd<P> {
-    fn name(&self) -> &str {
-        P::NAME
-    }
-
-    fn particles(&self) -> usize {
-        self.set.len()
-    }
-
-    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
-        let (models, sensor) = (&self.models, &self.sensor);
+    /// One recursion of \[Kaltiokallio2024\] Algorithm 3.
+    pub fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
+        let (vehicle, sensor, sector) = (&self.vehicle, &self.sensor, self.sector.as_ref());
         let ln_birth = self.params.birth_weight.ln();
         let upd_settings = UpdateSettings {
             gate: self.params.gate,
@@ -141,22 +319,26 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
 
         for family in self.set.families_mut() {
             for p in family.iter_mut() {
-                Self::add_births(sensor, ln_birth, p);
+                Self::add_births(sensor, &self.types, ln_birth, p);
             }
             // Prediction and the active set, shared by the identical copies of the family.
             let rep = &family[0];
-            let (x_bar, q) = self.params.rbpf.predict(models, &rep.pose, odometry);
+            let (x_bar, q) = self.params.rbpf.predict_state(vehicle, &rep.pose, odometry);
             self.active.clear();
             self.detectable.clear();
             self.pd.clear();
             self.is_active.clear();
             self.is_active.resize(rep.map.len(), false);
-            let (active_fov, sensed_fov) = (self.fov_active.at(&x_bar), models.fov.at(&x_bar));
+            let (sight, active_fov) = Sight::with_active(sensor, sector, &vehicle.model, &x_bar);
+            let anchors = rep.map.anchors;
             for i in 0..rep.map.len() {
-                if active_fov.contains(&rep.map.mean[i]) {
-                    self.active.push(i);
-                    self.is_active[i] = true;
-                    let pd = models.detection.pd_gaussian_at(&sensed_fov, &rep.map.mean[i], &rep.map.cov[i]);
+                let anchor = i < anchors;
+                if anchor || active_fov.as_ref().is_none_or(|a| a.contains(&planar(&rep.map.mean[i]))) {
+                    if !anchor {
+                        self.active.push(i);
+                        self.is_active[i] = true;
+                    }
+                    let pd = sight.pd::<M, Z>(&rep.map.mean[i], &rep.map.cov[i], rep.map.mark[i]);
                     if pd > 0.0 {
                         self.detectable.push(i);
                         self.pd.push(pd);
@@ -164,7 +346,8 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                 }
             }
             let ctx = ProposalContext {
-                models,
+                vehicle,
+                space: self.space,
                 sensor,
                 z: &scan.z,
                 prior_pose: rep.pose,
@@ -190,15 +373,15 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                 p.pose = sample.pose;
                 p.log_w += sample.log_correction;
                 let pose = p.pose;
-                let placed = models.fov.at(&pose);
+                let sight = Sight::new(sensor, sector, &vehicle.model, &pose);
                 let out = phd_update_hold(
                     &p.map,
                     &self.active,
                     &pose,
                     &scan.z,
                     sensor,
-                    |m, p| models.detection.pd_gaussian_at(&placed, m, p),
-                    |m| placed.in_hold_band(m),
+                    |m, c, k| sight.pd::<M, Z>(m, c, k),
+                    |m| sight.in_hold_band(m),
                     &upd_settings,
                     &mut self.upd,
                     &mut self.updated,
@@ -217,9 +400,9 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                             z: &scan.z,
                             sensor,
                             log_clutter: self.log_clutter,
-                            clutter_rate: models.clutter.rate,
+                            clutter_rate: self.clutter_rate,
                         };
-                        let pd = |m: &Point2, p: &Matrix2<f64>| models.detection.pd_gaussian_at(&placed, m, p);
+                        let pd = |m: &SVector<f64, M>, c: &SMatrix<f64, M, M>, k: u8| sight.pd::<M, Z>(m, c, k);
                         let o = strategy_log_weight(w, &input, pd, &self.mf, &mut self.strategy);
                         chol += o.cholesky_failures;
                         p.log_w += o.log_weight;
@@ -228,8 +411,8 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
                 p.birth.clear();
                 p.birth.extend(scan.z.iter().zip(&self.upd.gated).filter(|(_, g)| !**g).map(|(z, _)| *z));
                 // Set-aside components stay as they are, in place (dropped if already
-                // below the pruning threshold); the updated active ones are pruned,
-                // merged and appended.
+                // below the pruning threshold), and so do the anchors; the updated active
+                // ones are pruned, merged and appended.
                 let is_active = &self.is_active;
                 p.map.retain_indices(|i, log_w| !is_active[i] && log_w >= ln_prune);
                 reduce(&self.updated, &red_settings, &mut self.red, &mut p.map);
@@ -241,7 +424,7 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
         let has_associations = self.has_associations;
         let rule = self.params.rbpf.rule(self.set.len());
         let out = self.set.normalise_and_resample(rule, rng, |particles, best| {
-            components = particles.iter().map(|p| p.map.len()).sum();
+            components = particles.iter().map(|p| p.map.len() - p.map.anchors).sum();
             associations = has_associations.then(|| particles[best].associations.clone());
         });
         StepReport {
@@ -254,7 +437,31 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
         }
     }
 
-    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
+    /// The best particle's state and its map estimate (anchors left out), each landmark with
+    /// its type.
+    pub fn estimate(&self) -> Estimate<X, M> {
+        let p = self.set.best_particle();
+        Estimate { pose: p.pose, map: map_estimate(&p.map, self.estimate_threshold, self.estimate_count) }
+    }
+}
+
+/// Most landmarks one component stands for in the rounded map estimate.
+const MAX_ROUNDED_COPIES: f64 = 1000.0;
+
+impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> SlamFilter<X, M, Z> for RbPhd<P, X, M, Z> {
+    fn name(&self) -> &str {
+        P::NAME
+    }
+
+    fn particles(&self) -> usize {
+        self.set.len()
+    }
+
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
+        RbPhd::step(self, odometry, scan, rng)
+    }
+
+    fn particle_poses(&self, out: &mut Vec<(SVector<f64, X>, f64)>) -> bool {
         self.set.poses_into(out, |p| p.pose);
         true
     }
@@ -264,18 +471,18 @@ impl<P: Proposal> SlamFilter for RbPhd<P> {
         true
     }
 
-    fn estimate(&self) -> Estimate {
-        let p = self.set.best_particle();
-        Estimate { pose: p.pose, map: map_estimate(&p.map, self.estimate_threshold, self.estimate_count) }
+    fn estimate(&self) -> Estimate<X, M> {
+        RbPhd::estimate(self)
     }
 }
 
 /// The map estimate of a GM-PHD map: the means of the components of weight above
-/// `threshold`, counted as `count` says ([`EstimateCount`]).
-pub fn map_estimate(map: &GmMap, threshold: f64, count: EstimateCount) -> Vec<MapPoint> {
+/// `threshold`, counted as `count` says ([`EstimateCount`]), each with its type; the anchors
+/// are never reported.
+pub fn map_estimate<const M: usize>(map: &GmMap<M>, threshold: f64, count: EstimateCount) -> Vec<MapPoint<M>> {
     let ln_t = threshold.ln();
-    let point = |i: usize| MapPoint { position: map.mean[i], mark: 0, weight: map.log_w[i].exp() };
-    let above = (0..map.len()).filter(|&i| map.log_w[i] > ln_t);
+    let point = |i: usize| MapPoint { position: map.mean[i], mark: map.mark[i], weight: map.log_w[i].exp() };
+    let above = (map.anchors..map.len()).filter(|&i| map.log_w[i] > ln_t);
     match count {
         EstimateCount::One => above.map(point).collect(),
         EstimateCount::Rounded => {
@@ -302,7 +509,29 @@ pub fn map_estimate(map: &GmMap, threshold: f64, count: EstimateCount) -> Vec<Ma
     }
 }
 
-impl<P: Proposal> FilterBuild for RbPhd<P> {
+impl<P> RbPhd<P>
+where
+    P: Proposal<Vehicle = Motion>,
+    P::Sensor: PlanarSensorModel,
+{
+    /// A filter with `n` particles on a planar world: the vehicle and the sensor of `models`
+    /// with the overrides of [`RbPhdParams::filter_models`] (the clutter intensity in the
+    /// scenario's units).
+    pub fn from_models(params: RbPhdParams, proposal: P, models: &SlamModels, n: usize) -> Self {
+        let models = &params.filter_models(models);
+        let sensor = <P::Sensor as PlanarSensorModel>::from_models(models, models.clutter_intensity());
+        RbPhd::new(params, proposal, models.vehicle(), sensor, n).with_clutter_rate(models.clutter.rate)
+    }
+}
+
+/// The registered planar filters (`phd-1.0`, `phd-3.0`, ...): the variant's proposal on the
+/// planar vehicle and the planar sensor the scenario declares. A variant whose proposal is
+/// written for the planar world alone has no instance on any other model.
+impl<P> FilterBuild for RbPhd<P>
+where
+    P: Proposal<Vehicle = Motion>,
+    P::Sensor: PlanarSensorModel,
+{
     type Params = PhdParams<P::Params>;
 
     fn serves(sensor: SensorKind) -> bool {
@@ -326,16 +555,16 @@ impl<P: Proposal> FilterBuild for RbPhd<P> {
 
     fn build(params: Validated<Self>, models: &SlamModels) -> Self {
         let (params, particles) = params.into_parts();
-        let proposal = P::new(&params.proposal, &params.common.filter_models(models));
+        let proposal = P::new(&params.proposal);
         let mut common = params.common;
         if let Some(w) = P::weighting(&params.proposal) {
             common.weighting = w;
         }
-        RbPhd::new(common, proposal, models, particles)
+        RbPhd::from_models(common, proposal, models, particles)
     }
 }
 
-impl LogWeighted for Particle {
+impl<const X: usize, const M: usize, const Z: usize> LogWeighted for Particle<X, M, Z> {
     fn log_weight(&self) -> f64 {
         self.log_w
     }
@@ -349,8 +578,8 @@ impl LogWeighted for Particle {
 mod tests {
     use super::*;
     use crate::proposal::{ProposalStats, sample_transition};
-    use nalgebra::Matrix3;
-    use rfslam_core::{ClutterIntensity, ClutterModel, DetectionModel, Motion, RangeBearingSensor};
+    use nalgebra::{Matrix2, Matrix3};
+    use rfslam_core::{ClutterIntensity, ClutterModel, Pose, RangeBearingSensor};
 
     /// The transition density, with the map-estimate defaults of `rbphd-mf` when `ROUND`.
     struct Prior<const ROUND: bool>;
@@ -360,13 +589,14 @@ mod tests {
         const ESTIMATE_THRESHOLD: Option<f64> = if ROUND { Some(0.5) } else { None };
         const ESTIMATE_ROUNDING: bool = ROUND;
         type Params = ();
+        type Vehicle = Motion;
         type Sensor = rfslam_core::model::RangeBearingModel;
 
         fn validate(_: &()) -> Result<(), ParamError> {
             Ok(())
         }
 
-        fn new(_: &(), _: &SlamModels) -> Self {
+        fn new(_: &()) -> Self {
             Prior
         }
 
@@ -398,7 +628,7 @@ mod tests {
     /// The number of landmarks in the estimate of a one-particle map with components of
     /// weights 1.7, 0.9, 0.3 and 0.004.
     fn estimated<const ROUND: bool>(params: RbPhdParams) -> usize {
-        let mut f = RbPhd::new(params, Prior::<ROUND>, &models(), 1);
+        let mut f = RbPhd::from_models(params, Prior::<ROUND>, &models(), 1);
         let map = &mut f.set.particles_mut()[0].map;
         for (k, w) in [1.7f64, 0.9, 0.3, 0.004].into_iter().enumerate() {
             map.push(w.ln(), Point2::new(10.0 * k as f64, 0.0), Matrix2::identity());
@@ -445,7 +675,7 @@ mod tests {
         assert_eq!(xs(&map, EstimateCount::One).len(), 4);
         // The filter reads the key.
         let p = RbPhdParams { estimate_count: Some(EstimateCount::Total), ..Default::default() };
-        let mut f = RbPhd::new(p, Prior::<true>, &models(), 1);
+        let mut f = RbPhd::from_models(p, Prior::<true>, &models(), 1);
         f.set.particles_mut()[0].map.push(2.6f64.ln(), at(1.0), Matrix2::identity());
         assert_eq!(f.estimate().map.len(), 1);
     }
@@ -453,7 +683,7 @@ mod tests {
     /// A component of absurd weight stands for at most `MAX_ROUNDED_COPIES` landmarks.
     #[test]
     fn the_rounded_estimate_is_bounded() {
-        let mut f = RbPhd::new(RbPhdParams::default(), Prior::<true>, &models(), 1);
+        let mut f = RbPhd::from_models(RbPhdParams::default(), Prior::<true>, &models(), 1);
         f.set.particles_mut()[0].map.push(1e300f64.ln(), Point2::new(1.0, 0.0), Matrix2::identity());
         assert_eq!(f.estimate().map.len(), MAX_ROUNDED_COPIES as usize);
     }

@@ -1,28 +1,75 @@
 //! The per-particle GM-PHD map (\[Kaltiokallio2024\] eq. 17) stored as struct-of-arrays with log
-//! weights, its gated update (eqs. 20-22) returning the measurement term of the particle
-//! weight (eq. 46), and hypothesis reduction (\[VoMa2006\] Table II, as
-//! \[PHD-SLAM-3.0-code\] does it).
+//! weights and a landmark type (mark) per component, its gated update (eqs. 20-22) returning
+//! the measurement term of the particle weight (eq. 46), and hypothesis reduction
+//! (\[VoMa2006\] Table II, as \[PHD-SLAM-3.0-code\] does it), in any landmark and measurement
+//! dimension.
+//!
+//! One mixture whose components carry their type stands for the one Gaussian mixture per
+//! landmark type of the multi-model RB-PHD filter that \[Kim2022\] compare against (its
+//! reference, Kim et al. 2020): the types never mix, since the update keeps a component's
+//! type and the reduction never merges components of different types.
+//!
+//! A map may start with *anchors* ([`GmMap::anchors`]): the known landmarks of the world
+//! ([`rfslam_core::SensorModel::anchors`]) as components of weight 1 and zero covariance.
+//! The update counts them in the likelihood of every measurement (eq. 46's `D_j`, so a
+//! measurement they explain starts no birth) and outputs nothing for them: they are never
+//! updated, pruned, merged or reported.
 
-use nalgebra::{Matrix2, Vector2};
+use nalgebra::{SMatrix, SVector};
+use rfslam_core::SensorModel;
 use rfslam_core::gaussian::{mahalanobis_and_log_det, symmetrise};
+use rfslam_core::model::LandmarkMark;
 use rfslam_core::rbpf::log_sum_exp;
-use rfslam_core::{PlanarSensorModel, Point2, Pose, RangeBearing};
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
-/// A Gaussian mixture intensity `v(m) = sum_i eta_i N(m; m_i, P_i)`, weights stored as logs.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct GmMap {
+/// A Gaussian mixture intensity `v(m) = sum_i eta_i N(m; m_i, P_i)` over landmarks of `M`
+/// coordinates (the planar `[x, y]` by default), weights stored as logs, each component with
+/// the mark of its landmark type.
+#[derive(Debug, PartialEq)]
+pub struct GmMap<const M: usize = 2> {
     /// `ln eta_i`.
     pub log_w: Vec<f64>,
     /// Means `m_i`.
-    pub mean: Vec<Point2>,
+    pub mean: Vec<SVector<f64, M>>,
     /// Covariances `P_i`.
-    pub cov: Vec<Matrix2<f64>>,
+    pub cov: Vec<SMatrix<f64, M, M>>,
+    /// The landmark type of each component ([`LandmarkMark::index`]; 0 in a world of one type).
+    pub mark: Vec<u8>,
+    /// The number of leading components that are anchors (known landmarks of weight 1 and
+    /// zero covariance, see the module documentation); 0 in the planar worlds.
+    pub anchors: usize,
 }
 
-impl GmMap {
-    /// Number of components.
+impl<const M: usize> Clone for GmMap<M> {
+    fn clone(&self) -> Self {
+        GmMap {
+            log_w: self.log_w.clone(),
+            mean: self.mean.clone(),
+            cov: self.cov.clone(),
+            mark: self.mark.clone(),
+            anchors: self.anchors,
+        }
+    }
+
+    /// Reuses the allocations of `self` (resampling copies particles into spares).
+    fn clone_from(&mut self, src: &Self) {
+        self.log_w.clone_from(&src.log_w);
+        self.mean.clone_from(&src.mean);
+        self.cov.clone_from(&src.cov);
+        self.mark.clone_from(&src.mark);
+        self.anchors = src.anchors;
+    }
+}
+
+impl<const M: usize> Default for GmMap<M> {
+    fn default() -> Self {
+        GmMap { log_w: Vec::new(), mean: Vec::new(), cov: Vec::new(), mark: Vec::new(), anchors: 0 }
+    }
+}
+
+impl<const M: usize> GmMap<M> {
+    /// Number of components (anchors included).
     pub fn len(&self) -> usize {
         self.log_w.len()
     }
@@ -32,48 +79,69 @@ impl GmMap {
         self.log_w.is_empty()
     }
 
-    /// Removes every component, keeping the allocations.
+    /// Removes every component (anchors included), keeping the allocations.
     pub fn clear(&mut self) {
         self.log_w.clear();
         self.mean.clear();
         self.cov.clear();
+        self.mark.clear();
+        self.anchors = 0;
     }
 
-    /// Appends a component.
+    /// Appends a component of the first landmark type (mark 0).
     #[inline]
-    pub fn push(&mut self, log_w: f64, mean: Point2, cov: Matrix2<f64>) {
+    pub fn push(&mut self, log_w: f64, mean: SVector<f64, M>, cov: SMatrix<f64, M, M>) {
+        self.push_marked(log_w, mean, cov, 0);
+    }
+
+    /// Appends a component of the landmark type `mark`.
+    #[inline(always)]
+    pub fn push_marked(&mut self, log_w: f64, mean: SVector<f64, M>, cov: SMatrix<f64, M, M>, mark: u8) {
         self.log_w.push(log_w);
         self.mean.push(mean);
         self.cov.push(cov);
+        self.mark.push(mark);
+    }
+
+    /// Appends the anchor `m` of type `mark`: weight 1, zero covariance. Anchors come first:
+    /// call this on an empty map or one holding only anchors.
+    pub fn push_anchor(&mut self, m: SVector<f64, M>, mark: u8) {
+        debug_assert_eq!(self.anchors, self.len(), "anchors lead the map");
+        self.push_marked(0.0, m, SMatrix::zeros(), mark);
+        self.anchors += 1;
     }
 
     /// Appends component `i` of `other`.
-    #[inline]
-    pub fn push_from(&mut self, other: &GmMap, i: usize) {
-        self.push(other.log_w[i], other.mean[i], other.cov[i]);
+    #[inline(always)]
+    pub fn push_from(&mut self, other: &GmMap<M>, i: usize) {
+        self.push_marked(other.log_w[i], other.mean[i], other.cov[i], other.mark[i]);
     }
 
     /// Keeps the components `i` for which `keep(i, ln eta_i)` holds, in order, in place. Components
     /// before the first dropped one are not touched, so keeping a long prefix (the
     /// set-aside part of a map, whose updated part is appended at its end) costs little.
+    /// The anchors are kept whatever `keep` says.
     pub fn retain_indices(&mut self, keep: impl Fn(usize, f64) -> bool) {
         let n = self.len();
-        let Some(first) = (0..n).position(|i| !keep(i, self.log_w[i])) else { return };
+        let a = self.anchors;
+        let Some(first) = (a..n).position(|i| !keep(i, self.log_w[i])).map(|p| p + a) else { return };
         let mut w = first;
         for i in first + 1..n {
             if keep(i, self.log_w[i]) {
                 self.log_w[w] = self.log_w[i];
                 self.mean[w] = self.mean[i];
                 self.cov[w] = self.cov[i];
+                self.mark[w] = self.mark[i];
                 w += 1;
             }
         }
         self.log_w.truncate(w);
         self.mean.truncate(w);
         self.cov.truncate(w);
+        self.mark.truncate(w);
     }
 
-    /// Expected number of landmarks `sum_i eta_i`.
+    /// Expected number of landmarks `sum_i eta_i` (anchors included).
     pub fn mass(&self) -> f64 {
         self.log_w.iter().map(|l| l.exp()).sum()
     }
@@ -91,19 +159,22 @@ pub struct UpdateSettings {
     pub exact_pd_term: bool,
 }
 
-/// Reusable buffers of [`phd_update`] (no allocation per step once warmed up).
-#[derive(Debug, Default, Clone)]
-pub struct UpdateScratch {
+/// Reusable buffers of [`phd_update`] (no allocation per step once warmed up), for landmarks
+/// of `M` coordinates and measurements of `Z` components.
+#[derive(Debug, Clone)]
+pub struct UpdateScratch<const M: usize = 2, const Z: usize = 2> {
     /// `ln a_ij` for the detectable components (rows) and measurements (columns).
     log_a: Vec<f64>,
     /// Predicted measurement per detectable component.
-    zhat: Vec<RangeBearing>,
+    zhat: Vec<SVector<f64, Z>>,
     /// Kalman gain per detectable component.
-    gain: Vec<Matrix2<f64>>,
+    gain: Vec<SMatrix<f64, M, Z>>,
     /// Updated covariance per detectable component (Joseph form).
-    p_upd: Vec<Matrix2<f64>>,
+    p_upd: Vec<SMatrix<f64, M, M>>,
     /// Component index of each detectable row.
     rows: Vec<usize>,
+    /// The leading rows that are anchors (in the likelihood, never updated).
+    fixed_rows: usize,
     /// Log detection probability of each detectable row.
     log_pd: Vec<f64>,
     /// `ln D_j = ln(c(z_j) + sum_i a_ij)`.
@@ -115,7 +186,24 @@ pub struct UpdateScratch {
     held: Vec<(usize, usize)>,
 }
 
-impl UpdateScratch {
+impl<const M: usize, const Z: usize> Default for UpdateScratch<M, Z> {
+    fn default() -> Self {
+        UpdateScratch {
+            log_a: Vec::new(),
+            zhat: Vec::new(),
+            gain: Vec::new(),
+            p_upd: Vec::new(),
+            rows: Vec::new(),
+            fixed_rows: 0,
+            log_pd: Vec::new(),
+            log_d: Vec::new(),
+            gated: Vec::new(),
+            held: Vec::new(),
+        }
+    }
+}
+
+impl<const M: usize, const Z: usize> UpdateScratch<M, Z> {
     /// `ln D_j = ln(c(z_j) + sum_i a_ij)` of measurement `j` in the last update.
     pub fn log_d_of(&self, j: usize) -> f64 {
         self.log_d[j]
@@ -132,28 +220,43 @@ pub struct UpdateOutcome {
     pub cholesky_failures: u32,
 }
 
+/// `2 sum_i ln L_ii`, the log determinant from a Cholesky factor.
+#[inline]
+fn log_det_of<const D: usize>(l: &SMatrix<f64, D, D>) -> f64 {
+    let mut s = 0.0;
+    for i in 0..D {
+        s += l[(i, i)].ln();
+    }
+    2.0 * s
+}
+
 /// Gated GM-PHD update (\[Kaltiokallio2024\] eqs. 20-22) of the components `active` of `map` at the
-/// pose `x`, written to `out` (which is cleared first): every component once as a missed
+/// vehicle state `x`, written to `out` (which is cleared first): every component once as a missed
 /// detection with weight `(1 - pD_i) eta_i`, plus one component per gated pair with weight
 /// `pD_i eta_i N(z_j; h_i, S_i) / (c(z_j) + sum_i' ...)`, EKF mean and Joseph-form
-/// covariance. `pd(m, P)` gives `pD` of component i from its mean and covariance: at the
+/// covariance, each of the type of its component (whose noise `R` it uses).
+/// `pd(m, P, mark)` gives `pD` of component i from its mean, covariance and type: at the
 /// mean with the hard edge (as \[PHD-SLAM-3.0-code\] does), or `E{pD}` under the component
 /// as the paper states (`[sensor] edge = "expected"`), which differs only near the FOV
-/// border.
+/// border. The map's anchors ([`GmMap::anchors`], not in `active`) enter every `D_j` with
+/// weight 1 and their `pD` and are not output.
 /// `scratch.gated[j]` tells whether measurement j gated with any component (those that did
 /// not form the birth set `Z^B` of the next step).
 #[allow(clippy::too_many_arguments)]
-pub fn phd_update<S: PlanarSensorModel>(
-    map: &GmMap,
+pub fn phd_update<S, const X: usize, const M: usize, const Z: usize>(
+    map: &GmMap<M>,
     active: &[usize],
-    x: &Pose,
-    z: &[RangeBearing],
+    x: &SVector<f64, X>,
+    z: &[SVector<f64, Z>],
     sensor: &S,
-    pd: impl Fn(&Point2, &Matrix2<f64>) -> f64,
+    pd: impl Fn(&SVector<f64, M>, &SMatrix<f64, M, M>, u8) -> f64,
     settings: &UpdateSettings,
-    scratch: &mut UpdateScratch,
-    out: &mut GmMap,
-) -> UpdateOutcome {
+    scratch: &mut UpdateScratch<M, Z>,
+    out: &mut GmMap<M>,
+) -> UpdateOutcome
+where
+    S: SensorModel<X, M, Z>,
+{
     phd_update_hold(map, active, x, z, sensor, pd, |_| false, settings, scratch, out)
 }
 
@@ -167,20 +270,22 @@ pub fn phd_update<S: PlanarSensorModel>(
 /// weight. Undetected (no gated measurement) it keeps `eta_i` exactly. Outside the band the
 /// update is [`phd_update`]'s; the measurement term of the particle weight is unchanged.
 #[allow(clippy::too_many_arguments)]
-pub fn phd_update_hold<S: PlanarSensorModel>(
-    map: &GmMap,
+pub fn phd_update_hold<S, const X: usize, const M: usize, const Z: usize>(
+    map: &GmMap<M>,
     active: &[usize],
-    x: &Pose,
-    z: &[RangeBearing],
+    x: &SVector<f64, X>,
+    z: &[SVector<f64, Z>],
     sensor: &S,
-    pd: impl Fn(&Point2, &Matrix2<f64>) -> f64,
-    in_band: impl Fn(&Point2) -> bool,
+    pd: impl Fn(&SVector<f64, M>, &SMatrix<f64, M, M>, u8) -> f64,
+    in_band: impl Fn(&SVector<f64, M>) -> bool,
     settings: &UpdateSettings,
-    scratch: &mut UpdateScratch,
-    out: &mut GmMap,
-) -> UpdateOutcome {
+    scratch: &mut UpdateScratch<M, Z>,
+    out: &mut GmMap<M>,
+) -> UpdateOutcome
+where
+    S: SensorModel<X, M, Z>,
+{
     out.clear();
-    let r = &sensor.noise(());
     let nz = z.len();
     let s = scratch;
     s.rows.clear();
@@ -195,16 +300,54 @@ pub fn phd_update_hold<S: PlanarSensorModel>(
     let mut failures = 0u32;
     let mut pd_mass = 0.0;
 
+    // The anchors: in every D_j (weight 1, zero covariance: S = R), never output.
+    for i in 0..map.anchors {
+        let (m, mark) = (map.mean[i], map.mark[i]);
+        let p_d = pd(&m, &map.cov[i], mark);
+        if p_d <= 0.0 {
+            continue;
+        }
+        pd_mass += p_d;
+        let r = sensor.noise(S::Mark::from_index(mark));
+        let zhat = sensor.predict(x, &m, S::Mark::from_index(mark));
+        let Some(ch) = symmetrise(&r).cholesky() else {
+            failures += 1;
+            continue;
+        };
+        let s_inv = ch.inverse();
+        let base = p_d.ln() - 0.5 * (Z as f64 * LN_2PI + log_det_of(ch.l_dirty()));
+        s.rows.push(i);
+        s.zhat.push(zhat);
+        s.gain.push(SMatrix::zeros());
+        s.p_upd.push(SMatrix::zeros());
+        s.log_pd.push(p_d.ln());
+        for (j, zj) in z.iter().enumerate() {
+            let nu = sensor.residual(zj, &zhat);
+            let maha = (nu.transpose() * s_inv * nu)[(0, 0)];
+            let la = if maha <= settings.gate {
+                s.gated[j] = true;
+                base - 0.5 * maha
+            } else {
+                f64::NEG_INFINITY
+            };
+            s.log_a.push(la);
+        }
+    }
+    s.fixed_rows = s.rows.len();
+
     for &i in active {
         let m = map.mean[i];
-        let p_d = pd(&m, &map.cov[i]);
+        let mark = map.mark[i];
+        let p_d = pd(&m, &map.cov[i], mark);
         if p_d <= 0.0 {
             out.push_from(map, i); // undetectable: unchanged (eq. 20 with pD = 0)
             continue;
         }
         let lw = map.log_w[i];
         pd_mass += p_d * lw.exp();
-        let lin = sensor.linearise(x, &m, ());
+        let t = S::Mark::from_index(mark);
+        let r = &sensor.noise(t);
+        let lin = sensor.linearise(x, &m, t);
         let p = map.cov[i];
         let sm = symmetrise(&(lin.hm * p * lin.hm.transpose() + r));
         let Some(ch) = sm.cholesky() else {
@@ -213,22 +356,22 @@ pub fn phd_update_hold<S: PlanarSensorModel>(
             continue;
         };
         let s_inv = ch.inverse();
-        let log_det = 2.0 * (ch.l_dirty()[(0, 0)].ln() + ch.l_dirty()[(1, 1)].ln());
+        let log_det = log_det_of(ch.l_dirty());
         let k = p * lin.hm.transpose() * s_inv;
-        let ikh = Matrix2::identity() - k * lin.hm;
+        let ikh = SMatrix::<f64, M, M>::identity() - k * lin.hm;
         let p_upd = symmetrise(&(ikh * p * ikh.transpose() + k * r * k.transpose()));
         // missed-detection copy
         let row = s.rows.len();
         if in_band(&m) {
             s.held.push((row, out.len()));
         }
-        out.push(lw + (1.0 - p_d).ln(), m, p);
+        out.push_marked(lw + (1.0 - p_d).ln(), m, p, mark);
         s.rows.push(i);
         s.zhat.push(lin.z);
         s.gain.push(k);
         s.p_upd.push(p_upd);
         s.log_pd.push(p_d.ln());
-        let base = p_d.ln() + lw - 0.5 * (2.0 * LN_2PI + log_det);
+        let base = p_d.ln() + lw - 0.5 * (Z as f64 * LN_2PI + log_det);
         for (j, zj) in z.iter().enumerate() {
             let nu = sensor.residual(zj, &lin.z);
             let maha = (nu.transpose() * s_inv * nu)[(0, 0)];
@@ -282,7 +425,7 @@ pub fn phd_update_hold<S: PlanarSensorModel>(
     }
 
     // Detected components, eq. (20): weight a_ij / D_j, EKF mean, updated covariance.
-    for row in 0..rows {
+    for row in s.fixed_rows..rows {
         let i = s.rows[row];
         for (j, zj) in z.iter().enumerate() {
             let la = s.log_a[row * nz + j];
@@ -290,7 +433,7 @@ pub fn phd_update_hold<S: PlanarSensorModel>(
                 continue;
             }
             let nu = sensor.residual(zj, &s.zhat[row]);
-            out.push(la - s.log_d[j], map.mean[i] + s.gain[row] * nu, s.p_upd[row]);
+            out.push_marked(la - s.log_d[j], map.mean[i] + s.gain[row] * nu, s.p_upd[row], map.mark[i]);
         }
     }
     UpdateOutcome { log_likelihood: log_lik, cholesky_failures: failures }
@@ -319,11 +462,17 @@ pub struct ReduceScratch {
 }
 
 /// Prunes components of `input` with `eta < prune`, then merges greedily from the heaviest:
-/// every remaining component within squared Mahalanobis distance `merge` of it (under the
-/// heaviest one's covariance) is moment-matched into one (weight, mean and spread preserved);
-/// a merged component whose covariance trace exceeds `merge` gets weight 1e-18. Appends the
-/// result to `out`.
-pub fn reduce(input: &GmMap, settings: &ReduceSettings, scratch: &mut ReduceScratch, out: &mut GmMap) {
+/// every remaining component of the same type within squared Mahalanobis distance `merge`
+/// of it (under the heaviest one's covariance) is moment-matched into one (weight, mean and
+/// spread preserved); a merged component whose covariance trace exceeds `merge` gets weight
+/// 1e-18. Components of different types are never merged. Appends the result to `out`.
+/// (`input` holds no anchors: it is an update's output.)
+pub fn reduce<const M: usize>(
+    input: &GmMap<M>,
+    settings: &ReduceSettings,
+    scratch: &mut ReduceScratch,
+    out: &mut GmMap<M>,
+) {
     let ln_prune = settings.prune.ln();
     let s = scratch;
     s.order.clear();
@@ -337,7 +486,7 @@ pub fn reduce(input: &GmMap, settings: &ReduceSettings, scratch: &mut ReduceScra
             continue;
         }
         let j = s.order[oi];
-        let (mj, pj) = (input.mean[j], input.cov[j]);
+        let (mj, pj, kj) = (input.mean[j], input.cov[j], input.mark[j]);
         let pj_inv = pj.try_inverse();
         s.group.clear();
         for oq in oi..s.order.len() {
@@ -350,8 +499,9 @@ pub fn reduce(input: &GmMap, settings: &ReduceSettings, scratch: &mut ReduceScra
             } else {
                 match &pj_inv {
                     Some(inv) => {
-                        let d: Vector2<f64> = input.mean[i] - mj;
-                        (d.transpose() * inv * d)[(0, 0)] <= settings.merge
+                        let d: SVector<f64, M> = input.mean[i] - mj;
+                        // Near, and of the same type (rarely reached when far).
+                        (d.transpose() * inv * d)[(0, 0)] <= settings.merge && input.mark[i] == kj
                     }
                     None => false,
                 }
@@ -368,14 +518,14 @@ pub fn reduce(input: &GmMap, settings: &ReduceSettings, scratch: &mut ReduceScra
         // Moment matching in the linear domain relative to the heaviest weight.
         let lw_max = input.log_w[j];
         let mut wsum = 0.0;
-        let mut mean = Vector2::zeros();
+        let mut mean = SVector::<f64, M>::zeros();
         for &i in &s.group {
             let w = (input.log_w[i] - lw_max).exp();
             wsum += w;
             mean += w * input.mean[i];
         }
         mean /= wsum;
-        let mut cov = Matrix2::zeros();
+        let mut cov = SMatrix::<f64, M, M>::zeros();
         for &i in &s.group {
             let w = (input.log_w[i] - lw_max).exp();
             let d = mean - input.mean[i];
@@ -384,16 +534,16 @@ pub fn reduce(input: &GmMap, settings: &ReduceSettings, scratch: &mut ReduceScra
         cov /= wsum;
         let lw = lw_max + wsum.ln();
         let lw = if cov.trace() > settings.merge { DEMOTED_LOG_WEIGHT } else { lw };
-        out.push(lw, mean, symmetrise(&cov));
+        out.push_marked(lw, mean, symmetrise(&cov), kj);
     }
 }
 
 /// `ln v(m) = ln sum_i eta_i N(m; m_i, P_i)` (intensity at a point).
-pub fn log_intensity_at(map: &GmMap, m: &Point2) -> f64 {
+pub fn log_intensity_at<const M: usize>(map: &GmMap<M>, m: &SVector<f64, M>) -> f64 {
     let mut terms: Vec<f64> = Vec::with_capacity(map.len());
     for i in 0..map.len() {
         if let Some((maha, ld)) = mahalanobis_and_log_det(&(m - map.mean[i]), &map.cov[i]) {
-            terms.push(map.log_w[i] - 0.5 * (2.0 * LN_2PI + ld + maha));
+            terms.push(map.log_w[i] - 0.5 * (M as f64 * LN_2PI + ld + maha));
         }
     }
     log_sum_exp(&terms)
@@ -403,7 +553,9 @@ pub fn log_intensity_at(map: &GmMap, m: &Point2) -> f64 {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+    use nalgebra::{Matrix2, Vector2};
     use rfslam_core::RangeBearingSensor;
+    use rfslam_core::{Point2, Pose, RangeBearing};
 
     fn one_landmark() -> GmMap {
         let mut m = GmMap::default();
@@ -433,7 +585,7 @@ mod tests {
                 &Pose::zeros(),
                 &z,
                 &crate::with_noise(&sensor, &r),
-                |_, _| 0.9,
+                |_, _, _| 0.9,
                 &settings(exact),
                 scratch,
                 out,
@@ -484,7 +636,7 @@ mod tests {
                 &Pose::zeros(),
                 z,
                 &sensor,
-                |_, _| 0.9,
+                |_, _, _| 0.9,
                 band,
                 &st,
                 &mut scratch,
@@ -526,7 +678,7 @@ mod tests {
         map.push(0.5f64.ln(), Point2::new(-5.0, -5.0), Matrix2::identity()); // behind: pD 0
         let r = Matrix2::new(0.5, 0.0, 0.0, 1e-3);
         let sensor = RangeBearingSensor::default();
-        let pd = |m: &Point2, _: &Matrix2<f64>| if m.x >= 0.0 { 0.8 } else { 0.0 };
+        let pd = |m: &Point2, _: &Matrix2<f64>, _: u8| if m.x >= 0.0 { 0.8 } else { 0.0 };
         let (mut scratch, mut out) = (UpdateScratch::default(), GmMap::default());
         let o = phd_update(
             &map,
@@ -581,7 +733,7 @@ mod tests {
             &Pose::zeros(),
             &z,
             &crate::with_noise(&sensor, &r),
-            |_, _| 0.9,
+            |_, _, _| 0.9,
             &settings(false),
             &mut scratch,
             &mut out,

@@ -195,10 +195,18 @@ impl RbPhdParams {
     /// `variant`, else `(1 - pD)^2` (Victoria Park's range-dependent model: its value at zero
     /// range).
     pub fn estimate_threshold(&self, models: &SlamModels, variant: Option<f64>) -> f64 {
+        self.estimate_threshold_for(Some(models.detection), variant)
+    }
+
+    /// [`RbPhdParams::estimate_threshold`] with the detection model of a sensor's planar
+    /// sector, `None` for a sensor without one: then 0.5 (our choice: the usual cutoff of a
+    /// weight that stands for a landmark, \[LeungInostrozaAdams\] Section IV-B).
+    pub fn estimate_threshold_for(&self, detection: Option<DetectionModel>, variant: Option<f64>) -> f64 {
         self.estimate_threshold.or(variant).unwrap_or_else(|| {
-            let pd = match models.detection {
-                DetectionModel::Constant { pd } => pd,
-                DetectionModel::RangeLinear { pd0 } => pd0,
+            let pd = match detection {
+                Some(DetectionModel::Constant { pd }) => pd,
+                Some(DetectionModel::RangeLinear { pd0 }) => pd0,
+                None => return 0.5,
             };
             (1.0 - pd) * (1.0 - pd)
         })

@@ -1,32 +1,45 @@
 //! The importance density of a PHD-SLAM variant (\[Kaltiokallio2024\] eq. 23) behind one trait.
 
-use nalgebra::Matrix3;
-use rfslam_core::model::RangeBearingModel;
-use rfslam_core::{ParamError, PlanarSensorModel, Pose, RangeBearing, Rng, SlamModels};
+use nalgebra::{SMatrix, SVector};
+use rfslam_core::model::{RangeBearingModel, Vehicle, VehicleModel};
+use rfslam_core::state::StateSpace;
+use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Rng};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
 use crate::gm::GmMap;
 use crate::weighting::Weighting;
 
-/// What a proposal sees for one particle (or one group of identical copies), on the planar
-/// sensor model `S`.
-pub struct ProposalContext<'a, S: PlanarSensorModel = RangeBearingModel> {
-    /// The scenario's models.
-    pub models: &'a SlamModels,
-    /// The sensor model (built from `models`).
+/// What a proposal sees for one particle (or one group of identical copies), on the sensor
+/// model `S` and the vehicle model `V` (states of `X` components, landmarks of `M`
+/// coordinates, measurements of `Z` components; the planar world by default).
+pub struct ProposalContext<
+    'a,
+    S = RangeBearingModel,
+    V = Motion,
+    const X: usize = 3,
+    const M: usize = 2,
+    const Z: usize = 2,
+> {
+    /// The vehicle as the filter assumes it.
+    pub vehicle: &'a Vehicle<V, X>,
+    /// The state's angular and held components (of `vehicle`).
+    pub space: StateSpace<X>,
+    /// The sensor model as the filter assumes it.
     pub sensor: &'a S,
     /// The scan `Z_k`.
-    pub z: &'a [RangeBearing],
-    /// The particle's pose `x_{k-1}`.
-    pub prior_pose: Pose,
+    pub z: &'a [SVector<f64, Z>],
+    /// The particle's state `x_{k-1}`.
+    pub prior_pose: SVector<f64, X>,
     /// `f(x_{k-1}, u_k)` through the odometry segments.
-    pub predicted: Pose,
-    /// Predicted pose covariance `Q_{k-1}` (with jitter).
-    pub q: Matrix3<f64>,
-    /// The particle's predicted map `v_{k|k-1}` (eq. 19, births included).
-    pub map: &'a GmMap,
-    /// Components of `map` that may be detected from the predicted pose.
+    pub predicted: SVector<f64, X>,
+    /// Predicted state covariance `Q_{k-1}` (with jitter; zero rows and columns on the held
+    /// components).
+    pub q: SMatrix<f64, X, X>,
+    /// The particle's predicted map `v_{k|k-1}` (eq. 19, births included; its anchors
+    /// first, [`GmMap::anchors`]).
+    pub map: &'a GmMap<M>,
+    /// Components of `map` that may be detected from the predicted pose (anchors included).
     pub detectable: &'a [usize],
     /// `pD` of each detectable component at the predicted pose.
     pub pd: &'a [f64],
@@ -36,11 +49,11 @@ pub struct ProposalContext<'a, S: PlanarSensorModel = RangeBearingModel> {
     pub gate: f64,
 }
 
-/// One sampled pose.
+/// One sampled vehicle state.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PoseSample {
+pub struct PoseSample<const X: usize = 3> {
     /// `x_k^n`.
-    pub pose: Pose,
+    pub pose: SVector<f64, X>,
     /// `ln f(x_k | x_{k-1}, u_k) - ln q(x_k | ...)` (eqs. 45, 47-48); 0 for the bootstrap.
     pub log_correction: f64,
     /// The importance-density component drawn (for [`Proposal::associations`]).
@@ -56,8 +69,9 @@ pub struct ProposalStats {
     pub cholesky_failures: u32,
 }
 
-/// An importance density for the pose.
-pub trait Proposal: Send + Sized + 'static {
+/// An importance density for the vehicle state, over states of `X` components, landmarks of
+/// `M` coordinates and measurements of `Z` components (the planar world by default).
+pub trait Proposal<const X: usize = 3, const M: usize = 2, const Z: usize = 2>: Send + Sized + 'static {
     /// The registered name of the variant (`phd-3.0`).
     const NAME: &'static str;
     /// The variant's map-estimate threshold when `estimate_threshold` is unset; `None`:
@@ -68,23 +82,25 @@ pub trait Proposal: Send + Sized + 'static {
     const ESTIMATE_ROUNDING: bool = false;
     /// The proposal's own parameters (`deny_unknown_fields`; defaults = the paper's).
     type Params: Serialize + DeserializeOwned + Default + Clone + Send;
-    /// The planar sensor model the proposal (and so the filter) is built for.
-    type Sensor: PlanarSensorModel;
+    /// The vehicle model the proposal (and so the filter) is built for.
+    type Vehicle: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static;
+    /// The sensor model the proposal (and so the filter) is built for.
+    type Sensor: InvertibleSensorModel<X, M, Z>;
 
     /// Checks the proposal's parameters.
     fn validate(params: &Self::Params) -> Result<(), ParamError>;
 
-    /// A proposal for the scenario's models.
-    fn new(params: &Self::Params, models: &SlamModels) -> Self;
+    /// A proposal with these parameters.
+    fn new(params: &Self::Params) -> Self;
 
-    /// Computes the importance density for `ctx` once and draws `n` poses into `out`
+    /// Computes the importance density for `ctx` once and draws `n` states into `out`
     /// (cleared first).
     fn propose(
         &mut self,
-        ctx: &ProposalContext<Self::Sensor>,
+        ctx: &ProposalContext<Self::Sensor, Self::Vehicle, X, M, Z>,
         n: usize,
         rng: &mut Rng,
-        out: &mut Vec<PoseSample>,
+        out: &mut Vec<PoseSample<X>>,
     ) -> ProposalStats;
 
     /// For proposals that condition on an association: the map component (index into
@@ -104,24 +120,29 @@ pub trait Proposal: Send + Sized + 'static {
     }
 }
 
-/// Draws `n` poses from the transition density `N(f(x_{k-1}, u_k), Q_{k-1})` (\[Kaltiokallio2024\]
-/// eqs. 1, 26) into `out` (cleared first), headings wrapped, weight corrections 0: the
-/// bootstrap proposal of PHD-SLAM 1.0 and of the multi-feature filter, and the fallback of
-/// proposals that find nothing to condition on. A `Q` that fails Cholesky keeps the
-/// predicted pose and is counted.
-pub fn sample_transition<S: PlanarSensorModel>(
-    ctx: &ProposalContext<S>,
+/// Draws `n` states from the transition density `N(f(x_{k-1}, u_k), Q_{k-1})`
+/// (\[Kaltiokallio2024\] eqs. 1, 26) into `out` (cleared first), angles wrapped, held
+/// components at their prediction (as [`rfslam_core::rbpf::draw_state`], draw for draw),
+/// weight corrections 0: the bootstrap proposal of PHD-SLAM 1.0 and of the multi-feature
+/// filter, and the fallback of proposals that find nothing to condition on. A `Q` that
+/// fails Cholesky keeps the predicted state and is counted.
+pub fn sample_transition<S, V, const X: usize, const M: usize, const Z: usize>(
+    ctx: &ProposalContext<S, V, X, M, Z>,
     n: usize,
     rng: &mut Rng,
-    out: &mut Vec<PoseSample>,
+    out: &mut Vec<PoseSample<X>>,
 ) -> ProposalStats {
     out.clear();
     let mut stats = ProposalStats { components: 1, cholesky_failures: 0 };
+    let space = &ctx.space;
+    let q = space.factorable(&ctx.q);
     for _ in 0..n {
-        let pose = match rfslam_core::gaussian::sample(&ctx.predicted, &ctx.q, rng) {
+        let pose = match rfslam_core::gaussian::sample(&ctx.predicted, &q, rng) {
             Some(mut x) => {
-                x[2] = rfslam_core::angle::wrap(x[2]);
-                x
+                for i in (0..X).filter(|&i| space.held[i]) {
+                    x[i] = ctx.predicted[i];
+                }
+                space.wrapped(x)
             }
             None => {
                 stats.cholesky_failures += 1;

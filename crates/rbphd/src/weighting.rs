@@ -46,11 +46,11 @@
 //! far outside the field of view, so they are left out of both). The terms `sum_z ln c - N_c`
 //! are common to every particle but kept, so that the value is the likelihood itself.
 
-use nalgebra::Matrix2;
+use nalgebra::{SMatrix, SVector};
 use rfslam_core::gaussian::mahalanobis_and_log_det;
-use rfslam_core::model::RangeBearingModel;
+use rfslam_core::model::{LandmarkMark, RangeBearingModel};
 use rfslam_core::params::{CountRange, Interval};
-use rfslam_core::{ParamError, PlanarSensorModel, Point2, Pose, RangeBearing};
+use rfslam_core::{ParamError, SensorModel};
 use serde::{Deserialize, Serialize};
 
 use crate::gm::GmMap;
@@ -124,18 +124,21 @@ impl MultiFeatureSettings {
     }
 }
 
-/// What the strategy sees of one particle after its GM-PHD update.
-pub struct StrategyInput<'a, S: PlanarSensorModel = RangeBearingModel> {
+/// What the strategy sees of one particle after its GM-PHD update, on the sensor model `S`
+/// (landmarks of `M` coordinates seen in `Z` components from a state of `X`). The map's
+/// anchors are not in `active` and take no part in the strategies (they are the same in
+/// `v^-` and `v^+`).
+pub struct StrategyInput<'a, S = RangeBearingModel, const X: usize = 3, const M: usize = 2, const Z: usize = 2> {
     /// The predicted map `v_k^-` (all components; only `active` ones are used).
-    pub predicted: &'a GmMap,
+    pub predicted: &'a GmMap<M>,
     /// Components of `predicted` that were updated.
     pub active: &'a [usize],
     /// The updated active components `v_k^+`, before pruning and merging.
-    pub updated: &'a GmMap,
-    /// The particle's pose `x_k`.
-    pub pose: &'a Pose,
+    pub updated: &'a GmMap<M>,
+    /// The particle's state `x_k`.
+    pub pose: &'a SVector<f64, X>,
     /// The scan `Z_k`.
-    pub z: &'a [RangeBearing],
+    pub z: &'a [SVector<f64, Z>],
     /// The sensor model (its noise `R` included).
     pub sensor: &'a S,
     /// `ln c` (clutter intensity, uniform).
@@ -158,8 +161,10 @@ pub struct StrategyOutcome {
 }
 
 /// Reusable buffers of [`strategy_log_weight`].
-#[derive(Debug, Default, Clone)]
-pub struct StrategyScratch {
+#[derive(Debug, Clone)]
+pub struct StrategyScratch<const Z: usize = 2> {
+    /// Per landmark type: `R^-1` and `ln N(0; 0, R)`.
+    noise: Vec<(SMatrix<f64, Z, Z>, f64)>,
     candidates: Vec<usize>,
     features: Vec<usize>,
     feature_pd: Vec<f64>,
@@ -173,6 +178,24 @@ pub struct StrategyScratch {
     acc: Vec<f64>,
 }
 
+impl<const Z: usize> Default for StrategyScratch<Z> {
+    fn default() -> Self {
+        StrategyScratch {
+            noise: Vec::new(),
+            candidates: Vec::new(),
+            features: Vec::new(),
+            feature_pd: Vec::new(),
+            edges: Vec::new(),
+            start: Vec::new(),
+            parent: Vec::new(),
+            first_feature: Vec::new(),
+            members: Vec::new(),
+            used: Vec::new(),
+            acc: Vec::new(),
+        }
+    }
+}
+
 /// `ln(e^a + e^b)`.
 #[inline]
 fn log_add(a: f64, b: f64) -> f64 {
@@ -182,10 +205,15 @@ fn log_add(a: f64, b: f64) -> f64 {
 
 /// `ln v(m) = ln sum_i eta_i N(m; m_i, P_i)` over `idx` of `map` (all components when `idx`
 /// is `None`), by a streaming log-sum-exp (no allocation). Counts failed factorisations.
-fn log_intensity(map: &GmMap, idx: Option<&[usize]>, m: &Point2, failures: &mut u32) -> f64 {
+fn log_intensity<const M: usize>(
+    map: &GmMap<M>,
+    idx: Option<&[usize]>,
+    m: &SVector<f64, M>,
+    failures: &mut u32,
+) -> f64 {
     let mut acc = f64::NEG_INFINITY;
     let mut term = |i: usize| match mahalanobis_and_log_det(&(m - map.mean[i]), &map.cov[i]) {
-        Some((maha, ld)) => acc = log_add(acc, map.log_w[i] - 0.5 * (2.0 * LN_2PI + ld + maha)),
+        Some((maha, ld)) => acc = log_add(acc, map.log_w[i] - 0.5 * (M as f64 * LN_2PI + ld + maha)),
         None => *failures += 1,
     };
     match idx {
@@ -204,16 +232,19 @@ fn find(parent: &mut [usize], mut a: usize) -> usize {
 }
 
 /// The particle log weight under `weighting` (anything but [`Weighting::Exact`], which the
-/// update computes itself; passed here it is treated as [`Weighting::Empty`]). `pd(m, P)` is
-/// `pD(m | x_k)` of a feature with mean `m` and covariance `P` (zero outside the field of
-/// view with the hard edge).
-pub fn strategy_log_weight<S: PlanarSensorModel>(
+/// update computes itself; passed here it is treated as [`Weighting::Empty`]). `pd(m, P, mark)`
+/// is `pD(m | x_k)` of a feature with mean `m`, covariance `P` and type `mark` (zero outside
+/// the field of view with the hard edge). A feature's likelihood uses the noise of its type.
+pub fn strategy_log_weight<S, const X: usize, const M: usize, const Z: usize>(
     weighting: Weighting,
-    input: &StrategyInput<S>,
-    pd: impl Fn(&Point2, &Matrix2<f64>) -> f64,
+    input: &StrategyInput<S, X, M, Z>,
+    pd: impl Fn(&SVector<f64, M>, &SMatrix<f64, M, M>, u8) -> f64,
     mf: &MultiFeatureSettings,
-    s: &mut StrategyScratch,
-) -> StrategyOutcome {
+    s: &mut StrategyScratch<Z>,
+) -> StrategyOutcome
+where
+    S: SensorModel<X, M, Z>,
+{
     let mut out = StrategyOutcome::default();
     // Empty-set part, eqs. (20)-(22): sum_z ln c - N_c + m^+ - m^-.
     let m_minus: f64 = input.active.iter().map(|&i| input.predicted.log_w[i].exp()).sum();
@@ -230,7 +261,7 @@ pub fn strategy_log_weight<S: PlanarSensorModel>(
             let mut best: Option<usize> = None;
             for i in 0..upd.len() {
                 if best.is_none_or(|b| upd.log_w[i] > upd.log_w[b]) {
-                    let p = pd(&upd.mean[i], &upd.cov[i]);
+                    let p = pd(&upd.mean[i], &upd.cov[i], upd.mark[i]);
                     if p > 0.0 {
                         best = Some(i);
                     }
@@ -238,7 +269,7 @@ pub fn strategy_log_weight<S: PlanarSensorModel>(
             }
             if let Some(b) = best {
                 s.features.push(b);
-                s.feature_pd.push(pd(&upd.mean[b], &upd.cov[b]));
+                s.feature_pd.push(pd(&upd.mean[b], &upd.cov[b], upd.mark[b]));
             }
         }
         Weighting::Multi => {
@@ -251,7 +282,7 @@ pub fn strategy_log_weight<S: PlanarSensorModel>(
                 if s.features.len() >= mf.max_features {
                     break;
                 }
-                let p = pd(&upd.mean[c], &upd.cov[c]);
+                let p = pd(&upd.mean[c], &upd.cov[c], upd.mark[c]);
                 if p <= 0.0 {
                     continue;
                 }
@@ -285,22 +316,27 @@ pub fn strategy_log_weight<S: PlanarSensorModel>(
             - log_intensity(input.updated, None, &m, &mut out.cholesky_failures);
     }
 
-    // Point-feature likelihoods p(z | m, x) = N(z; h(m, x), R).
-    let r = input.sensor.noise(());
-    let Some((_, log_det_r)) = mahalanobis_and_log_det(&nalgebra::Vector2::zeros(), &r) else {
-        out.cholesky_failures += 1;
-        out.log_weight = base;
-        return out;
-    };
-    let r_inv = r.try_inverse().unwrap_or_else(Matrix2::zeros);
-    let log_peak = -0.5 * (2.0 * LN_2PI + log_det_r);
+    // Point-feature likelihoods p(z | m, x) = N(z; h(m, x), R), R of the feature's type.
+    s.noise.clear();
+    for &t in S::Mark::ALL {
+        let r = input.sensor.noise(t);
+        let Some((_, log_det_r)) = mahalanobis_and_log_det(&SVector::<f64, Z>::zeros(), &r) else {
+            out.cholesky_failures += 1;
+            out.log_weight = base;
+            return out;
+        };
+        let r_inv = r.try_inverse().unwrap_or_else(SMatrix::zeros);
+        s.noise.push((r_inv, -0.5 * (Z as f64 * LN_2PI + log_det_r)));
+    }
     let nz = input.z.len();
 
     let log_lik = if weighting == Weighting::Single {
         // Eq. (23) divided by c^|Z| e^{-N_c}: (1 - pD) + pD sum_z p(z | m, x) / c.
         let f = s.features[0];
         let p_d = s.feature_pd[0];
-        let h = input.sensor.predict(input.pose, &input.updated.mean[f], ());
+        let mark = input.updated.mark[f];
+        let (r_inv, log_peak) = s.noise[usize::from(mark)];
+        let h = input.sensor.predict(input.pose, &input.updated.mean[f], S::Mark::from_index(mark));
         let mut acc = (1.0 - p_d).ln();
         for zj in input.z {
             let nu = input.sensor.residual(zj, &h);
@@ -309,20 +345,18 @@ pub fn strategy_log_weight<S: PlanarSensorModel>(
         }
         acc
     } else {
-        multi_likelihood(input, mf, &r_inv, log_peak, nz, s, &mut out)
+        multi_likelihood(input, mf, nz, s, &mut out)
     };
     out.log_weight = base + log_lik + ratio;
     out
 }
 
 /// `ln [p(Z | M, x) / (c^|Z| e^{-N_c})]` of the multi-feature strategy (module docs).
-fn multi_likelihood<S: PlanarSensorModel>(
-    input: &StrategyInput<S>,
+fn multi_likelihood<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
+    input: &StrategyInput<S, X, M, Z>,
     mf: &MultiFeatureSettings,
-    r_inv: &Matrix2<f64>,
-    log_peak: f64,
     nz: usize,
-    s: &mut StrategyScratch,
+    s: &mut StrategyScratch<Z>,
     out: &mut StrategyOutcome,
 ) -> f64 {
     let nf = s.features.len();
@@ -336,9 +370,10 @@ fn multi_likelihood<S: PlanarSensorModel>(
     s.first_feature.resize(nz, usize::MAX);
     for fi in 0..nf {
         s.start.push(s.edges.len());
-        let m = input.updated.mean[s.features[fi]];
+        let (m, mark) = (input.updated.mean[s.features[fi]], input.updated.mark[s.features[fi]]);
         let ln_pd = s.feature_pd[fi].ln();
-        let h = input.sensor.predict(input.pose, &m, ());
+        let (r_inv, log_peak) = s.noise[usize::from(mark)];
+        let h = input.sensor.predict(input.pose, &m, S::Mark::from_index(mark));
         for (j, zj) in input.z.iter().enumerate() {
             let nu = input.sensor.residual(zj, &h);
             let maha = (nu.transpose() * r_inv * nu)[(0, 0)];
@@ -442,8 +477,9 @@ mod tests {
     use super::*;
     use crate::gm::{UpdateScratch, UpdateSettings, phd_update};
     use approx::assert_relative_eq;
-    use nalgebra::Vector2;
+    use nalgebra::{Matrix2, Vector2};
     use rfslam_core::RangeBearingSensor;
+    use rfslam_core::{Point2, Pose, RangeBearing};
 
     const PD: f64 = 0.9;
     const C: f64 = 0.01;
@@ -497,7 +533,7 @@ mod tests {
             &x,
             &z,
             &crate::with_noise(&sensor, &r),
-            |_, _| PD,
+            |_, _, _| PD,
             &settings,
             &mut scratch,
             &mut updated,
@@ -522,7 +558,7 @@ mod tests {
             log_clutter: C.ln(),
             clutter_rate: NC,
         };
-        strategy_log_weight(w, &input, |_, _| PD, mf, &mut StrategyScratch::default())
+        strategy_log_weight(w, &input, |_, _, _| PD, mf, &mut StrategyScratch::default())
     }
 
     /// Eqs. (20)-(22): the empty-set weight is `sum_z ln c - N_c + m^+ - m^-`, and the map
@@ -626,13 +662,13 @@ mod tests {
         let base = 2.0 * C.ln() - NC; // v^- = v^+: no ratio, no mass change
         for (ratio, kept) in [(0.01, vec![8.0]), (0.0, vec![8.0, 10.0]), (0.02, vec![])] {
             let mf = MultiFeatureSettings { likelihood_ratio: ratio, terms: MfTerms::All, ..Default::default() };
-            let o = strategy_log_weight(Weighting::Multi, &input, |_, _| PD, &mf, &mut StrategyScratch::default());
+            let o = strategy_log_weight(Weighting::Multi, &input, |_, _, _| PD, &mf, &mut StrategyScratch::default());
             let like = (1.0 - PD) + kept.iter().map(|m2: &f64| PD * peak * (-0.5 * m2).exp() / C).sum::<f64>();
             assert_relative_eq!(o.log_weight, base + like.ln(), epsilon = 1e-9);
         }
         // Highest order with no likely measurement: the feature counts as missed.
         let mf = MultiFeatureSettings { likelihood_ratio: 0.02, ..Default::default() };
-        let o = strategy_log_weight(Weighting::Multi, &input, |_, _| PD, &mf, &mut StrategyScratch::default());
+        let o = strategy_log_weight(Weighting::Multi, &input, |_, _, _| PD, &mf, &mut StrategyScratch::default());
         assert_relative_eq!(o.log_weight, base + (1.0 - PD).ln(), epsilon = 1e-9);
     }
 
@@ -652,7 +688,7 @@ mod tests {
             &Pose::zeros(),
             &[],
             &crate::with_noise(&sensor, &r),
-            |_, _| PD,
+            |_, _, _| PD,
             &settings,
             &mut scratch,
             &mut updated,
@@ -669,7 +705,7 @@ mod tests {
                 log_clutter: C.ln(),
                 clutter_rate: NC,
             };
-            let o = strategy_log_weight(w, &input, |_, _| PD, &mf, &mut StrategyScratch::default());
+            let o = strategy_log_weight(w, &input, |_, _, _| PD, &mf, &mut StrategyScratch::default());
             assert_relative_eq!(o.log_weight, -NC - PD * 1.2, epsilon = 1e-12);
             assert_eq!(o.features, usize::from(w != Weighting::Empty), "{w:?}");
         }
@@ -692,14 +728,14 @@ mod tests {
             clutter_rate: NC,
         };
         let mf = MultiFeatureSettings::default();
-        let empty = strategy_log_weight(Weighting::Empty, &input, |_, _| PD, &mf, &mut StrategyScratch::default());
+        let empty = strategy_log_weight(Weighting::Empty, &input, |_, _, _| PD, &mf, &mut StrategyScratch::default());
         for w in [Weighting::Single, Weighting::Multi] {
-            let o = strategy_log_weight(w, &input, |_, _| 0.0, &mf, &mut StrategyScratch::default());
+            let o = strategy_log_weight(w, &input, |_, _, _| 0.0, &mf, &mut StrategyScratch::default());
             assert_eq!(o.features, 0);
             assert_relative_eq!(o.log_weight, empty.log_weight, epsilon = 1e-12);
         }
         // Only the landmark on the left (y > 0) in view: one feature.
-        let left = |m: &Point2, _: &Matrix2<f64>| if m.y > 0.0 { PD } else { 0.0 };
+        let left = |m: &Point2, _: &Matrix2<f64>, _: u8| if m.y > 0.0 { PD } else { 0.0 };
         let o = strategy_log_weight(Weighting::Multi, &input, left, &mf, &mut StrategyScratch::default());
         assert_eq!(o.features, 1);
     }
