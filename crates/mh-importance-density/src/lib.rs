@@ -469,6 +469,16 @@ where
     }
 }
 
+/// PHD-SLAM 3.0's density (the Taylor SLR) on another world: the same density, in that
+/// world's dimensions.
+impl<Sn, V, const X: usize, const M: usize, const Z: usize> rbphd::ProposalIn<V, Sn, X, M, Z> for MhProposal
+where
+    Sn: InvertibleSensorModel<X, M, Z>,
+    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
+{
+    type In = MhProposal<TaylorSlr, Sn, V, X, M, Z>;
+}
+
 impl<Sn, V, const X: usize, const M: usize, const Z: usize> Proposal<X, M, Z> for MhProposal<TaylorSlr, Sn, V, X, M, Z>
 where
     Sn: InvertibleSensorModel<X, M, Z>,

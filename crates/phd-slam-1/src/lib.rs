@@ -64,6 +64,14 @@ where
     }
 }
 
+impl<V, S, const X: usize, const M: usize, const Z: usize> rbphd::ProposalIn<V, S, X, M, Z> for TransitionProposal
+where
+    S: InvertibleSensorModel<X, M, Z>,
+    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
+{
+    type In = TransitionProposal<S, V>;
+}
+
 /// PHD-SLAM 1.0 on the planar sensor model `S`: the registered `phd-1.0`.
 pub type PhdSlam1<S = RangeBearingModel> = RbPhd<TransitionProposal<S>>;
 

@@ -106,6 +106,14 @@ where
     }
 }
 
+impl<V, S, const X: usize, const M: usize, const Z: usize> rbphd::ProposalIn<V, S, X, M, Z> for BootstrapProposal
+where
+    S: InvertibleSensorModel<X, M, Z>,
+    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
+{
+    type In = BootstrapProposal<S, V>;
+}
+
 /// `rbphd-mf`: the bootstrap RB-PHD filter weighted by the strategy of `strategy`, on the
 /// planar sensor model `S`.
 pub type RbPhdMf<S = RangeBearingModel> = RbPhd<BootstrapProposal<S>>;

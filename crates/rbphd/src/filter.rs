@@ -9,7 +9,7 @@ use rfslam_core::state::StateSpace;
 use rfslam_core::{
     ControlSegment, DetectionModel, Estimate, FilterBuild, Fov, InvertibleSensorModel, MapPoint, Motion, ParamError,
     PlacedFov, PlanarSensorModel, Point2, Rng, Scan, SensorKind, SensorModel, SlamFilter, SlamModels, StepReport,
-    Validated,
+    Validated, WorldBuild, WorldModels,
 };
 
 use crate::gm::{GmMap, ReduceScratch, ReduceSettings, UpdateScratch, UpdateSettings, phd_update_hold, reduce};
@@ -539,18 +539,7 @@ where
     }
 
     fn check(params: &Self::Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
-        params.common.validate(particles)?;
-        P::validate(&params.proposal)?;
-        if let Some(w) = P::weighting(&params.proposal)
-            && params.common.weighting != Weighting::Exact
-            && params.common.weighting != w
-        {
-            return Err(ParamError::new(
-                "weighting",
-                format!("{} sets the weighting through its own parameter; leave `weighting` out", P::NAME),
-            ));
-        }
-        Ok(())
+        check_params::<P, 3, 2, 2>(params, particles)
     }
 
     fn build(params: Validated<Self>, models: &SlamModels) -> Self {
@@ -561,6 +550,75 @@ where
             common.weighting = w;
         }
         RbPhd::from_models(common, proposal, models, particles)
+    }
+}
+
+/// The checks of a variant's parameters for `particles` particles, in any world: the shared
+/// ranges, the proposal's, and a weighting fixed by the proposal's own key left alone.
+fn check_params<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
+    params: &PhdParams<P::Params>,
+    particles: usize,
+) -> Result<(), ParamError> {
+    params.common.validate(particles)?;
+    P::validate(&params.proposal)?;
+    if let Some(w) = P::weighting(&params.proposal)
+        && params.common.weighting != Weighting::Exact
+        && params.common.weighting != w
+    {
+        return Err(ParamError::new(
+            "weighting",
+            format!("{} sets the weighting through its own parameter; leave `weighting` out", P::NAME),
+        ));
+    }
+    Ok(())
+}
+
+/// A registered variant's importance density in another world: the same density, with the
+/// same parameters, on the vehicle model `V` and the sensor model `S`. A variant whose
+/// density is written for the planar world alone (phd-2.0a, phd-2.0b, phd-3.0-sp) does not
+/// implement it, and the registry does not build it there.
+pub trait ProposalIn<V, S, const X: usize, const M: usize, const Z: usize>: Proposal {
+    /// The density on that world.
+    type In: Proposal<X, M, Z, Vehicle = V, Sensor = S, Params = Self::Params>;
+}
+
+/// A registered variant in a world beyond the planar ones: its parameters checked as in the
+/// planar worlds, but the keys that change the planar scenario's detection or clutter model
+/// (`detection_pd`, `clutter_rate`, `clutter_intensity`) refused, since the world's sensor
+/// model carries its own; the engine built on the world's models.
+impl<P, V, S, const X: usize, const M: usize, const Z: usize> WorldBuild<V, S, X, M, Z> for RbPhd<P>
+where
+    P: Proposal<Vehicle = Motion> + ProposalIn<V, S, X, M, Z>,
+    P::Sensor: PlanarSensorModel,
+    V: VehicleModel<X, 3> + Clone + Send + 'static,
+    S: InvertibleSensorModel<X, M, Z>,
+{
+    fn build_world(
+        params: PhdParams<P::Params>,
+        models: &WorldModels<V, S, X, M, Z>,
+        particles: usize,
+    ) -> Result<Box<dyn SlamFilter<X, M, Z>>, ParamError> {
+        check_params::<P::In, X, M, Z>(&params, particles)?;
+        let c = &params.common;
+        for (key, set) in [
+            ("detection_pd", c.detection_pd.is_some()),
+            ("clutter_rate", c.clutter_rate.is_some()),
+            ("clutter_intensity", c.clutter_intensity.is_some()),
+        ] {
+            if set {
+                return Err(ParamError::new(
+                    key,
+                    "applies to the planar scenarios' detection and clutter models only; this world's sensor model sets its own",
+                ));
+            }
+        }
+        let proposal = <P::In as Proposal<X, M, Z>>::new(&params.proposal);
+        let mut common = params.common;
+        if let Some(w) = <P::In as Proposal<X, M, Z>>::weighting(&params.proposal) {
+            common.weighting = w;
+        }
+        let (v, s) = (models.vehicle.clone(), models.sensor.clone());
+        Ok(Box::new(RbPhd::<P::In, X, M, Z>::new(common, proposal, v, s, particles)))
     }
 }
 

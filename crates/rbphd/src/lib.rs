@@ -15,7 +15,7 @@ pub mod proposal;
 pub mod weighting;
 
 pub use association::{CostMatrixBuffers, MissedCost};
-pub use filter::{Particle, RbPhd};
+pub use filter::{Particle, ProposalIn, RbPhd};
 pub use gm::GmMap;
 pub use params::{PhdParams, RbPhdParams};
 pub use proposal::{PoseSample, Proposal, ProposalContext, ProposalStats, sample_transition};

@@ -174,7 +174,8 @@ pub static REGISTRY: &[FilterEntry] = &[
     planar_entry!(
         "phd-1.0",
         phd_slam_1::PhdSlam1,
-        "PHD-SLAM 1.0 (Mullane et al. 2011): RB-PHD SLAM, transition density as proposal"
+        "PHD-SLAM 1.0 (Mullane et al. 2011): RB-PHD SLAM, transition density as proposal",
+        radio
     ),
     planar_entry!(
         "phd-2.0a",
@@ -189,7 +190,8 @@ pub static REGISTRY: &[FilterEntry] = &[
     planar_entry!(
         "phd-3.0",
         phd_slam_3::PhdSlam3,
-        "PHD-SLAM 3.0 (Kaltiokallio et al. 2024): multi-hypotheses importance density (Murty + partitioned IPL)"
+        "PHD-SLAM 3.0 (Kaltiokallio et al. 2024): multi-hypotheses importance density (Murty + partitioned IPL)",
+        radio
     ),
     planar_entry!(
         "phd-3.0-sp",
@@ -199,7 +201,8 @@ pub static REGISTRY: &[FilterEntry] = &[
     planar_entry!(
         "rbphd-mf",
         rbphd_mf::RbPhdMf,
-        "RB-PHD SLAM (Leung, Inostroza, Adams): bootstrap proposal, empty-set / single-feature / multi-feature particle weighting (`strategy`)"
+        "RB-PHD SLAM (Leung, Inostroza, Adams): bootstrap proposal, empty-set / single-feature / multi-feature particle weighting (`strategy`)",
+        radio
     ),
     planar_entry!(
         "fastslam-2.0-oracle",
