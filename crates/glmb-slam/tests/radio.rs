@@ -4,63 +4,10 @@
 //! (`rfslam_sim::RadioWorld`) scored by `rfslam_eval::world::run_world`.
 
 use glmb_slam::{GlmbSlam, Params, Variant};
-use rfslam_core::model::{LandmarkType, RadioSensor, RadioVehicle, Vehicle, VehicleModel};
+use rfslam_core::model::{LandmarkType, RadioSensor, RadioVehicle};
 use rfslam_core::{FilterEngine, SlamFilter};
-use rfslam_eval::world::{WorldScoring, WorldStep, run_world};
-use rfslam_sim::{RadioWorld, SimulatedRun};
-
-/// The published sensor with `R` scaled by `noise_scale` (the filters' `R_U`).
-fn sensor(noise_scale: f64) -> RadioSensor {
-    RadioSensor { noise_scale: [noise_scale; 3], ..RadioSensor::published() }
-}
-
-/// The radio vehicle (process noise 0.2 m on x, y and the clock bias, 1e-3 rad on the
-/// heading, none on the height) as it is and as the filters assume it.
-fn vehicle(world: &RadioWorld) -> Vehicle<RadioVehicle, 5> {
-    Vehicle {
-        model: RadioVehicle { sigma: [0.2, 0.2, 0.0, 1e-3, 0.2] },
-        control_noise: nalgebra::Matrix3::zeros(),
-        initial_state: world.x0,
-    }
-}
-
-fn world() -> RadioWorld {
-    RadioWorld::published([12.0, 25.0, 8.0, 18.0])
-}
-
-/// The mapped landmarks (the base station left out), GOSPA p = 2, c = 20 m.
-fn scoring(world: &RadioWorld) -> WorldScoring<3> {
-    let truth =
-        world.landmarks.iter().filter(|l| l.2 != LandmarkType::BaseStation).map(|l| (l.2.mark(), l.1)).collect();
-    WorldScoring { truth, marks: 3, c: 20.0, p: 2.0 }
-}
-
-fn simulate(world: &RadioWorld, seed: u64) -> SimulatedRun<5, 5> {
-    let mut rng = rfslam_core::rng::stream(&[seed, rfslam_core::rng::purpose::SCENARIO]);
-    world.simulate(&vehicle(world).model, &sensor(1.0), &mut rng).unwrap()
-}
-
-/// Runs `filter` over `run`; every estimate is finite and leaves the base station out.
-fn scores(
-    world: &RadioWorld,
-    run: &SimulatedRun<5, 5>,
-    filter: &mut dyn FilterEngine<5, 3, 5>,
-) -> Vec<WorldStep<5, 3>> {
-    let comps = vehicle(world).model.components();
-    let steps =
-        run_world(run, &comps, &scoring(world), 7, |u, z, rng| (filter.step(u, z, rng), filter.estimate())).unwrap();
-    for s in &steps {
-        assert!(s.finite);
-        assert!(s.estimate.map.iter().all(|p| p.mark != LandmarkType::BaseStation.mark()), "the anchor is reported");
-    }
-    steps
-}
-
-/// Whether some estimate lies within 5 m of the base station.
-fn near_base_station(step: &WorldStep<5, 3>) -> bool {
-    let bs = RadioSensor::published().base_station;
-    step.estimate.map.iter().any(|p| (p.position - bs).norm() <= 5.0)
-}
+use rfslam_eval::world::{RadioCase, WorldStep};
+use rfslam_sim::SimulatedRun;
 
 /// The filters' parameters on this world: the gate at the chi-square quantile 0.999 of
 /// `Z = 5` degrees of freedom (as the default 13.8155 is for 2), and `survival_fov = 0.999`
@@ -79,15 +26,14 @@ fn position_errors(steps: &[WorldStep<5, 3>]) -> (f64, f64) {
 
 /// Dead reckoning's position errors, at the last step and over the lap (the known speed and
 /// turn rate integrated from the known start, as the `dead-reckoning` filter does).
-fn dead_reckoning_errors(world: &RadioWorld, run: &SimulatedRun<5, 5>) -> (f64, f64) {
-    let mut dr = dead_reckoning::DeadReckoning::<RadioVehicle, 5, 3, 5>::new(vehicle(world).model, world.x0);
-    let comps = vehicle(world).model.components();
-    let steps = run_world(run, &comps, &scoring(world), 7, |u, z, rng| (dr.step(u, z, rng), dr.estimate())).unwrap();
+fn dead_reckoning_errors(world: &RadioCase, run: &SimulatedRun<5, 5>) -> (f64, f64) {
+    let mut dr = dead_reckoning::DeadReckoning::<RadioVehicle, 5, 3, 5>::new(world.vehicle().model, world.world.x0);
+    let steps = world.scores(run, |u, z, rng| (dr.step(u, z, rng), dr.estimate())).unwrap();
     position_errors(&steps)
 }
 
-fn filter(variant: Variant, world: &RadioWorld, n: usize) -> GlmbSlam<RadioVehicle, RadioSensor, 5, 3, 5> {
-    GlmbSlam::new(variant, params(), vehicle(world), sensor(4.0), n)
+fn filter(variant: Variant, world: &RadioCase, n: usize) -> GlmbSlam<RadioVehicle, RadioSensor, 5, 3, 5> {
+    GlmbSlam::new(variant, params(), world.vehicle(), RadioCase::sensor(4.0), n)
 }
 
 /// glmb-1.0, glmb-2.0 and lmb-slam (20 particles) on the radio world, seeds 1 and 2.
@@ -109,10 +55,10 @@ fn filter(variant: Variant, world: &RadioWorld, n: usize) -> GlmbSlam<RadioVehic
 /// - The height, not estimated, stays at its known value in every particle.
 #[test]
 fn glmb_family_localises_and_maps_the_radio_world() {
-    let w = world();
+    let w = RadioCase::default();
     let (va, sp) = (LandmarkType::VirtualAnchor.mark(), LandmarkType::ScatteringPoint.mark());
     for seed in [1, 2] {
-        let run = simulate(&w, seed);
+        let run = w.simulate(seed).unwrap();
         let (dr, dr_lap) = dead_reckoning_errors(&w, &run);
         let seen_sp = (5..9).filter(|id| run.scans.iter().any(|s| s.truth.as_ref().unwrap().contains(id))).count();
         assert!(seen_sp >= 2, "the lap sees scattering points");
@@ -120,7 +66,8 @@ fn glmb_family_localises_and_maps_the_radio_world() {
         {
             let mut f = filter(variant, &w, 20);
             let t0 = std::time::Instant::now();
-            let steps = scores(&w, &run, &mut f);
+            let steps = w.scores(&run, |u, z, rng| (f.step(u, z, rng), f.estimate())).unwrap();
+            assert!(steps.iter().all(RadioCase::well_formed), "a report not finite or the anchor reported");
             let ms = t0.elapsed().as_secs_f64() * 1e3 / steps.len() as f64;
             let last = steps.last().unwrap();
             let ((pos, lap), bias) = (position_errors(&steps), last.pose.clock_rmse().unwrap());
@@ -128,8 +75,8 @@ fn glmb_family_localises_and_maps_the_radio_world() {
                 "seed {seed} {name}: position error final {pos:.3} m, lap RMSE {lap:.3} m (dead reckoning {dr:.3}, \
                  {dr_lap:.3} m), clock bias {bias:.3} m, VAs found {}, SPs found {}, VA GOSPA {:.2}, SP GOSPA {:.2}, \
                  {} landmarks, {ms:.2} ms/step",
-                last.found(&scoring(&w), va, 5.0),
-                last.found(&scoring(&w), sp, 5.0),
+                last.found(&w.scoring(), va, 5.0),
+                last.found(&w.scoring(), sp, 5.0),
                 last.gospa[1].total,
                 last.gospa[2].total,
                 last.estimate.map.len(),
@@ -137,9 +84,9 @@ fn glmb_family_localises_and_maps_the_radio_world() {
             assert!(lap < 0.75 * dr_lap, "{name}: lap position RMSE {lap} vs dead reckoning {dr_lap}");
             assert!(pos < dr, "{name}: final position error {pos} vs dead reckoning {dr}");
             assert!(bias < 0.5, "{name}: clock bias error {bias}");
-            assert_eq!(last.found(&scoring(&w), va, 5.0), 4, "{name}: virtual anchors found");
-            assert_eq!(last.found(&scoring(&w), sp, 5.0), seen_sp, "{name}: scattering points found");
-            assert!(!steps.iter().any(near_base_station), "{name}: a landmark at the base station");
+            assert_eq!(last.found(&w.scoring(), va, 5.0), 4, "{name}: virtual anchors found");
+            assert_eq!(last.found(&w.scoring(), sp, 5.0), seen_sp, "{name}: scattering points found");
+            assert!(!steps.iter().any(RadioCase::near_base_station), "{name}: a landmark at the base station");
             // The anchor is in no particle's map: it stays where the sensor puts it.
             assert!(f.particle_set().iter().all(|p| p.glmb.tracks.iter().chain(&p.lmb.tracks).all(|t| t.mark != 0)));
             assert_eq!(f.anchors().len(), 1);
@@ -154,14 +101,15 @@ fn glmb_family_localises_and_maps_the_radio_world() {
 #[test]
 #[ignore]
 fn radio_world_cost() {
-    let w = world();
-    let run = simulate(&w, 1);
+    let w = RadioCase::default();
+    let run = w.simulate(1).unwrap();
     for n in [10, 100] {
         for (name, variant) in [("glmb-1.0", Variant::Glmb1), ("glmb-2.0", Variant::Glmb2), ("lmb-slam", Variant::Lmb)]
         {
             let mut f = filter(variant, &w, n);
             let t0 = std::time::Instant::now();
-            let steps = scores(&w, &run, &mut f);
+            let steps = w.scores(&run, |u, z, rng| (f.step(u, z, rng), f.estimate())).unwrap();
+            assert!(steps.iter().all(RadioCase::well_formed), "a report not finite or the anchor reported");
             let ms = t0.elapsed().as_secs_f64() * 1e3 / steps.len() as f64;
             eprintln!("N = {n} {name}: {ms:.2} ms/step");
         }

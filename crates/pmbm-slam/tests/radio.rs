@@ -4,63 +4,10 @@
 //! (`rfslam_sim::RadioWorld`) scored by `rfslam_eval::world::run_world`.
 
 use pmbm_slam::{MpmbFilter, MpmbParams, Params, PmbmFilter, UndetectedModel, Variant};
-use rfslam_core::model::{LandmarkType, RadioSensor, RadioVehicle, Vehicle, VehicleModel};
+use rfslam_core::model::{LandmarkType, RadioVehicle};
 use rfslam_core::{FilterEngine, SlamFilter};
-use rfslam_eval::world::{WorldScoring, WorldStep, run_world};
-use rfslam_sim::{RadioWorld, SimulatedRun};
-
-/// The published sensor with `R` scaled by `noise_scale` (the filters' `R_U`).
-fn sensor(noise_scale: f64) -> RadioSensor {
-    RadioSensor { noise_scale: [noise_scale; 3], ..RadioSensor::published() }
-}
-
-/// The radio vehicle (process noise 0.2 m on x, y and the clock bias, 1e-3 rad on the
-/// heading, none on the height) as it is and as the filters assume it.
-fn vehicle(world: &RadioWorld) -> Vehicle<RadioVehicle, 5> {
-    Vehicle {
-        model: RadioVehicle { sigma: [0.2, 0.2, 0.0, 1e-3, 0.2] },
-        control_noise: nalgebra::Matrix3::zeros(),
-        initial_state: world.x0,
-    }
-}
-
-fn world() -> RadioWorld {
-    RadioWorld::published([12.0, 25.0, 8.0, 18.0])
-}
-
-/// The mapped landmarks (the base station left out), GOSPA p = 2, c = 20 m.
-fn scoring(world: &RadioWorld) -> WorldScoring<3> {
-    let truth =
-        world.landmarks.iter().filter(|l| l.2 != LandmarkType::BaseStation).map(|l| (l.2.mark(), l.1)).collect();
-    WorldScoring { truth, marks: 3, c: 20.0, p: 2.0 }
-}
-
-fn simulate(world: &RadioWorld, seed: u64) -> SimulatedRun<5, 5> {
-    let mut rng = rfslam_core::rng::stream(&[seed, rfslam_core::rng::purpose::SCENARIO]);
-    world.simulate(&vehicle(world).model, &sensor(1.0), &mut rng).unwrap()
-}
-
-/// Runs `filter` over `run`; every estimate leaves the base station out.
-fn scores(
-    world: &RadioWorld,
-    run: &SimulatedRun<5, 5>,
-    filter: &mut dyn FilterEngine<5, 3, 5>,
-) -> Vec<WorldStep<5, 3>> {
-    let comps = vehicle(world).model.components();
-    let steps =
-        run_world(run, &comps, &scoring(world), 7, |u, z, rng| (filter.step(u, z, rng), filter.estimate())).unwrap();
-    for s in &steps {
-        assert!(s.finite);
-        assert!(s.estimate.map.iter().all(|p| p.mark != LandmarkType::BaseStation.mark()), "the anchor is reported");
-    }
-    steps
-}
-
-/// Whether some estimate lies within 5 m of the base station.
-fn near_base_station(step: &WorldStep<5, 3>) -> bool {
-    let bs = RadioSensor::published().base_station;
-    step.estimate.map.iter().any(|p| (p.position - bs).norm() <= 5.0)
-}
+use rfslam_eval::world::RadioCase;
+use rfslam_sim::SimulatedRun;
 
 fn pmbm_params() -> Params {
     Params {
@@ -73,10 +20,9 @@ fn pmbm_params() -> Params {
 
 /// Dead reckoning's position error at the last step (the known speed and turn rate
 /// integrated from the known start, as the `dead-reckoning` filter does).
-fn dead_reckoning_error(world: &RadioWorld, run: &SimulatedRun<5, 5>) -> f64 {
-    let mut dr = dead_reckoning::DeadReckoning::<RadioVehicle, 5, 3, 5>::new(vehicle(world).model, world.x0);
-    let comps = vehicle(world).model.components();
-    let steps = run_world(run, &comps, &scoring(world), 7, |u, z, rng| (dr.step(u, z, rng), dr.estimate())).unwrap();
+fn dead_reckoning_error(world: &RadioCase, run: &SimulatedRun<5, 5>) -> f64 {
+    let mut dr = dead_reckoning::DeadReckoning::<RadioVehicle, 5, 3, 5>::new(world.vehicle().model, world.world.x0);
+    let steps = world.scores(run, |u, z, rng| (dr.step(u, z, rng), dr.estimate())).unwrap();
     steps.last().unwrap().pose.pos_rmse().unwrap()
 }
 
@@ -101,10 +47,10 @@ fn dead_reckoning_error(world: &RadioWorld, run: &SimulatedRun<5, 5>) -> f64 {
 /// on.)
 #[test]
 fn pmbm_family_localises_and_maps_the_radio_world() {
-    let w = world();
+    let w = RadioCase::default();
     let va = LandmarkType::VirtualAnchor.mark();
     for seed in [1, 2] {
-        let run = simulate(&w, seed);
+        let run = w.simulate(seed).unwrap();
         let dr = dead_reckoning_error(&w, &run);
         let mpmb = MpmbParams {
             gate_probability: 0.99,
@@ -114,25 +60,26 @@ fn pmbm_family_localises_and_maps_the_radio_world() {
             ..MpmbParams::default()
         };
         let filters: Vec<(&str, Box<dyn FilterEngine<5, 3, 5>>)> = vec![
-            ("pmbm", Box::new(PmbmFilter::new(Variant::Pmbm, pmbm_params(), vehicle(&w), sensor(4.0), 20))),
-            ("pmb", Box::new(PmbmFilter::new(Variant::Pmb, pmbm_params(), vehicle(&w), sensor(4.0), 20))),
-            ("mpmb", Box::new(MpmbFilter::new(mpmb, vehicle(&w), sensor(1.0)))),
+            ("pmbm", Box::new(PmbmFilter::new(Variant::Pmbm, pmbm_params(), w.vehicle(), RadioCase::sensor(4.0), 20))),
+            ("pmb", Box::new(PmbmFilter::new(Variant::Pmb, pmbm_params(), w.vehicle(), RadioCase::sensor(4.0), 20))),
+            ("mpmb", Box::new(MpmbFilter::new(mpmb, w.vehicle(), RadioCase::sensor(1.0)))),
         ];
         for (name, mut f) in filters {
-            let steps = scores(&w, &run, f.as_mut());
+            let steps = w.scores(&run, |u, z, rng| (f.step(u, z, rng), f.estimate())).unwrap();
+            assert!(steps.iter().all(RadioCase::well_formed), "a report not finite or the anchor reported");
             let last = steps.last().unwrap();
             let (pos, bias) = (last.pose.pos_rmse().unwrap(), last.pose.clock_rmse().unwrap());
             eprintln!(
                 "seed {seed} {name}: final position error {pos:.3} m (dead reckoning {dr:.3} m), clock bias {bias:.3} m, \
                  VAs found {}, VA GOSPA {:.2}, SP GOSPA {:.2}",
-                last.found(&scoring(&w), va, 5.0),
+                last.found(&w.scoring(), va, 5.0),
                 last.gospa[1].total,
                 last.gospa[2].total
             );
             assert!(pos < 0.5 * dr.max(1.0), "{name}: position {pos} vs dead reckoning {dr}");
             assert!(bias < 1.0, "{name}: clock bias error {bias}");
-            assert_eq!(last.found(&scoring(&w), va, 5.0), 4, "{name}: virtual anchors found");
-            assert!(!steps.iter().any(near_base_station), "{name}: a landmark at the base station");
+            assert_eq!(last.found(&w.scoring(), va, 5.0), 4, "{name}: virtual anchors found");
+            assert!(!steps.iter().any(RadioCase::near_base_station), "{name}: a landmark at the base station");
         }
     }
 }

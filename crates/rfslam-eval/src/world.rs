@@ -133,3 +133,84 @@ pub fn world_values<const X: usize, const M: usize>(
     }
     Ok(v)
 }
+
+/// The 5G radio world as the families' radio-world tests set it up: the published world
+/// (`RadioWorld::published`) with the scattering points at 12, 25, 8 and 18 m, the radio
+/// vehicle (process noise 0.2 m on x, y and the clock bias, 1e-3 rad on the heading, none on
+/// the height) as it moves and as the filters assume it, the mapped landmarks scored with
+/// GOSPA p = 2, c = 20 m.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RadioCase {
+    /// The world.
+    pub world: rfslam_sim::RadioWorld,
+}
+
+impl Default for RadioCase {
+    fn default() -> Self {
+        RadioCase { world: rfslam_sim::RadioWorld::published([12.0, 25.0, 8.0, 18.0]) }
+    }
+}
+
+impl RadioCase {
+    /// The published sensor with `R` scaled by `noise_scale` (1: as it is; the filters'
+    /// `R_U` otherwise).
+    pub fn sensor(noise_scale: f64) -> rfslam_core::model::RadioSensor {
+        rfslam_core::model::RadioSensor {
+            noise_scale: [noise_scale; 3],
+            ..rfslam_core::model::RadioSensor::published()
+        }
+    }
+
+    /// The vehicle, from the world's start.
+    pub fn vehicle(&self) -> rfslam_core::model::Vehicle<rfslam_core::model::RadioVehicle, 5> {
+        rfslam_core::model::Vehicle {
+            model: rfslam_core::model::RadioVehicle { sigma: [0.2, 0.2, 0.0, 1e-3, 0.2] },
+            control_noise: nalgebra::Matrix3::zeros(),
+            initial_state: self.world.x0,
+        }
+    }
+
+    /// The mapped landmarks (the base station left out), GOSPA p = 2, c = 20 m.
+    pub fn scoring(&self) -> WorldScoring<3> {
+        use rfslam_core::model::LandmarkType;
+        let truth = self
+            .world
+            .landmarks
+            .iter()
+            .filter(|l| l.2 != LandmarkType::BaseStation)
+            .map(|l| (l.2.mark(), l.1))
+            .collect();
+        WorldScoring { truth, marks: 3, c: 20.0, p: 2.0 }
+    }
+
+    /// The run of `seed` (the data stream `stream(&[seed, purpose::SCENARIO])`), drawn with
+    /// the sensor as it is.
+    pub fn simulate(&self, seed: u64) -> Result<SimulatedRun<5, 5>, rfslam_data::DataError> {
+        let mut rng = stream(&[seed, purpose::SCENARIO]);
+        self.world.simulate(&self.vehicle().model, &Self::sensor(1.0), &mut rng)
+    }
+
+    /// Runs `step` (one recursion of a filter) over `run` with filter stream 7, scoring every
+    /// step ([`run_world`]).
+    pub fn scores(
+        &self,
+        run: &SimulatedRun<5, 5>,
+        step: impl FnMut(&[ControlSegment], &Scan<5>, &mut Rng) -> (StepReport<3>, Estimate<5, 3>),
+    ) -> Result<Vec<WorldStep<5, 3>>, MetricError> {
+        use rfslam_core::model::VehicleModel;
+        run_world(run, &self.vehicle().model.components(), &self.scoring(), 7, step)
+    }
+
+    /// Whether `step`'s filter report was finite and its estimate left the base station (the
+    /// anchor) out, as every filter's must.
+    pub fn well_formed(step: &WorldStep<5, 3>) -> bool {
+        let bs = rfslam_core::model::LandmarkType::BaseStation.mark();
+        step.finite && step.estimate.map.iter().all(|p| p.mark != bs)
+    }
+
+    /// Whether some estimate of `step` lies within 5 m of the base station.
+    pub fn near_base_station(step: &WorldStep<5, 3>) -> bool {
+        let bs = rfslam_core::model::RadioSensor::published().base_station;
+        step.estimate.map.iter().any(|p| (p.position - bs).norm() <= 5.0)
+    }
+}

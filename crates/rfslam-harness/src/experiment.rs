@@ -656,6 +656,28 @@ impl Plan {
                     format!("{msg}{point}"),
                 ),
             };
+            // A filter's parameter error at the grid key that set the value, else at the entry.
+            let filter_error = |i: usize, f: &ResolvedFilter, n: usize, e: rfslam_core::ParamError| {
+                let set_by = grid_keys.iter().find(|g| {
+                    g.strip_prefix("filter.")
+                        .and_then(|r| split_filter_key(r, &names))
+                        .is_some_and(|(who, set)| (who == f.label || who == f.name) && covers(set, &e.key))
+                });
+                match set_by {
+                    Some(g) => err(
+                        &format!("grid.\"{g}\""),
+                        format!("at grid point ({}): filter `{}` with {n} particles: {e}", at(&values), f.label),
+                    ),
+                    None => {
+                        let key = if e.key == "particles" {
+                            format!("filters[{i}].particles")
+                        } else {
+                            format!("filters[{i}].params.{}", e.key)
+                        };
+                        err(&key, format!("filter `{}`: {e}{point}", f.label))
+                    }
+                }
+            };
             if is_radio(&sc_table) != radio {
                 return Err(origin("world.kind", "a grid may not change whether the world is the radio world".into()));
             }
@@ -677,34 +699,13 @@ impl Plan {
                         ));
                     };
                     for &n in &f.particles {
-                        build(&f.params, &models, n).map_err(|e| {
-                            let key = if e.key == "particles" {
-                                format!("filters[{i}].particles")
-                            } else {
-                                format!("filters[{i}].params.{}", e.key)
-                            };
-                            err(&key, format!("filter `{}`: {e}{point}", f.label))
-                        })?;
+                        build(&f.params, &models, n).map_err(|e| filter_error(i, f, n, e))?;
                     }
                 }
                 points.push(GridPoint { values, scenario: Scenario::Radio(sc), filters, world: None });
                 continue;
             }
-            let scenario = scenario_from_table(&sc_table, &|key: &str, msg: String| match set_by(key) {
-                Some(g) => err(
-                    &format!("grid.\"{g}\""),
-                    match key {
-                        "" => format!("at grid point ({}): {msg}", at(&values)),
-                        _ => format!("at grid point ({}): scenario key `{key}`: {msg}", at(&values)),
-                    },
-                ),
-                None => config_error(
-                    &scenario_path,
-                    &read(&scenario_path).unwrap_or_default(),
-                    key,
-                    format!("{msg}{point}"),
-                ),
-            })?;
+            let scenario = scenario_from_table(&sc_table, &origin)?;
             let world_key = toml::to_string(&sc_table.get("world")).unwrap_or_default();
             let world = match worlds.iter().find(|(k, _)| *k == world_key) {
                 Some((_, w)) => Some(w.clone()),
@@ -721,31 +722,7 @@ impl Plan {
             for (i, f) in filters.iter().enumerate() {
                 let entry = registry::find(&f.name).expect("checked above");
                 for &n in &f.particles {
-                    (entry.validate)(&f.params, &models, n).map_err(|e| {
-                        let set_by = grid_keys.iter().find(|g| {
-                            g.strip_prefix("filter.")
-                                .and_then(|r| split_filter_key(r, &names))
-                                .is_some_and(|(who, set)| (who == f.label || who == f.name) && covers(set, &e.key))
-                        });
-                        match set_by {
-                            Some(g) => err(
-                                &format!("grid.\"{g}\""),
-                                format!(
-                                    "at grid point ({}): filter `{}` with {n} particles: {e}",
-                                    at(&values),
-                                    f.label
-                                ),
-                            ),
-                            None => {
-                                let key = if e.key == "particles" {
-                                    format!("filters[{i}].particles")
-                                } else {
-                                    format!("filters[{i}].params.{}", e.key)
-                                };
-                                err(&key, format!("filter `{}`: {e}{point}", f.label))
-                            }
-                        }
-                    })?;
+                    (entry.validate)(&f.params, &models, n).map_err(|e| filter_error(i, f, n, e))?;
                 }
             }
             // What one job needs at least, against what the machine has.
