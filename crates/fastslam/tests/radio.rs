@@ -5,9 +5,8 @@
 //! FastSLAM 2.0, and FastSLAM 1.0 and MH-FastSLAM with unknown associations.
 
 use fastslam::{DaFastSlam, FastSlam1Params, MhParams, OracleEngine, Params};
-use rfslam_core::model::{LandmarkType, RadioSensor, RadioVehicle, Vehicle, VehicleModel};
-use rfslam_eval::world::{WorldScoring, WorldStep, run_world};
-use rfslam_sim::{RadioWorld, SimulatedRun};
+use rfslam_core::model::{LandmarkType, RadioSensor, RadioVehicle, VehicleModel};
+use rfslam_eval::world::{RadioCase, WorldStep, run_world};
 
 /// With the true associations and the landmark types, the oracle localises to about one
 /// step's process noise (0.28 m horizontally; lap RMSE of the position under 0.5 m and of
@@ -17,17 +16,13 @@ use rfslam_sim::{RadioWorld, SimulatedRun};
 /// stays at its true value in every particle.
 #[test]
 fn oracle_fastslam_on_the_radio_world() {
-    let w = RadioWorld::published([12.0, 25.0, 8.0, 18.0]);
-    let model = RadioVehicle { sigma: [0.2, 0.2, 0.0, 1e-3, 0.2] };
-    let vehicle = Vehicle { model, control_noise: nalgebra::Matrix3::zeros(), initial_state: w.x0 };
-    let truth: Vec<_> =
-        w.landmarks.iter().filter(|l| l.2 != LandmarkType::BaseStation).map(|l| (l.2.mark(), l.1)).collect();
-    let scoring = WorldScoring { truth, marks: 3, c: 20.0, p: 2.0 };
+    let case = RadioCase::default();
+    let (w, vehicle, scoring) = (&case.world, case.vehicle(), case.scoring());
+    let model = vehicle.model;
     let comps = model.components();
     for seed in [3, 4] {
-        let mut rng = rfslam_core::rng::stream(&[seed, rfslam_core::rng::purpose::SCENARIO]);
-        let run = w.simulate(&model, &RadioSensor::published(), &mut rng).unwrap();
-        let sensor = RadioSensor { noise_scale: [4.0; 3], ..RadioSensor::published() };
+        let run = case.simulate(seed).unwrap();
+        let sensor = RadioCase::sensor(4.0);
         let mut f = OracleEngine::new(Params::default(), vehicle, sensor, 20)
             .with_landmark_types(w.landmarks.iter().map(|l| (l.0, l.2)));
         let steps = run_world(&run, &comps, &scoring, seed, |u, z, rng| (f.step(u, z, rng), f.estimate())).unwrap();
@@ -59,19 +54,6 @@ fn oracle_fastslam_on_the_radio_world() {
 /// sensor's five measurement components (as 9.21 is chi^2_2 at 0.99 for the planar ones).
 const GATE_CHI2_5_099: f64 = 15.086;
 
-/// Dead reckoning's position error at the last step (the known control integrated from the
-/// known start).
-fn dead_reckoning_error(w: &RadioWorld, vehicle: &Vehicle<RadioVehicle, 5>, run: &SimulatedRun<5, 5>) -> f64 {
-    let mut dr = dead_reckoning::DeadReckoning::<RadioVehicle, 5, 3, 5>::new(vehicle.model, w.x0);
-    let comps = vehicle.model.components();
-    let scoring = WorldScoring { truth: Vec::new(), marks: 3, c: 20.0, p: 2.0 };
-    let steps = run_world(run, &comps, &scoring, 7, |u, z, rng| {
-        (rfslam_core::SlamFilter::step(&mut dr, u, z, rng), rfslam_core::SlamFilter::estimate(&dr))
-    })
-    .unwrap();
-    steps.last().unwrap().pose.pos_rmse().unwrap()
-}
-
 /// FastSLAM 1.0 and MH-FastSLAM (N = 20, the published sensor with `R` scaled by 4 as the
 /// oracle's, the default settings but the gate, chi^2_5 at 0.99) on the radio world, two
 /// seeds: the vehicle stays localised (far better than dead reckoning; the clock bias
@@ -97,22 +79,18 @@ fn dead_reckoning_error(w: &RadioWorld, vehicle: &Vehicle<RadioVehicle, 5>, run:
 /// not asserted on.
 #[test]
 fn fastslam1_and_mh_fastslam_on_the_radio_world() {
-    let w = RadioWorld::published([12.0, 25.0, 8.0, 18.0]);
-    let model = RadioVehicle { sigma: [0.2, 0.2, 0.0, 1e-3, 0.2] };
-    let vehicle = Vehicle { model, control_noise: nalgebra::Matrix3::zeros(), initial_state: w.x0 };
-    let truth: Vec<_> =
-        w.landmarks.iter().filter(|l| l.2 != LandmarkType::BaseStation).map(|l| (l.2.mark(), l.1)).collect();
-    let scoring = WorldScoring { truth, marks: 3, c: 20.0, p: 2.0 };
+    let case = RadioCase::default();
+    let (vehicle, scoring) = (case.vehicle(), case.scoring());
+    let model = vehicle.model;
     let comps = model.components();
     let bs = RadioSensor::published().base_station;
     let va = LandmarkType::VirtualAnchor.mark();
     let base = FastSlam1Params { gate: GATE_CHI2_5_099, ..FastSlam1Params::default() };
     let mh = MhParams { base: base.clone(), ..MhParams::default() };
     for seed in [3, 4] {
-        let mut rng = rfslam_core::rng::stream(&[seed, rfslam_core::rng::purpose::SCENARIO]);
-        let run = w.simulate(&model, &RadioSensor::published(), &mut rng).unwrap();
-        let dr = dead_reckoning_error(&w, &vehicle, &run);
-        let sensor = RadioSensor { noise_scale: [4.0; 3], ..RadioSensor::published() };
+        let run = case.simulate(seed).unwrap();
+        let dr = case.dead_reckoning(&run).unwrap().last().unwrap().pose.pos_rmse().unwrap();
+        let sensor = RadioCase::sensor(4.0);
         let filters: [(&str, fastslam::DaSettings); 2] =
             [("fastslam-1.0", base.settings()), ("mh-fastslam", mh.settings())];
         for (name, settings) in filters {

@@ -4,10 +4,9 @@
 //! (`rfslam_sim::RadioWorld`) scored by `rfslam_eval::world::run_world`.
 
 use glmb_slam::{GlmbSlam, Params, Variant};
+use rfslam_core::FilterEngine;
 use rfslam_core::model::{LandmarkType, RadioSensor, RadioVehicle};
-use rfslam_core::{FilterEngine, SlamFilter};
 use rfslam_eval::world::{RadioCase, WorldStep};
-use rfslam_sim::SimulatedRun;
 
 /// The filters' parameters on this world: the gate at the chi-square quantile 0.999 of
 /// `Z = 5` degrees of freedom (as the default 13.8155 is for 2), and `survival_fov = 0.999`
@@ -22,14 +21,6 @@ fn position_errors(steps: &[WorldStep<5, 3>]) -> (f64, f64) {
     let mut lap = rfslam_metrics::PoseErrors::new();
     steps.iter().for_each(|s| lap.merge(&s.pose));
     (steps.last().unwrap().pose.pos_rmse().unwrap(), lap.pos_rmse().unwrap())
-}
-
-/// Dead reckoning's position errors, at the last step and over the lap (the known speed and
-/// turn rate integrated from the known start, as the `dead-reckoning` filter does).
-fn dead_reckoning_errors(world: &RadioCase, run: &SimulatedRun<5, 5>) -> (f64, f64) {
-    let mut dr = dead_reckoning::DeadReckoning::<RadioVehicle, 5, 3, 5>::new(world.vehicle().model, world.world.x0);
-    let steps = world.scores(run, |u, z, rng| (dr.step(u, z, rng), dr.estimate())).unwrap();
-    position_errors(&steps)
 }
 
 fn filter(variant: Variant, world: &RadioCase, n: usize) -> GlmbSlam<RadioVehicle, RadioSensor, 5, 3, 5> {
@@ -59,7 +50,7 @@ fn glmb_family_localises_and_maps_the_radio_world() {
     let (va, sp) = (LandmarkType::VirtualAnchor.mark(), LandmarkType::ScatteringPoint.mark());
     for seed in [1, 2] {
         let run = w.simulate(seed).unwrap();
-        let (dr, dr_lap) = dead_reckoning_errors(&w, &run);
+        let (dr, dr_lap) = position_errors(&w.dead_reckoning(&run).unwrap());
         let seen_sp = (5..9).filter(|id| run.scans.iter().any(|s| s.truth.as_ref().unwrap().contains(id))).count();
         assert!(seen_sp >= 2, "the lap sees scattering points");
         for (name, variant) in [("glmb-1.0", Variant::Glmb1), ("glmb-2.0", Variant::Glmb2), ("lmb-slam", Variant::Lmb)]

@@ -15,7 +15,6 @@ use rbphd::{Proposal, RbPhd, RbPhdParams};
 use rfslam_core::model::{LandmarkType, RadioSensor, RadioVehicle};
 use rfslam_core::{RbpfParams, SlamFilter};
 use rfslam_eval::world::RadioCase;
-use rfslam_sim::SimulatedRun;
 
 /// The RB-PHD settings on this world: the defaults, with the gate at the same tail
 /// probability (1e-9) for five measurement components (chi^2_5: 50.69) as the default's for
@@ -37,14 +36,6 @@ fn phd3(w: &RadioCase, n: usize) -> PhdSlam3In<RadioVehicle, RadioSensor, 5, 3, 
     RbPhd::new(params(), proposal, w.vehicle(), RadioCase::sensor(4.0), n)
 }
 
-/// Dead reckoning's position error at the last step (the known speed and turn rate
-/// integrated from the known start, as the `dead-reckoning` filter does).
-fn dead_reckoning_error(world: &RadioCase, run: &SimulatedRun<5, 5>) -> f64 {
-    let mut dr = dead_reckoning::DeadReckoning::<RadioVehicle, 5, 3, 5>::new(world.vehicle().model, world.world.x0);
-    let steps = world.scores(run, |u, z, rng| (dr.step(u, z, rng), dr.estimate())).unwrap();
-    steps.last().unwrap().pose.pos_rmse().unwrap()
-}
-
 /// PHD-SLAM 1.0 (200 particles) and 3.0 (20 particles) on the radio world: the known base
 /// station anchors the vehicle (its position error at the end of the lap under a quarter of
 /// dead reckoning's, the clock bias within 0.25 m), the virtual anchors, always in view,
@@ -63,7 +54,7 @@ fn phd_family_localises_and_maps_the_radio_world() {
     let va = LandmarkType::VirtualAnchor.mark();
     for seed in [1, 2] {
         let run = w.simulate(seed).unwrap();
-        let dr = dead_reckoning_error(&w, &run);
+        let dr = w.dead_reckoning(&run).unwrap().last().unwrap().pose.pos_rmse().unwrap();
         let filters: Vec<(&str, Box<dyn SlamFilter<5, 3, 5>>)> =
             vec![("phd-1.0", Box::new(phd1(&w, 200))), ("phd-3.0", Box::new(phd3(&w, 20)))];
         for (name, mut f) in filters {

@@ -4,10 +4,9 @@
 //! (`rfslam_sim::RadioWorld`) scored by `rfslam_eval::world::run_world`.
 
 use pmbm_slam::{MpmbFilter, MpmbParams, Params, PmbmFilter, UndetectedModel, Variant};
-use rfslam_core::model::{LandmarkType, RadioVehicle};
-use rfslam_core::{FilterEngine, SlamFilter};
+use rfslam_core::FilterEngine;
+use rfslam_core::model::LandmarkType;
 use rfslam_eval::world::RadioCase;
-use rfslam_sim::SimulatedRun;
 
 fn pmbm_params() -> Params {
     Params {
@@ -16,14 +15,6 @@ fn pmbm_params() -> Params {
         undetected_intensity: 2.37e-6,
         ..Params::default()
     }
-}
-
-/// Dead reckoning's position error at the last step (the known speed and turn rate
-/// integrated from the known start, as the `dead-reckoning` filter does).
-fn dead_reckoning_error(world: &RadioCase, run: &SimulatedRun<5, 5>) -> f64 {
-    let mut dr = dead_reckoning::DeadReckoning::<RadioVehicle, 5, 3, 5>::new(world.vehicle().model, world.world.x0);
-    let steps = world.scores(run, |u, z, rng| (dr.step(u, z, rng), dr.estimate())).unwrap();
-    steps.last().unwrap().pose.pos_rmse().unwrap()
 }
 
 /// PMBM-SLAM and PMB-SLAM (20 particles) and MPMB-SLAM on the radio world: the known base
@@ -51,7 +42,7 @@ fn pmbm_family_localises_and_maps_the_radio_world() {
     let va = LandmarkType::VirtualAnchor.mark();
     for seed in [1, 2] {
         let run = w.simulate(seed).unwrap();
-        let dr = dead_reckoning_error(&w, &run);
+        let dr = w.dead_reckoning(&run).unwrap().last().unwrap().pose.pos_rmse().unwrap();
         let mpmb = MpmbParams {
             gate_probability: 0.99,
             undetected: UndetectedModel::Constant,

@@ -201,6 +201,17 @@ impl RadioCase {
         run_world(run, &self.vehicle().model.components(), &self.scoring(), 7, step)
     }
 
+    /// Dead reckoning over `run`: the known control integrated from the known start
+    /// (`motion::propagate`, as the `dead-reckoning` filter does), scored every step.
+    pub fn dead_reckoning(&self, run: &SimulatedRun<5, 5>) -> Result<Vec<WorldStep<5, 3>>, MetricError> {
+        let v = self.vehicle();
+        let mut x = v.initial_state;
+        self.scores(run, |u, _, _| {
+            x = rfslam_core::motion::propagate(&v.model, &x, u);
+            (StepReport::plain(1), Estimate { pose: x, map: Vec::new() })
+        })
+    }
+
     /// Whether `step`'s filter report was finite and its estimate left the base station (the
     /// anchor) out, as every filter's must.
     pub fn well_formed(step: &WorldStep<5, 3>) -> bool {
