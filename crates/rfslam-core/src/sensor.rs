@@ -36,9 +36,14 @@ pub struct Linearisation {
 }
 
 impl RangeBearingSensor {
-    /// Sensor position in the world frame and its derivative wrt heading.
+    /// Sensor position in the world frame and its derivative wrt heading. A sensor at the
+    /// vehicle's origin (eq. 50) needs no sine and cosine of the heading: the common case
+    /// skips them (a `sin_cos` per landmark and per measurement otherwise).
     #[inline]
     fn origin(&self, x: &Pose) -> (Vector2<f64>, Vector2<f64>) {
+        if self.offset == [0.0, 0.0] {
+            return (Vector2::new(x[0], x[1]), Vector2::zeros());
+        }
         let (s, c) = x[2].sin_cos();
         let [ox, oy] = self.offset;
         (Vector2::new(x[0] + c * ox - s * oy, x[1] + s * ox + c * oy), Vector2::new(-s * ox - c * oy, c * ox - s * oy))
@@ -92,5 +97,26 @@ impl RangeBearingSensor {
         let jz = Matrix2::new(c, -z[0] * s, s, z[0] * c);
         let jx = Matrix2x3::new(1.0, 0.0, do_dth.x - z[0] * s, 0.0, 1.0, do_dth.y + z[0] * c);
         (m, jz, jx)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The sensor at the vehicle's origin skips the heading's sine and cosine: eq. (50) by
+    /// hand, and the same values as a sensor a hair off the origin.
+    #[test]
+    fn sensor_at_the_origin_is_eq_50() {
+        let (x, m) = (Pose::new(1.0, 2.0, 0.5), Point2::new(4.0, 6.0));
+        let lin = RangeBearingSensor::default().linearise(&x, &m);
+        assert_eq!(lin.z[0], 5.0);
+        assert!((lin.z[1] - (4.0f64.atan2(3.0) - 0.5)).abs() < 1e-15);
+        assert_eq!((lin.hx[(0, 2)], lin.hx[(1, 2)]), (0.0, -1.0));
+        let near = RangeBearingSensor { offset: [1e-12, 0.0] };
+        let lin_near = near.linearise(&x, &m);
+        assert!((lin.z - lin_near.z).amax() < 1e-9 && (lin.hx - lin_near.hx).amax() < 1e-9);
+        let z = RangeBearing::new(5.0, 0.3);
+        assert!((RangeBearingSensor::default().inverse(&x, &z) - near.inverse(&x, &z)).amax() < 1e-9);
     }
 }
