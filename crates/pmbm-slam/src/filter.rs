@@ -150,6 +150,10 @@ where
             .collect();
         let mut map = PmbmDensity::from_bernoullis(&anchors);
         map.undetected = undetected;
+        let nt = crate::pmbm::typed::type_count::<X, M, Z, S>();
+        if nt > 1 {
+            map.types.extend(anchors.iter().flat_map(|a| crate::pmbm::typed::single_type(a, nt)));
+        }
         let p0 = Particle { log_w: 0.0, pose: vehicle.initial_state, map };
         PmbmFilter {
             variant,

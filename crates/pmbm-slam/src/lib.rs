@@ -66,10 +66,11 @@
 //! the sensor only through [`model::InvertibleSensorModel`] (prediction, Jacobians, residual,
 //! inverse, detection probability, field of view, clutter intensity, birth integral, the
 //! landmark types it maps and the anchors it knows): [`PmbmFilter`] and [`MpmbFilter`] take
-//! any of them. A Bernoulli carries one landmark type; a measurement's new Bernoulli sums the
-//! `e_j` terms of the mapped types (\[Kim2022\] Appendix A) and takes the density and type of
-//! the largest, once, at birth (our simplification: the paper keeps a density per type in
-//! every Bernoulli, `f(x, m)`, and updates each); the anchors (the radio world's base station) are tracks of existence 1
+//! any of them. In a world of several landmark types every Bernoulli keeps a density per type,
+//! `f(x, m) = w_m N(x; mean_m, cov_m)` (\[Kim2022\] Section III-B, Appendix A): a measurement's
+//! new Bernoulli sums the `e_j(m)` terms of the mapped types and weighs each type by its
+//! term, every scan updates each type's density and weight, and the type reported is the
+//! most likely ([`pmbm::typed`]); the anchors (the radio world's base station) are tracks of existence 1
 //! and zero covariance that every update conditions on and no estimate reports. The
 //! registered filters are instantiated for the planar sensor models
 //! (`rfslam_core::PlanarSensorModel`: the range-bearing and the relative-position sensor).

@@ -18,10 +18,9 @@ use rfslam_core::model::LandmarkMark;
 /// Appendix A step ii): `birth(type)` gives the type's term `e_j(type)` and its density
 /// (`None`: the type cannot start a landmark here). Returns `e_j = sum of the terms` and the
 /// density of the largest term (the first type on a tie) with that type's mark and `r = 0`
-/// (the caller sets `r = e_j / nu_j`). \[Kim2022\] keeps every type's density in the
-/// Bernoulli (`f(x, m)`) and reports the type of the largest `e(m)`; keeping only that
-/// type's, from the birth on, is our simplification. `None` when no mapped type gives a
-/// density. With one type it is that type's term and density.
+/// (the caller sets `r = e_j / nu_j`). `None` when no mapped type gives a density. The
+/// filters use it in a world of one type, where it is that type's term and density; a world
+/// of several types keeps every type's density in the Bernoulli (`crate::pmbm::typed`).
 pub fn typed_birth<const X: usize, const M: usize, const Z: usize, S: SensorModel<X, M, Z>>(
     model: &S,
     mut birth: impl FnMut(S::Mark) -> Option<(f64, SVector<f64, M>, SMatrix<f64, M, M>)>,

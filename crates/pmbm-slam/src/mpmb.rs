@@ -46,8 +46,11 @@ use crate::cubature::{InputPoints, PairMoments, PosePoints, lower_factor};
 use crate::filter::sensor_model;
 use crate::model::{InvertibleSensorModel, RangeBearingModel, chi2_quantile, typed_birth};
 use crate::params::{Params, check_cell, check_undetected, undetected_cell};
+use crate::pmbm::typed::{TypeDensity, single_type, type_count};
 use crate::undetected::{Undetected, UndetectedModel};
 use rfslam_core::{PlanarSensorModel, SensorKind};
+
+mod typed;
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
@@ -174,6 +177,12 @@ struct Workspace<const M: usize, const Z: usize, const X: usize> {
     merge_p: Vec<f64>,
     merge_h: Vec<GaussianBernoulli<M>>,
     next: Vec<GaussianBernoulli<M>>,
+    /// Per-type densities (several landmark types) of the missed children, the detected
+    /// children (per entry of `det`), the new Bernoullis and the next map.
+    missed_types: Vec<TypeDensity<M>>,
+    det_types: Vec<TypeDensity<M>>,
+    born_types: Vec<TypeDensity<M>>,
+    next_types: Vec<TypeDensity<M>>,
     /// Stacked update: (Bernoulli, measurement) pairs, their pose points and input sums.
     sel: Vec<(usize, usize)>,
     pose_pts: Vec<PosePoints<Z, X>>,
@@ -199,6 +208,10 @@ impl<const M: usize, const Z: usize, const X: usize> Default for Workspace<M, Z,
             merge_p: Vec::new(),
             merge_h: Vec::new(),
             next: Vec::new(),
+            missed_types: Vec::new(),
+            det_types: Vec::new(),
+            born_types: Vec::new(),
+            next_types: Vec::new(),
             sel: Vec::new(),
             pose_pts: Vec::new(),
             input_pts: Vec::new(),
@@ -240,6 +253,9 @@ where
     pub cov: SMatrix<f64, X, X>,
     /// The Bernoullis of the map (the anchors first).
     pub bernoullis: Vec<GaussianBernoulli<M>>,
+    /// In a world of several landmark types, each Bernoulli's density per type
+    /// (`types[i * T..(i + 1) * T]`, see [`crate::pmbm::typed`]); empty with one type.
+    pub types: Vec<TypeDensity<M>>,
     /// The intensity of the undetected landmarks.
     pub undetected: Undetected,
     ws: Workspace<M, Z, X>,
@@ -256,11 +272,13 @@ where
         let r: Vec<_> = S::Mark::ALL.iter().map(|&t| model.noise(t)).collect();
         let r_u: Vec<_> = r.iter().map(|r| r * params.noise_inflation).collect();
         let space = StateSpace::of(&vehicle.model);
-        let bernoullis = model
+        let bernoullis: Vec<_> = model
             .anchors()
             .into_iter()
             .map(|(mean, mark)| GaussianBernoulli { r: 1.0, mean, cov: SMatrix::zeros(), mark: mark.index() })
             .collect();
+        let nt = type_count::<X, M, Z, S>();
+        let types = if nt > 1 { bernoullis.iter().flat_map(|b| single_type(b, nt)).collect() } else { Vec::new() };
         MpmbFilter {
             gate: chi2_quantile(Z, params.gate_probability),
             lbp: LbpOptions { tolerance: params.lbp_tolerance, max_sweeps: params.lbp_max_sweeps },
@@ -273,6 +291,7 @@ where
             mean: vehicle.initial_state,
             cov: SMatrix::zeros(),
             bernoullis,
+            types,
             undetected: Undetected::new(params.undetected, undetected_cell(params.undetected_cell, &model)),
             params,
             vehicle,
@@ -327,8 +346,14 @@ where
             self.undetected.thin(&self.model, &self.vehicle.model.planar_pose(&self.mean));
             return report(self.bernoullis.len(), chol + 1);
         }
-        chol += self.map_children(&l_u);
-        self.births(&l_u);
+        let nt = type_count::<X, M, Z, S>();
+        if nt > 1 {
+            chol += self.map_children_typed(&l_u, nt);
+            self.births_typed(&l_u, nt);
+        } else {
+            chol += self.map_children(&l_u);
+            self.births(&l_u);
+        }
         // Step i along the predicted vehicle mean, after the births read lambda_u,k-1 (no
         // particles: the weight factor has nothing to weigh).
         self.undetected.thin(&self.model, &self.vehicle.model.planar_pose(&self.mean));
@@ -349,7 +374,11 @@ where
         if solved && ws.best.solve(&ws.problem).is_ok() {
             chol += self.vehicle_update(&l_u);
         }
-        self.merge(solved);
+        if nt > 1 {
+            self.merge_typed(solved, nt);
+        } else {
+            self.merge(solved);
+        }
         report(self.bernoullis.len(), chol)
     }
 

@@ -24,6 +24,9 @@ use rfslam_core::rbpf::log_sum_exp;
 use crate::model::{InvertibleSensorModel, typed_birth};
 use crate::undetected::Undetected;
 
+pub mod typed;
+pub use typed::TypeDensity;
+
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
 /// A local hypothesis: a Bernoulli with existence probability `r` and density
@@ -47,6 +50,9 @@ pub struct PmbmDensity<const M: usize> {
     pub gh_log_w: Vec<f64>,
     /// The intensity of the undetected landmarks (the Poisson part): constant by default.
     pub undetected: Undetected,
+    /// In a world of several landmark types, each local hypothesis's density per type
+    /// (`types[h * T..(h + 1) * T]` for `hyps[h]`, see [`typed`]); empty with one type.
+    pub types: Vec<TypeDensity<M>>,
 }
 
 impl<const M: usize> Clone for PmbmDensity<M> {
@@ -64,6 +70,7 @@ impl<const M: usize> Clone for PmbmDensity<M> {
         self.gh_hyp.clone_from(&src.gh_hyp);
         self.gh_log_w.clone_from(&src.gh_log_w);
         self.undetected.clone_from(&src.undetected);
+        self.types.clone_from(&src.types);
     }
 }
 
@@ -83,6 +90,7 @@ impl<const M: usize> PmbmDensity<M> {
             gh_hyp: Vec::new(),
             gh_log_w: vec![0.0],
             undetected,
+            types: Vec::new(),
         }
     }
 
@@ -122,6 +130,7 @@ impl<const M: usize> PmbmDensity<M> {
             gh_hyp: Vec::new(),
             gh_log_w: vec![0.0],
             undetected: Undetected::Constant,
+            types: Vec::new(),
         }
     }
 
@@ -264,6 +273,10 @@ pub struct Workspace<const M: usize> {
     absent: Vec<bool>,
     merge_p: Vec<f64>,
     merge_h: Vec<LocalHypothesis<M>>,
+    /// Per-type densities of the new arena's local hypotheses (several landmark types), and
+    /// the children a typed TOMB/P merges.
+    types: Vec<TypeDensity<M>>,
+    merge_c: Vec<u32>,
 }
 
 /// Step iv for local hypothesis `h` (existence `r` after survival, detection probability
@@ -331,6 +344,11 @@ fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorM
     ws.det.clear();
     ws.hyps.clear();
     ws.track_start.clear();
+    if typed::type_count::<X, M, Z, S>() > 1 {
+        ws.ln_nu_new.clear();
+        ws.r_new.clear();
+        return typed::children(map, x, z, model, s, ws);
+    }
     for t in 0..map.tracks() {
         ws.track_start.push(ws.hyps.len());
         for h in &map.hyps[map.track_start[t]..map.track_start[t + 1]] {
@@ -472,7 +490,7 @@ pub fn pmbm_update<const X: usize, const M: usize, const Z: usize, S: Invertible
     for w in &mut ws.gh_log_w {
         *w -= out.ln_chi;
     }
-    reduce(map, n_new, s, ws);
+    reduce(map, n_new, typed::type_count::<X, M, Z, S>(), s, ws);
     out
 }
 
@@ -671,8 +689,14 @@ fn fnv_step(h: u64, v: u32) -> u64 {
 /// with `r < bernoulli_prune` become non-existent (`r = 0`, one per track); global
 /// hypotheses made equal by that are merged; tracks absent from every global hypothesis
 /// and local hypotheses no global hypothesis references are deleted. The workspace's new
-/// arena (`n_new` tracks, rows over its `multi` tracks) becomes `map`.
-fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSettings, ws: &mut Workspace<M>) {
+/// arena (`n_new` tracks, rows over its `multi` tracks, `nt` landmark types) becomes `map`.
+fn reduce<const M: usize>(
+    map: &mut PmbmDensity<M>,
+    n_new: usize,
+    nt: usize,
+    s: &UpdateSettings,
+    ws: &mut Workspace<M>,
+) {
     let nm = ws.multi.len();
     let ln_prune = s.gh_prune.ln();
     // Heaviest first (ties: lower index first), as packed integer keys.
@@ -776,6 +800,7 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
         }
     }
     map.hyps.clear();
+    map.types.clear();
     map.track_start.clear();
     map.branching.clear();
     ws.kept_multi.clear();
@@ -789,6 +814,9 @@ fn reduce<const M: usize>(map: &mut PmbmDensity<M>, n_new: usize, s: &UpdateSett
             if ws.canon[h] != u32::MAX {
                 ws.canon[h] = map.hyps.len() as u32;
                 map.hyps.push(ws.hyps[h]);
+                if nt > 1 {
+                    map.types.extend_from_slice(&ws.types[h * nt..(h + 1) * nt]);
+                }
             }
         }
         if map.hyps.len() - start > 1 {
@@ -900,7 +928,9 @@ pub fn pmb_update<const X: usize, const M: usize, const Z: usize, S: InvertibleS
     };
     out.ln_chi = ln_fixed + ln_assoc;
     // TOMB/P: merge every track's children with its marginals; new tracks r = p_0j e_j / nu_j.
+    let nt = typed::type_count::<X, M, Z, S>();
     map.hyps.clear();
+    map.types.clear();
     let mut row = 0;
     for t in 0..n_old {
         let h = map.track_start[t];
@@ -909,31 +939,64 @@ pub fn pmb_update<const X: usize, const M: usize, const Z: usize, S: InvertibleS
             row += 1;
             ws.merge_p.clear();
             ws.merge_h.clear();
+            ws.merge_c.clear();
             ws.merge_p.push(p[0]);
-            ws.merge_h.push(ws.hyps[ws.miss_child[h] as usize]);
+            ws.merge_c.push(ws.miss_child[h]);
             for d in &ws.det[ws.det_start[h]..ws.det_start[h + 1]] {
                 ws.merge_p.push(p[d.j + 1]);
-                ws.merge_h.push(ws.hyps[d.child as usize]);
+                ws.merge_c.push(d.child);
             }
-            tomb_merge(&ws.merge_p, &ws.merge_h)
+            if nt > 1 {
+                let children = ws.merge_p.iter().zip(&ws.merge_c).map(|(&p, &c)| {
+                    let c = c as usize;
+                    (p, &ws.hyps[c], &ws.types[c * nt..(c + 1) * nt])
+                });
+                typed::tomb_merge_typed(children, nt, &mut map.types)
+            } else {
+                ws.merge_h.extend(ws.merge_c.iter().map(|&c| ws.hyps[c as usize]));
+                tomb_merge(&ws.merge_p, &ws.merge_h)
+            }
         } else {
-            Ok(ws.hyps[ws.miss_child[h] as usize])
+            let c = ws.miss_child[h] as usize;
+            if nt > 1 {
+                map.types.extend_from_slice(&ws.types[c * nt..(c + 1) * nt]);
+            }
+            Ok(ws.hyps[c])
         };
         // An anchor is known: it keeps its exact position, zero covariance and r = 1.
         let prior = ws.hyps[ws.miss_child[h] as usize];
-        match merged {
-            _ if !model.mapped(S::Mark::from_index(prior.mark)) => map.hyps.push(LocalHypothesis { r: 1.0, ..prior }),
-            Ok(b) if b.r >= s.bernoulli_prune => map.hyps.push(b),
-            Ok(_) => {}
-            Err(_) => out.association_errors += 1,
+        let kept = match merged {
+            _ if !model.mapped(S::Mark::from_index(prior.mark)) => {
+                map.hyps.push(LocalHypothesis { r: 1.0, ..prior });
+                if nt > 1 {
+                    map.types.truncate(map.hyps.len() * nt - nt);
+                    map.types.extend(typed::single_type(&prior, nt));
+                }
+                true
+            }
+            Ok(b) if b.r >= s.bernoulli_prune => {
+                map.hyps.push(b);
+                true
+            }
+            Ok(_) => false,
+            Err(_) => {
+                out.association_errors += 1;
+                false
+            }
+        };
+        if nt > 1 && !kept {
+            map.types.truncate(map.hyps.len() * nt);
         }
     }
     for j in 0..z.len() {
         let p0 = ws.lbp.new_marginals().get(j).copied().unwrap_or(1.0);
         match tomb_new_track(p0, ws.r_new[j]) {
             Ok(r) if r >= s.bernoulli_prune => {
-                let b = ws.hyps[ws.track_start[n_old + j] + 1];
-                map.hyps.push(LocalHypothesis { r, ..b });
+                let c = ws.track_start[n_old + j] + 1;
+                map.hyps.push(LocalHypothesis { r, ..ws.hyps[c] });
+                if nt > 1 {
+                    map.types.extend_from_slice(&ws.types[c * nt..(c + 1) * nt]);
+                }
             }
             Ok(_) => {}
             Err(_) => out.association_errors += 1,

@@ -226,6 +226,7 @@ fn shared_subproblem_keeps_each_hypothesis_budget() {
         gh_hyp: vec![1, 2],
         gh_log_w: vec![0.7f64.ln(), 0.3f64.ln()],
         undetected: Undetected::Constant,
+        types: Vec::new(),
     };
     let z = [RangeBearing::new(10.1, 0.10), RangeBearing::new(9.8, 0.08)];
     let p = problem(&m, &x, &[near], &z, 1e-3);
@@ -352,6 +353,7 @@ fn hypotheses_made_equal_by_bernoulli_pruning_are_merged() {
         gh_hyp: vec![1, 2],
         gh_log_w: vec![0.6f64.ln(), 0.4f64.ln()],
         undetected: Undetected::Constant,
+        types: Vec::new(),
     };
     // Missed children: r = 0.3 * 0.1 / 0.73 = 0.041 and 0.2 * 0.1 / 0.82 = 0.024.
     let s = UpdateSettings { bernoulli_prune: 0.05, ..settings(0.0, 9.21) };

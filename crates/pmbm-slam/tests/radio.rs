@@ -22,14 +22,17 @@ fn pmbm_params() -> Params {
 /// dead reckoning's, the clock bias within a metre), and the virtual anchors, always in
 /// view, are mapped with their type (all four within 5 m at the end of the lap).
 ///
-/// The per-type GOSPA is computed but not asserted on: one measurement does not tell a
-/// virtual anchor from a scattering point (the point of the DOA ray whose two distances add
-/// up to the path length is the scattering point and, for the virtual anchor of the same
-/// TOA and DOA, its reflection point, so both predict the measurement exactly), and a
-/// Bernoulli takes its type once, at birth, from the larger `e_j` term, which is the
-/// virtual anchor's for these geometries: scattering points are mapped as virtual anchors.
-/// Types that a Bernoulli keeps as a distribution, updated by later scans, are the radio
-/// world's own work.
+/// One measurement does not tell a virtual anchor from a scattering point (the point of the
+/// DOA ray whose two distances add up to the path length is the scattering point and, for
+/// the virtual anchor of the same TOA and DOA, its reflection point, so both predict the
+/// measurement exactly); later scans do, as the reflection point moves along its wall and
+/// the scattering point stays. The three filters keep both types' densities in every
+/// Bernoulli (\[Kim2022\] Section III-B's `f(x, m)`), so the scattering points are mapped
+/// with their type: at least three of the four within 5 m and the SP GOSPA under 10 m at
+/// the end of the lap. Measured when this was written, seeds 1 and 2: SP GOSPA 0.55 and
+/// 2.19 m (PMBM and PMB), 0.64 and 0.65 m (MPMB), every scattering point found; before,
+/// when a Bernoulli kept only the type of its larger birth term (the virtual anchor's for
+/// these geometries), 28.28 m in all three, every scattering point missed.
 ///
 /// The anchor explains the base station's path in all three (no landmark is mapped within
 /// 5 m of it at any step). (Before anchors were kept exact, the TOMB moment matching gave
@@ -40,6 +43,7 @@ fn pmbm_params() -> Params {
 fn pmbm_family_localises_and_maps_the_radio_world() {
     let w = RadioCase::default();
     let va = LandmarkType::VirtualAnchor.mark();
+    let sp = LandmarkType::ScatteringPoint.mark();
     for seed in [1, 2] {
         let run = w.simulate(seed).unwrap();
         let dr = w.dead_reckoning(&run).unwrap().last().unwrap().pose.pos_rmse().unwrap();
@@ -62,14 +66,17 @@ fn pmbm_family_localises_and_maps_the_radio_world() {
             let (pos, bias) = (last.pose.pos_rmse().unwrap(), last.pose.clock_rmse().unwrap());
             eprintln!(
                 "seed {seed} {name}: final position error {pos:.3} m (dead reckoning {dr:.3} m), clock bias {bias:.3} m, \
-                 VAs found {}, VA GOSPA {:.2}, SP GOSPA {:.2}",
+                 VAs found {}, SPs found {}, VA GOSPA {:.2}, SP GOSPA {:.2}",
                 last.found(&w.scoring(), va, 5.0),
+                last.found(&w.scoring(), sp, 5.0),
                 last.gospa[1].total,
                 last.gospa[2].total
             );
             assert!(pos < 0.5 * dr.max(1.0), "{name}: position {pos} vs dead reckoning {dr}");
             assert!(bias < 1.0, "{name}: clock bias error {bias}");
             assert_eq!(last.found(&w.scoring(), va, 5.0), 4, "{name}: virtual anchors found");
+            assert!(last.found(&w.scoring(), sp, 5.0) >= 3, "{name}: scattering points found");
+            assert!(last.gospa[2].total < 10.0, "{name}: SP GOSPA {}", last.gospa[2].total);
             assert!(!steps.iter().any(RadioCase::near_base_station), "{name}: a landmark at the base station");
         }
     }
