@@ -5,15 +5,12 @@ use phd_slam_3::PhdSlam3;
 use phd_slam_3sp::PhdSlam3Sp;
 use rfslam_core::FilterBuild;
 use rfslam_data::Dataset;
-use rfslam_eval::fixtures::{dead_reckoning_rmse, procedural_500};
-use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
-use rfslam_sim::ScenarioData;
+use rfslam_eval::JobOutcome;
+use rfslam_eval::fixtures::{procedural_500_runs, run_job};
 
 /// Runs filter `F` with the parameters written in `params` (TOML) and `n` particles.
 fn run<F: FilterBuild>(params: &str, ds: &Dataset, n: usize, seed: u64) -> JobOutcome {
-    let params: F::Params = toml::from_str(params).unwrap();
-    let mut f = F::try_build(params, &ds.models(), n).unwrap();
-    run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {})
+    run_job::<F>(toml::from_str(params).unwrap(), ds, n, seed)
 }
 
 /// With one particle, both sigma-point spaces track within a few metres (far better than
@@ -21,12 +18,8 @@ fn run<F: FilterBuild>(params: &str, ds: &Dataset, n: usize, seed: u64) -> JobOu
 /// stay within a factor two of phd-3.0 summed over the seeds.
 #[test]
 fn one_particle_tracks_like_phd3() {
-    let sc = procedural_500();
-    let world = sc.load_world().unwrap();
     let (mut sum_sp, mut sum_3) = (0.0, 0.0);
-    for seed in 1..=3 {
-        let ds = sc.build_dataset(world.as_ref(), seed).unwrap();
-        let dr = dead_reckoning_rmse(&ds);
+    for (seed, ds, dr) in procedural_500_runs(1..=3) {
         let p3 = run::<PhdSlam3>("", &ds, 1, seed);
         for params in ["", "slr_space = \"joint\""] {
             let sp = run::<PhdSlam3Sp>(params, &ds, 1, seed);
