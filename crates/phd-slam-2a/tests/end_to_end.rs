@@ -7,8 +7,8 @@
 use phd_slam_2a::{Gao2021Params, PairNormalisation, PhdSlam2a};
 use rbphd::PhdParams;
 use rfslam_data::{Dataset, ScenarioConfig};
-use rfslam_eval::fixtures::{procedural_500_runs, run_job};
 use rfslam_eval::JobOutcome;
+use rfslam_eval::fixtures::{procedural_500_runs, run_job};
 use rfslam_sim::ScenarioData;
 
 fn run(ds: &Dataset, params: Gao2021Params, n: usize, seed: u64) -> JobOutcome {

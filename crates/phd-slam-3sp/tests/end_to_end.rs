@@ -6,7 +6,7 @@ use phd_slam_3sp::PhdSlam3Sp;
 use rfslam_core::FilterBuild;
 use rfslam_data::Dataset;
 use rfslam_eval::JobOutcome;
-use rfslam_eval::fixtures::{procedural_500_runs, run_job};
+use rfslam_eval::fixtures::{assert_tracks_and_associates, procedural_500_runs, run_job};
 
 /// Runs filter `F` with the parameters written in `params` (TOML) and `n` particles.
 fn run<F: FilterBuild>(params: &str, ds: &Dataset, n: usize, seed: u64) -> JobOutcome {
@@ -27,11 +27,7 @@ fn one_particle_tracks_like_phd3() {
                 "seed {seed} [{params}]: dead reckoning {dr:.2} m | phd-3.0-sp {:.2} m TPR {:?} ({:.3} ms/step) | phd-3.0 {:.2} m ({:.3} ms/step)",
                 sp["pos_rmse_m"], sp["tpr"], sp["time_ms_per_step"], p3["pos_rmse_m"], p3["time_ms_per_step"]
             );
-            assert_eq!(sp["steps"] as usize, 500);
-            assert_eq!(sp["cholesky_failures"] as usize, 0, "seed {seed}");
-            assert!(sp["pos_rmse_m"] < dr / 3.0, "seed {seed}: {:.2} m vs dead reckoning {dr:.2} m", sp["pos_rmse_m"]);
-            assert!(sp["da_positives"] > 0.0, "phd-3.0-sp records associations");
-            assert!(sp["tpr"] > 0.9 && sp["tnr"] > 0.9, "seed {seed}: TPR {} TNR {}", sp["tpr"], sp["tnr"]);
+            assert_tracks_and_associates(&sp, dr, &format!("phd-3.0-sp [{params}] seed {seed}"));
             if params.is_empty() {
                 sum_sp += sp["pos_rmse_m"];
             }

@@ -71,6 +71,18 @@ pub fn run_job<F: FilterBuild>(params: F::Params, ds: &Dataset, n: usize, seed: 
     crate::run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {})
 }
 
+/// The checks of a run `o` on [`procedural_500`] by a filter that records associations: all
+/// 500 steps run, no Cholesky failure, the position RMSE under a third of dead reckoning's
+/// `dr`, associations recorded with true-positive and true-negative rates above 0.9. Panics
+/// naming `what` (the filter and the run) when one fails.
+pub fn assert_tracks_and_associates(o: &JobOutcome, dr: f64, what: &str) {
+    assert_eq!(o["steps"] as usize, 500, "{what}: steps");
+    assert_eq!(o["cholesky_failures"] as usize, 0, "{what}: Cholesky failures");
+    assert!(o["pos_rmse_m"] < dr / 3.0, "{what}: {:.2} m vs dead reckoning {dr:.2} m", o["pos_rmse_m"]);
+    assert!(o["da_positives"] > 0.0, "{what}: no association recorded");
+    assert!(o["tpr"] > 0.9 && o["tnr"] > 0.9, "{what}: TPR {} TNR {}", o["tpr"], o["tnr"]);
+}
+
 /// Run `seed` of scenarios/map-simple.toml (20 landmarks at least 5 m apart, one clutter
 /// return per scan, 150 steps).
 pub fn map_simple(seed: u64) -> Dataset {
