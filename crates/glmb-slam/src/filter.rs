@@ -139,8 +139,9 @@ where
     /// A filter with `n` particles at the initial state of `vehicle` with empty maps; the
     /// sensor's anchors are known to every hypothesis. `sensor` is the sensor as the filter
     /// assumes it (its clutter intensity floored at `params.min_clutter_intensity`). The
-    /// registered variants build it through [`FilterBuild::build`] (validated); a caller
-    /// checks `params` with [`Params::validate`].
+    /// registered variants build it through
+    /// [`FilterBuild::build`](rfslam_core::FilterBuild::build) (validated); a caller checks
+    /// `params` with [`Params::validate`].
     pub fn new(variant: Variant, params: Params, vehicle: Vehicle<V, X>, sensor: S, n: usize) -> Self {
         let p0 = Particle { pose: vehicle.initial_state, ..Default::default() };
         let noise = S::Mark::ALL.iter().map(|&t| sensor.noise(t)).collect();
