@@ -9,7 +9,7 @@
 //! scenario's sensor). Neither filter reads truth labels.
 
 use rfslam_core::params::{CountRange, Interval, MAX_PARAM};
-use rfslam_core::{FilterBuild, Motion, ParamError, PlanarSensorModel, RbpfParams, SensorKind, SlamModels, Validated};
+use rfslam_core::{Motion, ParamError, PlanarSensorModel, RbpfParams, SlamModels};
 use serde::{Deserialize, Serialize};
 
 use crate::da::{DaFastSlam, DaSettings};
@@ -176,83 +176,46 @@ pub(crate) fn planar_sensor<S: PlanarSensorModel>(models: &SlamModels) -> S {
     S::from_models(models, kappa)
 }
 
-rfslam_core::filter_variant!(
+/// A registered variant of [`DaFastSlam`] with its parameters `$params`: on a planar
+/// scenario, the existence filter's sensor ([`planar_sensor`]); in a world beyond the planar
+/// ones, the same parameters (the gate an absolute threshold on the squared Mahalanobis
+/// distance in the sensor's measurement dimension: set it for a sensor of other than two
+/// components) and the engine built on the world's models.
+macro_rules! da_variant {
+    ($(#[$doc:meta])* $ty:ident, $params:ty, $name:literal) => {
+        rfslam_core::filter_variant!(
+            $(#[$doc])* $ty<S>(DaFastSlam<Motion, S, 3, 2, 2>), $name;
+            params: $params,
+            check: |params, models, particles| {
+                params.validate(particles)?;
+                DaFastSlam::<Motion, S, 3, 2, 2>::check_model(&planar_sensor(models))
+            },
+            build: |params, models, particles| {
+                DaFastSlam::new(Self::NAME, params.settings(), models.vehicle(), planar_sensor(models), particles)
+            },
+            world: |params, models, particles| {
+                params.validate(particles)?;
+                let (v, s) = (models.vehicle.clone(), models.sensor.clone());
+                DaFastSlam::try_new(Self::NAME, params.settings(), v, s, particles)?
+            },
+        );
+    };
+}
+
+da_variant!(
     /// `fastslam-1.0`: FastSLAM 1.0 with the most likely (gated, one-to-one) association per
     /// particle, new landmarks otherwise, and the existence filter of Leung, Inostroza, Adams,
     /// eqs. (29)-(32).
-    FastSlam1<S>(DaFastSlam<Motion, S, 3, 2, 2>),
+    FastSlam1,
+    FastSlam1Params,
     "fastslam-1.0"
 );
-rfslam_core::filter_variant!(
+da_variant!(
     /// `mh-fastslam`: multi-hypothesis FastSLAM (Nieto et al. 2003, as configured by Leung,
     /// Inostroza, Adams): at most `hypotheses` children per particle with its most likely
     /// associations, resampling to the nominal count when the population exceeds
     /// `max_population`, existence filter of eqs. (29)-(32).
-    MhFastSlam<S>(DaFastSlam<Motion, S, 3, 2, 2>),
+    MhFastSlam,
+    MhParams,
     "mh-fastslam"
 );
-
-impl<S: PlanarSensorModel> FilterBuild for FastSlam1<S> {
-    type Params = FastSlam1Params;
-
-    fn serves(sensor: SensorKind) -> bool {
-        sensor == S::KIND
-    }
-
-    fn check(params: &FastSlam1Params, models: &SlamModels, particles: usize) -> Result<(), ParamError> {
-        params.validate(particles)?;
-        DaFastSlam::<Motion, S, 3, 2, 2>::check_model(&planar_sensor(models))
-    }
-
-    fn build(params: Validated<Self>, models: &SlamModels) -> Self {
-        let settings = params.params().settings();
-        let sensor = planar_sensor(models);
-        FastSlam1(DaFastSlam::new(Self::NAME, settings, models.vehicle(), sensor, params.particles()))
-    }
-}
-
-impl<S: PlanarSensorModel> FilterBuild for MhFastSlam<S> {
-    type Params = MhParams;
-
-    fn serves(sensor: SensorKind) -> bool {
-        sensor == S::KIND
-    }
-
-    fn check(params: &MhParams, models: &SlamModels, particles: usize) -> Result<(), ParamError> {
-        params.validate(particles)?;
-        DaFastSlam::<Motion, S, 3, 2, 2>::check_model(&planar_sensor(models))
-    }
-
-    fn build(params: Validated<Self>, models: &SlamModels) -> Self {
-        let settings = params.params().settings();
-        let sensor = planar_sensor(models);
-        MhFastSlam(DaFastSlam::new(Self::NAME, settings, models.vehicle(), sensor, params.particles()))
-    }
-}
-
-/// FastSLAM 1.0 and MH-FastSLAM in a world beyond the planar ones: the same parameters
-/// (the gate an absolute threshold on the squared Mahalanobis distance in the sensor's
-/// measurement dimension: set it for a sensor of other than two components) and the
-/// engine built on the world's models.
-macro_rules! world_build {
-    ($ty:ident, $params:ty) => {
-        impl<V, S, const X: usize, const M: usize, const Z: usize> rfslam_core::WorldBuild<V, S, X, M, Z> for $ty
-        where
-            V: rfslam_core::VehicleModel<X, 3> + Clone + Send + 'static,
-            S: rfslam_core::InvertibleSensorModel<X, M, Z>,
-        {
-            fn build_world(
-                params: $params,
-                models: &rfslam_core::WorldModels<V, S, X, M, Z>,
-                particles: usize,
-            ) -> Result<Box<dyn rfslam_core::SlamFilter<X, M, Z>>, ParamError> {
-                params.validate(particles)?;
-                let (v, s) = (models.vehicle.clone(), models.sensor.clone());
-                let engine = DaFastSlam::try_new(Self::NAME, params.settings(), v, s, particles)?;
-                Ok(Box::new(rfslam_core::Named { name: Self::NAME, engine }))
-            }
-        }
-    };
-}
-world_build!(FastSlam1, FastSlam1Params);
-world_build!(MhFastSlam, MhParams);

@@ -757,23 +757,11 @@ mod tests {
     use super::*;
     use approx::assert_relative_eq;
     use nalgebra::Matrix2;
-    use nalgebra::Matrix3;
     use rand::SeedableRng;
-    use rfslam_core::{ClutterIntensity, ClutterModel, DetectionModel, Fov, Motion};
     use rfslam_core::{Point2, RangeBearing, RangeBearingSensor, SlamModels};
 
     fn models() -> SlamModels {
-        SlamModels {
-            motion: Motion::Velocity,
-            control_noise: Matrix3::zeros(),
-            sensor_kind: rfslam_core::SensorKind::RangeBearing,
-            sensor: RangeBearingSensor::default(),
-            measurement_noise: Matrix2::new(0.25, 0.0, 0.0, 3e-4),
-            fov: Fov::new(50.0, std::f64::consts::FRAC_PI_2),
-            detection: DetectionModel::Constant { pd: 0.95 },
-            clutter: ClutterModel { rate: 1.0, intensity: ClutterIntensity::Measurement },
-            initial_pose: Pose::zeros(),
-        }
+        rfslam_eval::fixtures::unit_test_models(Matrix2::new(0.25, 0.0, 0.0, 3e-4), 50.0)
     }
 
     fn mh(hypotheses: usize, cap: usize) -> DaSettings {
@@ -1028,9 +1016,12 @@ mod typed {
 
     /// `z = m - [x, y]` with noise `0.01 I` (fine) or `I` (coarse); a birth is fine to the
     /// left (`z_x < 0`) and coarse to the right (the birth likelihoods say so); the known
-    /// type is not mapped and has one anchor at (5, 0).
-    #[derive(Debug, Clone)]
-    struct Typed;
+    /// type is not mapped and has one anchor at (5, 0). With `maps_nothing`, no type is
+    /// mapped and there is no anchor.
+    #[derive(Debug, Clone, Default)]
+    struct Typed {
+        maps_nothing: bool,
+    }
 
     impl SensorModel<3, 2, 2> for Typed {
         type Mark = Kind;
@@ -1064,10 +1055,10 @@ mod typed {
         }
         fn sample_clutter<R: rand::Rng + ?Sized>(&self, _: &Pose, _: &mut R, _: &mut Vec<Vector2<f64>>) {}
         fn mapped(&self, t: Kind) -> bool {
-            t != Kind::Known
+            !self.maps_nothing && t != Kind::Known
         }
         fn anchors(&self) -> Vec<(Point2, Kind)> {
-            vec![(Point2::new(5.0, 0.0), Kind::Known)]
+            if self.maps_nothing { Vec::new() } else { vec![(Point2::new(5.0, 0.0), Kind::Known)] }
         }
     }
 
@@ -1101,7 +1092,7 @@ mod typed {
     fn filter(hypotheses: usize) -> DaFastSlam<Motion, Typed, 3, 2, 2> {
         let vehicle =
             Vehicle { model: Motion::Velocity, control_noise: Matrix3::zeros(), initial_state: Pose::zeros() };
-        DaFastSlam::try_new("typed", settings(hypotheses), vehicle, Typed, 1).unwrap()
+        DaFastSlam::try_new("typed", settings(hypotheses), vehicle, Typed::default(), 1).unwrap()
     }
 
     fn scan(z: &[(f64, f64)]) -> Scan {
@@ -1158,54 +1149,9 @@ mod typed {
     /// A sensor that maps no type cannot start landmarks: refused when built.
     #[test]
     fn a_sensor_that_maps_nothing_is_refused() {
-        #[derive(Debug, Clone)]
-        struct Nothing;
-        impl SensorModel<3, 2, 2> for Nothing {
-            type Mark = Kind;
-            const NAME: &'static str = "nothing";
-            fn components(&self) -> [MeasurementComponent; 2] {
-                Typed.components()
-            }
-            fn predict(&self, x: &Pose, m: &Point2, t: Kind) -> Vector2<f64> {
-                Typed.predict(x, m, t)
-            }
-            fn linearise(&self, x: &Pose, m: &Point2, t: Kind) -> Linearised<3, 2, 2> {
-                Typed.linearise(x, m, t)
-            }
-            fn noise(&self, t: Kind) -> Matrix2<f64> {
-                Typed.noise(t)
-            }
-            fn in_fov(&self, _: &Pose, _: &Point2, _: Kind) -> bool {
-                true
-            }
-            fn detection_probability(&self, _: &Pose, _: &Point2, _: &Matrix2<f64>, _: Kind) -> f64 {
-                0.9
-            }
-            fn clutter_intensity(&self, _: &Vector2<f64>) -> f64 {
-                1e-3
-            }
-            fn pd_true(&self, _: &Pose, _: &Point2, _: Kind) -> f64 {
-                0.9
-            }
-            fn sample<R: rand::Rng + ?Sized>(&self, x: &Pose, m: &Point2, t: Kind, _: &mut R) -> Vector2<f64> {
-                Typed.predict(x, m, t)
-            }
-            fn sample_clutter<R: rand::Rng + ?Sized>(&self, _: &Pose, _: &mut R, _: &mut Vec<Vector2<f64>>) {}
-            fn mapped(&self, _: Kind) -> bool {
-                false
-            }
-        }
-        impl InvertibleSensorModel<3, 2, 2> for Nothing {
-            fn inverse(&self, x: &Pose, z: &Vector2<f64>, t: Kind) -> Inverse<3, 2, 2> {
-                Typed.inverse(x, z, t)
-            }
-            fn birth_integral(&self, _: &Pose, _: &Vector2<f64>, _: Kind) -> f64 {
-                1.0
-            }
-        }
         let vehicle =
             Vehicle { model: Motion::Velocity, control_noise: Matrix3::zeros(), initial_state: Pose::zeros() };
-        let e = DaFastSlam::try_new("nothing", settings(1), vehicle, Nothing, 1).unwrap_err();
+        let e = DaFastSlam::try_new("nothing", settings(1), vehicle, Typed { maps_nothing: true }, 1).unwrap_err();
         assert_eq!(e.key, "sensor");
         assert!(e.message.contains("maps no landmark type"), "{}", e.message);
     }

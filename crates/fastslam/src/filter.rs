@@ -8,10 +8,7 @@ use rfslam_core::ipl::IplSettings;
 use rfslam_core::model::{InvertibleSensorModel, LandmarkMark, Vehicle, VehicleModel};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet};
 use rfslam_core::state::StateSpace;
-use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, Motion, ParamError, PlanarSensorModel, Rng, Scan,
-    SensorKind, SlamModels, StepReport, Validated,
-};
+use rfslam_core::{ControlSegment, Estimate, FilterEngine, MapPoint, Motion, PlanarSensorModel, Rng, Scan, StepReport};
 
 use crate::params::{Params, WeightMode};
 use crate::proposal::{Landmark, ProposalSampler, landmark_update, oid_proposal, sequential_predictive};
@@ -304,10 +301,6 @@ where
     V: VehicleModel<X, 3> + Send,
     S: InvertibleSensorModel<X, M, Z>,
 {
-    fn particles(&self) -> usize {
-        self.set.len()
-    }
-
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
         OracleEngine::step(self, odometry, scan, rng)
     }
@@ -316,24 +309,28 @@ where
         OracleEngine::estimate(self)
     }
 
-    fn particle_poses(&self, out: &mut Vec<(SVector<f64, X>, f64)>) -> bool {
-        self.set.poses_into(out, |p| p.pose);
-        true
-    }
-
-    fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-        self.set.parents_into(out);
-        true
-    }
+    rfslam_core::particle_set_methods!(set, pose);
 }
 
 rfslam_core::filter_variant!(
     /// `fastslam-2.0-oracle`: FastSLAM 2.0 given the true associations, with the IPL
     /// approximation of the optimal importance density (the Oracle RBPF of
     /// \[Kaltiokallio2024\]), on a planar sensor of a scenario (the range-bearing one by
-    /// default).
-    OracleFastSlam2<S>(OracleEngine<Motion, S, 3, 2, 2>),
-    "fastslam-2.0-oracle"
+    /// default). In another world the oracle is given the landmark types by id, as it is
+    /// given the associations.
+    OracleFastSlam2<S>(OracleEngine<Motion, S, 3, 2, 2>), "fastslam-2.0-oracle";
+    params: Params,
+    requires_truth: crate::requires_truth_labels(),
+    check: |params, _models, particles| params.validate(particles),
+    build: |params, models, particles| {
+        let sensor = S::from_models(models, models.clutter_intensity());
+        OracleEngine::new(params, models.vehicle(), sensor, particles)
+    },
+    world: |params, models, particles| {
+        params.validate(particles)?;
+        OracleEngine::new(params, models.vehicle.clone(), models.sensor.clone(), particles)
+            .with_landmark_types(models.landmark_types.iter().copied())
+    },
 );
 
 impl<S: PlanarSensorModel> OracleFastSlam2<S> {
@@ -351,43 +348,6 @@ impl<S: PlanarSensorModel> OracleFastSlam2<S> {
     /// truth labels (or not one per measurement).
     pub fn unlabelled_scans(&self) -> usize {
         self.0.unlabelled_scans()
-    }
-}
-
-impl<S: PlanarSensorModel> FilterBuild for OracleFastSlam2<S> {
-    type Params = Params;
-    const REQUIRES_TRUTH: bool = crate::requires_truth_labels();
-
-    fn serves(sensor: SensorKind) -> bool {
-        sensor == S::KIND
-    }
-
-    fn check(params: &Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
-        params.validate(particles)
-    }
-
-    fn build(params: Validated<Self>, models: &SlamModels) -> Self {
-        let (params, particles) = params.into_parts();
-        let sensor = S::from_models(models, models.clutter_intensity());
-        OracleFastSlam2(OracleEngine::new(params, models.vehicle(), sensor, particles))
-    }
-}
-
-impl<V, S, const X: usize, const M: usize, const Z: usize> rfslam_core::WorldBuild<V, S, X, M, Z> for OracleFastSlam2
-where
-    V: VehicleModel<X, 3> + Clone + Send + 'static,
-    S: InvertibleSensorModel<X, M, Z>,
-{
-    /// The oracle is given the landmark types by id, as it is given the associations.
-    fn build_world(
-        params: Params,
-        models: &rfslam_core::WorldModels<V, S, X, M, Z>,
-        particles: usize,
-    ) -> Result<Box<dyn rfslam_core::SlamFilter<X, M, Z>>, ParamError> {
-        params.validate(particles)?;
-        let engine = OracleEngine::new(params, models.vehicle.clone(), models.sensor.clone(), particles)
-            .with_landmark_types(models.landmark_types.iter().copied());
-        Ok(Box::new(rfslam_core::Named { name: Self::NAME, engine }))
     }
 }
 

@@ -14,35 +14,18 @@
 
 use fastslam::{FastSlam1, MhFastSlam};
 use rfslam_core::FilterBuild;
-use rfslam_data::{Dataset, ScenarioConfig};
-use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
-use rfslam_sim::ScenarioData;
+use rfslam_eval::fixtures::{final_map_figures, map_simple};
 
-/// Run `seed` of scenarios/map-simple.toml.
-fn simple_world(seed: u64) -> Dataset {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/map-simple.toml");
-    let sc = ScenarioConfig::from_file(std::path::Path::new(path)).expect("scenarios/map-simple.toml");
-    sc.build_dataset(sc.load_world().unwrap().as_ref(), seed).unwrap()
-}
-
-/// Runs `F` with `params` (TOML) and 10 particles; final-map GOSPA with c = 5 m (the
-/// landmarks are at least 5 m apart: a duplicate counts as a false landmark).
-fn run<F: FilterBuild>(params: &str, ds: &Dataset, seed: u64) -> JobOutcome {
-    let mut f = F::try_build(toml::from_str(params).unwrap(), &ds.models(), 10).unwrap();
-    run_filter(ds, &mut f, seed, &MetricsConfig { gospa_c: 5.0, ..MetricsConfig::default() }, &mut |_| {})
-}
-
-/// `(false, missed, landmark RMS error, position RMSE)` of a run.
-fn map_figures(o: &JobOutcome) -> (f64, f64, f64, f64) {
-    let matched = o.final_estimate.map.len() as f64 - o["gospa_false"];
-    (o["gospa_false"], o["gospa_missed"], o["gospa_loc_m"] / matched.max(1.0).sqrt(), o["pos_rmse_m"])
+/// `(false, missed, landmark RMS error, position RMSE)` of `F` with `params` (TOML) and 10
+/// particles on run `seed` of the simple world.
+fn map_figures<F: FilterBuild>(params: &str, seed: u64) -> (f64, f64, f64, f64) {
+    final_map_figures::<F>(toml::from_str(params).unwrap(), &map_simple(seed), 10, seed)
 }
 
 fn check<F: FilterBuild>(name: &str) {
     for seed in 1..=3 {
-        let ds = simple_world(seed);
-        let (false_default, ..) = map_figures(&run::<F>("", &ds, seed));
-        let (f, m, lm, pos) = map_figures(&run::<F>("gate = 100.0\nfalse_alarm = 0.3", &ds, seed));
+        let (false_default, ..) = map_figures::<F>("", seed);
+        let (f, m, lm, pos) = map_figures::<F>("gate = 100.0\nfalse_alarm = 0.3", seed);
         eprintln!(
             "{name} seed {seed}: default {false_default} false; gate 100, P_F 0.3: {f} false, {m} missed, \
              landmark RMS {lm:.2} m, pose RMSE {pos:.2} m"

@@ -7,10 +7,7 @@ use rfslam_core::gaussian::{log_normal, sample, symmetrise};
 use rfslam_core::model::{InvertibleSensorModel, LandmarkMark, RangeBearingModel, Vehicle, VehicleModel};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet, draw_state};
 use rfslam_core::state::StateSpace;
-use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, Motion, ParamError, PlanarSensorModel, Rng, Scan,
-    SensorKind, SlamModels, StepReport, Validated,
-};
+use rfslam_core::{ControlSegment, Estimate, FilterEngine, MapPoint, Motion, Rng, Scan, StepReport};
 
 use crate::map::{
     GlmbMap, GlmbSettings, LmbMap, Track, UpdateModels, Workspace, birth_label, glmb_update, lmb_update,
@@ -142,8 +139,9 @@ where
     /// A filter with `n` particles at the initial state of `vehicle` with empty maps; the
     /// sensor's anchors are known to every hypothesis. `sensor` is the sensor as the filter
     /// assumes it (its clutter intensity floored at `params.min_clutter_intensity`). The
-    /// registered variants build it through [`FilterBuild::build`] (validated); a caller
-    /// checks `params` with [`Params::validate`].
+    /// registered variants build it through
+    /// [`FilterBuild::build`](rfslam_core::FilterBuild::build) (validated); a caller checks
+    /// `params` with [`Params::validate`].
     pub fn new(variant: Variant, params: Params, vehicle: Vehicle<V, X>, sensor: S, n: usize) -> Self {
         let p0 = Particle { pose: vehicle.initial_state, ..Default::default() };
         let noise = S::Mark::ALL.iter().map(|&t| sensor.noise(t)).collect();
@@ -351,10 +349,6 @@ where
     V: VehicleModel<X, 3> + Send,
     S: InvertibleSensorModel<X, M, Z>,
 {
-    fn particles(&self) -> usize {
-        self.set.len()
-    }
-
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
         self.step_impl(odometry, scan, rng)
     }
@@ -363,60 +357,28 @@ where
         self.estimate_impl()
     }
 
-    fn particle_poses(&self, out: &mut Vec<(SVector<f64, X>, f64)>) -> bool {
-        self.set.poses_into(out, |p| p.pose);
-        true
-    }
-
-    fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-        self.set.parents_into(out);
-        true
-    }
+    rfslam_core::particle_set_methods!(set, pose);
 }
 
-/// A registered variant of [`GlmbSlam`], on the planar vehicle and a planar sensor model, and
-/// its [`FilterBuild`].
+/// A registered variant of [`GlmbSlam`] on the planar vehicle and a planar sensor model, and
+/// in a world beyond the planar ones: the same parameters (the gate an absolute threshold in
+/// the sensor's measurement dimension: set it for a sensor of other than two components) and
+/// the engine built on the world's models.
 macro_rules! variant_filter {
     ($(#[$doc:meta])* $ty:ident, $variant:expr, $name:literal) => {
-        rfslam_core::filter_variant!($(#[$doc])* $ty<S>(GlmbSlam<Motion, S, 3, 2, 2>), $name);
-
-        impl<S: PlanarSensorModel> FilterBuild for $ty<S> {
-            type Params = Params;
-
-            fn serves(sensor: SensorKind) -> bool {
-                sensor == S::KIND
-            }
-
-            fn check(params: &Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
-                params.validate(particles)
-            }
-
-            fn build(params: Validated<Self>, models: &SlamModels) -> Self {
-                let (params, particles) = params.into_parts();
+        rfslam_core::filter_variant!(
+            $(#[$doc])* $ty<S>(GlmbSlam<Motion, S, 3, 2, 2>), $name;
+            params: Params,
+            check: |params, _models, particles| params.validate(particles),
+            build: |params, models, particles| {
                 let sensor = S::from_models(models, models.clutter_intensity());
-                $ty(GlmbSlam::new($variant, params, models.vehicle(), sensor, particles))
-            }
-        }
-
-        /// In a world beyond the planar ones: the same parameters (the gate an absolute
-        /// threshold in the sensor's measurement dimension: set it for a sensor of other than
-        /// two components) and the engine built on the world's models.
-        impl<V, S2, const X: usize, const M: usize, const Z: usize> rfslam_core::WorldBuild<V, S2, X, M, Z> for $ty
-        where
-            V: VehicleModel<X, 3> + Clone + Send + 'static,
-            S2: InvertibleSensorModel<X, M, Z>,
-        {
-            fn build_world(
-                params: Params,
-                models: &rfslam_core::WorldModels<V, S2, X, M, Z>,
-                particles: usize,
-            ) -> Result<Box<dyn rfslam_core::SlamFilter<X, M, Z>>, ParamError> {
+                GlmbSlam::new($variant, params, models.vehicle(), sensor, particles)
+            },
+            world: |params, models, particles| {
                 params.validate(particles)?;
-                let (v, s) = (models.vehicle.clone(), models.sensor.clone());
-                let engine = GlmbSlam::new($variant, params, v, s, particles);
-                Ok(Box::new(rfslam_core::Named { name: $name, engine }))
-            }
-        }
+                GlmbSlam::new($variant, params, models.vehicle.clone(), models.sensor.clone(), particles)
+            },
+        );
     };
 }
 

@@ -19,32 +19,20 @@
 
 use glmb_slam::{Glmb1, Glmb2, LmbSlam};
 use rfslam_core::FilterBuild;
-use rfslam_data::{Dataset, ScenarioConfig};
-use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
-use rfslam_sim::ScenarioData;
-
-/// Run `seed` of scenarios/map-simple.toml.
-fn simple_world(seed: u64) -> Dataset {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/map-simple.toml");
-    let sc = ScenarioConfig::from_file(std::path::Path::new(path)).expect("scenarios/map-simple.toml");
-    sc.build_dataset(sc.load_world().unwrap().as_ref(), seed).unwrap()
-}
+use rfslam_data::Dataset;
+use rfslam_eval::fixtures::{final_map_figures, map_simple};
 
 /// `F` with `params` (TOML) and `n` particles: `(false, missed, landmark RMS, pose RMSE)` of
-/// the final map, GOSPA with c = 5 m (landmarks are at least 5 m apart: a duplicate is false).
+/// the final map ([`final_map_figures`]).
 fn map_figures<F: FilterBuild>(params: &str, ds: &Dataset, n: usize, seed: u64) -> (f64, f64, f64, f64) {
-    let mut f = F::try_build(toml::from_str(params).unwrap(), &ds.models(), n).unwrap();
-    let o: JobOutcome =
-        run_filter(ds, &mut f, seed, &MetricsConfig { gospa_c: 5.0, ..MetricsConfig::default() }, &mut |_| {});
-    let matched = (o.final_estimate.map.len() as f64 - o["gospa_false"]).max(1.0);
-    (o["gospa_false"], o["gospa_missed"], o["gospa_loc_m"] / matched.sqrt(), o["pos_rmse_m"])
+    final_map_figures::<F>(toml::from_str(params).unwrap(), ds, n, seed)
 }
 
 /// On `seeds`, the default survival loses landmarks; `survival_fov = 0.999` (and `extra`)
 /// maps every landmark once, at about the pose error.
 fn check<F: FilterBuild>(name: &str, n: usize, extra: &str, seeds: [u64; 2]) {
     for seed in seeds {
-        let ds = simple_world(seed);
+        let ds = map_simple(seed);
         let (_, missed_default, ..) = map_figures::<F>(extra, &ds, n, seed);
         let (f, m, lm, pos) = map_figures::<F>(&format!("survival_fov = 0.999\n{extra}"), &ds, n, seed);
         eprintln!(

@@ -83,33 +83,37 @@ impl Default for MhParams {
 /// components, landmarks of `M` coordinates and measurements of `Z` components (the planar
 /// world by default).
 pub trait PoseSlr<const X: usize = 3, const M: usize = 2, const Z: usize = 2>: Clone + Send + 'static {
-    /// Eq. (42) for the landmark `N(m, p)` of type `mark` under the linearisation density
-    /// `pi = N(m_pi, p_pi)`, as `(mu~^z, B, Omega)` (see [`rfslam_core::ipl::ipl_update_slr`]);
-    /// `None` if it cannot be formed (a covariance failed Cholesky).
-    #[allow(clippy::too_many_arguments)]
-    fn linearise<Sn: SensorModel<X, M, Z>>(
-        &self,
-        sensor: &Sn,
-        m_pi: &SVector<f64, X>,
-        p_pi: &SMatrix<f64, X, X>,
-        m: &SVector<f64, M>,
-        p: &SMatrix<f64, M, M>,
-        mark: Sn::Mark,
-    ) -> Option<Linearised<Z, X>>;
+    /// Eq. (42) for the landmark `N(at.m, at.p)` of type `at.mark` under the linearisation
+    /// density `pi = N(at.mean, at.cov)`, as `(mu~^z, B, Omega)` (see
+    /// [`rfslam_core::ipl::ipl_update_slr`]); `None` if it cannot be formed (a covariance
+    /// failed Cholesky).
+    fn linearise<Sn: SensorModel<X, M, Z>>(&self, at: &SlrInput<'_, Sn, X, M, Z>) -> Option<Linearised<Z, X>>;
 
-    /// The detected factor of eq. (44), `ln N(z; mu^z, S)` for the landmark `N(m, p)` of
-    /// type `mark` and the component `N(mean, cov)`; `None` if `S` fails Cholesky.
-    #[allow(clippy::too_many_arguments)]
+    /// The detected factor of eq. (44), `ln N(z; mu^z, S)` for the landmark `N(at.m, at.p)`
+    /// of type `at.mark` and the component `N(at.mean, at.cov)`; `None` if `S` fails Cholesky.
     fn log_likelihood<Sn: SensorModel<X, M, Z>>(
         &self,
-        sensor: &Sn,
-        mean: &SVector<f64, X>,
-        cov: &SMatrix<f64, X, X>,
-        m: &SVector<f64, M>,
-        p: &SMatrix<f64, M, M>,
-        mark: Sn::Mark,
+        at: &SlrInput<'_, Sn, X, M, Z>,
         z: &SVector<f64, Z>,
     ) -> Option<f64>;
+}
+
+/// What a [`PoseSlr`] linearises: the sensor, the vehicle state's density `N(mean, cov)` (the
+/// linearisation density or a mixture component) and the landmark `N(m, p)` of type `mark`,
+/// borrowed from the map.
+pub struct SlrInput<'a, Sn: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize> {
+    /// The sensor model.
+    pub sensor: &'a Sn,
+    /// The state's mean.
+    pub mean: &'a SVector<f64, X>,
+    /// The state's covariance.
+    pub cov: &'a SMatrix<f64, X, X>,
+    /// The landmark's mean.
+    pub m: &'a SVector<f64, M>,
+    /// The landmark's covariance.
+    pub p: &'a SMatrix<f64, M, M>,
+    /// The landmark's type.
+    pub mark: Sn::Mark,
 }
 
 /// The first-order Taylor SLR of \[Kaltiokallio2024\] (phd-3.0): `(g(m, m_pi), G_x, G_m P G_m^T +
@@ -120,33 +124,21 @@ pub struct TaylorSlr;
 
 impl<const X: usize, const M: usize, const Z: usize> PoseSlr<X, M, Z> for TaylorSlr {
     #[inline(always)]
-    fn linearise<Sn: SensorModel<X, M, Z>>(
-        &self,
-        sensor: &Sn,
-        m_pi: &SVector<f64, X>,
-        _p_pi: &SMatrix<f64, X, X>,
-        m: &SVector<f64, M>,
-        p: &SMatrix<f64, M, M>,
-        mark: Sn::Mark,
-    ) -> Option<Linearised<Z, X>> {
-        let lin = sensor.linearise(m_pi, m, mark);
-        Some((lin.z, lin.hx, lin.hm * p * lin.hm.transpose() + sensor.noise(mark)))
+    fn linearise<Sn: SensorModel<X, M, Z>>(&self, at: &SlrInput<'_, Sn, X, M, Z>) -> Option<Linearised<Z, X>> {
+        let lin = at.sensor.linearise(at.mean, at.m, at.mark);
+        Some((lin.z, lin.hx, lin.hm * at.p * lin.hm.transpose() + at.sensor.noise(at.mark)))
     }
 
     #[inline(always)]
     fn log_likelihood<Sn: SensorModel<X, M, Z>>(
         &self,
-        sensor: &Sn,
-        mean: &SVector<f64, X>,
-        cov: &SMatrix<f64, X, X>,
-        m: &SVector<f64, M>,
-        p: &SMatrix<f64, M, M>,
-        mark: Sn::Mark,
+        at: &SlrInput<'_, Sn, X, M, Z>,
         z: &SVector<f64, Z>,
     ) -> Option<f64> {
-        let lin = sensor.linearise(mean, m, mark);
+        let (sensor, mark) = (at.sensor, at.mark);
+        let lin = sensor.linearise(at.mean, at.m, mark);
         let r = sensor.noise(mark);
-        let s = symmetrise(&(lin.hx * cov * lin.hx.transpose() + lin.hm * p * lin.hm.transpose() + r));
+        let s = symmetrise(&(lin.hx * at.cov * lin.hx.transpose() + lin.hm * at.p * lin.hm.transpose() + r));
         let nu = sensor.residual(z, &lin.z);
         log_normal(&nu, &s)
     }
@@ -353,7 +345,8 @@ where
                 |k, m_pi, p_pi| {
                     let i = rows[pairs_row[k]];
                     let mark = Sn::Mark::from_index(ctx.map.mark[i]);
-                    slr.linearise(sensor, m_pi, p_pi, &ctx.map.mean[i], &ctx.map.cov[i], mark)
+                    let (m, p) = (&ctx.map.mean[i], &ctx.map.cov[i]);
+                    slr.linearise(&SlrInput { sensor, mean: m_pi, cov: p_pi, m, p, mark })
                 },
                 |a, b| sensor.residual(a, b),
                 &ipl,
@@ -371,7 +364,8 @@ where
                     Some(j) => {
                         let (m_i, p_i) = (&ctx.map.mean[i], &ctx.map.cov[i]);
                         let mark = Sn::Mark::from_index(ctx.map.mark[i]);
-                        match self.slr.log_likelihood(sensor, &res.mean, &res.cov, m_i, p_i, mark, &ctx.z[*j]) {
+                        let at = SlrInput { sensor, mean: &res.mean, cov: &res.cov, m: m_i, p: p_i, mark };
+                        match self.slr.log_likelihood(&at, &ctx.z[*j]) {
                             Some(l) => log_w += pd.ln() + lw - ctx.log_clutter + l,
                             None => {
                                 stats.cholesky_failures += 1;

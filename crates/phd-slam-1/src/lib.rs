@@ -7,70 +7,34 @@
 //! variant).
 //!
 //! The proposal reads no measurement, so the filter runs on any vehicle and any invertible
-//! sensor model: [`TransitionProposal`]`<S, V>` is a [`Proposal`] for every `V:
+//! sensor model: [`TransitionProposal`]`<S, V>` is a [`rbphd::Proposal`] for every `V:
 //! VehicleModel<X, 3>` and `S: InvertibleSensorModel<X, M, Z>`, and
 //! `RbPhd<TransitionProposal<S, V>, X, M, Z>` is the bootstrap RB-PHD filter on that world,
 //! with the engine's typed births and anchors (the multi-model RB-PHD filter of the 5G radio
 //! world, see `rbphd::RbPhd`). [`PhdSlam1`] is its registered planar instance.
 
-use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, sample_transition};
-use rfslam_core::model::{RangeBearingModel, VehicleModel};
-use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Rng};
+use rbphd::{Bootstrap, RbPhd, Transition};
+use rfslam_core::Motion;
+use rfslam_core::model::RangeBearingModel;
 use serde::{Deserialize, Serialize};
-use std::marker::PhantomData;
 
 /// The bootstrap proposal has no parameters of its own.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TransitionParams {}
 
-/// The transition density as importance density (eq. 26), on the sensor model `S` and the
-/// vehicle model `V` (it reads no measurement; the filter's update does).
-#[derive(Debug, Clone)]
-pub struct TransitionProposal<S = RangeBearingModel, V = Motion>(PhantomData<(S, V)>);
+/// PHD-SLAM 1.0 as a bootstrap variant: its name; no parameters of its own.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Phd1;
 
-impl<S, V> Default for TransitionProposal<S, V> {
-    fn default() -> Self {
-        TransitionProposal(PhantomData)
-    }
-}
-
-impl<S, V, const X: usize, const M: usize, const Z: usize> Proposal<X, M, Z> for TransitionProposal<S, V>
-where
-    S: InvertibleSensorModel<X, M, Z>,
-    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
-{
+impl Bootstrap for Phd1 {
     const NAME: &'static str = "phd-1.0";
     type Params = TransitionParams;
-    type Vehicle = V;
-    type Sensor = S;
-
-    fn validate(_: &TransitionParams) -> Result<(), ParamError> {
-        Ok(())
-    }
-
-    fn new(_: &TransitionParams) -> Self {
-        TransitionProposal::default()
-    }
-
-    fn propose(
-        &mut self,
-        ctx: &ProposalContext<S, V, X, M, Z>,
-        n: usize,
-        rng: &mut Rng,
-        out: &mut Vec<PoseSample<X>>,
-    ) -> ProposalStats {
-        sample_transition(ctx, n, rng, out)
-    }
 }
 
-impl<V, S, const X: usize, const M: usize, const Z: usize> rbphd::ProposalIn<V, S, X, M, Z> for TransitionProposal
-where
-    S: InvertibleSensorModel<X, M, Z>,
-    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
-{
-    type In = TransitionProposal<S, V>;
-}
+/// The transition density as importance density (eq. 26), on the sensor model `S` and the
+/// vehicle model `V` (it reads no measurement; the filter's update does).
+pub type TransitionProposal<S = RangeBearingModel, V = Motion> = Transition<Phd1, S, V>;
 
 /// PHD-SLAM 1.0 on the planar sensor model `S`: the registered `phd-1.0`.
 pub type PhdSlam1<S = RangeBearingModel> = RbPhd<TransitionProposal<S>>;

@@ -6,16 +6,13 @@
 
 use phd_slam_2a::{Gao2021Params, PairNormalisation, PhdSlam2a};
 use rbphd::PhdParams;
-use rfslam_core::FilterBuild;
 use rfslam_data::{Dataset, ScenarioConfig};
-use rfslam_eval::fixtures::{dead_reckoning_rmse, procedural_500};
-use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
+use rfslam_eval::JobOutcome;
+use rfslam_eval::fixtures::{procedural_500_runs, run_job};
 use rfslam_sim::ScenarioData;
 
 fn run(ds: &Dataset, params: Gao2021Params, n: usize, seed: u64) -> JobOutcome {
-    let params = PhdParams { proposal: params, ..Default::default() };
-    let mut f = <PhdSlam2a>::try_build(params, &ds.models(), n).unwrap();
-    run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {})
+    run_job::<PhdSlam2a>(PhdParams { proposal: params, ..Default::default() }, ds, n, seed)
 }
 
 /// With 10 particles (and resampling at ESS <= 0.2 N, \[Kaltiokallio2024\] Table II) the filter
@@ -24,17 +21,12 @@ fn run(ds: &Dataset, params: Gao2021Params, n: usize, seed: u64) -> JobOutcome {
 /// same data. N = 1 and `use_mean` are reported.
 #[test]
 fn tracks_better_than_dead_reckoning() {
-    let sc = procedural_500();
-    let world = sc.load_world().unwrap();
     let (mut sum_2a, mut sum_1) = (0.0, 0.0);
-    for seed in 1..=4 {
-        let ds = sc.build_dataset(world.as_ref(), seed).unwrap();
-        let dr = dead_reckoning_rmse(&ds);
+    for (seed, ds, dr) in procedural_500_runs(1..=4) {
         let o1 = run(&ds, Gao2021Params::default(), 1, seed);
         let o10 = run(&ds, Gao2021Params::default(), 10, seed);
         let om = run(&ds, Gao2021Params { use_mean: true, ..Default::default() }, 1, seed);
-        let mut f1 = <phd_slam_1::PhdSlam1>::try_build(Default::default(), &ds.models(), 1).unwrap();
-        let b1 = run_filter(&ds, &mut f1, seed, &MetricsConfig::default(), &mut |_| {});
+        let b1 = run_job::<phd_slam_1::PhdSlam1>(Default::default(), &ds, 1, seed);
         sum_2a += o1["pos_rmse_m"];
         sum_1 += b1["pos_rmse_m"];
         eprintln!(

@@ -10,7 +10,7 @@
 //! runs on the 5G radio world (state `[x, y, z, heading, clock bias]`, three landmark types,
 //! the base station an anchor); [`PhdSlam3`] is the registered planar instance.
 
-pub use mh_importance_density::{MhParams, MhProposal, MissedCost, PoseSlr, TaylorSlr};
+pub use mh_importance_density::{MhParams, MhProposal, MissedCost, PoseSlr, SlrInput, TaylorSlr};
 use rbphd::RbPhd;
 use rfslam_core::model::RangeBearingModel;
 

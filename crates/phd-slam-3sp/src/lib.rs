@@ -71,8 +71,8 @@
 
 pub mod sigma;
 
-use mh_importance_density::{MhParams, MhProposal, PoseSlr};
-use nalgebra::{Matrix2, Matrix2x3, Matrix3, Matrix5, SMatrix, Vector5};
+use mh_importance_density::{MhParams, MhProposal, PoseSlr, SlrInput};
+use nalgebra::{Matrix2, Matrix2x3, Matrix5, SMatrix, Vector5};
 use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
 use rfslam_core::gaussian::{log_normal, symmetrise};
 use rfslam_core::ipl::Linearised;
@@ -194,13 +194,9 @@ impl SigmaPointSlr {
     /// `None` if a covariance fails Cholesky.
     pub fn moments<Sn: SensorModel<3, 2, 2>>(
         &self,
-        sensor: &Sn,
-        mean: &Pose,
-        cov: &Matrix3<f64>,
-        m: &Point2,
-        p: &Matrix2<f64>,
-        mark: Sn::Mark,
+        at: &SlrInput<'_, Sn, 3, 2, 2>,
     ) -> Option<(RangeBearing, Matrix2<f64>, Matrix2x3<f64>)> {
+        let SlrInput { sensor, mean, cov, m, p, mark } = *at;
         let r = sensor.noise(mark);
         // The measurement's angular component, averaged on the circle.
         let angle = sensor.components().iter().position(|c| c.angle);
@@ -230,16 +226,9 @@ impl SigmaPointSlr {
 impl PoseSlr for SigmaPointSlr {
     /// Eq. (42) by sigma points of `pi = N(m_pi, p_pi)`, returned as `(mu~^z, B, Omega)`
     /// with `B = Sigma~^zx (Sigma~^xx)^-1` (43a) and `Omega = Sigma~^zz - B Sigma~^xx B^T`.
-    fn linearise<Sn: SensorModel<3, 2, 2>>(
-        &self,
-        sensor: &Sn,
-        m_pi: &Pose,
-        p_pi: &Matrix3<f64>,
-        m: &Point2,
-        p: &Matrix2<f64>,
-        mark: Sn::Mark,
-    ) -> Option<Linearised> {
-        let (mu_z, s_zz, s_zx) = self.moments(sensor, m_pi, p_pi, m, p, mark)?;
+    fn linearise<Sn: SensorModel<3, 2, 2>>(&self, at: &SlrInput<'_, Sn, 3, 2, 2>) -> Option<Linearised> {
+        let p_pi = at.cov;
+        let (mu_z, s_zz, s_zx) = self.moments(at)?;
         let b = p_pi.cholesky()?.solve(&s_zx.transpose()).transpose();
         let omega = symmetrise(&(s_zz - b * p_pi * b.transpose()));
         Some((mu_z, b, omega))
@@ -248,16 +237,11 @@ impl PoseSlr for SigmaPointSlr {
     /// Eq. (44)'s detected factor with the SLR moments at the component `N(mean, cov)`.
     fn log_likelihood<Sn: SensorModel<3, 2, 2>>(
         &self,
-        sensor: &Sn,
-        mean: &Pose,
-        cov: &Matrix3<f64>,
-        m: &Point2,
-        p: &Matrix2<f64>,
-        mark: Sn::Mark,
+        at: &SlrInput<'_, Sn, 3, 2, 2>,
         z: &RangeBearing,
     ) -> Option<f64> {
-        let (mu_z, s_zz, _) = self.moments(sensor, mean, cov, m, p, mark)?;
-        let nu = sensor.residual(z, &mu_z);
+        let (mu_z, s_zz, _) = self.moments(at)?;
+        let nu = at.sensor.residual(z, &mu_z);
         log_normal(&nu, &s_zz)
     }
 }
@@ -313,13 +297,24 @@ mod tests {
     use super::*;
     use approx::assert_relative_eq;
     use mh_importance_density::TaylorSlr;
-    use nalgebra::Vector2;
+    use nalgebra::{Matrix3, Vector2};
     use rfslam_core::RangeBearingSensor;
     use rfslam_core::ipl::{IplSettings, ipl_update, ipl_update_slr};
 
     /// The range-bearing model of the PHD-SLAM synthetic experiment (its `R`).
     fn model() -> RangeBearingModel {
         RangeBearingModel::new(&rfslam_eval::fixtures::phd_slam_synthetic_models(), 0.0)
+    }
+
+    /// The SLR's input for the pose `N(x, p)` and the landmark `N(m, pm)` seen by `s`.
+    fn at<'a>(
+        s: &'a RangeBearingModel,
+        x: &'a Pose,
+        p: &'a Matrix3<f64>,
+        m: &'a Point2,
+        pm: &'a Matrix2<f64>,
+    ) -> SlrInput<'a, RangeBearingModel, 3, 2, 2> {
+        SlrInput { sensor: s, mean: x, cov: p, m, p: pm, mark: () }
     }
 
     /// `R` of the PHD-SLAM synthetic experiment.
@@ -373,21 +368,22 @@ mod tests {
     /// and so is eq. (44)'s factor.
     #[test]
     fn sigma_slr_is_close_to_taylor_when_nearly_linear() {
+        let s = model();
         let sensor = RangeBearingSensor::default();
         let x = Pose::new(3.0, -1.0, 0.4);
         let p_pi = Matrix3::from_diagonal(&nalgebra::Vector3::new(1e-4, 2e-4, 1e-8));
         let m = Point2::new(600.0, 520.0);
         let pm = Matrix2::identity() * 1e-3;
-        let (tz, tb, to) = TaylorSlr.linearise(&model(), &x, &p_pi, &m, &pm, ()).unwrap();
+        let (tz, tb, to) = TaylorSlr.linearise(&at(&s, &x, &p_pi, &m, &pm)).unwrap();
         let z = sensor.predict(&x, &m) + RangeBearing::new(0.5, 1e-3);
-        let tl = TaylorSlr.log_likelihood(&model(), &x, &p_pi, &m, &pm, (), &z).unwrap();
+        let tl = TaylorSlr.log_likelihood(&at(&s, &x, &p_pi, &m, &pm), &z).unwrap();
         for space in [SlrSpace::Pose, SlrSpace::Joint] {
             let slr = SigmaPointSlr { space, ..Default::default() };
-            let (sz, sb, so) = slr.linearise(&model(), &x, &p_pi, &m, &pm, ()).unwrap();
+            let (sz, sb, so) = slr.linearise(&at(&s, &x, &p_pi, &m, &pm)).unwrap();
             assert_relative_eq!(sz, tz, max_relative = 1e-6);
             assert_relative_eq!(sb, tb, max_relative = 1e-4, epsilon = 1e-9);
             assert_relative_eq!(so, to, max_relative = 1e-4, epsilon = 1e-12);
-            let sl = slr.log_likelihood(&model(), &x, &p_pi, &m, &pm, (), &z).unwrap();
+            let sl = slr.log_likelihood(&at(&s, &x, &p_pi, &m, &pm), &z).unwrap();
             assert_relative_eq!(sl, tl, max_relative = 1e-4);
         }
     }
@@ -398,23 +394,24 @@ mod tests {
     /// be near 0 with a variance of about pi^2.
     #[test]
     fn bearing_is_wrapped_across_pi() {
+        let s = model();
         let x = Pose::new(0.0, 0.0, 0.0);
         let p_pi = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.01, 0.01, 3f64.to_radians().powi(2)));
         let m = Point2::new(-40.0, 1e-3);
         let pm = Matrix2::identity() * 0.05;
-        let (tz, tb, to) = TaylorSlr.linearise(&model(), &x, &p_pi, &m, &pm, ()).unwrap();
+        let (tz, tb, to) = TaylorSlr.linearise(&at(&s, &x, &p_pi, &m, &pm)).unwrap();
         for space in [SlrSpace::Pose, SlrSpace::Joint] {
             let slr = SigmaPointSlr { space, ..Default::default() };
-            let (sz, sb, so) = slr.linearise(&model(), &x, &p_pi, &m, &pm, ()).unwrap();
+            let (sz, sb, so) = slr.linearise(&at(&s, &x, &p_pi, &m, &pm)).unwrap();
             assert!(rfslam_core::angle::diff(sz[1], tz[1]).abs() < 1e-3, "{sz:?} vs {tz:?}");
             assert!(sz[1].abs() > 3.1, "mean bearing {} should be near +-pi", sz[1]);
             assert_relative_eq!(sb, tb, max_relative = 1e-2, epsilon = 1e-4);
             assert_relative_eq!(so, to, max_relative = 1e-2, epsilon = 1e-9);
-            let (_, s_zz, _) = slr.moments(&model(), &x, &p_pi, &m, &pm, ()).unwrap();
+            let (_, s_zz, _) = slr.moments(&at(&s, &x, &p_pi, &m, &pm)).unwrap();
             assert!(s_zz[(1, 1)] < 0.01, "bearing variance {}", s_zz[(1, 1)]);
             // A measurement on the other side of the cut is a small innovation.
             let z = RangeBearing::new(40.0, -std::f64::consts::PI + 0.01);
-            let l = slr.log_likelihood(&model(), &x, &p_pi, &m, &pm, (), &z).unwrap();
+            let l = slr.log_likelihood(&at(&s, &x, &p_pi, &m, &pm), &z).unwrap();
             assert!(l > -10.0, "log-likelihood {l}");
         }
     }
@@ -422,16 +419,17 @@ mod tests {
     /// A linearisation density that fails Cholesky is reported (`None`), not unwrapped.
     #[test]
     fn cholesky_failure_is_none() {
+        let s = model();
         let bad = Matrix3::new(1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0);
         let slr = SigmaPointSlr::default();
         let (x, m, pm) = (Pose::zeros(), Point2::new(10.0, 0.0), Matrix2::identity());
-        assert!(slr.linearise(&model(), &x, &bad, &m, &pm, ()).is_none());
-        assert!(slr.log_likelihood(&model(), &x, &bad, &m, &pm, (), &RangeBearing::new(10.0, 0.0)).is_none());
+        assert!(slr.linearise(&at(&s, &x, &bad, &m, &pm)).is_none());
+        assert!(slr.log_likelihood(&at(&s, &x, &bad, &m, &pm), &RangeBearing::new(10.0, 0.0)).is_none());
         let res = ipl_update_slr(
             &x,
             &bad,
             &[RangeBearing::new(10.0, 0.0)],
-            |_, m_pi, p_pi| slr.linearise(&model(), m_pi, p_pi, &m, &pm, ()),
+            |_, m_pi, p_pi| slr.linearise(&at(&s, m_pi, p_pi, &m, &pm)),
             RangeBearingSensor::residual,
             &IplSettings::default(),
         );

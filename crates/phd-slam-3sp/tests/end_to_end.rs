@@ -5,15 +5,12 @@ use phd_slam_3::PhdSlam3;
 use phd_slam_3sp::PhdSlam3Sp;
 use rfslam_core::FilterBuild;
 use rfslam_data::Dataset;
-use rfslam_eval::fixtures::{dead_reckoning_rmse, procedural_500};
-use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
-use rfslam_sim::ScenarioData;
+use rfslam_eval::JobOutcome;
+use rfslam_eval::fixtures::{assert_tracks_and_associates, procedural_500_runs, run_job};
 
 /// Runs filter `F` with the parameters written in `params` (TOML) and `n` particles.
 fn run<F: FilterBuild>(params: &str, ds: &Dataset, n: usize, seed: u64) -> JobOutcome {
-    let params: F::Params = toml::from_str(params).unwrap();
-    let mut f = F::try_build(params, &ds.models(), n).unwrap();
-    run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {})
+    run_job::<F>(toml::from_str(params).unwrap(), ds, n, seed)
 }
 
 /// With one particle, both sigma-point spaces track within a few metres (far better than
@@ -21,12 +18,8 @@ fn run<F: FilterBuild>(params: &str, ds: &Dataset, n: usize, seed: u64) -> JobOu
 /// stay within a factor two of phd-3.0 summed over the seeds.
 #[test]
 fn one_particle_tracks_like_phd3() {
-    let sc = procedural_500();
-    let world = sc.load_world().unwrap();
     let (mut sum_sp, mut sum_3) = (0.0, 0.0);
-    for seed in 1..=3 {
-        let ds = sc.build_dataset(world.as_ref(), seed).unwrap();
-        let dr = dead_reckoning_rmse(&ds);
+    for (seed, ds, dr) in procedural_500_runs(1..=3) {
         let p3 = run::<PhdSlam3>("", &ds, 1, seed);
         for params in ["", "slr_space = \"joint\""] {
             let sp = run::<PhdSlam3Sp>(params, &ds, 1, seed);
@@ -34,11 +27,7 @@ fn one_particle_tracks_like_phd3() {
                 "seed {seed} [{params}]: dead reckoning {dr:.2} m | phd-3.0-sp {:.2} m TPR {:?} ({:.3} ms/step) | phd-3.0 {:.2} m ({:.3} ms/step)",
                 sp["pos_rmse_m"], sp["tpr"], sp["time_ms_per_step"], p3["pos_rmse_m"], p3["time_ms_per_step"]
             );
-            assert_eq!(sp["steps"] as usize, 500);
-            assert_eq!(sp["cholesky_failures"] as usize, 0, "seed {seed}");
-            assert!(sp["pos_rmse_m"] < dr / 3.0, "seed {seed}: {:.2} m vs dead reckoning {dr:.2} m", sp["pos_rmse_m"]);
-            assert!(sp["da_positives"] > 0.0, "phd-3.0-sp records associations");
-            assert!(sp["tpr"] > 0.9 && sp["tnr"] > 0.9, "seed {seed}: TPR {} TNR {}", sp["tpr"], sp["tnr"]);
+            assert_tracks_and_associates(&sp, dr, &format!("phd-3.0-sp [{params}] seed {seed}"));
             if params.is_empty() {
                 sum_sp += sp["pos_rmse_m"];
             }

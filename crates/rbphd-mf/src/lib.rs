@@ -19,11 +19,10 @@
 //! parameter is the shared RB-PHD table ([`rbphd::RbPhdParams`]), including the
 //! multi-feature settings `mf_*`; `weighting` must be left out (or agree with `strategy`).
 
-use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, Weighting, sample_transition};
-use rfslam_core::model::{RangeBearingModel, VehicleModel};
-use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Rng};
+use rbphd::{Bootstrap, RbPhd, Transition, Weighting};
+use rfslam_core::Motion;
+use rfslam_core::model::RangeBearingModel;
 use serde::{Deserialize, Serialize};
-use std::marker::PhantomData;
 
 /// The weighting strategy of \[LeungInostrozaAdams\] (Section III).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -57,62 +56,28 @@ pub struct MfParams {
     pub strategy: Strategy,
 }
 
-/// The transition density as importance density (\[LeungInostrozaAdams\] eq. 9), on the
-/// sensor model `S` and the vehicle model `V` of any world (the planar range-bearing one by
-/// default).
-#[derive(Debug, Clone)]
-pub struct BootstrapProposal<S = RangeBearingModel, V = Motion>(PhantomData<(S, V)>);
+/// `rbphd-mf` as a bootstrap variant: its name, the paper's map estimate and the weighting
+/// its `strategy` fixes.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Mf;
 
-impl<S, V> Default for BootstrapProposal<S, V> {
-    fn default() -> Self {
-        BootstrapProposal(PhantomData)
-    }
-}
-
-impl<S, V, const X: usize, const M: usize, const Z: usize> Proposal<X, M, Z> for BootstrapProposal<S, V>
-where
-    S: InvertibleSensorModel<X, M, Z>,
-    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
-{
+impl Bootstrap for Mf {
     const NAME: &'static str = "rbphd-mf";
     /// \[LeungInostrozaAdams\] Section IV-B: "the means of all the Gaussians that have a weight
     /// higher than 0.5", each weight "rounded to the nearest integer" features.
     const ESTIMATE_THRESHOLD: Option<f64> = Some(0.5);
     const ESTIMATE_ROUNDING: bool = true;
     type Params = MfParams;
-    type Vehicle = V;
-    type Sensor = S;
-
-    fn validate(_: &MfParams) -> Result<(), ParamError> {
-        Ok(())
-    }
-
-    fn new(_: &MfParams) -> Self {
-        BootstrapProposal::default()
-    }
-
-    fn propose(
-        &mut self,
-        ctx: &ProposalContext<S, V, X, M, Z>,
-        n: usize,
-        rng: &mut Rng,
-        out: &mut Vec<PoseSample<X>>,
-    ) -> ProposalStats {
-        sample_transition(ctx, n, rng, out)
-    }
 
     fn weighting(params: &MfParams) -> Option<Weighting> {
         Some(params.strategy.weighting())
     }
 }
 
-impl<V, S, const X: usize, const M: usize, const Z: usize> rbphd::ProposalIn<V, S, X, M, Z> for BootstrapProposal
-where
-    S: InvertibleSensorModel<X, M, Z>,
-    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
-{
-    type In = BootstrapProposal<S, V>;
-}
+/// The transition density as importance density (\[LeungInostrozaAdams\] eq. 9), on the
+/// sensor model `S` and the vehicle model `V` of any world (the planar range-bearing one by
+/// default).
+pub type BootstrapProposal<S = RangeBearingModel, V = Motion> = Transition<Mf, S, V>;
 
 /// `rbphd-mf`: the bootstrap RB-PHD filter weighted by the strategy of `strategy`, on the
 /// planar sensor model `S`.
@@ -126,7 +91,8 @@ pub type RbPhdMfIn<V, S, const X: usize, const M: usize, const Z: usize> = RbPhd
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rbphd::PhdParams;
+    use rbphd::{PhdParams, Proposal};
+    use rfslam_core::Rng;
     use rfslam_core::{FilterBuild, SlamModels};
 
     fn params(text: &str) -> Result<PhdParams<MfParams>, String> {
@@ -136,15 +102,8 @@ mod tests {
     fn models() -> SlamModels {
         use nalgebra::{Matrix2, Matrix3};
         SlamModels {
-            motion: rfslam_core::Motion::Velocity,
             control_noise: Matrix3::from_diagonal(&nalgebra::Vector3::new(0.04, 1e-4, 0.0)),
-            sensor_kind: rfslam_core::SensorKind::RangeBearing,
-            sensor: rfslam_core::RangeBearingSensor::default(),
-            measurement_noise: Matrix2::new(1.0, 0.0, 0.0, 3e-4),
-            fov: rfslam_core::Fov::new(100.0, std::f64::consts::FRAC_PI_2),
-            detection: rfslam_core::DetectionModel::Constant { pd: 0.95 },
-            clutter: rfslam_core::ClutterModel { rate: 1.0, intensity: rfslam_core::ClutterIntensity::Measurement },
-            initial_pose: rfslam_core::Pose::zeros(),
+            ..rfslam_eval::fixtures::unit_test_models(Matrix2::new(1.0, 0.0, 0.0, 3e-4), 100.0)
         }
     }
 

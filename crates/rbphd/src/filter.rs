@@ -453,27 +453,15 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> SlamF
         P::NAME
     }
 
-    fn particles(&self) -> usize {
-        self.set.len()
-    }
-
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
         RbPhd::step(self, odometry, scan, rng)
-    }
-
-    fn particle_poses(&self, out: &mut Vec<(SVector<f64, X>, f64)>) -> bool {
-        self.set.poses_into(out, |p| p.pose);
-        true
-    }
-
-    fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-        self.set.parents_into(out);
-        true
     }
 
     fn estimate(&self) -> Estimate<X, M> {
         RbPhd::estimate(self)
     }
+
+    rfslam_core::particle_set_methods!(set, pose);
 }
 
 /// The map estimate of a GM-PHD map: the means of the components of weight above
@@ -636,8 +624,7 @@ impl<const X: usize, const M: usize, const Z: usize> LogWeighted for Particle<X,
 mod tests {
     use super::*;
     use crate::proposal::{ProposalStats, sample_transition};
-    use nalgebra::{Matrix2, Matrix3};
-    use rfslam_core::{ClutterIntensity, ClutterModel, Pose, RangeBearingSensor};
+    use nalgebra::Matrix2;
 
     /// The transition density, with the map-estimate defaults of `rbphd-mf` when `ROUND`.
     struct Prior<const ROUND: bool>;
@@ -670,17 +657,7 @@ mod tests {
     }
 
     fn models() -> SlamModels {
-        SlamModels {
-            motion: Motion::Velocity,
-            control_noise: Matrix3::zeros(),
-            sensor_kind: rfslam_core::SensorKind::RangeBearing,
-            sensor: RangeBearingSensor::default(),
-            measurement_noise: Matrix2::new(1.0, 0.0, 0.0, 3e-4),
-            fov: Fov::new(100.0, std::f64::consts::FRAC_PI_2),
-            detection: DetectionModel::Constant { pd: 0.95 },
-            clutter: ClutterModel { rate: 1.0, intensity: ClutterIntensity::Measurement },
-            initial_pose: Pose::zeros(),
-        }
+        rfslam_eval::fixtures::unit_test_models(Matrix2::new(1.0, 0.0, 0.0, 3e-4), 100.0)
     }
 
     /// The number of landmarks in the estimate of a one-particle map with components of

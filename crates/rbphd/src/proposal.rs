@@ -6,6 +6,7 @@ use rfslam_core::state::StateSpace;
 use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Rng};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
+use std::marker::PhantomData;
 
 use crate::gm::GmMap;
 use crate::weighting::Weighting;
@@ -118,6 +119,82 @@ pub trait Proposal<const X: usize = 3, const M: usize = 2, const Z: usize = 2>: 
     fn weighting(_params: &Self::Params) -> Option<Weighting> {
         None
     }
+}
+
+/// A variant whose importance density is the transition density (a bootstrap RB-PHD
+/// filter): what tells one such variant from another, its name, parameters, map estimate and
+/// weighting, as [`Proposal`] gives them. [`Transition`] is its proposal in any world.
+pub trait Bootstrap: Send + Sync + 'static {
+    /// [`Proposal::NAME`].
+    const NAME: &'static str;
+    /// [`Proposal::ESTIMATE_THRESHOLD`].
+    const ESTIMATE_THRESHOLD: Option<f64> = None;
+    /// [`Proposal::ESTIMATE_ROUNDING`].
+    const ESTIMATE_ROUNDING: bool = false;
+    /// [`Proposal::Params`]: the variant's own parameters (the density has none).
+    type Params: Serialize + DeserializeOwned + Default + Clone + Send;
+
+    /// [`Proposal::weighting`].
+    fn weighting(_params: &Self::Params) -> Option<Weighting> {
+        None
+    }
+}
+
+/// The transition density as importance density (\[Kaltiokallio2024\] eq. 26) of the
+/// bootstrap variant `B`, on the sensor model `S` and the vehicle model `V` (it reads no
+/// measurement; the filter's update does), so it runs in every world.
+#[derive(Debug, Clone)]
+pub struct Transition<B, S = RangeBearingModel, V = Motion>(PhantomData<(B, S, V)>);
+
+impl<B, S, V> Default for Transition<B, S, V> {
+    fn default() -> Self {
+        Transition(PhantomData)
+    }
+}
+
+impl<B, S, V, const X: usize, const M: usize, const Z: usize> Proposal<X, M, Z> for Transition<B, S, V>
+where
+    B: Bootstrap,
+    S: InvertibleSensorModel<X, M, Z>,
+    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
+{
+    const NAME: &'static str = B::NAME;
+    const ESTIMATE_THRESHOLD: Option<f64> = B::ESTIMATE_THRESHOLD;
+    const ESTIMATE_ROUNDING: bool = B::ESTIMATE_ROUNDING;
+    type Params = B::Params;
+    type Vehicle = V;
+    type Sensor = S;
+
+    fn validate(_: &B::Params) -> Result<(), ParamError> {
+        Ok(())
+    }
+
+    fn new(_: &B::Params) -> Self {
+        Transition::default()
+    }
+
+    fn propose(
+        &mut self,
+        ctx: &ProposalContext<S, V, X, M, Z>,
+        n: usize,
+        rng: &mut Rng,
+        out: &mut Vec<PoseSample<X>>,
+    ) -> ProposalStats {
+        sample_transition(ctx, n, rng, out)
+    }
+
+    fn weighting(params: &B::Params) -> Option<Weighting> {
+        B::weighting(params)
+    }
+}
+
+impl<B, V, S, const X: usize, const M: usize, const Z: usize> crate::ProposalIn<V, S, X, M, Z> for Transition<B>
+where
+    B: Bootstrap,
+    S: InvertibleSensorModel<X, M, Z>,
+    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
+{
+    type In = Transition<B, S, V>;
 }
 
 /// Draws `n` states from the transition density `N(f(x_{k-1}, u_k), Q_{k-1})`

@@ -547,6 +547,16 @@ mod tests {
     }
 
     fn run(case: &Case, w: Weighting, mf: &MultiFeatureSettings) -> StrategyOutcome {
+        run_pd(case, w, |_, _, _| PD, mf)
+    }
+
+    /// [`run`] with the detection probability `pd` of a component.
+    fn run_pd(
+        case: &Case,
+        w: Weighting,
+        pd: impl Fn(&Point2, &Matrix2<f64>, u8) -> f64,
+        mf: &MultiFeatureSettings,
+    ) -> StrategyOutcome {
         let sensor = RangeBearingSensor::default();
         let input = StrategyInput {
             predicted: &case.predicted,
@@ -558,7 +568,7 @@ mod tests {
             log_clutter: C.ln(),
             clutter_rate: NC,
         };
-        strategy_log_weight(w, &input, |_, _, _| PD, mf, &mut StrategyScratch::default())
+        strategy_log_weight(w, &input, pd, mf, &mut StrategyScratch::default())
     }
 
     /// Eqs. (20)-(22): the empty-set weight is `sum_z ln c - N_c + m^+ - m^-`, and the map
@@ -716,27 +726,16 @@ mod tests {
     #[test]
     fn features_come_from_inside_the_field_of_view() {
         let case = two_landmarks();
-        let sensor = RangeBearingSensor::default();
-        let input = StrategyInput {
-            predicted: &case.predicted,
-            active: &[0, 1],
-            updated: &case.updated,
-            pose: &Pose::zeros(),
-            z: &case.z,
-            sensor: &crate::with_noise(&sensor, &case.r),
-            log_clutter: C.ln(),
-            clutter_rate: NC,
-        };
         let mf = MultiFeatureSettings::default();
-        let empty = strategy_log_weight(Weighting::Empty, &input, |_, _, _| PD, &mf, &mut StrategyScratch::default());
+        let empty = run(&case, Weighting::Empty, &mf);
         for w in [Weighting::Single, Weighting::Multi] {
-            let o = strategy_log_weight(w, &input, |_, _, _| 0.0, &mf, &mut StrategyScratch::default());
+            let o = run_pd(&case, w, |_, _, _| 0.0, &mf);
             assert_eq!(o.features, 0);
             assert_relative_eq!(o.log_weight, empty.log_weight, epsilon = 1e-12);
         }
         // Only the landmark on the left (y > 0) in view: one feature.
         let left = |m: &Point2, _: &Matrix2<f64>, _: u8| if m.y > 0.0 { PD } else { 0.0 };
-        let o = strategy_log_weight(Weighting::Multi, &input, left, &mf, &mut StrategyScratch::default());
+        let o = run_pd(&case, Weighting::Multi, left, &mf);
         assert_eq!(o.features, 1);
     }
 }

@@ -6,23 +6,15 @@ mod common;
 
 use common::*;
 
-const STEP_COLUMNS: &[&str] = &[
-    "step",
-    "t",
-    "pos_err_m",
-    "head_err_deg",
-    "gospa_m",
-    "landmarks_seen",
-    "map_size",
-    "components",
-    "proposal_components",
-    "ess",
-    "resampled",
-    "cholesky_failures",
-    "measurements",
-    "x_err_m",
-    "y_err_m",
-];
+/// The columns of `steps.csv` as docs/datasets.md lists them (its table of run outputs), so
+/// that the file and its documentation cannot drift apart.
+fn documented_step_columns() -> Vec<String> {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/datasets.md");
+    let docs = std::fs::read_to_string(path).expect("docs/datasets.md");
+    let row = docs.lines().find(|l| l.starts_with("| `steps.csv` |")).expect("docs/datasets.md lists steps.csv");
+    let list = row.split('|').nth(2).and_then(|c| c.split('`').nth(1)).expect("a backticked column list");
+    list.split(", ").map(str::to_string).collect()
+}
 
 /// A small scenario and a phd-3.0 run of it with 3 particles, no resampling, both flags.
 fn small_run(tmp: &TempDir) -> usize {
@@ -71,7 +63,7 @@ fn save_steps_and_save_particles_write_one_row_per_scan_and_particle() {
     assert!(scans >= 59, "{scans} scans");
 
     let steps = Csv::read(&tmp.join("run/steps.csv"));
-    assert_eq!(steps.header, STEP_COLUMNS);
+    assert_eq!(steps.header, documented_step_columns());
     assert_eq!(steps.rows.len(), scans);
     for i in 0..scans {
         assert_eq!(steps.num(i, "step"), i as f64);

@@ -55,71 +55,43 @@ fn problem(m: usize) -> Problem {
     }
 }
 
+impl Problem {
+    /// PHD-SLAM 3.0's Algorithm 1 on the problem from `x_bar`.
+    fn partitioned(&self, x_bar: &Pose) -> rfslam_core::ipl::IplResult {
+        let sensor = RangeBearingSensor::default();
+        let (m, p, r) = (&self.m, &self.p, self.r);
+        let lin = |a: usize, x: &Pose| {
+            let l = sensor.linearise(x, &m[a]);
+            (l.z, l.hx, l.hm * p[a] * l.hm.transpose() + r)
+        };
+        ipl_update(x_bar, &self.q, &self.z, lin, RangeBearingSensor::residual, &IplSettings::default())
+    }
+
+    /// PHD-SLAM 2.0b's joint IPL on the problem from `x_bar`.
+    fn joint(&self, joint: &mut JointIpl, x_bar: &Pose) -> rfslam_core::ipl::IplResult {
+        let sensor = RangeBearingSensor::default();
+        let lin = |_: usize, x: &Pose, mm: &Point2| {
+            let l = sensor.linearise(x, mm);
+            (l.z, l.hx, l.hm)
+        };
+        let settings = JointIplSettings::default();
+        joint.update(x_bar, &self.q, &self.m, &self.p, &self.z, &self.r, lin, RangeBearingSensor::residual, &settings)
+    }
+}
+
 fn bench_scaling(c: &mut Criterion) {
-    let sensor = RangeBearingSensor::default();
     let mut group = c.benchmark_group("ipl_scaling");
     for &m in &SIZES {
         let pr = problem(m);
         group.bench_with_input(BenchmarkId::new("partitioned", m), &pr, |b, pr| {
-            b.iter(|| {
-                ipl_update(
-                    black_box(&pr.x_bar),
-                    &pr.q,
-                    &pr.z,
-                    |a, x| {
-                        let l = sensor.linearise(x, &pr.m[a]);
-                        (l.z, l.hx, l.hm * pr.p[a] * l.hm.transpose() + pr.r)
-                    },
-                    rfslam_core::RangeBearingSensor::residual,
-                    &IplSettings::default(),
-                )
-            })
+            b.iter(|| pr.partitioned(black_box(&pr.x_bar)))
         });
         let mut joint = JointIpl::default();
         group.bench_with_input(BenchmarkId::new("joint", m), &pr, |b, pr| {
-            b.iter(|| {
-                joint.update(
-                    black_box(&pr.x_bar),
-                    &pr.q,
-                    &pr.m,
-                    &pr.p,
-                    &pr.z,
-                    &pr.r,
-                    |_, x, mm| {
-                        let l = sensor.linearise(x, mm);
-                        (l.z, l.hx, l.hm)
-                    },
-                    rfslam_core::RangeBearingSensor::residual,
-                    &JointIplSettings::default(),
-                )
-            })
+            b.iter(|| pr.joint(&mut joint, black_box(&pr.x_bar)))
         });
         // Iteration counts, for the report.
-        let part = ipl_update(
-            &pr.x_bar,
-            &pr.q,
-            &pr.z,
-            |a, x| {
-                let l = sensor.linearise(x, &pr.m[a]);
-                (l.z, l.hx, l.hm * pr.p[a] * l.hm.transpose() + pr.r)
-            },
-            rfslam_core::RangeBearingSensor::residual,
-            &IplSettings::default(),
-        );
-        let j = joint.update(
-            &pr.x_bar,
-            &pr.q,
-            &pr.m,
-            &pr.p,
-            &pr.z,
-            &pr.r,
-            |_, x, mm| {
-                let l = sensor.linearise(x, mm);
-                (l.z, l.hx, l.hm)
-            },
-            rfslam_core::RangeBearingSensor::residual,
-            &JointIplSettings::default(),
-        );
+        let (part, j) = (pr.partitioned(&pr.x_bar), pr.joint(&mut joint, &pr.x_bar));
         eprintln!("M = {m}: iterations partitioned {}, joint {}", part.iterations, j.iterations);
     }
     group.finish();

@@ -96,8 +96,76 @@ pub trait FilterEngine<const X: usize = 3, const M: usize = 2, const Z: usize = 
 ///     PmbmSlam<S>(PmbmFilter<S, 2, 2>), "pmbm-slam"
 /// );
 /// ```
+///
+/// A family whose engine is generic over the vehicle and the sensor model also gives how the
+/// variant is built, and the macro writes its [`FilterBuild`] (serving the planar sensor `S`
+/// it is instantiated on) and its [`WorldBuild`] in every world of an invertible sensor
+/// model (the engine under the registered name, [`Named`]): the parameters' type, the
+/// oracle flag when set ([`FilterBuild::REQUIRES_TRUTH`]), the planar checks
+/// ([`FilterBuild::check`]), the engine on a planar scenario's models (after the checks) and
+/// the engine in another world (refusing the parameters there with `?`):
+///
+/// ```ignore
+/// rfslam_core::filter_variant!(
+///     /// `glmb-1.0`: delta-GLMB-SLAM 1.0.
+///     Glmb1<S>(GlmbSlam<Motion, S, 3, 2, 2>), "glmb-1.0";
+///     params: Params,
+///     check: |params, _models, particles| params.validate(particles),
+///     build: |params, models, particles| {
+///         let sensor = S::from_models(models, models.clutter_intensity());
+///         GlmbSlam::new(Variant::Glmb1, params, models.vehicle(), sensor, particles)
+///     },
+///     world: |params, models, particles| {
+///         params.validate(particles)?;
+///         GlmbSlam::new(Variant::Glmb1, params, models.vehicle.clone(), models.sensor.clone(), particles)
+///     },
+/// );
+/// ```
 #[macro_export]
 macro_rules! filter_variant {
+    (
+        $(#[$doc:meta])* $ty:ident<S>($engine:ty), $name:literal;
+        params: $params:ty,
+        $(requires_truth: $truth:expr,)?
+        check: |$cp:ident, $cm:ident, $cn:ident| $check:expr,
+        build: |$bp:ident, $bm:ident, $bn:ident| $build:expr,
+        world: |$wp:ident, $wm:ident, $wn:ident| $world:expr $(,)?
+    ) => {
+        $crate::filter_variant!($(#[$doc])* $ty<S>($engine), $name);
+
+        impl<S: $crate::PlanarSensorModel> $crate::FilterBuild for $ty<S> {
+            type Params = $params;
+            $(const REQUIRES_TRUTH: bool = $truth;)?
+
+            fn serves(sensor: $crate::SensorKind) -> bool {
+                sensor == <S as $crate::PlanarSensorModel>::KIND
+            }
+
+            fn check($cp: &$params, $cm: &$crate::SlamModels, $cn: usize) -> Result<(), $crate::ParamError> {
+                $check
+            }
+
+            fn build(params: $crate::Validated<Self>, $bm: &$crate::SlamModels) -> Self {
+                let ($bp, $bn) = params.into_parts();
+                $ty($build)
+            }
+        }
+
+        impl<V, S, const X: usize, const M: usize, const Z: usize> $crate::WorldBuild<V, S, X, M, Z> for $ty
+        where
+            V: $crate::VehicleModel<X, 3> + Clone + Send + 'static,
+            S: $crate::InvertibleSensorModel<X, M, Z>,
+        {
+            fn build_world(
+                $wp: $params,
+                $wm: &$crate::WorldModels<V, S, X, M, Z>,
+                $wn: usize,
+            ) -> Result<Box<dyn $crate::SlamFilter<X, M, Z>>, $crate::ParamError> {
+                let engine = $world;
+                Ok(Box::new($crate::Named { name: $name, engine }))
+            }
+        }
+    };
     ($(#[$doc:meta])* $ty:ident<S>($engine:ty), $name:literal) => {
         $(#[$doc])*
         #[derive(Debug, Clone)]
@@ -157,6 +225,36 @@ macro_rules! filter_variant {
 
         fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
             $crate::filter::FilterEngine::particle_parents(&self.0, out)
+        }
+    };
+}
+
+/// The particle methods of a [`SlamFilter`] or a [`FilterEngine`] whose particles are in the
+/// [`crate::rbpf::ParticleSet`] `self.$set`, each with its state in the field `$state`: the
+/// number of particles, their states with their normalised log weights, and their parents
+/// (written once for every family that keeps one particle set).
+///
+/// ```ignore
+/// impl<V, S, const X: usize, const M: usize, const Z: usize> FilterEngine<X, M, Z> for Engine<V, S, X, M, Z> {
+///     // step, estimate
+///     rfslam_core::particle_set_methods!(set, pose);
+/// }
+/// ```
+#[macro_export]
+macro_rules! particle_set_methods {
+    ($set:ident, $state:ident) => {
+        fn particles(&self) -> usize {
+            self.$set.len()
+        }
+
+        fn particle_poses(&self, out: &mut Vec<(::nalgebra::SVector<f64, X>, f64)>) -> bool {
+            self.$set.poses_into(out, |p| p.$state);
+            true
+        }
+
+        fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
+            self.$set.parents_into(out);
+            true
         }
     };
 }

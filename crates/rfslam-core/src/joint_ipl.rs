@@ -379,20 +379,14 @@ mod tests {
                 })
                 .collect();
             let mut j = JointIpl::default();
-            let res = j.update(
-                &x_bar,
-                &q(),
-                &m_bar,
-                &p_m,
-                &z,
-                &r,
-                |a, x, mm| {
+            let mut joint = |s: &JointIplSettings| {
+                let lin = |a: usize, x: &Pose, mm: &Point2| {
                     let (ax, bm) = linear(a);
                     (ax * x + bm * mm, ax, bm)
-                },
-                crate::sensor::RangeBearingSensor::residual,
-                &JointIplSettings::default(),
-            );
+                };
+                j.update(&x_bar, &q(), &m_bar, &p_m, &z, &r, lin, RangeBearingSensor::residual, s)
+            };
+            let res = joint(&JointIplSettings::default());
             let part = ipl_update(
                 &x_bar,
                 &q(),
@@ -401,7 +395,7 @@ mod tests {
                     let (ax, bm) = linear(a);
                     (ax * x + bm * m_bar[a], ax, bm * p_m[a] * bm.transpose() + r)
                 },
-                crate::sensor::RangeBearingSensor::residual,
+                RangeBearingSensor::residual,
                 &IplSettings::default(),
             );
             assert_relative_eq!(res.mean, part.mean, epsilon = 1e-10);
@@ -410,20 +404,7 @@ mod tests {
             assert!(!res.lost_definiteness);
             // The pose-marginal KL test stops at the same place.
             let s = JointIplSettings { kl_on: KlOn::Pose, ..Default::default() };
-            let res2 = j.update(
-                &x_bar,
-                &q(),
-                &m_bar,
-                &p_m,
-                &z,
-                &r,
-                |a, x, mm| {
-                    let (ax, bm) = linear(a);
-                    (ax * x + bm * mm, ax, bm)
-                },
-                crate::sensor::RangeBearingSensor::residual,
-                &s,
-            );
+            let res2 = joint(&s);
             assert_relative_eq!(res2.mean, res.mean, epsilon = 1e-12);
             assert_eq!(res2.iterations, 2);
         }

@@ -224,7 +224,7 @@ pub struct RbpfParams {
     /// density is undefined without it (\[PHD-SLAM-3.0-code\]: `[1e-9, 1e-9, 1e-18]`).
     pub q_jitter: [f64; 3],
     /// How the parents are drawn: `"systematic"` (none: the default) or `"stratified"`, the
-    /// scheme of the public PHD-SLAM 3.0 code ([`crate::rbpf::stratified_resample`]).
+    /// scheme of the public PHD-SLAM 3.0 code ([`crate::rbpf::ResampleScheme::Stratified`]).
     pub resampling: Option<ResampleScheme>,
 }
 

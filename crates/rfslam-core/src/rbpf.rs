@@ -43,45 +43,58 @@ pub fn ess(normalised_log_w: &[f64]) -> f64 {
     if s > 0.0 { 1.0 / s } else { 0.0 }
 }
 
-/// Systematic (low-variance) resampling: `n_out` parents drawn from normalised log weights
-/// with one uniform offset. Returns the parent index of every copy, in non-decreasing order
-/// (so copies of one parent are adjacent). `parents` is cleared and reused.
-pub fn systematic_resample<R: rand::Rng + ?Sized>(
-    normalised_log_w: &[f64],
-    n_out: usize,
-    rng: &mut R,
-    parents: &mut Vec<usize>,
-) {
-    parents.clear();
-    let n = normalised_log_w.len();
-    if n == 0 || n_out == 0 {
-        return;
-    }
-    let step = 1.0 / n_out as f64;
-    let mut u = rng.random::<f64>() * step;
-    let mut i = 0;
-    let mut cum = normalised_log_w[0].exp();
-    for _ in 0..n_out {
-        while u > cum && i + 1 < n {
-            i += 1;
-            cum += normalised_log_w[i].exp();
-        }
-        parents.push(i);
-        u += step;
-    }
-}
-
 /// How [`ParticleSet::normalise_and_resample`] draws the parents.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ResampleScheme {
-    /// [`systematic_resample`]: one uniform offset for all slots (rfslam's default).
+    /// Systematic (low-variance): one uniform offset for all slots (rfslam's default).
     #[default]
     Systematic,
-    /// [`stratified_resample`]: the scheme of the public PHD-SLAM 3.0 code
+    /// Stratified: the scheme of the public PHD-SLAM 3.0 code
     /// (\[PHD-SLAM-3.0-code\], after \[Kitagawa1996\]): integer parts of `N w` first, then
     /// one fresh uniform per slot against the running remainder.
     Stratified,
+}
+
+impl ResampleScheme {
+    /// Draws `n_out` parents from normalised log weights by this scheme into `parents`
+    /// (cleared first, reused), in non-decreasing order (copies of one parent adjacent); none
+    /// when there are no weights or `n_out` is 0.
+    pub fn resample<R: rand::Rng + ?Sized>(
+        self,
+        normalised_log_w: &[f64],
+        n_out: usize,
+        rng: &mut R,
+        parents: &mut Vec<usize>,
+    ) {
+        parents.clear();
+        if normalised_log_w.is_empty() || n_out == 0 {
+            return;
+        }
+        match self {
+            ResampleScheme::Systematic => systematic(normalised_log_w, n_out, rng, parents),
+            ResampleScheme::Stratified => stratified(normalised_log_w, n_out, rng, parents),
+        }
+    }
+}
+
+/// Systematic (low-variance) resampling: `n_out` parents drawn from normalised log weights
+/// with one uniform offset. Pushes the parent index of every copy, in non-decreasing order
+/// (so copies of one parent are adjacent), onto the empty `parents`; `w` is not empty.
+fn systematic<R: rand::Rng + ?Sized>(w: &[f64], n_out: usize, rng: &mut R, parents: &mut Vec<usize>) {
+    let n = w.len();
+    let step = 1.0 / n_out as f64;
+    let mut u = rng.random::<f64>() * step;
+    let mut i = 0;
+    let mut cum = w[0].exp();
+    for _ in 0..n_out {
+        while u > cum && i + 1 < n {
+            i += 1;
+            cum += w[i].exp();
+        }
+        parents.push(i);
+        u += step;
+    }
 }
 
 /// The resampling of the public PHD-SLAM 3.0 code (\[PHD-SLAM-3.0-code\], a stratified
@@ -91,22 +104,13 @@ pub enum ResampleScheme {
 /// falls by 1, possibly below 0). Each slot's uniform is fresh, unlike systematic
 /// resampling's single offset, so copy counts vary more between particles. Parents come out
 /// in non-decreasing order (copies of one parent adjacent). Should rounding leave slots
-/// free at the end, they go to the last particle. `parents` is cleared and reused.
-pub fn stratified_resample<R: rand::Rng + ?Sized>(
-    normalised_log_w: &[f64],
-    n_out: usize,
-    rng: &mut R,
-    parents: &mut Vec<usize>,
-) {
-    parents.clear();
-    let n = normalised_log_w.len();
-    if n == 0 || n_out == 0 {
-        return;
-    }
+/// free at the end, they go to the last particle. Pushes onto the empty
+/// `parents`; `w` is not empty.
+fn stratified<R: rand::Rng + ?Sized>(w: &[f64], n_out: usize, rng: &mut R, parents: &mut Vec<usize>) {
     let scale = n_out as f64;
     let mut c = 0.0;
     let mut r = rng.random::<f64>();
-    for (i, &l) in normalised_log_w.iter().enumerate() {
+    for (i, &l) in w.iter().enumerate() {
         c += scale * l.exp();
         if c >= 1.0 {
             let a = c.floor();
@@ -124,7 +128,7 @@ pub fn stratified_resample<R: rand::Rng + ?Sized>(
             r = rng.random::<f64>();
         }
     }
-    parents.resize(n_out, n - 1);
+    parents.resize(n_out, w.len() - 1);
 }
 
 /// A particle carrying a log weight.
@@ -305,10 +309,7 @@ impl<P: LogWeighted + Clone + Default> ParticleSet<P> {
         inspect(&self.particles, best);
         let resampled = (rule.force || ess <= rule.threshold) && (n > 1 || rule.n_out > 1);
         if resampled {
-            match rule.scheme {
-                ResampleScheme::Systematic => systematic_resample(&self.log_w, rule.n_out, rng, &mut self.parents),
-                ResampleScheme::Stratified => stratified_resample(&self.log_w, rule.n_out, rng, &mut self.parents),
-            }
+            rule.scheme.resample(&self.log_w, rule.n_out, rng, &mut self.parents);
             let uniform = -(rule.n_out as f64).ln();
             for &parent in &self.parents {
                 let mut dst = self.pool.pop().unwrap_or_default();
@@ -455,7 +456,7 @@ mod tests {
         // Integer n w_i: exactly n w_i copies each, whatever the uniforms.
         let l: Vec<f64> = [0.5f64, 0.25, 0.125, 0.125].iter().map(|x| x.ln()).collect();
         for _ in 0..100 {
-            stratified_resample(&l, 8, &mut rng, &mut parents);
+            ResampleScheme::Stratified.resample(&l, 8, &mut rng, &mut parents);
             let mut counts = [0usize; 4];
             parents.iter().for_each(|&p| counts[p] += 1);
             assert_eq!(counts, [4, 2, 1, 1]);
@@ -466,7 +467,7 @@ mod tests {
         let (draws, n_out) = (20_000, 7);
         let mut mean = [0.0f64; 5];
         for _ in 0..draws {
-            stratified_resample(&l, n_out, &mut rng, &mut parents);
+            ResampleScheme::Stratified.resample(&l, n_out, &mut rng, &mut parents);
             assert_eq!(parents.len(), n_out);
             assert!(parents.windows(2).all(|p| p[0] <= p[1]));
             parents.iter().for_each(|&p| mean[p] += 1.0 / draws as f64);
@@ -475,7 +476,7 @@ mod tests {
             assert!((m - n_out as f64 * wi).abs() < 0.03, "mean copies {m} against {}", n_out as f64 * wi);
         }
         // More copies than particles (MH-FastSLAM's nominal count is smaller, here larger).
-        stratified_resample(&l[..1], 3, &mut rng, &mut parents);
+        ResampleScheme::Stratified.resample(&l[..1], 3, &mut rng, &mut parents);
         assert_eq!(parents, [0, 0, 0]);
     }
 
@@ -485,7 +486,7 @@ mod tests {
         let w = [0.5f64, 0.25, 0.125, 0.125];
         let l: Vec<f64> = w.iter().map(|x| x.ln()).collect();
         let mut parents = Vec::new();
-        systematic_resample(&l, 8, &mut rng, &mut parents);
+        ResampleScheme::Systematic.resample(&l, 8, &mut rng, &mut parents);
         let mut counts = [0usize; 4];
         parents.iter().for_each(|&p| counts[p] += 1);
         // Systematic resampling gives floor or ceil of n w_i copies: exact here.

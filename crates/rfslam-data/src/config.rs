@@ -343,6 +343,25 @@ fn is_zero(v: &f64) -> bool {
 }
 
 impl SensorConfig {
+    /// A range-bearing sensor at the vehicle's origin with the hard edge: `max_range` (m),
+    /// `half_angle_deg`, `sigma_range` (m) and `sigma_bearing_deg`.
+    pub fn range_bearing(max_range: f64, half_angle_deg: f64, sigma_range: f64, sigma_bearing_deg: f64) -> Self {
+        SensorConfig {
+            model: SensorKind::RangeBearing,
+            max_range,
+            half_angle_deg,
+            sigma_range: Some(sigma_range),
+            sigma_bearing_deg: Some(sigma_bearing_deg),
+            sigma_x: None,
+            sigma_y: None,
+            offset: [0.0, 0.0],
+            min_range: 0.0,
+            edge: EdgeKind::Hard,
+            edge_band_range: None,
+            edge_band_deg: None,
+        }
+    }
+
     /// The field of view in SI units.
     pub fn fov(&self) -> Fov {
         let edge = match self.edge {
@@ -492,20 +511,7 @@ impl ModelConfig {
     pub fn phd_slam_synthetic() -> ModelConfig {
         ModelConfig {
             motion: MotionConfig::Velocity { sigma_v: 0.8, sigma_omega_deg: 0.5 },
-            sensor: SensorConfig {
-                model: SensorKind::RangeBearing,
-                max_range: 150.0,
-                half_angle_deg: 90.0,
-                sigma_range: Some(0.8),
-                sigma_bearing_deg: Some(0.3),
-                sigma_x: None,
-                sigma_y: None,
-                offset: [0.0, 0.0],
-                min_range: 0.0,
-                edge: EdgeKind::Hard,
-                edge_band_range: None,
-                edge_band_deg: None,
-            },
+            sensor: SensorConfig::range_bearing(150.0, 90.0, 0.8, 0.3),
             detection: DetectionModel::Constant { pd: 0.95 },
             clutter: ClutterConfig { rate: 5.0, intensity: ClutterIntensity::Cartesian },
         }

@@ -3,10 +3,16 @@
 //! steps, the dead-reckoning baseline error on a data set, the recursion benchmarks' data set
 //! and their warmed-up filter state.
 
+use nalgebra::{Matrix2, Matrix3};
 use rfslam_core::motion::propagate;
 use rfslam_core::rng::{purpose, stream};
-use rfslam_core::{ControlSegment, FilterBuild, Pose, Rng, SlamModels};
+use rfslam_core::{
+    ClutterIntensity, ClutterModel, ControlSegment, DetectionModel, FilterBuild, Fov, Motion, Pose, RangeBearingSensor,
+    Rng, SensorKind, SlamModels,
+};
 use rfslam_data::{Dataset, ModelConfig, ScenarioConfig};
+
+use crate::{JobOutcome, MetricsConfig};
 use rfslam_sim::ScenarioData;
 
 /// The models of the PHD-SLAM 3.0 synthetic experiment (Tables I and II,
@@ -15,6 +21,24 @@ use rfslam_sim::ScenarioData;
 /// `sigma_r = 0.8 m`, `sigma_phi = 0.3 deg`; `p_D = 0.95`; 5 clutter per scan (cartesian).
 pub fn phd_slam_synthetic_models() -> SlamModels {
     ModelConfig::phd_slam_synthetic().to_models(Pose::zeros())
+}
+
+/// The planar models of a filter's unit test: a vehicle at the origin with the velocity model
+/// and no control noise, the range-bearing sensor of noise `measurement_noise` over a
+/// `+-90 deg` sector of `max_range` (m), `p_D = 0.95` and one clutter measurement per scan,
+/// uniform in measurement space.
+pub fn unit_test_models(measurement_noise: Matrix2<f64>, max_range: f64) -> SlamModels {
+    SlamModels {
+        motion: Motion::Velocity,
+        control_noise: Matrix3::zeros(),
+        sensor_kind: SensorKind::RangeBearing,
+        sensor: RangeBearingSensor::default(),
+        measurement_noise,
+        fov: Fov::new(max_range, std::f64::consts::FRAC_PI_2),
+        detection: DetectionModel::Constant { pd: 0.95 },
+        clutter: ClutterModel { rate: 1.0, intensity: ClutterIntensity::Measurement },
+        initial_pose: Pose::zeros(),
+    }
 }
 
 /// `scenarios/procedural.toml` (the synthetic experiment's sensor, noise and clutter on a
@@ -26,6 +50,57 @@ pub fn procedural_500() -> ScenarioConfig {
     assert!(text.contains("steps = 4000"), "scenarios/procedural.toml no longer has 4000 steps");
     ScenarioConfig::from_toml_str(&text.replace("steps = 4000", "steps = 500"), "procedural-500.toml")
         .expect("procedural scenario parses")
+}
+
+/// The data sets of [`procedural_500`] drawn with each of `seeds`, each with its
+/// dead-reckoning position RMSE ([`dead_reckoning_rmse`]): the runs of an end-to-end test.
+pub fn procedural_500_runs(seeds: impl IntoIterator<Item = u64>) -> impl Iterator<Item = (u64, Dataset, f64)> {
+    let sc = procedural_500();
+    let world = sc.load_world().expect("procedural world");
+    seeds.into_iter().map(move |seed| {
+        let ds = sc.build_dataset(world.as_ref(), seed).expect("procedural data set");
+        let dr = dead_reckoning_rmse(&ds);
+        (seed, ds, dr)
+    })
+}
+
+/// Builds `F` with `params` and `n` particles on `ds`'s models and runs it as run `seed`
+/// with the default metrics: an end-to-end test's job.
+pub fn run_job<F: FilterBuild>(params: F::Params, ds: &Dataset, n: usize, seed: u64) -> JobOutcome {
+    let mut f = F::try_build(params, &ds.models(), n).expect("valid parameters");
+    crate::run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {})
+}
+
+/// The checks of a run `o` on [`procedural_500`] by a filter that records associations: all
+/// 500 steps run, no Cholesky failure, the position RMSE under a third of dead reckoning's
+/// `dr`, associations recorded with true-positive and true-negative rates above 0.9. Panics
+/// naming `what` (the filter and the run) when one fails.
+pub fn assert_tracks_and_associates(o: &JobOutcome, dr: f64, what: &str) {
+    assert_eq!(o["steps"] as usize, 500, "{what}: steps");
+    assert_eq!(o["cholesky_failures"] as usize, 0, "{what}: Cholesky failures");
+    assert!(o["pos_rmse_m"] < dr / 3.0, "{what}: {:.2} m vs dead reckoning {dr:.2} m", o["pos_rmse_m"]);
+    assert!(o["da_positives"] > 0.0, "{what}: no association recorded");
+    assert!(o["tpr"] > 0.9 && o["tnr"] > 0.9, "{what}: TPR {} TNR {}", o["tpr"], o["tnr"]);
+}
+
+/// Run `seed` of scenarios/map-simple.toml (20 landmarks at least 5 m apart, one clutter
+/// return per scan, 150 steps).
+pub fn map_simple(seed: u64) -> Dataset {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/map-simple.toml");
+    let sc = ScenarioConfig::from_file(std::path::Path::new(path)).expect("scenarios/map-simple.toml");
+    sc.build_dataset(sc.load_world().expect("map-simple world").as_ref(), seed).expect("map-simple data set")
+}
+
+/// `F` with `params` and `n` particles on `ds` (run `seed`): `(false, missed, landmark RMS
+/// error, position RMSE)` of the final map, its GOSPA with `c = 5 m` (on [`map_simple`], whose
+/// landmarks are at least 5 m apart, a duplicate counts as a false landmark). The landmark
+/// error is the GOSPA localisation part over the matched landmarks.
+pub fn final_map_figures<F: FilterBuild>(params: F::Params, ds: &Dataset, n: usize, seed: u64) -> (f64, f64, f64, f64) {
+    let mut f = F::try_build(params, &ds.models(), n).expect("valid parameters");
+    let metrics = MetricsConfig { gospa_c: 5.0, ..MetricsConfig::default() };
+    let o = crate::run_filter(ds, &mut f, seed, &metrics, &mut |_| {});
+    let matched = (o.final_estimate.map.len() as f64 - o["gospa_false"]).max(1.0);
+    (o["gospa_false"], o["gospa_missed"], o["gospa_loc_m"] / matched.sqrt(), o["pos_rmse_m"])
 }
 
 /// Position RMSE of the odometry integrated from the initial pose, against the truth at

@@ -192,18 +192,12 @@ impl Figure for MapFigure {
             .y_label_area_size(Y_LABELS)
             .build_cartesian_2d(b.x0..b.x1, b.y0..b.y1)
             .map_err(draw_err)?;
-        chart
-            .configure_mesh()
-            .x_desc("x [m]")
+        let mut mesh = chart.configure_mesh();
+        mesh.x_desc("x [m]")
             .y_desc("y [m]")
-            .axis_desc_style(style::axis_desc())
-            .label_style(style::tick())
             .x_label_formatter(&|v| style::tick_label(*v))
-            .y_label_formatter(&|v| style::tick_label(*v))
-            .light_line_style(WHITE)
-            .bold_line_style(style::GRID)
-            .draw()
-            .map_err(draw_err)?;
+            .y_label_formatter(&|v| style::tick_label(*v));
+        style::mesh(&mut mesh).draw().map_err(draw_err)?;
 
         // One pixel in data units: finer detail is dropped before drawing.
         let px = (b.x1 - b.x0) / w.saturating_sub(2 * MARGIN + Y_LABELS).max(1) as f64;

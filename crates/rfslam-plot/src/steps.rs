@@ -324,13 +324,10 @@ impl Figure for StepsFigure {
                 .build_cartesian_2d(t0..t1, lo..hi)
                 .map_err(draw_err)?;
             let mut mesh = chart.configure_mesh();
-            mesh.label_style(style::tick())
-                .axis_desc_style(style::axis_desc())
+            style::mesh(&mut mesh)
                 .y_labels(4)
                 .x_label_formatter(&|v| style::tick_label(*v))
-                .y_label_formatter(&|v| style::tick_label(*v))
-                .light_line_style(WHITE)
-                .bold_line_style(style::GRID);
+                .y_label_formatter(&|v| style::tick_label(*v));
             if last {
                 mesh.x_desc(self.x_desc);
             }

@@ -2,9 +2,20 @@
 //! at the width of a page, a colour-blind-safe palette (Okabe and Ito), and data bounds with
 //! equal axis scaling for maps.
 
-use plotters::style::{RGBColor, TextStyle};
+use plotters::chart::MeshStyle;
+use plotters::coord::ranged1d::Ranged;
+use plotters::prelude::DrawingBackend;
+use plotters::style::{RGBColor, TextStyle, WHITE};
 
 use crate::font::FAMILY;
+
+/// A chart's mesh in the look of every figure: axis descriptions and tick labels in the
+/// figure fonts, white minor and light grey major grid lines.
+pub fn mesh<'m, 'a, 'b, X: Ranged, Y: Ranged, DB: DrawingBackend>(
+    mesh: &'m mut MeshStyle<'a, 'b, X, Y, DB>,
+) -> &'m mut MeshStyle<'a, 'b, X, Y, DB> {
+    mesh.axis_desc_style(axis_desc()).label_style(tick()).light_line_style(WHITE).bold_line_style(GRID)
+}
 
 /// Figure title.
 pub fn title() -> TextStyle<'static> {

@@ -276,18 +276,12 @@ impl MetricFigure {
         DB: DrawingBackend,
         Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
     {
-        chart
-            .configure_mesh()
-            .x_desc(self.x_desc.as_str())
+        let mut mesh = chart.configure_mesh();
+        mesh.x_desc(self.x_desc.as_str())
             .y_desc(self.y_desc.as_str())
             .x_label_formatter(&|v| style::tick_label(*v))
-            .y_label_formatter(&|v| style::tick_label(*v))
-            .axis_desc_style(style::axis_desc())
-            .label_style(style::tick())
-            .light_line_style(WHITE)
-            .bold_line_style(style::GRID)
-            .draw()
-            .map_err(draw_err)?;
+            .y_label_formatter(&|v| style::tick_label(*v));
+        style::mesh(&mut mesh).draw().map_err(draw_err)?;
         for (i, (_, pts)) in self.series.iter().enumerate() {
             let c = style::color(i);
             chart.draw_series(lines::segments(pts, c.stroke_width(3))).map_err(draw_err)?;
@@ -496,18 +490,9 @@ impl BarsFigure {
         DB: DrawingBackend,
         Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
     {
-        chart
-            .configure_mesh()
-            .disable_x_mesh()
-            .x_labels(0)
-            .y_desc(self.y_desc.as_str())
-            .y_label_formatter(&|v| style::tick_label(*v))
-            .axis_desc_style(style::axis_desc())
-            .label_style(style::tick())
-            .light_line_style(WHITE)
-            .bold_line_style(style::GRID)
-            .draw()
-            .map_err(draw_err)?;
+        let mut mesh = chart.configure_mesh();
+        mesh.disable_x_mesh().x_labels(0).y_desc(self.y_desc.as_str()).y_label_formatter(&|v| style::tick_label(*v));
+        style::mesh(&mut mesh).draw().map_err(draw_err)?;
         // Group names under the group centres (the axis has no ticks of its own).
         let (bx, by) = area.get_base_pixel();
         let pos = Pos::new(HPos::Center, VPos::Top);

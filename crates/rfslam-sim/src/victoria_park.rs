@@ -386,8 +386,8 @@ fn for_each_row(
 pub(crate) mod tests {
     use super::*;
     use rfslam_core::{AckermannModel, ClutterIntensity, ControlSegment, DetectionModel, MotionModel};
+    use rfslam_data::SensorConfig;
     use rfslam_data::testutil::{TempDir, shared_data};
-    use rfslam_data::{EdgeKind, SensorConfig};
 
     /// A hand-made excerpt in the distributed layout: three scans (the second with a
     /// detection behind the FOV's range and one beyond its angle), odometry rows before,
@@ -416,20 +416,7 @@ pub(crate) mod tests {
     fn models() -> ModelConfig {
         ModelConfig {
             motion: MotionConfig::Ackermann { l: 2.83, h: 0.75, a: 3.78, b: 0.5, sigma_v: 1.0, sigma_steer_deg: 4.0 },
-            sensor: SensorConfig {
-                max_range: 50.0,
-                half_angle_deg: 85.0,
-                model: rfslam_core::SensorKind::RangeBearing,
-                sigma_range: Some(1.0),
-                sigma_bearing_deg: Some(1.0),
-                sigma_x: None,
-                sigma_y: None,
-                offset: [0.0, 0.0],
-                min_range: 0.0,
-                edge: EdgeKind::Hard,
-                edge_band_range: None,
-                edge_band_deg: None,
-            },
+            sensor: SensorConfig::range_bearing(50.0, 85.0, 1.0, 1.0),
             detection: DetectionModel::RangeLinear { pd0: 0.7 },
             clutter: rfslam_data::ClutterConfig { rate: 5.0, intensity: ClutterIntensity::Cartesian },
         }

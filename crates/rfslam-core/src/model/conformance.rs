@@ -82,17 +82,18 @@ pub fn check_sensor_model<S: SensorModel<X, M, Z>, const X: usize, const M: usiz
     model: &S,
     cases: &[Case<X, M, S::Mark>],
 ) -> Result<(), String> {
-    for (i, (x, m, mark)) in cases.iter().enumerate() {
-        let at = |what: &str| format!("{}: case {i}: {what}", S::NAME);
-        jacobians(model, x, m, *mark).map_err(|e| at(&e))?;
-        residual(model, x, m, *mark).map_err(|e| at(&e))?;
-        detection(model, x, m, *mark).map_err(|e| at(&e))?;
-        draws(model, x, m, *mark, i as u64).map_err(|e| at(&e))?;
+    for (i, &(x, m, mark)) in cases.iter().enumerate() {
+        let err = |what: String| format!("{}: case {i}: {what}", S::NAME);
+        let at = At { model, x, m, mark };
+        at.jacobians().map_err(err)?;
+        at.residual().map_err(err)?;
+        at.detection().map_err(err)?;
+        at.draws(i as u64).map_err(err)?;
     }
     Ok(())
 }
 
-/// [`check_sensor_model`] and the checks of [`InvertibleSensorModel`] ([`inverse`], and
+/// [`check_sensor_model`] and the checks of [`InvertibleSensorModel`] ([`At::inverse`], and
 /// clutter draws that invert into the field of view).
 pub fn check_invertible_sensor_model<
     S: InvertibleSensorModel<X, M, Z>,
@@ -104,29 +105,13 @@ pub fn check_invertible_sensor_model<
     cases: &[Case<X, M, S::Mark>],
 ) -> Result<(), String> {
     check_sensor_model(model, cases)?;
-    for (i, (x, m, mark)) in cases.iter().enumerate() {
-        let at = |what: &str| format!("{}: case {i}: {what}", S::NAME);
-        inverse(model, x, m, *mark).map_err(|e| at(&e))?;
-        clutter_in_view(model, x, *mark, i as u64).map_err(|e| at(&e))?;
+    for (i, &(x, m, mark)) in cases.iter().enumerate() {
+        let err = |what: String| format!("{}: case {i}: {what}", S::NAME);
+        let at = At { model, x, m, mark };
+        at.inverse().map_err(err)?;
+        at.clutter_in_view(i as u64).map_err(err)?;
     }
     Ok(())
-}
-
-/// `linearise` agrees with `predict`, and `H_x`, `H_m` with central differences of the
-/// prediction (differences taken through `residual`, so angles wrap).
-pub fn jacobians<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
-    model: &S,
-    x: &SVector<f64, X>,
-    m: &SVector<f64, M>,
-    mark: S::Mark,
-) -> Result<(), String> {
-    let lin = model.linearise(x, m, mark);
-    if lin.z != model.predict(x, m, mark) {
-        return Err(format!("linearise().z {:?} differs from predict() {:?}", lin.z, model.predict(x, m, mark)));
-    }
-    let res = |a: &SVector<f64, Z>, b: &SVector<f64, Z>| model.residual(a, b);
-    central_differences("H_m", &lin.hm, m, |m| model.predict(x, m, mark), res)?;
-    central_differences("H_x", &lin.hx, x, |x| model.predict(x, m, mark), res)
 }
 
 /// Each column `k` of `jac` agrees with the central difference `(f(at + e_k) - f(at - e_k))
@@ -149,161 +134,174 @@ fn central_differences<const R: usize, const N: usize>(
     Ok(())
 }
 
-/// The inverse inverts the prediction, its Jacobians agree with
-/// central differences, the birth covariance is `J_z R J_z^T`, and the birth integral is
-/// `1 / |det H_m|` (square models).
-pub fn inverse<S: InvertibleSensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
-    model: &S,
-    x: &SVector<f64, X>,
-    m: &SVector<f64, M>,
-    mark: S::Mark,
-) -> Result<(), String> {
-    let z = model.predict(x, m, mark);
-    let inv = model.inverse(x, &z, mark);
-    if !close(&inv.m, m, 1e-9) {
-        return Err(format!("inverse(predict(m)) = {:?}, not m = {m:?}", inv.m));
-    }
-    let sub = |a: &SVector<f64, M>, b: &SVector<f64, M>| a - b;
-    central_differences("J_z", &inv.jz, &z, |z| model.inverse(x, z, mark).m, sub)?;
-    central_differences("J_x", &inv.jx, x, |x| model.inverse(x, &z, mark).m, sub)?;
-    let (mean, cov) = model.birth(x, &z, mark);
-    let expected = inv.jz * model.noise(mark) * inv.jz.transpose();
-    if mean != inv.m || !close(&cov, &expected, 1e-12) || cov != cov.transpose() {
-        return Err(format!("birth covariance {cov:?} is not the symmetric J_z R J_z^T {expected:?}"));
-    }
-    if M == Z {
-        let hm = model.linearise(x, m, mark).hm;
-        // |det H_m| from the Cholesky factor of H_m^T H_m (det^2 = prod diag(L)^2).
-        let square = SMatrix::<f64, M, M>::from_fn(|r, c| hm[(r, c)]);
-        let det = (square.transpose() * square).cholesky().map_or(0.0, |ch| {
-            let l = ch.l_dirty();
-            (0..M).map(|i| l[(i, i)]).product::<f64>()
-        });
-        let integral = model.birth_integral(x, &z, mark);
-        if det > 0.0 && (integral * det - 1.0).abs() > 1e-6 {
-            return Err(format!("birth_integral {integral} is not 1 / |det H_m| = {}", 1.0 / det));
-        }
-    }
-    Ok(())
+/// A sensor model at one case (a vehicle state, a landmark in its field of view and the
+/// landmark's type): the receiver of the checks of [`SensorModel`] and
+/// [`InvertibleSensorModel`], each an error saying which property failed.
+pub struct At<'a, S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize> {
+    /// The model under test.
+    pub model: &'a S,
+    /// The vehicle state.
+    pub x: SVector<f64, X>,
+    /// The landmark.
+    pub m: SVector<f64, M>,
+    /// The landmark's type.
+    pub mark: S::Mark,
 }
 
-/// `residual(z, z) = 0`; an angular component shifted by a full turn leaves a zero residual
-/// and every residual's angular components lie in `[-pi, pi)`; a non-angular component's
-/// residual is the plain difference.
-pub fn residual<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
-    model: &S,
-    x: &SVector<f64, X>,
-    m: &SVector<f64, M>,
-    mark: S::Mark,
-) -> Result<(), String> {
-    use std::f64::consts::{PI, TAU};
-    let z = model.predict(x, m, mark);
-    if model.residual(&z, &z) != SVector::<f64, Z>::zeros() {
-        return Err("residual(z, z) is not zero".into());
-    }
-    for (k, c) in model.components().iter().enumerate() {
-        let shift = if c.angle { TAU } else { 0.75 };
-        let r = model.residual(&(z + unit::<Z>(k, shift)), &z);
-        let want = if c.angle { 0.0 } else { shift };
-        if (r[k] - want).abs() > 1e-9 {
-            return Err(format!("component {} ({k}) shifted by {shift}: residual {} not {want}", c.name, r[k]));
+impl<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize> At<'_, S, X, M, Z> {
+    /// `linearise` agrees with `predict`, and `H_x`, `H_m` with central differences of the
+    /// prediction (differences taken through `residual`, so angles wrap).
+    pub fn jacobians(&self) -> Result<(), String> {
+        let &At { model, ref x, ref m, mark } = self;
+        let lin = model.linearise(x, m, mark);
+        if lin.z != model.predict(x, m, mark) {
+            return Err(format!("linearise().z {:?} differs from predict() {:?}", lin.z, model.predict(x, m, mark)));
         }
-        if c.angle {
-            let r = model.residual(&(z + unit::<Z>(k, 3.0)), &(z - unit::<Z>(k, 3.0)));
-            if !(-PI..PI).contains(&r[k]) || (r[k] - (6.0 - TAU)).abs() > 1e-9 {
-                return Err(format!("angle {} not wrapped: residual {} for a difference of 6 rad", c.name, r[k]));
+        let res = |a: &SVector<f64, Z>, b: &SVector<f64, Z>| model.residual(a, b);
+        central_differences("H_m", &lin.hm, m, |m| model.predict(x, m, mark), res)?;
+        central_differences("H_x", &lin.hx, x, |x| model.predict(x, m, mark), res)
+    }
+
+    /// `residual(z, z) = 0`; an angular component shifted by a full turn leaves a zero residual
+    /// and every residual's angular components lie in `[-pi, pi)`; a non-angular component's
+    /// residual is the plain difference.
+    pub fn residual(&self) -> Result<(), String> {
+        let &At { model, ref x, ref m, mark } = self;
+        use std::f64::consts::{PI, TAU};
+        let z = model.predict(x, m, mark);
+        if model.residual(&z, &z) != SVector::<f64, Z>::zeros() {
+            return Err("residual(z, z) is not zero".into());
+        }
+        for (k, c) in model.components().iter().enumerate() {
+            let shift = if c.angle { TAU } else { 0.75 };
+            let r = model.residual(&(z + unit::<Z>(k, shift)), &z);
+            let want = if c.angle { 0.0 } else { shift };
+            if (r[k] - want).abs() > 1e-9 {
+                return Err(format!("component {} ({k}) shifted by {shift}: residual {} not {want}", c.name, r[k]));
+            }
+            if c.angle {
+                let r = model.residual(&(z + unit::<Z>(k, 3.0)), &(z - unit::<Z>(k, 3.0)));
+                if !(-PI..PI).contains(&r[k]) || (r[k] - (6.0 - TAU)).abs() > 1e-9 {
+                    return Err(format!("angle {} not wrapped: residual {} for a difference of 6 rad", c.name, r[k]));
+                }
             }
         }
+        Ok(())
     }
-    Ok(())
-}
 
-/// A landmark of a case is in the field of view with a positive detection probability, for
-/// the filters and for the simulator; a landmark far beyond any sensor is in neither.
-pub fn detection<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
-    model: &S,
-    x: &SVector<f64, X>,
-    m: &SVector<f64, M>,
-    mark: S::Mark,
-) -> Result<(), String> {
-    let cov = SMatrix::<f64, M, M>::identity() * 1e-6;
-    if !model.in_fov(x, m, mark) || model.pd_true(x, m, mark) <= 0.0 {
-        return Err("the case's landmark is not in the field of view".into());
-    }
-    let pd = model.detection_probability(x, m, &cov, mark);
-    if !(pd > 0.0 && pd <= 1.0) {
-        return Err(format!("detection_probability {pd} of a landmark in view"));
-    }
-    let far = m.map(|v| v + 1e9);
-    if model.in_fov(x, &far, mark) || model.pd_true(x, &far, mark) != 0.0 {
-        return Err("a landmark 1e9 m away is in the field of view".into());
-    }
-    if model.detection_probability(x, &far, &cov, mark) > 1e-12 {
-        return Err("a landmark 1e9 m away has a detection probability".into());
-    }
-    Ok(())
-}
-
-/// Draws: the mean and covariance of 20 000 measurements of the landmark are `h` and `R`
-/// (within 5 standard errors); clutter draws are finite.
-pub fn draws<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
-    model: &S,
-    x: &SVector<f64, X>,
-    m: &SVector<f64, M>,
-    mark: S::Mark,
-    seed: u64,
-) -> Result<(), String> {
-    const N: usize = 20_000;
-    let mut rng = Rng::seed_from_u64(seed);
-    let z = model.predict(x, m, mark);
-    let r = model.noise(mark);
-    let mut sum = SVector::<f64, Z>::zeros();
-    let mut sq = SMatrix::<f64, Z, Z>::zeros();
-    for _ in 0..N {
-        let d = model.residual(&model.sample(x, m, mark, &mut rng), &z);
-        sum += d;
-        sq += d * d.transpose();
-    }
-    let mean = sum / N as f64;
-    let cov = sq / N as f64 - mean * mean.transpose();
-    for k in 0..Z {
-        let se = (r[(k, k)] / N as f64).sqrt();
-        if mean[k].abs() > 5.0 * se {
-            return Err(format!("sample mean of component {k} is off by {} (standard error {se})", mean[k]));
+    /// A landmark of a case is in the field of view with a positive detection probability, for
+    /// the filters and for the simulator; a landmark far beyond any sensor is in neither.
+    pub fn detection(&self) -> Result<(), String> {
+        let &At { model, ref x, ref m, mark } = self;
+        let cov = SMatrix::<f64, M, M>::identity() * 1e-6;
+        if !model.in_fov(x, m, mark) || model.pd_true(x, m, mark) <= 0.0 {
+            return Err("the case's landmark is not in the field of view".into());
         }
-        for j in 0..Z {
-            let se = ((r[(k, k)] * r[(j, j)] + r[(k, j)] * r[(k, j)]) / N as f64).sqrt();
-            if (cov[(k, j)] - r[(k, j)]).abs() > 5.0 * se {
-                return Err(format!("sample covariance ({k}, {j}) {} against R {}", cov[(k, j)], r[(k, j)]));
+        let pd = model.detection_probability(x, m, &cov, mark);
+        if !(pd > 0.0 && pd <= 1.0) {
+            return Err(format!("detection_probability {pd} of a landmark in view"));
+        }
+        let far = m.map(|v| v + 1e9);
+        if model.in_fov(x, &far, mark) || model.pd_true(x, &far, mark) != 0.0 {
+            return Err("a landmark 1e9 m away is in the field of view".into());
+        }
+        if model.detection_probability(x, &far, &cov, mark) > 1e-12 {
+            return Err("a landmark 1e9 m away has a detection probability".into());
+        }
+        Ok(())
+    }
+
+    /// Draws: the mean and covariance of 20 000 measurements of the landmark are `h` and `R`
+    /// (within 5 standard errors); clutter draws are finite.
+    pub fn draws(&self, seed: u64) -> Result<(), String> {
+        let &At { model, ref x, ref m, mark } = self;
+        const N: usize = 20_000;
+        let mut rng = Rng::seed_from_u64(seed);
+        let z = model.predict(x, m, mark);
+        let r = model.noise(mark);
+        let mut sum = SVector::<f64, Z>::zeros();
+        let mut sq = SMatrix::<f64, Z, Z>::zeros();
+        for _ in 0..N {
+            let d = model.residual(&model.sample(x, m, mark, &mut rng), &z);
+            sum += d;
+            sq += d * d.transpose();
+        }
+        let mean = sum / N as f64;
+        let cov = sq / N as f64 - mean * mean.transpose();
+        for k in 0..Z {
+            let se = (r[(k, k)] / N as f64).sqrt();
+            if mean[k].abs() > 5.0 * se {
+                return Err(format!("sample mean of component {k} is off by {} (standard error {se})", mean[k]));
+            }
+            for j in 0..Z {
+                let se = ((r[(k, k)] * r[(j, j)] + r[(k, j)] * r[(k, j)]) / N as f64).sqrt();
+                if (cov[(k, j)] - r[(k, j)]).abs() > 5.0 * se {
+                    return Err(format!("sample covariance ({k}, {j}) {} against R {}", cov[(k, j)], r[(k, j)]));
+                }
             }
         }
+        let clutter = self.clutter(&mut rng);
+        if clutter.iter().any(|c| c.iter().any(|v| !v.is_finite())) {
+            return Err("a clutter draw is not finite".into());
+        }
+        Ok(())
     }
-    let mut clutter = Vec::new();
-    for _ in 0..50 {
-        model.sample_clutter(x, &mut rng, &mut clutter);
+
+    /// 50 clutter draws seen from the case's state.
+    fn clutter(&self, rng: &mut Rng) -> Vec<SVector<f64, Z>> {
+        let mut clutter = Vec::new();
+        for _ in 0..50 {
+            self.model.sample_clutter(&self.x, rng, &mut clutter);
+        }
+        clutter
     }
-    if clutter.iter().any(|c| c.iter().any(|v| !v.is_finite())) {
-        return Err("a clutter draw is not finite".into());
-    }
-    Ok(())
 }
 
-/// Clutter draws seen from `x`, inverted as landmarks of type `mark`, fall inside the field
-/// of view (at least 99 % of them: rounding at its limits may put a point just outside).
-pub fn clutter_in_view<S: InvertibleSensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
-    model: &S,
-    x: &SVector<f64, X>,
-    mark: S::Mark,
-    seed: u64,
-) -> Result<(), String> {
-    let mut rng = Rng::seed_from_u64(seed);
-    let mut clutter = Vec::new();
-    for _ in 0..50 {
-        model.sample_clutter(x, &mut rng, &mut clutter);
+impl<S: InvertibleSensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize> At<'_, S, X, M, Z> {
+    /// The inverse inverts the prediction, its Jacobians agree with
+    /// central differences, the birth covariance is `J_z R J_z^T`, and the birth integral is
+    /// `1 / |det H_m|` (square models).
+    pub fn inverse(&self) -> Result<(), String> {
+        let &At { model, ref x, ref m, mark } = self;
+        let z = model.predict(x, m, mark);
+        let inv = model.inverse(x, &z, mark);
+        if !close(&inv.m, m, 1e-9) {
+            return Err(format!("inverse(predict(m)) = {:?}, not m = {m:?}", inv.m));
+        }
+        let sub = |a: &SVector<f64, M>, b: &SVector<f64, M>| a - b;
+        central_differences("J_z", &inv.jz, &z, |z| model.inverse(x, z, mark).m, sub)?;
+        central_differences("J_x", &inv.jx, x, |x| model.inverse(x, &z, mark).m, sub)?;
+        let (mean, cov) = model.birth(x, &z, mark);
+        let expected = inv.jz * model.noise(mark) * inv.jz.transpose();
+        if mean != inv.m || !close(&cov, &expected, 1e-12) || cov != cov.transpose() {
+            return Err(format!("birth covariance {cov:?} is not the symmetric J_z R J_z^T {expected:?}"));
+        }
+        if M == Z {
+            let hm = model.linearise(x, m, mark).hm;
+            // |det H_m| from the Cholesky factor of H_m^T H_m (det^2 = prod diag(L)^2).
+            let square = SMatrix::<f64, M, M>::from_fn(|r, c| hm[(r, c)]);
+            let det = (square.transpose() * square).cholesky().map_or(0.0, |ch| {
+                let l = ch.l_dirty();
+                (0..M).map(|i| l[(i, i)]).product::<f64>()
+            });
+            let integral = model.birth_integral(x, &z, mark);
+            if det > 0.0 && (integral * det - 1.0).abs() > 1e-6 {
+                return Err(format!("birth_integral {integral} is not 1 / |det H_m| = {}", 1.0 / det));
+            }
+        }
+        Ok(())
     }
-    let inside = clutter.iter().filter(|c| model.in_fov(x, &model.inverse(x, c, mark).m, mark)).count();
-    if (inside as f64) < 0.99 * clutter.len() as f64 {
-        return Err(format!("only {inside} of {} clutter draws fall inside the field of view", clutter.len()));
+
+    /// Clutter draws seen from `x`, inverted as landmarks of type `mark`, fall inside the field
+    /// of view (at least 99 % of them: rounding at its limits may put a point just outside).
+    pub fn clutter_in_view(&self, seed: u64) -> Result<(), String> {
+        let &At { model, ref x, mark, .. } = self;
+        let mut rng = Rng::seed_from_u64(seed);
+        let clutter = self.clutter(&mut rng);
+        let inside = clutter.iter().filter(|c| model.in_fov(x, &model.inverse(x, c, mark).m, mark)).count();
+        if (inside as f64) < 0.99 * clutter.len() as f64 {
+            return Err(format!("only {inside} of {} clutter draws fall inside the field of view", clutter.len()));
+        }
+        Ok(())
     }
-    Ok(())
 }

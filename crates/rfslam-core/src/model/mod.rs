@@ -25,6 +25,45 @@
 //! type: a filter generic over a model allocates nothing and dispatches nothing dynamically
 //! inside its per-landmark and per-measurement loops.
 
+/// The [`SensorModel`] methods every planar sensor of a scenario shares, over its fields
+/// `r` (the noise), `fov`, `detection` and `kappa` (the uniform clutter intensity): the
+/// noise, the field of view, the detection probabilities with the scenario's
+/// [`crate::FovEdge`] (`p_D` at the mean for the hard edge and the taper, its expectation
+/// under `N(m, P)` for `expected`; the simulator's at the hard edge), the clutter intensity
+/// and the detection sector.
+macro_rules! planar_sector_methods {
+    ($z:ty) => {
+        #[inline]
+        fn noise(&self, _: ()) -> Matrix2<f64> {
+            self.r
+        }
+
+        #[inline]
+        fn in_fov(&self, x: &Pose, m: &Point2, _: ()) -> bool {
+            self.fov.contains(x, m)
+        }
+
+        #[inline]
+        fn detection_probability(&self, x: &Pose, m: &Point2, cov: &Matrix2<f64>, _: ()) -> f64 {
+            self.detection.pd_gaussian(&self.fov, x, m, cov)
+        }
+
+        #[inline]
+        fn clutter_intensity(&self, _z: &$z) -> f64 {
+            self.kappa
+        }
+
+        #[inline]
+        fn pd_true(&self, x: &Pose, m: &Point2, _: ()) -> f64 {
+            self.detection.pd(&self.fov.hard(), x, m)
+        }
+
+        fn detection_sector(&self) -> Option<(Fov, DetectionModel)> {
+            Some((self.fov, self.detection))
+        }
+    };
+}
+
 pub mod conformance;
 mod radio_sensor;
 mod radio_vehicle;

@@ -510,7 +510,10 @@ mod tests {
         // The inverse of every type (its clutter is drawn over the measurement box, not the
         // field of view, so the clutter-in-view check of the planar sensors does not apply).
         for (i, (x, m, mark)) in cases.iter().enumerate() {
-            crate::model::conformance::inverse(&s, x, m, *mark).map_err(|e| format!("case {i} {mark:?}: {e}")).unwrap();
+            crate::model::conformance::At { model: &s, x: *x, m: *m, mark: *mark }
+                .inverse()
+                .map_err(|e| format!("case {i} {mark:?}: {e}"))
+                .unwrap();
         }
     }
 

@@ -72,32 +72,7 @@ impl SensorModel<3, 2, 2> for RangeBearingModel {
         RangeBearingSensor::residual(z, z_hat)
     }
 
-    #[inline]
-    fn noise(&self, _: ()) -> Matrix2<f64> {
-        self.r
-    }
-
-    #[inline]
-    fn in_fov(&self, x: &Pose, m: &Point2, _: ()) -> bool {
-        self.fov.contains(x, m)
-    }
-
-    /// The scenario's [`crate::FovEdge`]: `p_D` at the mean for the hard edge and the taper,
-    /// its expectation under `N(m, P)` for `expected`.
-    #[inline]
-    fn detection_probability(&self, x: &Pose, m: &Point2, cov: &Matrix2<f64>, _: ()) -> f64 {
-        self.detection.pd_gaussian(&self.fov, x, m, cov)
-    }
-
-    #[inline]
-    fn clutter_intensity(&self, _z: &RangeBearing) -> f64 {
-        self.kappa
-    }
-
-    #[inline]
-    fn pd_true(&self, x: &Pose, m: &Point2, _: ()) -> f64 {
-        self.detection.pd(&self.fov.hard(), x, m)
-    }
+    planar_sector_methods!(RangeBearing);
 
     /// `[r + sigma_r n_1, wrap(phi + sigma_phi n_2)]`, the two standard normals drawn in
     /// that order.
@@ -110,10 +85,6 @@ impl SensorModel<3, 2, 2> for RangeBearingModel {
     /// [`ClutterModel::sample`]: range and bearing uniform over the field of view.
     fn sample_clutter<R: rand::Rng + ?Sized>(&self, _x: &Pose, rng: &mut R, out: &mut Vec<SVector<f64, 2>>) {
         self.clutter.sample(&self.fov.hard(), rng, out);
-    }
-
-    fn detection_sector(&self) -> Option<(Fov, DetectionModel)> {
-        Some((self.fov, self.detection))
     }
 }
 

@@ -101,30 +101,7 @@ impl SensorModel<3, 2, 2> for RelativePositionModel {
         z - z_hat
     }
 
-    #[inline]
-    fn noise(&self, _: ()) -> Matrix2<f64> {
-        self.r
-    }
-
-    #[inline]
-    fn in_fov(&self, x: &Pose, m: &Point2, _: ()) -> bool {
-        self.fov.contains(x, m)
-    }
-
-    #[inline]
-    fn detection_probability(&self, x: &Pose, m: &Point2, cov: &Matrix2<f64>, _: ()) -> f64 {
-        self.detection.pd_gaussian(&self.fov, x, m, cov)
-    }
-
-    #[inline]
-    fn clutter_intensity(&self, _z: &Vector2<f64>) -> f64 {
-        self.kappa
-    }
-
-    #[inline]
-    fn pd_true(&self, x: &Pose, m: &Point2, _: ()) -> f64 {
-        self.detection.pd(&self.fov.hard(), x, m)
-    }
+    planar_sector_methods!(Vector2<f64>);
 
     /// `h(x, m) + L n` with `R = L L^T` and two standard normals (`h` alone if `R` is not
     /// positive definite, which validation excludes).
@@ -149,10 +126,6 @@ impl SensorModel<3, 2, 2> for RelativePositionModel {
             let (s, c) = b.sin_cos();
             out.push(Vector2::new(rho * c - self.sensor.offset[0], rho * s - self.sensor.offset[1]));
         }
-    }
-
-    fn detection_sector(&self) -> Option<(Fov, DetectionModel)> {
-        Some((self.fov, self.detection))
     }
 }
 
