@@ -5,15 +5,14 @@ use nalgebra::{SMatrix, SVector};
 use rfslam_core::model::{LandmarkMark, Vehicle, VehicleModel};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet, draw_state};
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, Motion, ParamError, Rng, Scan, SlamModels,
-    StepReport, Validated,
+    ControlSegment, Estimate, FilterEngine, MapPoint, Motion, ParamError, Rng, Scan, SlamModels, StepReport,
 };
 
 use crate::model::InvertibleSensorModel;
 use crate::params::{Params, undetected_cell};
 use crate::pmbm::{LocalHypothesis, PmbWeight, PmbmDensity, UpdateSettings, Workspace, pmb_update, pmbm_update};
 use crate::undetected::Undetected;
-use rfslam_core::{PlanarSensorModel, SensorKind};
+use rfslam_core::PlanarSensorModel;
 
 /// Which filter of the family.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -256,20 +255,6 @@ where
         }
     }
 
-    /// [`SlamFilter::particle_poses`](rfslam_core::SlamFilter::particle_poses): every
-    /// particle's state and log weight.
-    pub fn particle_poses(&self, out: &mut Vec<(SVector<f64, X>, f64)>) -> bool {
-        self.set.poses_into(out, |p| p.pose);
-        true
-    }
-
-    /// [`SlamFilter::particle_parents`](rfslam_core::SlamFilter::particle_parents): the
-    /// parent of each particle at the last resampling.
-    pub fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-        self.set.parents_into(out);
-        true
-    }
-
     /// The best particle's state and the mapped landmarks (anchors left out) with existence
     /// above `T_EP` in its best global hypothesis, each with its track's type.
     pub fn estimate(&self) -> Estimate<X, M> {
@@ -300,9 +285,7 @@ where
     V: VehicleModel<X, 3> + Send,
     S: InvertibleSensorModel<X, M, Z>,
 {
-    fn particles(&self) -> usize {
-        self.set.len()
-    }
+    rfslam_core::particle_set_methods!(set, pose);
 
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
         self.step_with(odometry, scan.z.iter().copied(), rng)
@@ -311,60 +294,32 @@ where
     fn estimate(&self) -> Estimate<X, M> {
         PmbmFilter::estimate(self)
     }
-
-    fn particle_poses(&self, out: &mut Vec<(SVector<f64, X>, f64)>) -> bool {
-        PmbmFilter::particle_poses(self, out)
-    }
-
-    fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-        PmbmFilter::particle_parents(self, out)
-    }
 }
 
 /// A registered variant of [`PmbmFilter`], generic over the planar sensor model, and its
 /// [`FilterBuild`].
 macro_rules! variant_filter {
     ($(#[$doc:meta])* $ty:ident, $variant:expr, $name:literal) => {
-        rfslam_core::filter_variant!($(#[$doc])* $ty<S>(PmbmFilter<Motion, S, 3, 2, 2>), $name);
-
-        impl<S: PlanarSensorModel> FilterBuild for $ty<S> {
-            type Params = Params;
-
-            fn serves(sensor: SensorKind) -> bool {
-                sensor == S::KIND
-            }
-
-            fn check(params: &Params, models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+        rfslam_core::filter_variant!(
+            $(#[$doc])* $ty<S>(PmbmFilter<Motion, S, 3, 2, 2>), $name;
+            params: Params,
+            check: |params, models, particles| {
                 params.validate(particles)?;
                 let model = sensor_model::<S>(params, models);
                 params.detection(models).validate().map_err(|e| ParamError::new("detection_pd", e))?;
                 params.check_undetected(&model)
-            }
-
-            fn build(params: Validated<Self>, models: &SlamModels) -> Self {
-                let (params, particles) = params.into_parts();
+            },
+            build: |params, models, particles| {
                 let model = sensor_model::<S>(&params, models);
-                $ty(PmbmFilter::new($variant, params, models.vehicle(), model, particles))
-            }
-        }
-
-        impl<V, S2, const X: usize, const M: usize, const Z: usize> rfslam_core::WorldBuild<V, S2, X, M, Z> for $ty
-        where
-            V: VehicleModel<X, 3> + Clone + Send + 'static,
-            S2: InvertibleSensorModel<X, M, Z>,
-        {
-            fn build_world(
-                params: Params,
-                models: &rfslam_core::WorldModels<V, S2, X, M, Z>,
-                particles: usize,
-            ) -> Result<Box<dyn rfslam_core::SlamFilter<X, M, Z>>, ParamError> {
+                PmbmFilter::new($variant, params, models.vehicle(), model, particles)
+            },
+            world: |params, models, particles| {
                 params.validate(particles)?;
                 crate::params::refuse_planar_keys(params.detection_pd, params.clutter_rate)?;
                 params.check_undetected(&models.sensor)?;
-                let engine = PmbmFilter::new($variant, params, models.vehicle.clone(), models.sensor.clone(), particles);
-                Ok(Box::new(rfslam_core::Named { name: $name, engine }))
-            }
-        }
+                PmbmFilter::new($variant, params, models.vehicle.clone(), models.sensor.clone(), particles)
+            },
+        );
     };
 }
 

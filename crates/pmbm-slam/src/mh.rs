@@ -161,11 +161,11 @@ impl<S: PlanarSensorModel> SlamFilter for PmbmSlamMh<S> {
     }
 
     fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
-        self.filter.particle_poses(out)
+        rfslam_core::FilterEngine::particle_poses(&self.filter, out)
     }
 
     fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-        self.filter.particle_parents(out)
+        rfslam_core::FilterEngine::particle_parents(&self.filter, out)
     }
 }
 
