@@ -93,9 +93,9 @@
 //! ```
 
 use nalgebra::{SMatrix, SVector};
-use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, sample_transition};
+use rbphd::{PhdVehicle, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, sample_transition};
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
-use rfslam_core::model::{LandmarkMark, RangeBearingModel, VehicleModel};
+use rfslam_core::model::{LandmarkMark, RangeBearingModel};
 use rfslam_core::state::StateSpace;
 use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Pose, Rng};
 use serde::{Deserialize, Serialize};
@@ -361,7 +361,7 @@ where
 impl<S, V, const X: usize, const M: usize, const Z: usize> Proposal<X, M, Z> for Gao2021Proposal<S, V, X, M, Z>
 where
     S: InvertibleSensorModel<X, M, Z>,
-    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
+    V: PhdVehicle<X>,
 {
     const NAME: &'static str = "phd-2.0a";
     type Params = Gao2021Params;
@@ -468,14 +468,8 @@ where
     }
 }
 
-/// PHD-SLAM 2.0a's density on another world: the same density, in that world's dimensions.
-impl<S, V, const X: usize, const M: usize, const Z: usize> rbphd::ProposalIn<V, S, X, M, Z> for Gao2021Proposal
-where
-    S: InvertibleSensorModel<X, M, Z>,
-    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
-{
-    type In = Gao2021Proposal<S, V, X, M, Z>;
-}
+// PHD-SLAM 2.0a's density on another world: the same density, in that world's dimensions.
+rbphd::proposal_in!(Gao2021Proposal);
 
 /// PHD-SLAM 2.0a on the planar sensor model `S` (default: range-bearing): the registered
 /// `phd-2.0a`.

@@ -38,12 +38,13 @@
 
 use nalgebra::{SMatrix, SVector};
 use rbphd::{
-    CostMatrixBuffers, MissedCost, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, sample_transition,
+    CostMatrixBuffers, MissedCost, PhdVehicle, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd,
+    sample_transition,
 };
 use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
 use rfslam_core::gaussian::{log_normal, sample};
 use rfslam_core::joint_ipl::{JointIpl, JointIplSettings, KlOn};
-use rfslam_core::model::{LandmarkMark, RangeBearingModel, VehicleModel};
+use rfslam_core::model::{LandmarkMark, RangeBearingModel};
 use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Rng};
 use serde::{Deserialize, Serialize};
@@ -125,7 +126,7 @@ impl<S, V, const X: usize, const M: usize, const Z: usize> JointProposal<S, V, X
 impl<S, V, const X: usize, const M: usize, const Z: usize> Proposal<X, M, Z> for JointProposal<S, V, X, M, Z>
 where
     S: InvertibleSensorModel<X, M, Z>,
-    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
+    V: PhdVehicle<X>,
 {
     const NAME: &'static str = "phd-2.0b";
     type Params = JointParams;
@@ -272,14 +273,8 @@ where
     }
 }
 
-/// PHD-SLAM 2.0b's density on another world: the same density, in that world's dimensions.
-impl<S, V, const X: usize, const M: usize, const Z: usize> rbphd::ProposalIn<V, S, X, M, Z> for JointProposal
-where
-    S: InvertibleSensorModel<X, M, Z>,
-    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
-{
-    type In = JointProposal<S, V, X, M, Z>;
-}
+// PHD-SLAM 2.0b's density on another world: the same density, in that world's dimensions.
+rbphd::proposal_in!(JointProposal);
 
 /// PHD-SLAM 2.0b on the planar sensor model `S` (default: range-bearing): the registered
 /// `phd-2.0b`.

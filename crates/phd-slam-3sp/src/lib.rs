@@ -78,10 +78,10 @@ pub mod sigma;
 
 use mh_importance_density::{MhParams, MhProposal, PoseSlr};
 use nalgebra::{SMatrix, SVector};
-use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
+use rbphd::{PhdVehicle, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
 use rfslam_core::gaussian::{log_normal, symmetrise};
 use rfslam_core::ipl::Linearised;
-use rfslam_core::model::{RangeBearingModel, VehicleModel};
+use rfslam_core::model::RangeBearingModel;
 use rfslam_core::params::{Interval, MAX_PARAM};
 use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Rng, SensorModel};
 use serde::{Deserialize, Serialize};
@@ -293,7 +293,7 @@ impl<S, V, const X: usize, const M: usize, const Z: usize> SpProposal<S, V, X, M
 impl<S, V, const X: usize, const M: usize, const Z: usize> Proposal<X, M, Z> for SpProposal<S, V, X, M, Z>
 where
     S: InvertibleSensorModel<X, M, Z>,
-    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
+    V: PhdVehicle<X>,
 {
     const NAME: &'static str = "phd-3.0-sp";
     type Params = SpParams;
@@ -324,14 +324,8 @@ where
     }
 }
 
-/// `phd-3.0-sp`'s density on another world: the same density, in that world's dimensions.
-impl<S, V, const X: usize, const M: usize, const Z: usize> rbphd::ProposalIn<V, S, X, M, Z> for SpProposal
-where
-    S: InvertibleSensorModel<X, M, Z>,
-    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
-{
-    type In = SpProposal<S, V, X, M, Z>;
-}
+// `phd-3.0-sp`'s density on another world: the same density, in that world's dimensions.
+rbphd::proposal_in!(SpProposal);
 
 /// PHD-SLAM 3.0 with the sigma-point SLR on the planar sensor model `S`: registered as
 /// `phd-3.0-sp`.

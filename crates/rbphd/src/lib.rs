@@ -18,7 +18,9 @@ pub use association::{CostMatrixBuffers, MissedCost};
 pub use filter::{Particle, ProposalIn, RbPhd};
 pub use gm::GmMap;
 pub use params::{PhdParams, RbPhdParams};
-pub use proposal::{PoseSample, Proposal, ProposalContext, ProposalStats, sample_transition};
+pub use proposal::{PhdVehicle, PoseSample, Proposal, ProposalContext, ProposalStats, sample_transition};
+#[doc(hidden)]
+pub use rfslam_core::InvertibleSensorModel as __InvertibleSensorModel;
 pub use weighting::{MfTerms, MultiFeatureSettings, Weighting};
 
 /// The range-bearing model of `sensor` with noise `r` (the rest unused by the GM-PHD code),
