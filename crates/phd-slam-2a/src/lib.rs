@@ -74,30 +74,30 @@
 //! [`ProposalStats::components`] reports the number of Gaussians merged (`1 +` gated pairs);
 //! one Gaussian is sampled from.
 //!
-//! # Planar only
-//! The proposal is written for the planar world (pose `[x, y, heading]`, point landmarks,
-//! a two-component measurement): it is a [`Proposal`] only for the planar sensor models
-//! ([`rfslam_core::PlanarSensorModel`]), so `phd-2.0a` has no instance on another world and
-//! a program that asks for one is refused when it is built, never run silently:
-//!
-//! ```compile_fail
-//! // The 5G radio sensor is not planar: there is no `phd-2.0a` on it.
-//! let _ = std::mem::size_of::<phd_slam_2a::PhdSlam2a<rfslam_core::model::RadioSensor>>();
-//! ```
-//!
-//! The planar sensors are served (the registered filter checks the world's sensor kind):
+//! # Every world
+//! The density is written over any vehicle model and any invertible sensor model: states of
+//! `X` components (the predicted covariance's held components, rows and columns of zeros,
+//! stay at the prediction in every conditional, in the merged mean and in every draw; they
+//! are given unit variance where a covariance is factorised and cancel in the weight
+//! correction, as in `phd-3.0`), angles wrapped through the state space's difference and
+//! the sensor's residual, landmarks of `M` coordinates with their types (each pair with the
+//! noise of its landmark's type, anchors included as rows of zero covariance) and
+//! measurements of `Z` components. [`PhdSlam2a`] is the registered planar instance;
+//! [`PhdSlam2aIn`] is the filter on another world, e.g. the 5G radio vehicle:
 //!
 //! ```
-//! let _ = std::mem::size_of::<phd_slam_2a::PhdSlam2a<rfslam_core::model::RelativePositionModel>>();
+//! use rfslam_core::model::{RadioSensor, RadioVehicle};
+//! // phd-2.0a on the 5G radio world: state [x, y, z, heading, clock bias], 3-D landmarks,
+//! // 5-D measurements.
+//! let _ = std::mem::size_of::<phd_slam_2a::PhdSlam2aIn<RadioVehicle, RadioSensor, 5, 3, 5>>();
 //! ```
 
-use nalgebra::{Matrix3, Matrix3x2, Vector3};
-use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
-use rfslam_core::angle::wrap;
+use nalgebra::{SMatrix, SVector};
+use rbphd::{PhdVehicle, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, sample_transition};
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
-use rfslam_core::ipl::pose_diff;
-use rfslam_core::model::RangeBearingModel;
-use rfslam_core::{ParamError, PlanarSensorModel, Pose, Rng};
+use rfslam_core::model::{LandmarkMark, RangeBearingModel};
+use rfslam_core::state::StateSpace;
+use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Pose, Rng};
 use serde::{Deserialize, Serialize};
 use std::marker::PhantomData;
 
@@ -136,22 +136,23 @@ pub struct Gao2021Params {
     pub pair_normalisation: PairNormalisation,
 }
 
-/// One Gaussian of the mixture of the last [`Proposal::propose`] call, before merging.
+/// One Gaussian of the mixture of the last [`Proposal::propose`] call, before merging, over
+/// states of `X` components (the planar pose by default).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MixtureTerm {
+pub struct MixtureTerm<const X: usize = 3> {
     /// `(map component index, measurement index)` of a pair; `None` for the prior.
     pub pair: Option<(usize, usize)>,
     /// Normalised weight `β̃`.
     pub weight: f64,
-    /// Mean (`x̄` for the prior, `μ_ij` for a pair; heading wrapped).
-    pub mean: Pose,
+    /// Mean (`x̄` for the prior, `μ_ij` for a pair; angles wrapped).
+    pub mean: SVector<f64, X>,
     /// Covariance (`Q` for the prior, `Σ_i` for a pair).
-    pub cov: Matrix3<f64>,
+    pub cov: SMatrix<f64, X, X>,
 }
 
 /// A gated pair of the last call.
 #[derive(Debug, Clone, Copy)]
-struct Pair {
+struct Pair<const X: usize> {
     /// Map component index.
     comp: usize,
     /// Row in the detectable list (index into `row_cov`).
@@ -163,32 +164,40 @@ struct Pair {
     /// Normalised weight.
     weight: f64,
     /// `μ_ij`.
-    mean: Pose,
+    mean: SVector<f64, X>,
 }
 
-/// The PHD-SLAM 2.0a importance density (see the crate documentation).
+/// The PHD-SLAM 2.0a importance density (see the crate documentation) on the sensor model
+/// `S` and the vehicle model `V` (states of `X` components, landmarks of `M` coordinates,
+/// measurements of `Z` components; the planar range-bearing world by default).
 #[derive(Debug, Clone)]
-pub struct Gao2021Proposal<S: PlanarSensorModel = RangeBearingModel> {
-    sensor: PhantomData<S>,
+pub struct Gao2021Proposal<
+    S = RangeBearingModel,
+    V = Motion,
+    const X: usize = 3,
+    const M: usize = 2,
+    const Z: usize = 2,
+> {
+    models: PhantomData<(S, V)>,
     params: Gao2021Params,
     // reusable buffers
-    row_cov: Vec<Matrix3<f64>>,
-    pairs: Vec<Pair>,
+    row_cov: Vec<SMatrix<f64, X, X>>,
+    pairs: Vec<Pair<X>>,
     meas_max: Vec<f64>,
     meas_sum: Vec<f64>,
     // the last call
-    predicted: Pose,
-    q: Matrix3<f64>,
+    predicted: SVector<f64, X>,
+    q: SMatrix<f64, X, X>,
     prior_weight: f64,
-    mean: Pose,
-    cov: Matrix3<f64>,
+    mean: SVector<f64, X>,
+    cov: SMatrix<f64, X, X>,
     fell_back: bool,
 }
 
-impl<S: PlanarSensorModel> Gao2021Proposal<S> {
+impl<S, V, const X: usize, const M: usize, const Z: usize> Gao2021Proposal<S, V, X, M, Z> {
     /// The mixture of the last call: the prior first, then one term per gated pair (in the
     /// order of the detectable components, then of the measurements).
-    pub fn mixture(&self) -> impl Iterator<Item = MixtureTerm> + '_ {
+    pub fn mixture(&self) -> impl Iterator<Item = MixtureTerm<X>> + '_ {
         let prior = MixtureTerm { pair: None, weight: self.prior_weight, mean: self.predicted, cov: self.q };
         std::iter::once(prior).chain(self.pairs.iter().map(|p| MixtureTerm {
             pair: Some((p.comp, p.meas)),
@@ -200,7 +209,7 @@ impl<S: PlanarSensorModel> Gao2021Proposal<S> {
 
     /// The Gaussian `N(μ, Σ)` of the last call, the one sampled from (the prior after a
     /// fallback).
-    pub fn merged(&self) -> (Pose, Matrix3<f64>) {
+    pub fn merged(&self) -> (SVector<f64, X>, SMatrix<f64, X, X>) {
         (self.mean, self.cov)
     }
 
@@ -208,49 +217,6 @@ impl<S: PlanarSensorModel> Gao2021Proposal<S> {
     /// Cholesky.
     pub fn fell_back(&self) -> bool {
         self.fell_back
-    }
-
-    /// Steps 1-2 of the crate documentation: the gated pairs, their conditional means,
-    /// `Σ_i` per detectable component and `ln β_ij`.
-    fn collect_pairs(&mut self, ctx: &ProposalContext<S>, stats: &mut ProposalStats) {
-        let sensor = ctx.sensor;
-        let r = sensor.noise(());
-        let (x_bar, q) = (ctx.predicted, ctx.q);
-        self.pairs.clear();
-        self.row_cov.clear();
-        for (row, &i) in ctx.detectable.iter().enumerate() {
-            let (m, p, log_eta, pd) = (ctx.map.mean[i], ctx.map.cov[i], ctx.map.log_w[i], ctx.pd[row]);
-            let lin = sensor.linearise(&x_bar, &m, ());
-            let omega = lin.hm * p * lin.hm.transpose() + r;
-            let s = symmetrise(&(lin.hx * q * lin.hx.transpose() + omega));
-            let Some(ch) = s.cholesky() else {
-                stats.cholesky_failures += 1;
-                self.row_cov.push(q);
-                continue;
-            };
-            // K = Q G_x^T S^-1, i.e. K^T = S^-1 (G_x Q) (S and Q symmetric).
-            let k: Matrix3x2<f64> = ch.solve(&(lin.hx * q)).transpose();
-            let a = Matrix3::identity() - k * lin.hx;
-            self.row_cov.push(symmetrise(&(a * q * a.transpose() + k * omega * k.transpose())));
-            let l = ch.l_dirty();
-            let log_det = 2.0 * (l[(0, 0)].ln() + l[(1, 1)].ln());
-            let base = pd.ln() + log_eta - ctx.log_clutter - 0.5 * (2.0 * LN_2PI + log_det);
-            for (j, zj) in ctx.z.iter().enumerate() {
-                let nu = sensor.residual(zj, &lin.z);
-                let maha = nu.dot(&ch.solve(&nu));
-                // Outside the gate, or NaN.
-                if maha.is_nan() || maha > ctx.gate {
-                    continue;
-                }
-                let log_beta = base - 0.5 * maha;
-                if !log_beta.is_finite() {
-                    continue;
-                }
-                let d = k * nu;
-                let mean = Pose::new(x_bar[0] + d[0], x_bar[1] + d[1], wrap(x_bar[2] + d[2]));
-                self.pairs.push(Pair { comp: i, row, meas: j, log_beta, weight: 0.0, mean });
-            }
-        }
     }
 
     /// Step 4 (weights): normalised `β̃` of the prior and of every pair, in the log domain.
@@ -299,41 +265,107 @@ impl<S: PlanarSensorModel> Gao2021Proposal<S> {
     }
 }
 
+impl<S, V, const X: usize, const M: usize, const Z: usize> Gao2021Proposal<S, V, X, M, Z>
+where
+    S: InvertibleSensorModel<X, M, Z>,
+{
+    /// Steps 1-2 of the crate documentation: the gated pairs, their conditional means,
+    /// `Σ_i` per detectable component and `ln β_ij`.
+    fn collect_pairs(&mut self, ctx: &ProposalContext<S, V, X, M, Z>, stats: &mut ProposalStats) {
+        let sensor = ctx.sensor;
+        let (x_bar, q) = (ctx.predicted, ctx.q);
+        self.pairs.clear();
+        self.row_cov.clear();
+        for (row, &i) in ctx.detectable.iter().enumerate() {
+            let (m, p, log_eta, pd) = (ctx.map.mean[i], ctx.map.cov[i], ctx.map.log_w[i], ctx.pd[row]);
+            let mark = S::Mark::from_index(ctx.map.mark[i]);
+            let lin = sensor.linearise(&x_bar, &m, mark);
+            let omega = lin.hm * p * lin.hm.transpose() + sensor.noise(mark);
+            let s = symmetrise(&(lin.hx * q * lin.hx.transpose() + omega));
+            let Some(ch) = s.cholesky() else {
+                stats.cholesky_failures += 1;
+                self.row_cov.push(q);
+                continue;
+            };
+            // K = Q G_x^T S^-1, i.e. K^T = S^-1 (G_x Q) (S and Q symmetric); the held
+            // components' rows of Q, and so of K, are zero.
+            let k: SMatrix<f64, X, Z> = ch.solve(&(lin.hx * q)).transpose();
+            let a = SMatrix::<f64, X, X>::identity() - k * lin.hx;
+            self.row_cov.push(symmetrise(&(a * q * a.transpose() + k * omega * k.transpose())));
+            let l = ch.l_dirty();
+            let log_det = 2.0 * (0..Z).map(|c| l[(c, c)].ln()).sum::<f64>();
+            let base = pd.ln() + log_eta - ctx.log_clutter - 0.5 * (Z as f64 * LN_2PI + log_det);
+            for (j, zj) in ctx.z.iter().enumerate() {
+                let nu = sensor.residual(zj, &lin.z);
+                let maha = nu.dot(&ch.solve(&nu));
+                // Outside the gate, or NaN.
+                if maha.is_nan() || maha > ctx.gate {
+                    continue;
+                }
+                let log_beta = base - 0.5 * maha;
+                if !log_beta.is_finite() {
+                    continue;
+                }
+                let mean = ctx.space.wrapped(x_bar + k * nu);
+                self.pairs.push(Pair { comp: i, row, meas: j, log_beta, weight: 0.0, mean });
+            }
+        }
+    }
+}
+
 /// Moment matching of a weighted set of pose Gaussians `(w_c, μ_c, Σ_c)` into one:
 /// every mean is expressed as the offset `μ_c ⊖ reference` (heading wrapped), the offsets are
 /// averaged, the result is added back to `reference` (heading wrapped), and the spread term uses
 /// the same offsets: `Σ = Σ_c w̃_c [Σ_c + (δ_c − δ̄)(δ_c − δ̄)ᵀ]`. Weights need not be normalised.
-/// Returns `None` if the weights do not sum to a positive finite number.
-pub fn moment_match<'a, I>(reference: &Pose, terms: I) -> Option<(Pose, Matrix3<f64>)>
+/// Returns `None` if the weights do not sum to a positive finite number. The planar case of
+/// [`moment_match_in`].
+pub fn moment_match<'a, I>(reference: &Pose, terms: I) -> Option<(Pose, nalgebra::Matrix3<f64>)>
 where
-    I: IntoIterator<Item = (f64, &'a Pose, &'a Matrix3<f64>)>,
+    I: IntoIterator<Item = (f64, &'a Pose, &'a nalgebra::Matrix3<f64>)>,
+    I::IntoIter: Clone,
+{
+    moment_match_in(&StateSpace::PLANAR, reference, terms)
+}
+
+/// [`moment_match`] over states of `X` components: the offsets are the state space's
+/// differences (every angular component wrapped), the mean is wrapped back.
+pub fn moment_match_in<'a, I, const X: usize>(
+    space: &StateSpace<X>,
+    reference: &SVector<f64, X>,
+    terms: I,
+) -> Option<(SVector<f64, X>, SMatrix<f64, X, X>)>
+where
+    I: IntoIterator<Item = (f64, &'a SVector<f64, X>, &'a SMatrix<f64, X, X>)>,
     I::IntoIter: Clone,
 {
     let terms = terms.into_iter();
     let mut wsum = 0.0;
-    let mut offset = Vector3::zeros();
+    let mut offset = SVector::<f64, X>::zeros();
     for (w, m, _) in terms.clone() {
         wsum += w;
-        offset += w * pose_diff(m, reference);
+        offset += w * space.difference(m, reference);
     }
     if !(wsum > 0.0 && wsum.is_finite()) {
         return None;
     }
     offset /= wsum;
-    let mut cov = Matrix3::zeros();
+    let mut cov = SMatrix::<f64, X, X>::zeros();
     for (w, m, c) in terms {
-        let d = pose_diff(m, reference) - offset;
+        let d = space.difference(m, reference) - offset;
         cov += w * (c + d * d.transpose());
     }
     cov /= wsum;
-    let mean = Pose::new(reference[0] + offset[0], reference[1] + offset[1], wrap(reference[2] + offset[2]));
-    Some((mean, symmetrise(&cov)))
+    Some((space.wrapped(reference + offset), symmetrise(&cov)))
 }
 
-impl<S: PlanarSensorModel> Proposal for Gao2021Proposal<S> {
+impl<S, V, const X: usize, const M: usize, const Z: usize> Proposal<X, M, Z> for Gao2021Proposal<S, V, X, M, Z>
+where
+    S: InvertibleSensorModel<X, M, Z>,
+    V: PhdVehicle<X>,
+{
     const NAME: &'static str = "phd-2.0a";
     type Params = Gao2021Params;
-    type Vehicle = rfslam_core::Motion;
+    type Vehicle = V;
     type Sensor = S;
 
     fn validate(_: &Gao2021Params) -> Result<(), ParamError> {
@@ -342,30 +374,31 @@ impl<S: PlanarSensorModel> Proposal for Gao2021Proposal<S> {
 
     fn new(params: &Gao2021Params) -> Self {
         Gao2021Proposal {
-            sensor: PhantomData,
+            models: PhantomData,
             params: params.clone(),
             row_cov: Vec::new(),
             pairs: Vec::new(),
             meas_max: Vec::new(),
             meas_sum: Vec::new(),
-            predicted: Pose::zeros(),
-            q: Matrix3::zeros(),
+            predicted: SVector::zeros(),
+            q: SMatrix::zeros(),
             prior_weight: 1.0,
-            mean: Pose::zeros(),
-            cov: Matrix3::zeros(),
+            mean: SVector::zeros(),
+            cov: SMatrix::zeros(),
             fell_back: false,
         }
     }
 
     fn propose(
         &mut self,
-        ctx: &ProposalContext<S>,
+        ctx: &ProposalContext<S, V, X, M, Z>,
         n: usize,
         rng: &mut Rng,
-        out: &mut Vec<PoseSample>,
+        out: &mut Vec<PoseSample<X>>,
     ) -> ProposalStats {
         out.clear();
         let mut stats = ProposalStats::default();
+        let space = &ctx.space;
         let (x_bar, q) = (ctx.predicted, ctx.q);
         self.predicted = x_bar;
         self.q = q;
@@ -381,8 +414,10 @@ impl<S: PlanarSensorModel> Proposal for Gao2021Proposal<S> {
             let prior = std::iter::once((self.prior_weight, &self.predicted, &self.q));
             let row_cov = &self.row_cov;
             let pairs = self.pairs.iter().map(|p| (p.weight, &p.mean, &row_cov[p.row]));
-            match moment_match(&x_bar, prior.chain(pairs)) {
-                Some((m, c)) if m.iter().all(|v| v.is_finite()) && c.cholesky().is_some() => Some((m, c)),
+            match moment_match_in(space, &x_bar, prior.chain(pairs)) {
+                Some((m, c)) if m.iter().all(|v| v.is_finite()) && space.factorable(&c).cholesky().is_some() => {
+                    Some((m, c))
+                }
                 _ => {
                     stats.cholesky_failures += 1;
                     self.fell_back = true;
@@ -395,31 +430,37 @@ impl<S: PlanarSensorModel> Proposal for Gao2021Proposal<S> {
         self.cov = cov;
 
         // Step 7: the new poses; eqs. (45), (47), (48) with one Gaussian for the correction.
+        if self.params.use_mean {
+            out.extend(std::iter::repeat_n(PoseSample { pose: mean, log_correction: 0.0, component: 0 }, n));
+            return stats;
+        }
+        let Some((mean, cov)) = merged else {
+            // The prior, drawn as the bootstrap (phd-1.0) draws (q = f, correction 0).
+            stats.cholesky_failures += sample_transition(ctx, n, rng, out).cholesky_failures;
+            return stats;
+        };
+        // The held components add the same constant to both densities and cancel.
+        let (q_f, cov_f) = (space.factorable(&q), space.factorable(&cov));
         for _ in 0..n {
-            if self.params.use_mean {
-                out.push(PoseSample { pose: mean, log_correction: 0.0, component: 0 });
-                continue;
-            }
-            let Some(mut x) = sample(&mean, &cov, rng) else {
-                // Only the prior can get here (a merged covariance passed Cholesky above).
+            let Some(mut x) = sample(&mean, &cov_f, rng) else {
+                // Unreachable in practice: the merged covariance passed Cholesky above.
                 stats.cholesky_failures += 1;
                 out.push(PoseSample { pose: mean, log_correction: 0.0, component: 0 });
                 continue;
             };
-            x[2] = wrap(x[2]);
-            let log_correction = if merged.is_none() {
-                0.0 // q = f
-            } else {
-                let log_f = log_normal(&pose_diff(&x, &x_bar), &q);
-                let log_q = log_normal(&pose_diff(&x, &mean), &cov);
-                match (log_f, log_q) {
-                    (Some(a), Some(b)) if (a - b).is_finite() => a - b,
-                    (None, _) | (_, None) => {
-                        stats.cholesky_failures += 1;
-                        0.0
-                    }
-                    _ => 0.0,
+            for i in (0..X).filter(|&i| space.held[i]) {
+                x[i] = mean[i];
+            }
+            let x = space.wrapped(x);
+            let log_f = log_normal(&space.difference(&x, &x_bar), &q_f);
+            let log_q = log_normal(&space.difference(&x, &mean), &cov_f);
+            let log_correction = match (log_f, log_q) {
+                (Some(a), Some(b)) if (a - b).is_finite() => a - b,
+                (None, _) | (_, None) => {
+                    stats.cholesky_failures += 1;
+                    0.0
                 }
+                _ => 0.0,
             };
             out.push(PoseSample { pose: x, log_correction, component: 0 });
         }
@@ -427,17 +468,28 @@ impl<S: PlanarSensorModel> Proposal for Gao2021Proposal<S> {
     }
 }
 
-/// PHD-SLAM 2.0a.
+// PHD-SLAM 2.0a's density on another world: the same density, in that world's dimensions.
+rbphd::proposal_in!(Gao2021Proposal);
+
+/// PHD-SLAM 2.0a on the planar sensor model `S` (default: range-bearing): the registered
+/// `phd-2.0a`.
 pub type PhdSlam2a<S = RangeBearingModel> = RbPhd<Gao2021Proposal<S>>;
+
+/// PHD-SLAM 2.0a on the vehicle model `V` and the sensor model `S` of any world (states of `X`
+/// components, landmarks of `M` coordinates, measurements of `Z` components).
+pub type PhdSlam2aIn<V, S, const X: usize, const M: usize, const Z: usize> =
+    RbPhd<Gao2021Proposal<S, V, X, M, Z>, X, M, Z>;
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::{Matrix2, Matrix2x3};
+    use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector3};
     use rand::SeedableRng;
     use rbphd::GmMap;
     use rfslam_core::RangeBearingSensor;
     use rfslam_core::SlamModels;
+    use rfslam_core::angle::wrap;
+    use rfslam_core::ipl::pose_diff;
     use rfslam_core::{Point2, RangeBearing};
     use std::f64::consts::PI;
 

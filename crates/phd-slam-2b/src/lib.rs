@@ -19,35 +19,34 @@
 //! failure mode (\[Kaltiokallio2024\] Fig. 2): a wrong best association pulls the proposal away and
 //! nothing corrects it.
 //!
-//! # Planar only
-//! The proposal is written for the planar world (pose `[x, y, heading]`, point landmarks,
-//! a two-component measurement): it is a [`Proposal`] only for the planar sensor models
-//! ([`rfslam_core::PlanarSensorModel`]), so `phd-2.0b` has no instance on another world and
-//! a program that asks for one is refused when it is built, never run silently:
-//!
-//! ```compile_fail
-//! // The 5G radio sensor is not planar: there is no `phd-2.0b` on it.
-//! let _ = std::mem::size_of::<phd_slam_2b::PhdSlam2b<rfslam_core::model::RadioSensor>>();
-//! ```
-//!
-//! The planar sensors are served (the registered filter checks the world's sensor kind):
+//! # Every world
+//! The density is written over any vehicle model and any invertible sensor model: the joint
+//! IPL ([`JointIpl::update_in`]) on `[x; m_D]` of dimension `X + M|D|`, the state's angular
+//! components wrapped at every subtraction and the sensor's residual on the measurements, each
+//! detected landmark with the noise of its type, the state components the vehicle model holds
+//! (zero rows and columns in the predicted covariance) never moved and given unit variance
+//! where a covariance is factorised (they cancel in the weight correction), as in `phd-3.0`.
+//! [`PhdSlam2b`] is the registered planar instance; [`PhdSlam2bIn`] is the filter on another
+//! world, e.g. the 5G radio vehicle:
 //!
 //! ```
-//! let _ = std::mem::size_of::<phd_slam_2b::PhdSlam2b<rfslam_core::model::RelativePositionModel>>();
+//! use rfslam_core::model::{RadioSensor, RadioVehicle};
+//! // phd-2.0b on the 5G radio world: state [x, y, z, heading, clock bias], 3-D landmarks,
+//! // 5-D measurements.
+//! let _ = std::mem::size_of::<phd_slam_2b::PhdSlam2bIn<RadioVehicle, RadioSensor, 5, 3, 5>>();
 //! ```
 
-use nalgebra::{Matrix2, Matrix3};
+use nalgebra::{SMatrix, SVector};
 use rbphd::{
-    CostMatrixBuffers, MissedCost, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, sample_transition,
+    CostMatrixBuffers, MissedCost, PhdVehicle, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd,
+    sample_transition,
 };
 use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
-use rfslam_core::angle::wrap;
 use rfslam_core::gaussian::{log_normal, sample};
-use rfslam_core::ipl::pose_diff;
 use rfslam_core::joint_ipl::{JointIpl, JointIplSettings, KlOn};
-use rfslam_core::model::RangeBearingModel;
+use rfslam_core::model::{LandmarkMark, RangeBearingModel};
 use rfslam_core::params::{CountRange, Interval};
-use rfslam_core::{ParamError, PlanarSensorModel, Point2, Pose, RangeBearing, Rng};
+use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Rng};
 use serde::{Deserialize, Serialize};
 use std::marker::PhantomData;
 
@@ -89,40 +88,49 @@ impl Default for JointParams {
     }
 }
 
-/// The joint pose-and-map IPL importance density on the best association.
+/// The joint pose-and-map IPL importance density on the best association, on the sensor
+/// model `S` and the vehicle model `V` (states of `X` components, landmarks of `M`
+/// coordinates, measurements of `Z` components; the planar range-bearing world by default).
 #[derive(Clone)]
-pub struct JointProposal<S: PlanarSensorModel = RangeBearingModel> {
-    sensor: PhantomData<S>,
+pub struct JointProposal<S = RangeBearingModel, V = Motion, const X: usize = 3, const M: usize = 2, const Z: usize = 2>
+{
+    models: PhantomData<(S, V)>,
     params: JointParams,
     murty: Murty,
     ranked: Vec<Assignment>,
     cost: CostMatrixBuffers,
-    ipl: JointIpl,
+    ipl: JointIpl<X, M, Z>,
     /// Map component of each cost-matrix row (the detectable components), last call.
     rows: Vec<usize>,
     /// Measurement associated with each row (`None`: missed), last call.
     phi: Vec<Option<usize>>,
     n_meas: usize,
-    m_bar: Vec<Point2>,
-    p_m: Vec<Matrix2<f64>>,
-    z: Vec<RangeBearing>,
+    m_bar: Vec<SVector<f64, M>>,
+    p_m: Vec<SMatrix<f64, M, M>>,
+    /// Mark index of each detected landmark.
+    marks: Vec<u8>,
+    z: Vec<SVector<f64, Z>>,
     /// The proposal `N(mean, cov)` of the last call.
-    mean: Pose,
-    cov: Matrix3<f64>,
+    mean: SVector<f64, X>,
+    cov: SMatrix<f64, X, X>,
 }
 
-impl<S: PlanarSensorModel> JointProposal<S> {
+impl<S, V, const X: usize, const M: usize, const Z: usize> JointProposal<S, V, X, M, Z> {
     /// The best association of the last call (measurement index per detectable component,
     /// `None` = missed) and the pose proposal `N(mean, cov)`.
-    pub fn last(&self) -> (&[Option<usize>], &Pose, &Matrix3<f64>) {
+    pub fn last(&self) -> (&[Option<usize>], &SVector<f64, X>, &SMatrix<f64, X, X>) {
         (&self.phi, &self.mean, &self.cov)
     }
 }
 
-impl<S: PlanarSensorModel> Proposal for JointProposal<S> {
+impl<S, V, const X: usize, const M: usize, const Z: usize> Proposal<X, M, Z> for JointProposal<S, V, X, M, Z>
+where
+    S: InvertibleSensorModel<X, M, Z>,
+    V: PhdVehicle<X>,
+{
     const NAME: &'static str = "phd-2.0b";
     type Params = JointParams;
-    type Vehicle = rfslam_core::Motion;
+    type Vehicle = V;
     type Sensor = S;
 
     fn validate(p: &JointParams) -> Result<(), ParamError> {
@@ -132,7 +140,7 @@ impl<S: PlanarSensorModel> Proposal for JointProposal<S> {
 
     fn new(params: &JointParams) -> Self {
         JointProposal {
-            sensor: PhantomData,
+            models: PhantomData,
             params: params.clone(),
             murty: Murty::new(),
             ranked: Vec::new(),
@@ -143,19 +151,21 @@ impl<S: PlanarSensorModel> Proposal for JointProposal<S> {
             n_meas: 0,
             m_bar: Vec::new(),
             p_m: Vec::new(),
+            marks: Vec::new(),
             z: Vec::new(),
-            mean: Pose::zeros(),
-            cov: Matrix3::zeros(),
+            mean: SVector::zeros(),
+            cov: SMatrix::zeros(),
         }
     }
 
     fn propose(
         &mut self,
-        ctx: &ProposalContext<S>,
+        ctx: &ProposalContext<S, V, X, M, Z>,
         n: usize,
         rng: &mut Rng,
-        out: &mut Vec<PoseSample>,
+        out: &mut Vec<PoseSample<X>>,
     ) -> ProposalStats {
+        let space = &ctx.space;
         let (x_bar, q) = (ctx.predicted, ctx.q);
         let nz = ctx.z.len();
         let mut stats = ProposalStats { components: 1, cholesky_failures: 0 };
@@ -182,12 +192,14 @@ impl<S: PlanarSensorModel> Proposal for JointProposal<S> {
         // 3. Joint IPL on the pose and the detected landmarks, pose marginal.
         self.m_bar.clear();
         self.p_m.clear();
+        self.marks.clear();
         self.z.clear();
         for (row, j) in self.phi.iter().enumerate() {
             if let Some(j) = j {
                 let i = self.rows[row];
                 self.m_bar.push(ctx.map.mean[i]);
                 self.p_m.push(ctx.map.cov[i]);
+                self.marks.push(ctx.map.mark[i]);
                 self.z.push(ctx.z[*j]);
             }
         }
@@ -205,17 +217,18 @@ impl<S: PlanarSensorModel> Proposal for JointProposal<S> {
             kl_threshold: self.params.ipl_kl_threshold,
             kl_on: self.params.ipl_kl_on,
         };
-        let sensor = ctx.sensor;
-        let res = self.ipl.update(
+        let (sensor, marks) = (ctx.sensor, &self.marks);
+        let res = self.ipl.update_in(
+            space,
             &x_bar,
             &q,
             &self.m_bar,
             &self.p_m,
             &self.z,
-            &sensor.noise(()),
-            |_, x, mm| {
-                let l = sensor.linearise(x, mm, ());
-                (l.z, l.hx, l.hm)
+            |a, x, mm| {
+                let mark = S::Mark::from_index(marks[a]);
+                let l = sensor.linearise(x, mm, mark);
+                (l.z, l.hx, l.hm, sensor.noise(mark))
             },
             |a, b| sensor.residual(a, b),
             &settings,
@@ -226,17 +239,22 @@ impl<S: PlanarSensorModel> Proposal for JointProposal<S> {
         self.mean = res.mean;
         self.cov = res.cov;
 
-        // 4. Sample and weight, eq. (45) with one Gaussian.
+        // 4. Sample and weight, eq. (45) with one Gaussian; the held components add the
+        // same constant to both densities and cancel.
+        let (q_f, cov_f) = (space.factorable(&q), space.factorable(&res.cov));
         for _ in 0..n {
-            let Some(mut x) = sample(&res.mean, &res.cov, rng) else {
+            let Some(mut x) = sample(&res.mean, &cov_f, rng) else {
                 // Keep the predicted mean and leave the weight (the public code's fallback).
                 stats.cholesky_failures += 1;
                 out.push(PoseSample { pose: x_bar, log_correction: 0.0, component: 0 });
                 continue;
             };
-            x[2] = wrap(x[2]);
-            let log_prior = log_normal(&pose_diff(&x, &x_bar), &q).unwrap_or(f64::NEG_INFINITY);
-            let log_q = log_normal(&pose_diff(&x, &res.mean), &res.cov).unwrap_or(f64::NEG_INFINITY);
+            for i in (0..X).filter(|&i| space.held[i]) {
+                x[i] = res.mean[i];
+            }
+            let x = space.wrapped(x);
+            let log_prior = log_normal(&space.difference(&x, &x_bar), &q_f).unwrap_or(f64::NEG_INFINITY);
+            let log_q = log_normal(&space.difference(&x, &res.mean), &cov_f).unwrap_or(f64::NEG_INFINITY);
             let corr = log_prior - log_q;
             out.push(PoseSample { pose: x, log_correction: if corr.is_finite() { corr } else { 0.0 }, component: 0 });
         }
@@ -255,17 +273,29 @@ impl<S: PlanarSensorModel> Proposal for JointProposal<S> {
     }
 }
 
-/// PHD-SLAM 2.0b.
+// PHD-SLAM 2.0b's density on another world: the same density, in that world's dimensions.
+rbphd::proposal_in!(JointProposal);
+
+/// PHD-SLAM 2.0b on the planar sensor model `S` (default: range-bearing): the registered
+/// `phd-2.0b`.
 pub type PhdSlam2b<S = RangeBearingModel> = RbPhd<JointProposal<S>>;
+
+/// PHD-SLAM 2.0b on the vehicle model `V` and the sensor model `S` of any world (states of `X`
+/// components, landmarks of `M` coordinates, measurements of `Z` components).
+pub type PhdSlam2bIn<V, S, const X: usize, const M: usize, const Z: usize> =
+    RbPhd<JointProposal<S, V, X, M, Z>, X, M, Z>;
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
-    use nalgebra::Vector3;
+    use nalgebra::{Matrix2, Matrix3, Vector3};
     use rand::SeedableRng;
     use rbphd::GmMap;
     use rfslam_core::SlamModels;
+    use rfslam_core::angle::wrap;
+    use rfslam_core::ipl::pose_diff;
+    use rfslam_core::{Point2, Pose, RangeBearing};
 
     use rfslam_eval::fixtures::phd_slam_synthetic_models as models;
 

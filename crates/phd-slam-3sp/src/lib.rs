@@ -52,36 +52,41 @@
 //! the innovation covariance) that fails is handled (the iteration keeps its last accepted
 //! iterate, a component weight becomes zero) and counted in `StepReport::cholesky_failures`.
 //!
-//! # Planar only
-//! The proposal is written for the planar world (pose `[x, y, heading]`, point landmarks,
-//! a two-component measurement): it is a [`Proposal`] only for the planar sensor models
-//! ([`rfslam_core::PlanarSensorModel`]), so `phd-3.0-sp` has no instance on another world and
-//! a program that asks for one is refused when it is built, never run silently:
+//! # Every world
+//! The SLR and the density are written over any vehicle model and any invertible sensor
+//! model, in the state's dimension `X` (the sigma points of `slr_space = "pose"` span the
+//! state components with variance: the components the vehicle model holds, zero rows and
+//! columns in the linearisation density, get no points, and the rule runs in the dimension
+//! of the others, e.g. 4 for the 5G radio vehicle whose height is held; our choice, the
+//! paper's state has no held component), with every angular measurement component averaged
+//! on the circle and each landmark with the noise of its type. `slr_space = "joint"` adds the
+//! `M` landmark coordinates to the rule (dimension `n + M`, the joint covariance block
+//! diagonal, so the points move the state and the landmark one block at a time). The
+//! parameters are checked in the planar dimensions (3 and 5); a rule with no positive spread
+//! in another world's dimension (`sigma_kappa` below `-n`) makes the SLR fail, counted as a
+//! Cholesky failure. [`PhdSlam3Sp`] is the registered planar instance; [`PhdSlam3SpIn`] is
+//! the filter on another world, e.g. the 5G radio vehicle:
 //!
-//! ```compile_fail
-//! // The 5G radio sensor is not planar: there is no `phd-3.0-sp` on it.
-//! let _ = std::mem::size_of::<phd_slam_3sp::PhdSlam3Sp<rfslam_core::model::RadioSensor>>();
 //! ```
-//!
-//! The planar sensors are served (the registered filter checks the world's sensor kind):
-//!
-//! ```
-//! let _ = std::mem::size_of::<phd_slam_3sp::PhdSlam3Sp<rfslam_core::model::RelativePositionModel>>();
+//! use rfslam_core::model::{RadioSensor, RadioVehicle};
+//! // phd-3.0-sp on the 5G radio world: state [x, y, z, heading, clock bias], 3-D landmarks,
+//! // 5-D measurements.
+//! let _ = std::mem::size_of::<phd_slam_3sp::PhdSlam3SpIn<RadioVehicle, RadioSensor, 5, 3, 5>>();
 //! ```
 
 pub mod sigma;
 
 use mh_importance_density::{MhParams, MhProposal, PoseSlr, SlrInput};
-use nalgebra::{Matrix2, Matrix2x3, Matrix5, SMatrix, Vector5};
-use rbphd::{PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
+use nalgebra::{SMatrix, SVector};
+use rbphd::{PhdVehicle, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
 use rfslam_core::gaussian::{log_normal, symmetrise};
 use rfslam_core::ipl::Linearised;
 use rfslam_core::model::RangeBearingModel;
 use rfslam_core::params::{Interval, MAX_PARAM};
-use rfslam_core::{ParamError, PlanarSensorModel, Point2, Pose, RangeBearing, Rng, SensorModel};
+use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Rng, SensorModel};
 use serde::{Deserialize, Serialize};
 
-pub use sigma::{Moments, SigmaRule, sigma_moments};
+pub use sigma::{Moments, SigmaRule, sigma_moments, sigma_moments_in};
 
 /// Where the sigma points live (see the crate docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -126,7 +131,8 @@ impl SigmaParams {
         SigmaRule { alpha: self.sigma_alpha, beta: self.sigma_beta, kappa: self.sigma_kappa }
     }
 
-    /// Dimension of the sigma-point space.
+    /// Dimension of the sigma-point space in the planar world (the checks of
+    /// [`SigmaParams::validate`]).
     pub fn dimension(&self) -> usize {
         match self.slr_space {
             SlrSpace::Pose => 3,
@@ -189,56 +195,62 @@ impl Default for SigmaPointSlr {
 }
 
 impl SigmaPointSlr {
-    /// The SLR of `g(m, x)` for `x ~ N(mean, cov)` and the landmark `N(m, p)`: `E[g]`,
-    /// `Sigma~^zz` of eq. (42b) including `R`, and `Sigma~^zx` of eq. (42c) (2 x 3).
-    /// `None` if a covariance fails Cholesky.
-    pub fn moments<Sn: SensorModel<3, 2, 2>>(
+    /// The SLR of `g(m, x)` for `x ~ N(mean, cov)` and the landmark `N(m, p)` of type `mark`:
+    /// `E[g]`, `Sigma~^zz` of eq. (42b) including `R`, and `Sigma~^zx` of eq. (42c) (`Z x X`).
+    /// The state components with no variance (a zero row and column of `cov`: held by the
+    /// vehicle model) get no sigma points. `None` if a covariance fails Cholesky.
+    #[allow(clippy::too_many_arguments)]
+    pub fn moments<Sn: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
         &self,
-        at: &SlrInput<'_, Sn, 3, 2, 2>,
-    ) -> Option<(RangeBearing, Matrix2<f64>, Matrix2x3<f64>)> {
+        at: &SlrInput<'_, Sn, X, M, Z>,
+    ) -> Option<(SVector<f64, Z>, SMatrix<f64, Z, Z>, SMatrix<f64, Z, X>)> {
         let SlrInput { sensor, mean, cov, m, p, mark } = *at;
         let r = sensor.noise(mark);
-        // The measurement's angular component, averaged on the circle.
-        let angle = sensor.components().iter().position(|c| c.angle);
+        // The measurement's angular components, averaged on the circle.
+        let angular = sensor.components().map(|c| c.angle);
+        let held: [bool; X] = std::array::from_fn(|i| cov.row(i).iter().all(|&v| v == 0.0));
         match self.space {
             SlrSpace::Pose => {
-                let mo = sigma_moments::<3, 2, _>(mean, cov, &self.rule, angle, |x| {
+                let mo = sigma_moments_in(mean, cov, &held, m, None, &self.rule, &angular, |x, m| {
                     let lin = sensor.linearise(x, m, mark);
                     (lin.z, lin.hm * p * lin.hm.transpose())
                 })?;
                 Some((mo.mean, mo.cov + mo.extra + r, mo.cross))
             }
             SlrSpace::Joint => {
-                let v = Vector5::new(mean[0], mean[1], mean[2], m[0], m[1]);
-                let mut c = Matrix5::zeros();
-                c.fixed_view_mut::<3, 3>(0, 0).copy_from(cov);
-                c.fixed_view_mut::<2, 2>(3, 3).copy_from(p);
-                let mo = sigma_moments::<5, 2, _>(&v, &c, &self.rule, angle, |v| {
-                    let x = Pose::new(v[0], v[1], v[2]);
-                    (sensor.predict(&x, &Point2::new(v[3], v[4]), mark), SMatrix::zeros())
+                let mo = sigma_moments_in(mean, cov, &held, m, Some(p), &self.rule, &angular, |x, m| {
+                    (sensor.predict(x, m, mark), SMatrix::zeros())
                 })?;
-                Some((mo.mean, mo.cov + r, mo.cross.fixed_view::<2, 3>(0, 0).into_owned()))
+                Some((mo.mean, mo.cov + r, mo.cross))
             }
         }
     }
 }
 
-impl PoseSlr for SigmaPointSlr {
+impl<const X: usize, const M: usize, const Z: usize> PoseSlr<X, M, Z> for SigmaPointSlr {
     /// Eq. (42) by sigma points of `pi = N(m_pi, p_pi)`, returned as `(mu~^z, B, Omega)`
-    /// with `B = Sigma~^zx (Sigma~^xx)^-1` (43a) and `Omega = Sigma~^zz - B Sigma~^xx B^T`.
-    fn linearise<Sn: SensorModel<3, 2, 2>>(&self, at: &SlrInput<'_, Sn, 3, 2, 2>) -> Option<Linearised> {
+    /// with `B = Sigma~^zx (Sigma~^xx)^-1` (43a; the held components, zero columns of
+    /// `Sigma~^zx`, factorised with unit variance, so that their columns of `B` are zero) and
+    /// `Omega = Sigma~^zz - B Sigma~^xx B^T`.
+    fn linearise<Sn: SensorModel<X, M, Z>>(&self, at: &SlrInput<'_, Sn, X, M, Z>) -> Option<Linearised<Z, X>> {
         let p_pi = at.cov;
         let (mu_z, s_zz, s_zx) = self.moments(at)?;
-        let b = p_pi.cholesky()?.solve(&s_zx.transpose()).transpose();
+        let mut pf = *p_pi;
+        for i in 0..X {
+            if p_pi.row(i).iter().all(|&v| v == 0.0) {
+                pf[(i, i)] = 1.0;
+            }
+        }
+        let b = pf.cholesky()?.solve(&s_zx.transpose()).transpose();
         let omega = symmetrise(&(s_zz - b * p_pi * b.transpose()));
         Some((mu_z, b, omega))
     }
 
     /// Eq. (44)'s detected factor with the SLR moments at the component `N(mean, cov)`.
-    fn log_likelihood<Sn: SensorModel<3, 2, 2>>(
+    fn log_likelihood<Sn: SensorModel<X, M, Z>>(
         &self,
-        at: &SlrInput<'_, Sn, 3, 2, 2>,
-        z: &RangeBearing,
+        at: &SlrInput<'_, Sn, X, M, Z>,
+        z: &SVector<f64, Z>,
     ) -> Option<f64> {
         let (mu_z, s_zz, _) = self.moments(at)?;
         let nu = at.sensor.residual(z, &mu_z);
@@ -247,25 +259,33 @@ impl PoseSlr for SigmaPointSlr {
 }
 
 /// The importance density of `phd-3.0-sp`: phd-3.0's [`MhProposal`] with [`SigmaPointSlr`],
-/// on the planar sensor model `S`.
+/// on the sensor model `S` and the vehicle model `V` (states of `X` components, landmarks of
+/// `M` coordinates, measurements of `Z` components; the planar range-bearing world by
+/// default).
 #[derive(Clone)]
-pub struct SpProposal<S: PlanarSensorModel = RangeBearingModel>(MhProposal<SigmaPointSlr, S>);
+pub struct SpProposal<S = RangeBearingModel, V = Motion, const X: usize = 3, const M: usize = 2, const Z: usize = 2>(
+    MhProposal<SigmaPointSlr, S, V, X, M, Z>,
+);
 
-impl<S: PlanarSensorModel> SpProposal<S> {
+impl<S, V, const X: usize, const M: usize, const Z: usize> SpProposal<S, V, X, M, Z> {
     /// The underlying multi-hypotheses proposal (its [`MhProposal::mixture`]).
-    pub fn inner(&self) -> &MhProposal<SigmaPointSlr, S> {
+    pub fn inner(&self) -> &MhProposal<SigmaPointSlr, S, V, X, M, Z> {
         &self.0
     }
 }
 
-impl<S: PlanarSensorModel> Proposal for SpProposal<S> {
+impl<S, V, const X: usize, const M: usize, const Z: usize> Proposal<X, M, Z> for SpProposal<S, V, X, M, Z>
+where
+    S: InvertibleSensorModel<X, M, Z>,
+    V: PhdVehicle<X>,
+{
     const NAME: &'static str = "phd-3.0-sp";
     type Params = SpParams;
-    type Vehicle = rfslam_core::Motion;
+    type Vehicle = V;
     type Sensor = S;
 
     fn validate(p: &SpParams) -> Result<(), ParamError> {
-        MhProposal::<SigmaPointSlr, S>::validate_params(&p.mh)?;
+        MhProposal::<SigmaPointSlr, S, V, X, M, Z>::validate_params(&p.mh)?;
         p.sigma.validate()
     }
 
@@ -275,10 +295,10 @@ impl<S: PlanarSensorModel> Proposal for SpProposal<S> {
 
     fn propose(
         &mut self,
-        ctx: &ProposalContext<S>,
+        ctx: &ProposalContext<S, V, X, M, Z>,
         n: usize,
         rng: &mut Rng,
-        out: &mut Vec<PoseSample>,
+        out: &mut Vec<PoseSample<X>>,
     ) -> ProposalStats {
         self.0.propose_mh(ctx, n, rng, out)
     }
@@ -288,18 +308,26 @@ impl<S: PlanarSensorModel> Proposal for SpProposal<S> {
     }
 }
 
+// `phd-3.0-sp`'s density on another world: the same density, in that world's dimensions.
+rbphd::proposal_in!(SpProposal);
+
 /// PHD-SLAM 3.0 with the sigma-point SLR on the planar sensor model `S`: registered as
 /// `phd-3.0-sp`.
 pub type PhdSlam3Sp<S = RangeBearingModel> = RbPhd<SpProposal<S>>;
+
+/// `phd-3.0-sp` on the vehicle model `V` and the sensor model `S` of any world (states of `X`
+/// components, landmarks of `M` coordinates, measurements of `Z` components).
+pub type PhdSlam3SpIn<V, S, const X: usize, const M: usize, const Z: usize> = RbPhd<SpProposal<S, V, X, M, Z>, X, M, Z>;
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
     use mh_importance_density::TaylorSlr;
-    use nalgebra::{Matrix3, Vector2};
+    use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector2};
     use rfslam_core::RangeBearingSensor;
     use rfslam_core::ipl::{IplSettings, ipl_update, ipl_update_slr};
+    use rfslam_core::{Point2, Pose, RangeBearing};
 
     /// The range-bearing model of the PHD-SLAM synthetic experiment (its `R`).
     fn model() -> RangeBearingModel {

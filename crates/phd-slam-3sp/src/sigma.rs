@@ -90,7 +90,8 @@ pub struct Moments<const N: usize, const M: usize> {
 /// The moments of `f(x)` for `x ~ N(m, p)` under `rule`. `f` returns the value and an
 /// additive covariance term averaged into [`Moments::extra`] (zero if there is none).
 /// Component `angle` of `y`, if given, is an angle: each point's value is wrapped relative
-/// to `f(m)` before averaging. `None` if `p` fails Cholesky.
+/// to `f(m)` before averaging. `None` if `p` fails Cholesky. The one-block case of
+/// [`sigma_moments_in`].
 pub fn sigma_moments<const N: usize, const M: usize, F>(
     m: &SVector<f64, N>,
     p: &SMatrix<f64, N, N>,
@@ -101,26 +102,87 @@ pub fn sigma_moments<const N: usize, const M: usize, F>(
 where
     F: FnMut(&SVector<f64, N>) -> (SVector<f64, M>, SMatrix<f64, M, M>),
 {
-    let l = p.cholesky()?.unpack();
-    let w = rule.weights(N);
-    let (y0, a0) = f(m);
+    let mut angular = [false; M];
+    if let Some(k) = angle {
+        angular[k] = true;
+    }
+    let none = SVector::<f64, 0>::zeros();
+    sigma_moments_in::<N, 0, M, _>(m, p, &[false; N], &none, None, rule, &angular, |x, _| f(x))
+}
+
+/// The moments of `f(x, l)` for `x ~ N(m, p)` and, with `q = Some(p_l)`, an independent
+/// `l ~ N(l0, p_l)` (else `l = l0`): the rule in the dimension of `x`'s components that are
+/// not `held` plus, with `q`, the `K` of `l`, its points moving `x` and `l` one block at a
+/// time (the joint covariance is block diagonal, so its factor is too). The held components
+/// of `x` (zero rows and columns in `p`) get no points: they are constants of `f`.
+/// [`Moments::cross`] is `Cov[y, x]`. The components of `y` marked `angular` are angles,
+/// each point's value wrapped relative to the centre's before averaging. `None` if `p` (its
+/// components not held) or `p_l` fails Cholesky, or if the rule has no positive spread in
+/// that dimension.
+#[allow(clippy::too_many_arguments)]
+pub fn sigma_moments_in<const N: usize, const K: usize, const M: usize, F>(
+    m: &SVector<f64, N>,
+    p: &SMatrix<f64, N, N>,
+    held: &[bool; N],
+    l0: &SVector<f64, K>,
+    q: Option<&SMatrix<f64, K, K>>,
+    rule: &SigmaRule,
+    angular: &[bool; M],
+    mut f: F,
+) -> Option<Moments<N, M>>
+where
+    F: FnMut(&SVector<f64, N>, &SVector<f64, K>) -> (SVector<f64, M>, SMatrix<f64, M, M>),
+{
+    let mut pf = *p;
+    for i in (0..N).filter(|&i| held[i]) {
+        pf[(i, i)] = 1.0;
+    }
+    let l = pf.cholesky()?.unpack();
+    let lq = match q {
+        Some(q) => Some(q.cholesky()?.unpack()),
+        None => None,
+    };
+    let n = held.iter().filter(|&&h| !h).count() + if q.is_some() { K } else { 0 };
+    let spread2 = rule.spread2(n);
+    if spread2.is_nan() || spread2 <= 0.0 {
+        return None;
+    }
+    let w = rule.weights(n);
+    let (y0, a0) = f(m, l0);
     let mut sum_d = SVector::<f64, M>::zeros();
     let mut sum_dd = SMatrix::<f64, M, M>::zeros();
     let mut sum_dx = SMatrix::<f64, M, N>::zeros();
     let mut extra = a0 * w.wm0;
-    for i in 0..N {
+    let deviation = |y: SVector<f64, M>| {
+        let mut d = y - y0;
+        for k in (0..M).filter(|&k| angular[k]) {
+            d[k] = wrap(d[k]);
+        }
+        d
+    };
+    for i in (0..N).filter(|&i| !held[i]) {
         let dx = l.column(i) * w.scale;
         for sign in [1.0, -1.0] {
             let dxs = dx * sign;
-            let (y, a) = f(&(m + dxs));
-            let mut d = y - y0;
-            if let Some(k) = angle {
-                d[k] = wrap(d[k]);
-            }
+            let (y, a) = f(&(m + dxs), l0);
+            let d = deviation(y);
             sum_d += d;
             sum_dd += d * d.transpose();
             sum_dx += d * dxs.transpose();
             extra += a * w.wi;
+        }
+    }
+    if let Some(lq) = lq {
+        for i in 0..K {
+            let dl = lq.column(i) * w.scale;
+            for sign in [1.0, -1.0] {
+                let (y, a) = f(m, &(l0 + dl * sign));
+                let d = deviation(y);
+                // These points leave x at its mean: nothing to Cov[y, x].
+                sum_d += d;
+                sum_dd += d * d.transpose();
+                extra += a * w.wi;
+            }
         }
     }
     // The centre's deviation is zero, so E[d] = W_i sum_d, and with
@@ -130,7 +192,7 @@ where
     let d_bar = sum_d * w.wi;
     let cov = sum_dd * w.wi + d_bar * d_bar.transpose() * (rule.beta - rule.alpha * rule.alpha);
     let mut mean = y0 + d_bar;
-    if let Some(k) = angle {
+    for k in (0..M).filter(|&k| angular[k]) {
         mean[k] = wrap(mean[k]);
     }
     Some(Moments { mean, cov: (cov + cov.transpose()) * 0.5, cross: sum_dx * w.wi, extra })

@@ -563,8 +563,8 @@ fn check_params<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: u
 
 /// A registered variant's importance density in another world: the same density, with the
 /// same parameters, on the vehicle model `V` and the sensor model `S`. A variant whose
-/// density is written for the planar world alone (phd-2.0a, phd-2.0b, phd-3.0-sp) does not
-/// implement it, and the registry does not build it there.
+/// density were written for the planar world alone would not implement it, and the
+/// registry would not build it there (every registered variant implements it today).
 pub trait ProposalIn<V, S, const X: usize, const M: usize, const Z: usize>: Proposal {
     /// The density on that world.
     type In: Proposal<X, M, Z, Vehicle = V, Sensor = S, Params = Self::Params>;

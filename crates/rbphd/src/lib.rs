@@ -18,7 +18,11 @@ pub use association::{CostMatrixBuffers, MissedCost};
 pub use filter::{Particle, ProposalIn, RbPhd};
 pub use gm::GmMap;
 pub use params::{PhdParams, RbPhdParams};
-pub use proposal::{Bootstrap, PoseSample, Proposal, ProposalContext, ProposalStats, Transition, sample_transition};
+pub use proposal::{
+    Bootstrap, PhdVehicle, PoseSample, Proposal, ProposalContext, ProposalStats, Transition, sample_transition,
+};
+#[doc(hidden)]
+pub use rfslam_core::InvertibleSensorModel as __InvertibleSensorModel;
 pub use weighting::{MfTerms, MultiFeatureSettings, Weighting};
 
 /// The range-bearing model of `sensor` with noise `r` (the rest unused by the GM-PHD code),

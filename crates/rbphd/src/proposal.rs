@@ -70,6 +70,30 @@ pub struct ProposalStats {
     pub cholesky_failures: u32,
 }
 
+/// A vehicle model an RB-PHD filter can run on (states of `X` components, a three-component
+/// control): every [`VehicleModel`] that can be shared between threads; one name for the
+/// bound every generic importance density repeats.
+pub trait PhdVehicle<const X: usize>: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static {}
+
+impl<V, const X: usize> PhdVehicle<X> for V where V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static
+{}
+
+/// Implements [`crate::ProposalIn`] for the default (planar) instance of a density type
+/// `$density<S, V, X, M, Z>` written over any sensor and vehicle model: on the vehicle model `V`
+/// and the sensor model `S` of another world it is `$density<S, V, X, M, Z>`.
+#[macro_export]
+macro_rules! proposal_in {
+    ($density:ident) => {
+        impl<S, V, const X: usize, const M: usize, const Z: usize> $crate::ProposalIn<V, S, X, M, Z> for $density
+        where
+            S: $crate::__InvertibleSensorModel<X, M, Z>,
+            V: $crate::PhdVehicle<X>,
+        {
+            type In = $density<S, V, X, M, Z>;
+        }
+    };
+}
+
 /// An importance density for the vehicle state, over states of `X` components, landmarks of
 /// `M` coordinates and measurements of `Z` components (the planar world by default).
 pub trait Proposal<const X: usize = 3, const M: usize = 2, const Z: usize = 2>: Send + Sized + 'static {

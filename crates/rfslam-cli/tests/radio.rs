@@ -83,13 +83,13 @@ fn radio_world_sweeps_with_typed_columns() {
 fn radio_world_refusals_say_why() {
     let dir = TempDir::new("radio-refuse");
     dir.write("radio5g.toml", SCENARIO);
-    let planar = entries("\n[[filters]]\nname = \"phd-2.0a\"\nparticles = [10]\n");
+    let planar = entries("\n[[filters]]\nname = \"pmbm-slam-mh\"\nparticles = [10]\n");
     let exp = dir.write("planar.toml", &planar);
     fails(
         dir.path(),
         &["sweep", exp.to_str().unwrap(), "--out", "o"],
         2,
-        &["planar.toml", "filters[4].name", "`phd-2.0a` does not run in the radio5g world", "pmbm-slam"],
+        &["planar.toml", "filters[4].name", "`pmbm-slam-mh` does not run in the radio5g world", "pmbm-slam"],
     );
     let thinned = entries("").replace("params = { undetected = \"constant\" }\n", "");
     let exp = dir.write("thinned.toml", &thinned);

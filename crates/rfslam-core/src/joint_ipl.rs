@@ -20,13 +20,19 @@
 //! measurement involves one landmark; our derivation, checked by the tests below), so they differ
 //! only through re-linearisation at the updated landmark means. All buffers are kept between calls
 //! and grow to the largest `M` seen: no allocation once warmed up.
+//!
+//! [`JointIpl::update_in`] is the same over a vehicle state of `X` components (angles wrapped,
+//! the held components never moved), landmarks of `M` coordinates and measurements of `Z`
+//! components, each landmark with its own measurement noise; [`JointIpl::update`] is its
+//! planar case (`X = 3`, `M = 2`, `Z = 2`, one noise).
 
-use nalgebra::{DMatrix, Matrix2, Matrix2x3, Matrix3};
+use nalgebra::{DMatrix, Matrix2, Matrix2x3, Matrix3, SMatrix, SVector};
 use serde::{Deserialize, Serialize};
 
 use crate::angle::{diff, wrap};
 use crate::gaussian::symmetrise;
-use crate::ipl::{IplResult, kl_divergence};
+use crate::ipl::{IplResult, kl_divergence_in};
+use crate::state::StateSpace;
 use crate::types::{Point2, Pose, RangeBearing};
 
 /// On which density the convergence test `KL(pi_{l-1} || pi_l) < threshold` is evaluated
@@ -61,9 +67,16 @@ impl Default for JointIplSettings {
 /// The sensor linearised at one (pose, landmark) pair: `(g(m, x), G_x, G_m)`.
 pub type JointLinearised = (RangeBearing, Matrix2x3<f64>, Matrix2<f64>);
 
-/// Reusable workspace of the joint IPL.
+/// [`JointLinearised`] for states of `X` components, landmarks of `M` coordinates and
+/// measurements of `Z` components, with the measurement's noise covariance:
+/// `(g(m, x), G_x, G_m, R)`.
+pub type JointLinearisedIn<const X: usize, const M: usize, const Z: usize> =
+    (SVector<f64, Z>, SMatrix<f64, Z, X>, SMatrix<f64, Z, M>, SMatrix<f64, Z, Z>);
+
+/// Reusable workspace of the joint IPL, for states of `X` components, landmarks of `M`
+/// coordinates and measurements of `Z` components (the planar world by default).
 #[derive(Debug, Clone)]
-pub struct JointIpl {
+pub struct JointIpl<const X: usize = 3, const M: usize = 2, const Z: usize = 2> {
     y0: Vec<f64>,
     y_pi: Vec<f64>,
     y_new: Vec<f64>,
@@ -80,10 +93,12 @@ pub struct JointIpl {
     w: DMatrix<f64>,
     /// Scratch for the KL trace term (`n x n`).
     x: DMatrix<f64>,
-    lin: Vec<JointLinearised>,
+    /// `(G_x, G_m, R)` of each associated landmark at the current iterate.
+    #[allow(clippy::type_complexity)]
+    lin: Vec<(SMatrix<f64, Z, X>, SMatrix<f64, Z, M>, SMatrix<f64, Z, Z>)>,
 }
 
-impl Default for JointIpl {
+impl<const X: usize, const M: usize, const Z: usize> Default for JointIpl<X, M, Z> {
     fn default() -> Self {
         let e = || DMatrix::zeros(0, 0);
         JointIpl {
@@ -172,7 +187,7 @@ impl JointIpl {
     /// landmark associated with `z[a]`; `linearise(a, x, m)` is the sensor linearised at a
     /// pose and landmark, `residual(z, z_hat)` the sensor's residual (angles wrapped,
     /// [`crate::SensorModel::residual`]). Returns the pose marginal of the last accepted
-    /// iterate (the prior when `z` is empty).
+    /// iterate (the prior when `z` is empty). The planar case of [`JointIpl::update_in`].
     #[allow(clippy::too_many_arguments)]
     pub fn update<F, D>(
         &mut self,
@@ -190,13 +205,54 @@ impl JointIpl {
         F: FnMut(usize, &Pose, &Point2) -> JointLinearised,
         D: Fn(&RangeBearing, &RangeBearing) -> RangeBearing,
     {
+        self.update_in(
+            &StateSpace::PLANAR,
+            x_bar,
+            q,
+            m_bar,
+            p_m,
+            z,
+            |a, x, m| {
+                let (z_hat, hx, hm) = linearise(a, x, m);
+                (z_hat, hx, hm, *r)
+            },
+            residual,
+            settings,
+        )
+    }
+}
+
+impl<const X: usize, const M: usize, const Z: usize> JointIpl<X, M, Z> {
+    /// [`JointIpl::update`] over a vehicle state of `X` components (`space`: its angular
+    /// components, wrapped at every subtraction, and its held ones, with zero rows and columns
+    /// in `q`: they never move, and are given unit variance in the factorisations, where
+    /// they add the same terms to both densities of the KL test), landmarks of `M`
+    /// coordinates and measurements of `Z` components; `linearise(a, x, m)` also returns the
+    /// noise covariance of landmark `a`'s measurement (its type's).
+    #[allow(clippy::too_many_arguments)]
+    pub fn update_in<F, D>(
+        &mut self,
+        space: &StateSpace<X>,
+        x_bar: &SVector<f64, X>,
+        q: &SMatrix<f64, X, X>,
+        m_bar: &[SVector<f64, M>],
+        p_m: &[SMatrix<f64, M, M>],
+        z: &[SVector<f64, Z>],
+        mut linearise: F,
+        residual: D,
+        settings: &JointIplSettings,
+    ) -> IplResult<X>
+    where
+        F: FnMut(usize, &SVector<f64, X>, &SVector<f64, M>) -> JointLinearisedIn<X, M, Z>,
+        D: Fn(&SVector<f64, Z>, &SVector<f64, Z>) -> SVector<f64, Z>,
+    {
         let m = z.len();
         assert!(m_bar.len() == m && p_m.len() == m, "one prior landmark per measurement");
         if m == 0 {
             return IplResult { mean: *x_bar, cov: *q, iterations: 0, lost_definiteness: false };
         }
-        let n = 3 + 2 * m;
-        let m2 = 2 * m;
+        let n = X + M * m;
+        let m2 = Z * m;
         for b in [&mut self.p0, &mut self.p_pi, &mut self.p_new, &mut self.l_pi, &mut self.l_new, &mut self.x] {
             grow(b, n, n);
         }
@@ -206,16 +262,16 @@ impl JointIpl {
             v.resize(n, 0.0);
         }
         self.res.resize(m2, 0.0);
-        self.lin.resize(m, (RangeBearing::zeros(), Matrix2x3::zeros(), Matrix2::zeros()));
+        self.lin.resize(m, (SMatrix::zeros(), SMatrix::zeros(), SMatrix::zeros()));
 
         // Prior y_0, P_0 = blkdiag(Q, P_1, ..., P_M); pi_0 = prior.
-        self.y0[..3].copy_from_slice(x_bar.as_slice());
+        self.y0[..X].copy_from_slice(x_bar.as_slice());
         self.p0.view_mut((0, 0), (n, n)).fill(0.0);
-        self.p0.view_mut((0, 0), (3, 3)).copy_from(q);
+        self.p0.view_mut((0, 0), (X, X)).copy_from(q);
         for a in 0..m {
-            let o = 3 + 2 * a;
-            self.y0[o..o + 2].copy_from_slice(m_bar[a].as_slice());
-            self.p0.view_mut((o, o), (2, 2)).copy_from(&p_m[a]);
+            let o = X + M * a;
+            self.y0[o..o + M].copy_from_slice(m_bar[a].as_slice());
+            self.p0.view_mut((o, o), (M, M)).copy_from(&p_m[a]);
         }
         self.y_pi.copy_from_slice(&self.y0);
         self.p_pi.view_mut((0, 0), (n, n)).copy_from(&self.p0.view((0, 0), (n, n)));
@@ -225,34 +281,33 @@ impl JointIpl {
 
         for l in 1..=settings.max_iterations.max(1) {
             // Linearise at pi_{l-1}; residuals z ⊖ (z_hat + A (y_0 - y_pi)), angles wrapped.
-            let x_pi = Pose::new(self.y_pi[0], self.y_pi[1], self.y_pi[2]);
-            let dx = Pose::new(self.y0[0] - x_pi[0], self.y0[1] - x_pi[1], diff(self.y0[2], x_pi[2]));
+            let x_pi = SVector::<f64, X>::from_column_slice(&self.y_pi[..X]);
+            let dx = space.difference(&SVector::from_column_slice(&self.y0[..X]), &x_pi);
             for (a, za) in z.iter().enumerate() {
-                let o = 3 + 2 * a;
-                let m_pi = Point2::new(self.y_pi[o], self.y_pi[o + 1]);
-                let (z_hat, hx, hm) = linearise(a, &x_pi, &m_pi);
-                let dm = Point2::new(self.y0[o] - m_pi[0], self.y0[o + 1] - m_pi[1]);
+                let o = X + M * a;
+                let m_pi = SVector::<f64, M>::from_column_slice(&self.y_pi[o..o + M]);
+                let (z_hat, hx, hm, r) = linearise(a, &x_pi, &m_pi);
+                let dm = SVector::<f64, M>::from_column_slice(&self.y0[o..o + M]) - m_pi;
                 let pred = z_hat + hx * dx + hm * dm;
                 let nu = residual(za, &pred);
-                self.res[2 * a] = nu[0];
-                self.res[2 * a + 1] = nu[1];
-                self.lin[a] = (z_hat, hx, hm);
+                self.res[Z * a..Z * a + Z].copy_from_slice(nu.as_slice());
+                self.lin[a] = (hx, hm, r);
             }
             // W = (P_0 A^T)^T: block row a is [G_x Q | 0 .. G_m P_a .. 0] (P_0 block diagonal);
-            // S = A P_0 A^T + I (x) R: block (a, b) = G_x,a Q G_x,b^T + delta_ab (G_m P_a G_m^T + R).
+            // S = A P_0 A^T + blkdiag(R_a): block (a, b) = G_x,a Q G_x,b^T + delta_ab (G_m P_a G_m^T + R_a).
             self.w.view_mut((0, 0), (m2, n)).fill(0.0);
             for (a, pa) in p_m.iter().enumerate() {
-                let (_, hx, hm) = self.lin[a];
+                let (hx, hm, r) = self.lin[a];
                 let hxq = hx * q;
                 let hmp = hm * pa;
-                self.w.view_mut((2 * a, 0), (2, 3)).copy_from(&hxq);
-                self.w.view_mut((2 * a, 3 + 2 * a), (2, 2)).copy_from(&hmp);
+                self.w.view_mut((Z * a, 0), (Z, X)).copy_from(&hxq);
+                self.w.view_mut((Z * a, X + M * a), (Z, M)).copy_from(&hmp);
                 for b in 0..=a {
-                    let mut blk = hxq * self.lin[b].1.transpose();
+                    let mut blk = hxq * self.lin[b].0.transpose();
                     if a == b {
                         blk += symmetrise(&(hmp * hm.transpose())) + r;
                     }
-                    self.s.view_mut((2 * a, 2 * b), (2, 2)).copy_from(&blk);
+                    self.s.view_mut((Z * a, Z * b), (Z, Z)).copy_from(&blk);
                 }
             }
             let (lds, ldw, ldp) = (self.s.nrows(), self.w.nrows(), self.p0.nrows());
@@ -267,7 +322,9 @@ impl JointIpl {
             for i in 0..n {
                 self.y_new[i] = self.y0[i] + dot(&w[i * ldw..i * ldw + m2], &self.res[..m2]);
             }
-            self.y_new[2] = wrap(self.y_new[2]);
+            for i in (0..X).filter(|&i| space.angular[i]) {
+                self.y_new[i] = wrap(self.y_new[i]);
+            }
             {
                 let (p0, p_new, l_new) = (self.p0.as_slice(), self.p_new.as_mut_slice(), self.l_new.as_mut_slice());
                 for j in 0..n {
@@ -279,12 +336,16 @@ impl JointIpl {
                         l_new[i + j * ldp] = v;
                     }
                 }
+                // The held components (zero rows and columns) factorised with unit variance.
+                for i in (0..X).filter(|&i| space.held[i]) {
+                    l_new[i + i * ldp] = 1.0;
+                }
             }
             let Some(ld_new) = cholesky_lower(self.l_new.as_mut_slice(), ldp, n) else {
                 lost = true;
                 break;
             };
-            let converged = l > 1 && self.kl_below(n, ld_pi, ld_new, settings);
+            let converged = l > 1 && self.kl_below(space, n, ld_pi, ld_new, settings);
             std::mem::swap(&mut self.y_pi, &mut self.y_new);
             std::mem::swap(&mut self.p_pi, &mut self.p_new);
             std::mem::swap(&mut self.l_pi, &mut self.l_new);
@@ -294,22 +355,29 @@ impl JointIpl {
                 break;
             }
         }
-        let mean = Pose::new(self.y_pi[0], self.y_pi[1], wrap(self.y_pi[2]));
-        let cov = symmetrise(&self.p_pi.fixed_view::<3, 3>(0, 0).into_owned());
+        let mean = space.wrapped(SVector::from_column_slice(&self.y_pi[..X]));
+        let cov = symmetrise(&self.p_pi.fixed_view::<X, X>(0, 0).into_owned());
         IplResult { mean, cov, iterations: accepted, lost_definiteness: lost }
     }
 
     /// `KL(pi_{l-1} || pi_l) < threshold` (a failed evaluation counts as converged, as in
     /// the partitioned version). `l_new` holds the Cholesky factor of `P_l`, `l_pi` that of
     /// `P_{l-1}`.
-    fn kl_below(&mut self, n: usize, ld_pi: f64, ld_new: f64, settings: &JointIplSettings) -> bool {
+    fn kl_below(
+        &mut self,
+        space: &StateSpace<X>,
+        n: usize,
+        ld_pi: f64,
+        ld_new: f64,
+        settings: &JointIplSettings,
+    ) -> bool {
         let kl = match settings.kl_on {
             KlOn::Pose => {
-                let p0 = self.p_pi.fixed_view::<3, 3>(0, 0).into_owned();
-                let p1 = self.p_new.fixed_view::<3, 3>(0, 0).into_owned();
-                let m0 = Pose::new(self.y_pi[0], self.y_pi[1], self.y_pi[2]);
-                let m1 = Pose::new(self.y_new[0], self.y_new[1], self.y_new[2]);
-                kl_divergence(&m0, &p0, &m1, &p1)
+                let p0 = self.p_pi.fixed_view::<X, X>(0, 0).into_owned();
+                let p1 = self.p_new.fixed_view::<X, X>(0, 0).into_owned();
+                let m0 = SVector::<f64, X>::from_column_slice(&self.y_pi[..X]);
+                let m1 = SVector::<f64, X>::from_column_slice(&self.y_new[..X]);
+                kl_divergence_in(space, &m0, &p0, &m1, &p1)
             }
             KlOn::Joint => {
                 // tr(P_l^-1 P_{l-1}) = |L_l^-1 L_{l-1}|_F^2; Mahalanobis term with L_l.
@@ -328,10 +396,14 @@ impl JointIpl {
                     forward_solve(&l_new[j * ld + j..], ld, n - j, col);
                     tr += dot(col, col);
                 }
-                // d = y_{l-1} - y_l (heading wrapped); |L_l^-1 d|^2.
+                // d = y_{l-1} - y_l (angles wrapped); |L_l^-1 d|^2.
                 self.u.resize(n, 0.0);
                 for i in 0..n {
-                    self.u[i] = if i == 2 { diff(self.y_pi[i], self.y_new[i]) } else { self.y_pi[i] - self.y_new[i] };
+                    self.u[i] = if i < X && space.angular[i] {
+                        diff(self.y_pi[i], self.y_new[i])
+                    } else {
+                        self.y_pi[i] - self.y_new[i]
+                    };
                 }
                 forward_solve(l_new, ld, n, &mut self.u[..n]);
                 let maha = dot(&self.u[..n], &self.u[..n]);

@@ -180,12 +180,14 @@ pub static REGISTRY: &[FilterEntry] = &[
     planar_entry!(
         "phd-2.0a",
         phd_slam_2a::PhdSlam2a,
-        "PHD-SLAM 2.0a (Gao, Battistelli, Chisci 2021): pose conditioned on each gated pair, moment-matched Gaussian proposal"
+        "PHD-SLAM 2.0a (Gao, Battistelli, Chisci 2021): pose conditioned on each gated pair, moment-matched Gaussian proposal",
+        radio
     ),
     planar_entry!(
         "phd-2.0b",
         phd_slam_2b::PhdSlam2b,
-        "PHD-SLAM 2.0b (Kaltiokallio et al. 2022): joint pose-and-map IPL importance density on the best association"
+        "PHD-SLAM 2.0b (Kaltiokallio et al. 2022): joint pose-and-map IPL importance density on the best association",
+        radio
     ),
     planar_entry!(
         "phd-3.0",
@@ -196,7 +198,8 @@ pub static REGISTRY: &[FilterEntry] = &[
     planar_entry!(
         "phd-3.0-sp",
         phd_slam_3sp::PhdSlam3Sp,
-        "PHD-SLAM 3.0 with sigma points (cubature rule by default) in Algorithm 1's statistical linear regression (eq. 42)"
+        "PHD-SLAM 3.0 with sigma points (cubature rule by default) in Algorithm 1's statistical linear regression (eq. 42)",
+        radio
     ),
     planar_entry!(
         "rbphd-mf",
