@@ -64,8 +64,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (k, scan) in ds.scans.iter().enumerate() {
         ds.segments_for_scan(k, &mut seg);
         f.step(&seg, scan, &mut rng);
-        let p = &f.filter.particle_set()[0];
-        let model = f.filter.model();
+        let p = &f.0.filter.particle_set()[0];
+        let model = f.0.filter.model();
         let t = ds.truth_at(scan.t, 0.025).map(|t| (p.pose.xy() - t.position).norm()).unwrap_or(f64::NAN);
         pos_err.push(t);
         for h in p.map.global(0).filter(|h| h.r > 0.0) {
@@ -86,7 +86,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let last = ds.scans.len() - 1;
     let est = f.estimate();
-    let p = &f.filter.particle_set()[0];
+    let p = &f.0.filter.particle_set()[0];
     let nearest = |m: &Vector2<f64>| {
         truth.iter().enumerate().map(|(i, t)| (i, (m - t).norm())).min_by(|a, b| a.1.total_cmp(&b.1)).unwrap()
     };

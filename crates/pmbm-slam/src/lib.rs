@@ -89,7 +89,7 @@ pub mod pmbm;
 pub mod undetected;
 
 pub use filter::{DrawContext, Particle, PmbSlam, PmbmFilter, PmbmSlam, PoseDraw, Variant};
-pub use mh::{MhPmbmParams, PmbmSlamMh};
+pub use mh::{MhPmbmParams, PmbmMh, PmbmSlamMh};
 pub use model::{InvertibleSensorModel, RangeBearingModel};
 pub use mpmb::{MpmbFilter, MpmbParams, MpmbSlam};
 pub use params::{MissedDetection, Params, WeightRule};

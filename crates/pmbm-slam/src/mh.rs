@@ -14,24 +14,25 @@
 //! transition density directly (the mixture would be that density alone, with a zero
 //! correction), so its random stream is `pmbm-slam`'s.
 //!
-//! The density is written for planar worlds (2-D landmarks, two-component measurements), so
-//! the variant is generic over the planar sensor models ([`rfslam_core::PlanarSensorModel`]):
-//! it is a pose hook ([`PmbmFilter::step_with_proposal`]) on the generic filter.
+//! The engine, [`PmbmMh`], is generic over the vehicle and sensor models as [`PmbmFilter`]
+//! is (a pose hook, [`PmbmFilter::step_with_proposal`], on it): the density runs in the
+//! state's dimension (`mh-importance-density`), the known landmarks (the sensor's anchors)
+//! lead its mixture, and in a world of several landmark types a Bernoulli enters it with its
+//! most likely type's density and mark (our choice: the importance density of phd-3.0 takes
+//! one Gaussian per component).
 
 use mh_importance_density::{MhParams, MhProposal, TaylorSlr};
+use nalgebra::SVector;
 use rbphd::{GmMap, PoseSample, ProposalContext};
+use rfslam_core::model::{LandmarkMark, Vehicle, VehicleModel};
 use rfslam_core::params::Interval;
 use rfslam_core::state::StateSpace;
-use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, Motion, ParamError, Pose, Rng, Scan, SlamFilter, SlamModels, StepReport,
-    Validated,
-};
+use rfslam_core::{ControlSegment, Estimate, FilterEngine, Motion, ParamError, Rng, Scan, StepReport};
 use serde::{Deserialize, Serialize};
 
 use crate::filter::{PmbmFilter, PoseDraw, Variant, sensor_model};
-use crate::model::RangeBearingModel;
+use crate::model::InvertibleSensorModel;
 use crate::params::Params;
-use rfslam_core::{PlanarSensorModel, SensorKind};
 
 /// Parameters of `pmbm-slam-mh`: `pmbm-slam`'s, the importance density's, and its gate.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -69,50 +70,75 @@ impl MhPmbmParams {
 
 /// The per-particle importance density and its buffers.
 #[derive(Clone)]
-struct MhDraw<S: PlanarSensorModel> {
-    proposal: MhProposal<TaylorSlr, S>,
+struct MhDraw<V, S: InvertibleSensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize> {
+    proposal: MhProposal<TaylorSlr, S, V, X, M, Z>,
     gate: f64,
-    map: GmMap,
+    map: GmMap<M>,
     detectable: Vec<usize>,
     pd: Vec<f64>,
-    samples: Vec<PoseSample>,
+    samples: Vec<PoseSample<X>>,
 }
 
-impl<S: PlanarSensorModel> std::fmt::Debug for MhDraw<S> {
+impl<V, S: InvertibleSensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize> std::fmt::Debug
+    for MhDraw<V, S, X, M, Z>
+{
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("MhDraw").field("gate", &self.gate).finish_non_exhaustive()
     }
 }
 
-/// `pmbm-slam-mh`: PMBM-SLAM (\[Kim2022\] Section IV-B) with the poses drawn from PHD-SLAM
-/// 3.0's multi-hypotheses importance density on each particle's heaviest global hypothesis
-/// (our variant; see the module docs).
+/// PMBM-SLAM (\[Kim2022\] Section IV-B) with the states drawn from PHD-SLAM 3.0's
+/// multi-hypotheses importance density on each particle's heaviest global hypothesis (our
+/// variant; see the module docs), on the vehicle model `V` and the sensor model `S`.
 #[derive(Debug, Clone)]
-pub struct PmbmSlamMh<S: PlanarSensorModel = RangeBearingModel> {
-    /// The PMBM filter on the planar sensor model `S`.
-    pub filter: PmbmFilter<Motion, S, 3, 2, 2>,
-    mh: MhDraw<S>,
+pub struct PmbmMh<V, S, const X: usize, const M: usize, const Z: usize>
+where
+    V: VehicleModel<X, 3>,
+    S: InvertibleSensorModel<X, M, Z>,
+{
+    /// The PMBM filter.
+    pub filter: PmbmFilter<V, S, X, M, Z>,
+    mh: MhDraw<V, S, X, M, Z>,
     /// `ln max(kappa, min_clutter_intensity)`, the importance density's clutter term.
     log_clutter: f64,
+    /// The state's angular and held components.
+    space: StateSpace<X>,
 }
 
-impl<S: PlanarSensorModel> PmbmSlamMh<S> {
-    /// Registered name.
-    pub const NAME: &'static str = "pmbm-slam-mh";
-}
-
-impl<S: PlanarSensorModel> SlamFilter for PmbmSlamMh<S> {
-    fn name(&self) -> &str {
-        Self::NAME
+impl<V, S, const X: usize, const M: usize, const Z: usize> PmbmMh<V, S, X, M, Z>
+where
+    V: VehicleModel<X, 3>,
+    S: InvertibleSensorModel<X, M, Z>,
+{
+    /// The filter of `n` particles with `params`, `model` the sensor as the filter assumes
+    /// it and `kappa` its clutter intensity.
+    pub fn new(params: MhPmbmParams, vehicle: Vehicle<V, X>, model: S, kappa: f64, n: usize) -> Self {
+        let mh = MhDraw {
+            proposal: MhProposal::with_slr(&params.proposal, TaylorSlr),
+            gate: params.proposal_gate,
+            map: GmMap::default(),
+            detectable: Vec::new(),
+            pd: Vec::new(),
+            samples: Vec::new(),
+        };
+        let log_clutter = kappa.max(params.pmbm.min_clutter_intensity).ln();
+        let space = StateSpace::of(&vehicle.model);
+        let filter = PmbmFilter::new(Variant::Pmbm, params.pmbm, vehicle, model, n);
+        PmbmMh { filter, mh, log_clutter, space }
     }
+}
 
+impl<V, S, const X: usize, const M: usize, const Z: usize> FilterEngine<X, M, Z> for PmbmMh<V, S, X, M, Z>
+where
+    V: VehicleModel<X, 3> + Send,
+    S: InvertibleSensorModel<X, M, Z>,
+{
     fn particles(&self) -> usize {
-        self.filter.set.len()
+        FilterEngine::particles(&self.filter)
     }
 
-    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, rng: &mut Rng) -> StepReport {
-        let mh = &mut self.mh;
-        let log_clutter = self.log_clutter;
+    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
+        let (mh, log_clutter, space) = (&mut self.mh, self.log_clutter, self.space);
         self.filter.step_with_proposal(odometry, scan.z.iter().copied(), rng, |ctx, rng| {
             mh.map.clear();
             mh.detectable.clear();
@@ -120,12 +146,17 @@ impl<S: PlanarSensorModel> SlamFilter for PmbmSlamMh<S> {
             let map = &ctx.particle.map;
             if map.hypotheses() > 0 {
                 for h in map.global(0).filter(|h| h.r > 0.0) {
-                    let pd = ctx.model.detection_probability(&ctx.predicted, &h.mean, &h.cov, ());
+                    let mark = S::Mark::from_index(h.mark);
+                    let pd = ctx.model.detection_probability(&ctx.predicted, &h.mean, &h.cov, mark);
                     if pd > 0.0 {
                         mh.detectable.push(mh.map.len());
                         mh.pd.push(pd);
                     }
-                    mh.map.push(h.r.ln(), h.mean, h.cov);
+                    if ctx.model.mapped(mark) {
+                        mh.map.push_marked(h.r.ln(), h.mean, h.cov, h.mark);
+                    } else {
+                        mh.map.push_anchor(h.mean, h.mark);
+                    }
                 }
             }
             if mh.detectable.is_empty() {
@@ -133,7 +164,7 @@ impl<S: PlanarSensorModel> SlamFilter for PmbmSlamMh<S> {
             }
             let pctx = ProposalContext {
                 vehicle: ctx.vehicle,
-                space: StateSpace::PLANAR,
+                space,
                 sensor: ctx.model,
                 z: ctx.z,
                 prior_pose: ctx.particle.pose,
@@ -156,46 +187,42 @@ impl<S: PlanarSensorModel> SlamFilter for PmbmSlamMh<S> {
         })
     }
 
-    fn estimate(&self) -> Estimate {
+    fn estimate(&self) -> Estimate<X, M> {
         self.filter.estimate()
     }
 
-    fn particle_poses(&self, out: &mut Vec<(Pose, f64)>) -> bool {
-        rfslam_core::FilterEngine::particle_poses(&self.filter, out)
+    fn particle_poses(&self, out: &mut Vec<(SVector<f64, X>, f64)>) -> bool {
+        FilterEngine::particle_poses(&self.filter, out)
     }
 
     fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-        rfslam_core::FilterEngine::particle_parents(&self.filter, out)
+        FilterEngine::particle_parents(&self.filter, out)
     }
 }
 
-impl<S: PlanarSensorModel> FilterBuild for PmbmSlamMh<S> {
-    type Params = MhPmbmParams;
-
-    fn serves(sensor: SensorKind) -> bool {
-        sensor == S::KIND
-    }
-
-    fn check(params: &MhPmbmParams, models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+rfslam_core::filter_variant!(
+    /// `pmbm-slam-mh`: PMBM-SLAM (\[Kim2022\] Section IV-B) with the poses drawn from PHD-SLAM
+    /// 3.0's multi-hypotheses importance density on each particle's heaviest global
+    /// hypothesis (our variant; see the module docs), on the planar sensor model `S`.
+    PmbmSlamMh<S>(PmbmMh<Motion, S, 3, 2, 2>), "pmbm-slam-mh";
+    params: MhPmbmParams,
+    check: |params, models, particles| {
         params.validate(particles)?;
         let model = sensor_model::<S>(&params.pmbm, models);
         params.pmbm.detection(models).validate().map_err(|e| ParamError::new("detection_pd", e))?;
         params.pmbm.check_undetected(&model)
-    }
-
-    fn build(params: Validated<Self>, models: &SlamModels) -> Self {
-        let (params, particles) = params.into_parts();
+    },
+    build: |params, models, particles| {
         let model = sensor_model::<S>(&params.pmbm, models);
-        let mh = MhDraw {
-            proposal: MhProposal::with_slr(&params.proposal, TaylorSlr),
-            gate: params.proposal_gate,
-            map: GmMap::default(),
-            detectable: Vec::new(),
-            pd: Vec::new(),
-            samples: Vec::new(),
-        };
-        let log_clutter = params.pmbm.clutter_intensity(models).max(params.pmbm.min_clutter_intensity).ln();
-        let filter = PmbmFilter::new(Variant::Pmbm, params.pmbm, models.vehicle(), model, particles);
-        PmbmSlamMh { filter, mh, log_clutter }
-    }
-}
+        let kappa = params.pmbm.clutter_intensity(models);
+        PmbmMh::new(params, models.vehicle(), model, kappa, particles)
+    },
+    world: |params, models, particles| {
+        params.validate(particles)?;
+        crate::params::refuse_planar_keys(params.pmbm.detection_pd, params.pmbm.clutter_rate)?;
+        params.pmbm.check_undetected(&models.sensor)?;
+        // The world's clutter intensity is the sensor's (constant over the measurement box).
+        let kappa = models.sensor.clutter_intensity(&SVector::zeros());
+        PmbmMh::new(params, models.vehicle.clone(), models.sensor.clone(), kappa, particles)
+    },
+);

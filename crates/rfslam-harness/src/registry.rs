@@ -252,7 +252,8 @@ pub static REGISTRY: &[FilterEntry] = &[
     planar_entry!(
         "pmbm-slam-mh",
         pmbm_slam::PmbmSlamMh,
-        "our variant: PMBM-SLAM with PHD-SLAM 3.0's multi-hypotheses importance density (Murty + partitioned IPL) on each particle's heaviest global hypothesis"
+        "our variant: PMBM-SLAM with PHD-SLAM 3.0's multi-hypotheses importance density (Murty + partitioned IPL) on each particle's heaviest global hypothesis",
+        radio
     ),
     planar_entry!(
         "pmb-slam",
