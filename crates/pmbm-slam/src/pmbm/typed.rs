@@ -181,8 +181,8 @@ fn detect<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorMod
     chol
 }
 
-/// [`super::children`] in a world of several landmark types: steps ii-iv with the densities
-/// of every type (see the module documentation).
+/// Steps ii-iv of [`super::pmbm_update`] and [`super::pmb_update`] in a world of several
+/// landmark types, with the densities of every type (see the module documentation).
 pub fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorModel<X, M, Z>>(
     map: &PmbmDensity<M>,
     x: &SVector<f64, X>,
