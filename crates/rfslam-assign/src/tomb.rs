@@ -35,7 +35,9 @@ pub struct GaussianBernoulli<const D: usize> {
     pub mark: u8,
 }
 
-fn probability(index: usize, what: &'static str, p: f64) -> Result<(), AssignError> {
+/// `p` as a probability of TOMB/P's inputs: in `[0, 1]` up to the slack of a solver's
+/// rounding, else the error naming hypothesis `index` and `what` is wrong.
+pub fn probability(index: usize, what: &'static str, p: f64) -> Result<(), AssignError> {
     if (0.0..=1.0 + PROBABILITY_SLACK).contains(&p) {
         Ok(())
     } else {

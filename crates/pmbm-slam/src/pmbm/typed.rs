@@ -25,7 +25,7 @@
 
 use nalgebra::{SMatrix, SVector};
 use rfslam_assign::AssignError;
-use rfslam_assign::tomb::moment_match;
+use rfslam_assign::tomb::{moment_match, probability};
 use rfslam_core::gaussian::symmetrise;
 use rfslam_core::model::LandmarkMark;
 use rfslam_core::rbpf::log_sum_exp;
@@ -299,13 +299,10 @@ pub fn tomb_merge_typed<'a, const M: usize, I>(
 where
     I: Iterator<Item = (f64, &'a LocalHypothesis<M>, &'a [TypeDensity<M>])> + Clone,
 {
-    const SLACK: f64 = 1e-9;
-    let in_unit = |p: f64| (0.0..=1.0 + SLACK).contains(&p);
     let mut first = None;
     for (k, (p, h, types)) in children.clone().enumerate() {
-        if !in_unit(p) || !in_unit(h.r) {
-            return Err(AssignError::InvalidHypothesis { index: k, what: "probability outside [0, 1]" });
-        }
+        probability(k, "marginal outside [0, 1]", p)?;
+        probability(k, "existence probability outside [0, 1]", h.r)?;
         if !types.iter().all(|t| t.mean.iter().chain(t.cov.iter()).all(|v| v.is_finite())) {
             return Err(AssignError::InvalidHypothesis { index: k, what: "non-finite mean or covariance" });
         }
