@@ -31,8 +31,9 @@ pub struct GibbsTable {
     row_start: Vec<usize>,
     opt: Vec<i32>,
     log_eta: Vec<f64>,
-    /// `exp(ln eta - row max)`: the unnormalised conditional weights.
-    lin: Vec<f64>,
+    /// Each option with `exp(ln eta - row max)`, its unnormalised conditional weight (one
+    /// array, so the sampler's inner loop reads one slice per row).
+    lin: Vec<(i32, f64)>,
     open: bool,
 }
 
@@ -82,7 +83,8 @@ impl GibbsTable {
         let s = *self.row_start.last().unwrap_or(&0);
         let e = self.opt.len();
         let max = self.log_eta[s..e].iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        self.lin.extend(self.log_eta[s..e].iter().map(|l| (l - max).exp()));
+        let options = self.opt[s..e].iter().zip(&self.log_eta[s..e]);
+        self.lin.extend(options.map(|(&g, l)| (g, (l - max).exp())));
         self.row_start.push(e);
         self.open = false;
     }
@@ -157,27 +159,28 @@ impl GibbsSampler {
         }
         self.record();
         for _ in 0..sweeps {
-            for i in 0..rows {
-                let (s, e) = (table.row_start[i], table.row_start[i + 1]);
+            for (i, w) in table.row_start.windows(2).enumerate() {
+                let row = &table.lin[w[0]..w[1]];
                 let c = self.cur[i];
                 if c > 0 {
                     self.owner[c as usize] = u32::MAX;
                 }
-                let free = |g: i32, owner: &[u32]| g <= 0 || owner[g as usize] == u32::MAX;
+                // Option `g` is free when it is shared (`<= 0`) or no other row uses it.
+                let owner = &self.owner;
+                let free = |g: i32| g <= 0 || owner[g as usize] == u32::MAX;
                 let mut total = 0.0;
-                for k in s..e {
-                    if free(table.opt[k], &self.owner) {
-                        total += table.lin[k];
+                for &(g, l) in row {
+                    if free(g) {
+                        total += l;
                     }
                 }
                 let mut chosen = c;
                 if total > 0.0 {
                     let mut u = rng.random::<f64>() * total;
-                    for k in s..e {
-                        let g = table.opt[k];
-                        if free(g, &self.owner) {
+                    for &(g, l) in row {
+                        if free(g) {
                             chosen = g;
-                            u -= table.lin[k];
+                            u -= l;
                             if u < 0.0 {
                                 break;
                             }
