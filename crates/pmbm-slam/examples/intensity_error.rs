@@ -90,13 +90,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let e = pd * params.undetected_intensity * mult * rho;
                 e / (e + model.kappa)
             };
-            let (rg, re) = (r(grid.birth_multiplier(&mean, &cov)), r(exact));
+            let (rg, re) = (r(grid.birth_multiplier(&mean, &cov, 0)), r(exact));
             match scan.truth.as_ref().map(|l| l[k]) {
                 Some(-1) => clutter.add(rg, re),
                 _ => detections.add(rg, re),
             }
         }
-        grid.thin(&model, &x);
+        grid.thin(&model, &x, &x);
         poses.push(x);
     }
     println!("{dir}: {} scans, cell {cell} m", ds.scans.len());

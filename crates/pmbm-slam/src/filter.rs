@@ -141,7 +141,8 @@ where
     /// `n` particles at the initial state of `vehicle` with maps holding only the anchors;
     /// `model` is the sensor as the filter assumes it.
     pub fn new(variant: Variant, params: Params, vehicle: Vehicle<V, X>, model: S, n: usize) -> Self {
-        let undetected = Undetected::new(params.undetected, undetected_cell(params.undetected_cell, &model));
+        let undetected =
+            Undetected::for_sensor(params.undetected, undetected_cell(params.undetected_cell, &model), &model);
         let anchors: Vec<LocalHypothesis<M>> = model
             .anchors()
             .into_iter()
@@ -232,7 +233,7 @@ where
             // Step i: lambda_u,k = (1 - p_D) lambda_u,k-1 (the births above read lambda_u,k-1),
             // and the factor exp(-int p_D lambda_u,k-1) of the likelihood, which no longer
             // cancels between particles (0 for the constant intensity).
-            let mass = part.map.undetected.thin(&self.model, &self.vehicle.model.planar_pose(&part.pose));
+            let mass = part.map.undetected.thin(&self.model, &part.pose, &self.vehicle.model.planar_pose(&part.pose));
             part.log_w -= self.settings.undetected_intensity * mass;
         }
         // Components: global hypotheses (PMBM) or Bernoullis (PMB), summed over particles.

@@ -77,8 +77,8 @@ pub struct MpmbParams {
     /// `"thinned"` (default; thinned along the vehicle mean, see [`crate::undetected`]) or
     /// `"constant"` (\[Kim2022\] Section V), as `pmb-slam`'s key.
     pub undetected: UndetectedModel,
-    /// Cell side of the thinned intensity's grid (m); by default the sensor's maximum range
-    /// over [`crate::params::CELLS_PER_RANGE`].
+    /// Cell side of the thinned intensity's grid (m); by default as `pmb-slam`'s
+    /// ([`crate::params::undetected_cell`]).
     pub undetected_cell: Option<f64>,
     /// Clutter intensity units: `"measurement"` (default) or `"cartesian"`.
     pub clutter_intensity: ClutterIntensity,
@@ -292,7 +292,11 @@ where
             cov: SMatrix::zeros(),
             bernoullis,
             types,
-            undetected: Undetected::new(params.undetected, undetected_cell(params.undetected_cell, &model)),
+            undetected: Undetected::for_sensor(
+                params.undetected,
+                undetected_cell(params.undetected_cell, &model),
+                &model,
+            ),
             params,
             vehicle,
             model,
@@ -343,7 +347,7 @@ where
         });
         if self.l_ru.iter().any(Option::is_none) {
             // R_U is not positive definite: no measurement can be used.
-            self.undetected.thin(&self.model, &self.vehicle.model.planar_pose(&self.mean));
+            self.undetected.thin(&self.model, &self.mean, &self.vehicle.model.planar_pose(&self.mean));
             return report(self.bernoullis.len(), chol + 1);
         }
         let nt = type_count::<X, M, Z, S>();
@@ -356,7 +360,7 @@ where
         }
         // Step i along the predicted vehicle mean, after the births read lambda_u,k-1 (no
         // particles: the weight factor has nothing to weigh).
-        self.undetected.thin(&self.model, &self.vehicle.model.planar_pose(&self.mean));
+        self.undetected.thin(&self.model, &self.mean, &self.vehicle.model.planar_pose(&self.mean));
         // Step 5: the association problem, LBP marginals and the most likely association.
         let ws = &mut self.ws;
         let mut ok = ws.problem.reset(&ws.ln_nu_new).is_ok();
@@ -457,7 +461,8 @@ where
                 let input = InputPoints::new(n, zj, l_ru, &pose.y0, |z| model.inverse(&mu, z, mark).m, sub);
                 let mom = PairMoments::new(n, &pose, &input);
                 let mean = pose.y0 + mom.dmean;
-                let lambda = s.undetected_intensity * undetected.birth_multiplier(&mean, &mom.cov);
+                let lambda =
+                    s.undetected_intensity * undetected.birth_multiplier(&mean, &mom.cov, usize::from(mark.index()));
                 let e = model.detection_probability(&mu, &mean, &mom.cov, mark)
                     * lambda
                     * model.birth_integral(&mu, zj, mark);

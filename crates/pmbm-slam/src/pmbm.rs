@@ -383,7 +383,8 @@ fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorM
         let (e_sum, born) = typed_birth(model, |mark| {
             let (mean, cov) = model.birth(x, zj, mark);
             // lambda_u,k-1 around the new landmark (`kappa_u` exactly for the constant intensity).
-            let lambda = s.undetected_intensity * map.undetected.birth_multiplier(&mean, &cov);
+            let lambda =
+                s.undetected_intensity * map.undetected.birth_multiplier(&mean, &cov, usize::from(mark.index()));
             let e = model.detection_probability(x, &mean, &cov, mark) * lambda * model.birth_integral(x, zj, mark);
             Some((e, mean, cov))
         });

@@ -8,13 +8,8 @@ use rfslam_core::FilterEngine;
 use rfslam_core::model::LandmarkType;
 use rfslam_eval::world::RadioCase;
 
-fn pmbm_params() -> Params {
-    Params {
-        gate_probability: 0.99,
-        undetected: UndetectedModel::Constant,
-        undetected_intensity: 2.37e-6,
-        ..Params::default()
-    }
+fn pmbm_params(undetected: UndetectedModel) -> Params {
+    Params { gate_probability: 0.99, undetected, undetected_intensity: 2.37e-6, ..Params::default() }
 }
 
 /// PMBM-SLAM and PMB-SLAM (20 particles) and MPMB-SLAM on the radio world: the known base
@@ -44,19 +39,39 @@ fn pmbm_family_localises_and_maps_the_radio_world() {
     let w = RadioCase::default();
     let va = LandmarkType::VirtualAnchor.mark();
     let sp = LandmarkType::ScatteringPoint.mark();
-    for seed in [1, 2] {
+    for (seed, undetected) in
+        [1, 2].into_iter().flat_map(|s| [(s, UndetectedModel::Constant), (s, UndetectedModel::Thinned)])
+    {
         let run = w.simulate(seed).unwrap();
         let dr = w.dead_reckoning(&run).unwrap().last().unwrap().pose.pos_rmse().unwrap();
         let mpmb = MpmbParams {
             gate_probability: 0.99,
-            undetected: UndetectedModel::Constant,
+            undetected,
             undetected_intensity: 2.37e-6,
             noise_inflation: 4.0,
             ..MpmbParams::default()
         };
         let filters: Vec<(&str, Box<dyn FilterEngine<5, 3, 5>>)> = vec![
-            ("pmbm", Box::new(PmbmFilter::new(Variant::Pmbm, pmbm_params(), w.vehicle(), RadioCase::sensor(4.0), 20))),
-            ("pmb", Box::new(PmbmFilter::new(Variant::Pmb, pmbm_params(), w.vehicle(), RadioCase::sensor(4.0), 20))),
+            (
+                "pmbm",
+                Box::new(PmbmFilter::new(
+                    Variant::Pmbm,
+                    pmbm_params(undetected),
+                    w.vehicle(),
+                    RadioCase::sensor(4.0),
+                    20,
+                )),
+            ),
+            (
+                "pmb",
+                Box::new(PmbmFilter::new(
+                    Variant::Pmb,
+                    pmbm_params(undetected),
+                    w.vehicle(),
+                    RadioCase::sensor(4.0),
+                    20,
+                )),
+            ),
             ("mpmb", Box::new(MpmbFilter::new(mpmb, w.vehicle(), RadioCase::sensor(1.0)))),
         ];
         for (name, mut f) in filters {
@@ -65,7 +80,7 @@ fn pmbm_family_localises_and_maps_the_radio_world() {
             let last = steps.last().unwrap();
             let (pos, bias) = (last.pose.pos_rmse().unwrap(), last.pose.clock_rmse().unwrap());
             eprintln!(
-                "seed {seed} {name}: final position error {pos:.3} m (dead reckoning {dr:.3} m), clock bias {bias:.3} m, \
+                "seed {seed} {name} ({undetected:?}): final position error {pos:.3} m (dead reckoning {dr:.3} m), clock bias {bias:.3} m, \
                  VAs found {}, SPs found {}, VA GOSPA {:.2}, SP GOSPA {:.2}",
                 last.found(&w.scoring(), va, 5.0),
                 last.found(&w.scoring(), sp, 5.0),
@@ -97,7 +112,11 @@ fn pmbm_slam_mh_localises_and_maps_the_radio_world() {
     for seed in [1, 2] {
         let run = w.simulate(seed).unwrap();
         let dr = w.dead_reckoning(&run).unwrap().last().unwrap().pose.pos_rmse().unwrap();
-        let params = MhPmbmParams { pmbm: pmbm_params(), proposal_gate: 50.69, ..MhPmbmParams::default() };
+        let params = MhPmbmParams {
+            pmbm: pmbm_params(UndetectedModel::Constant),
+            proposal_gate: 50.69,
+            ..MhPmbmParams::default()
+        };
         let sensor = RadioCase::sensor(4.0);
         let kappa = sensor.clutter_intensity(&nalgebra::SVector::zeros());
         let mut f = PmbmMh::new(params, w.vehicle(), sensor, kappa, 20);

@@ -172,7 +172,7 @@ where
                 let input = InputPoints::new(n, zj, l_ru, &pose.y0, |z| model.inverse(&mu, z, mark).m, sub);
                 let pm = PairMoments::new(n, &pose, &input);
                 let mean = pose.y0 + pm.dmean;
-                let lambda = s.undetected_intensity * undetected.birth_multiplier(&mean, &pm.cov);
+                let lambda = s.undetected_intensity * undetected.birth_multiplier(&mean, &pm.cov, m);
                 e[m] = model.detection_probability(&mu, &mean, &pm.cov, mark)
                     * lambda
                     * model.birth_integral(&mu, zj, mark);

@@ -255,7 +255,7 @@ pub fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSen
             }
             let (mean, cov) = model.birth(x, zj, mark);
             // lambda_u,k-1 around the new landmark (`kappa_u` exactly for the constant intensity).
-            let lambda = s.undetected_intensity * map.undetected.birth_multiplier(&mean, &cov);
+            let lambda = s.undetected_intensity * map.undetected.birth_multiplier(&mean, &cov, m);
             e[m] = model.detection_probability(x, &mean, &cov, mark) * lambda * model.birth_integral(x, zj, mark);
             e_sum += e[m];
             first_mapped.get_or_insert(m);

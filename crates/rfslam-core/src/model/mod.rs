@@ -374,6 +374,37 @@ pub trait SensorModel<const X: usize, const M: usize, const Z: usize>:
     fn detection_sector(&self) -> Option<(Fov, DetectionModel)> {
         None
     }
+
+    /// Where landmarks of type `mark` are detected, for filters that thin an intensity of
+    /// undetected landmarks by every scan (the PMBM family's step i): by default the
+    /// [`SensorModel::detection_sector`] for every type, `None` without one.
+    fn detection_region(&self, _mark: Self::Mark) -> Option<DetectionRegion> {
+        self.detection_sector().map(|(fov, detection)| DetectionRegion::Sector(fov, detection))
+    }
+}
+
+/// The set of landmark positions a scan detects with a known `p_D`, in a form a grid of the
+/// undetected intensity can be thinned over ([`SensorModel::detection_region`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DetectionRegion {
+    /// The planar sector `Fov` around the vehicle's planar pose
+    /// ([`VehicleModel::planar_pose`]), over the first two landmark coordinates, with its
+    /// detection model and edge treatment.
+    Sector(Fov, DetectionModel),
+    /// Every landmark, wherever it is, with probability `pd`: the thinning is the same for
+    /// every pose.
+    Everywhere {
+        /// `p_D`.
+        pd: f64,
+    },
+    /// The landmarks within the Euclidean distance `radius` of the vehicle's position (the
+    /// state's and the landmark's first three coordinates), with probability `pd`.
+    Ball {
+        /// Radius (m).
+        radius: f64,
+        /// `p_D` inside.
+        pd: f64,
+    },
 }
 
 /// A sensor model with an inverse: a measurement fixes the landmark that made it, so

@@ -6,7 +6,9 @@ use nalgebra::{Matrix3, RowVector3, SMatrix, SVector, Vector3};
 use rand::RngExt;
 use rand_distr::{Distribution, Poisson, StandardNormal};
 
-use super::{Inverse, InvertibleSensorModel, LandmarkMark, Linearised, MeasurementComponent, SensorModel};
+use super::{
+    DetectionRegion, Inverse, InvertibleSensorModel, LandmarkMark, Linearised, MeasurementComponent, SensorModel,
+};
 use crate::angle::wrap;
 
 /// The type of a landmark of the radio world (\[Kim2022\] Section II: `M = {BS, VA, SP}`), in
@@ -288,6 +290,17 @@ impl SensorModel<5, 3, 5> for RadioSensor {
     /// points are mapped.
     fn mapped(&self, mark: LandmarkType) -> bool {
         mark != LandmarkType::BaseStation
+    }
+
+    /// The virtual anchors everywhere, the scattering points within their visibility radius
+    /// of the vehicle (a 3-D ball), each with the filters' `p_D` (the types' visibility).
+    fn detection_region(&self, mark: LandmarkType) -> Option<DetectionRegion> {
+        let radius = self.visibility[mark as usize];
+        Some(if radius.is_finite() {
+            DetectionRegion::Ball { radius, pd: self.pd }
+        } else {
+            DetectionRegion::Everywhere { pd: self.pd }
+        })
     }
 
     /// The base station at its known position.
