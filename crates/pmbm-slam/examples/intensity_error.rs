@@ -76,6 +76,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     ds.groundtruth.as_ref().ok_or("the data set has no groundtruth.csv")?;
     let mut grid = Undetected::Thinned(ThinnedGrid::new(cell));
+    let mut scratch = pmbm_slam::ThinScratch::default();
     let mut poses: Vec<Pose> = Vec::with_capacity(ds.scans.len());
     let (mut clutter, mut detections) = (Tally::default(), Tally::default());
     for scan in &ds.scans {
@@ -96,7 +97,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 _ => detections.add(rg, re),
             }
         }
-        grid.thin(&model, &x, &x);
+        grid.thin(&model, &x, &x, &mut scratch);
         poses.push(x);
     }
     println!("{dir}: {} scans, cell {cell} m", ds.scans.len());

@@ -11,7 +11,7 @@ use rfslam_core::{
 use crate::model::InvertibleSensorModel;
 use crate::params::{Params, undetected_cell};
 use crate::pmbm::{LocalHypothesis, PmbWeight, PmbmDensity, UpdateSettings, Workspace, pmb_update, pmbm_update};
-use crate::undetected::Undetected;
+use crate::undetected::{ThinScratch, Undetected};
 use rfslam_core::PlanarSensorModel;
 
 /// Which filter of the family.
@@ -130,6 +130,8 @@ where
     weight: PmbWeight,
     pub(crate) set: ParticleSet<Particle<M, X>>,
     ws: Workspace<M>,
+    /// Scratch of step i's grid thinning.
+    thin: ThinScratch,
     z: Vec<SVector<f64, Z>>,
 }
 
@@ -164,6 +166,7 @@ where
             model,
             set: ParticleSet::new(p0, n),
             ws: Workspace::default(),
+            thin: ThinScratch::default(),
             z: Vec::new(),
         }
     }
@@ -233,7 +236,8 @@ where
             // Step i: lambda_u,k = (1 - p_D) lambda_u,k-1 (the births above read lambda_u,k-1),
             // and the factor exp(-int p_D lambda_u,k-1) of the likelihood, which no longer
             // cancels between particles (0 for the constant intensity).
-            let mass = part.map.undetected.thin(&self.model, &part.pose, &self.vehicle.model.planar_pose(&part.pose));
+            let planar = self.vehicle.model.planar_pose(&part.pose);
+            let mass = part.map.undetected.thin(&self.model, &part.pose, &planar, &mut self.thin);
             part.log_w -= self.settings.undetected_intensity * mass;
         }
         // Components: global hypotheses (PMBM) or Bernoullis (PMB), summed over particles.

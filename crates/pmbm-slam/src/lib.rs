@@ -93,4 +93,4 @@ pub use mh::{MhPmbmParams, PmbmMh, PmbmSlamMh};
 pub use model::{InvertibleSensorModel, RangeBearingModel};
 pub use mpmb::{MpmbFilter, MpmbParams, MpmbSlam};
 pub use params::{MissedDetection, Params, WeightRule};
-pub use undetected::{ThinnedGrid, Undetected, UndetectedModel};
+pub use undetected::{ThinScratch, ThinnedGrid, Undetected, UndetectedModel};

@@ -47,7 +47,7 @@ use crate::filter::sensor_model;
 use crate::model::{InvertibleSensorModel, RangeBearingModel, chi2_quantile, typed_birth};
 use crate::params::{Params, check_cell, check_undetected, undetected_cell};
 use crate::pmbm::typed::{TypeDensity, single_type, type_count};
-use crate::undetected::{Undetected, UndetectedModel};
+use crate::undetected::{ThinScratch, Undetected, UndetectedModel};
 use rfslam_core::{PlanarSensorModel, SensorKind};
 
 mod typed;
@@ -259,6 +259,8 @@ where
     /// The intensity of the undetected landmarks.
     pub undetected: Undetected,
     ws: Workspace<M, Z, X>,
+    /// Scratch of step i's grid thinning.
+    thin: ThinScratch,
     z: Vec<SVector<f64, Z>>,
 }
 
@@ -301,6 +303,7 @@ where
             vehicle,
             model,
             ws: Workspace::default(),
+            thin: ThinScratch::default(),
             z: Vec::new(),
         }
     }
@@ -347,7 +350,7 @@ where
         });
         if self.l_ru.iter().any(Option::is_none) {
             // R_U is not positive definite: no measurement can be used.
-            self.undetected.thin(&self.model, &self.mean, &self.vehicle.model.planar_pose(&self.mean));
+            self.undetected.thin(&self.model, &self.mean, &self.vehicle.model.planar_pose(&self.mean), &mut self.thin);
             return report(self.bernoullis.len(), chol + 1);
         }
         let nt = type_count::<X, M, Z, S>();
@@ -360,7 +363,7 @@ where
         }
         // Step i along the predicted vehicle mean, after the births read lambda_u,k-1 (no
         // particles: the weight factor has nothing to weigh).
-        self.undetected.thin(&self.model, &self.mean, &self.vehicle.model.planar_pose(&self.mean));
+        self.undetected.thin(&self.model, &self.mean, &self.vehicle.model.planar_pose(&self.mean), &mut self.thin);
         // Step 5: the association problem, LBP marginals and the most likely association.
         let ws = &mut self.ws;
         let mut ok = ws.problem.reset(&ws.ln_nu_new).is_ok();

@@ -308,6 +308,18 @@ impl ThinnedGrid {
     /// tile, and a tile whose cells in view are all zero already is neither written nor
     /// copied.
     pub fn thin_sector(&mut self, x: &Pose, fov: &Fov, detection: &DetectionModel) -> f64 {
+        self.thin_sector_in(x, fov, detection, &mut ThinScratch::default())
+    }
+
+    /// [`ThinnedGrid::thin_sector`] with the caller's scratch (a filter keeps one, so that a
+    /// scan neither allocates nor clears it).
+    pub fn thin_sector_in(
+        &mut self,
+        x: &Pose,
+        fov: &Fov,
+        detection: &DetectionModel,
+        scratch: &mut ThinScratch,
+    ) -> f64 {
         let Some(sector) = SectorRows::new(x, fov, self.cell) else {
             return 0.0;
         };
@@ -325,8 +337,8 @@ impl ThinnedGrid {
         let t = TILE as i64;
         let mut mass = 0.0;
         // The runs of the TILE rows of one row of tiles: (first, last) cell column, empty
-        // when first > last.
-        let mut rows = [RowCover::default(); TILE];
+        // when first > last (each row's count is reset before it is read).
+        let rows = &mut *scratch.rows;
         let (j_lo, j_hi) = sector.rows();
         for tj in j_lo.div_euclid(t)..=j_hi.div_euclid(t) {
             let (mut i_min, mut i_max) = (i64::MAX, i64::MIN);
@@ -442,6 +454,20 @@ const MAX_PIECES: usize = 40;
 struct RowCover {
     pieces: [Piece; MAX_PIECES],
     n: usize,
+}
+
+/// Scratch of step i's sector thinning: the covers of one row of tiles (about 31 KB, which
+/// a scan would otherwise clear once per call). A filter keeps one and passes it to
+/// [`Undetected::thin`].
+#[derive(Debug, Clone)]
+pub struct ThinScratch {
+    rows: Box<[RowCover; TILE]>,
+}
+
+impl Default for ThinScratch {
+    fn default() -> Self {
+        ThinScratch { rows: Box::new([RowCover::default(); TILE]) }
+    }
 }
 
 impl Default for RowCover {
@@ -788,11 +814,12 @@ impl Undetected {
         model: &S,
         x: &SVector<f64, X>,
         planar: &Pose,
+        scratch: &mut ThinScratch,
     ) -> f64 {
         match self {
             Undetected::Constant => 0.0,
             Undetected::Thinned(g) => match model.detection_sector() {
-                Some((fov, detection)) => g.thin_sector(planar, &fov, &detection),
+                Some((fov, detection)) => g.thin_sector_in(planar, &fov, &detection, scratch),
                 None => 0.0,
             },
             Undetected::Typed(types) => {
@@ -808,10 +835,10 @@ impl Undetected {
                             0.0
                         }
                         (TypeIntensity::Sector(g), DetectionRegion::Sector(fov, detection)) => {
-                            g.thin_sector(planar, &fov, &detection)
+                            g.thin_sector_in(planar, &fov, &detection, scratch)
                         }
                         (TypeIntensity::Layers(l), DetectionRegion::Ball { radius, pd }) if X >= 3 => {
-                            l.thin_ball([x[0], x[1], x[2]], radius, pd)
+                            l.thin_ball([x[0], x[1], x[2]], radius, pd, scratch)
                         }
                         _ => 0.0,
                     };
@@ -967,7 +994,7 @@ impl LayeredGrid {
     /// of `centre` (see the type's docs). Returns `int p_D lambda_u,k-1 / kappa_u` as the
     /// grid represents it (each slab's removed area times the cell side), before the
     /// thinning.
-    pub fn thin_ball(&mut self, centre: [f64; 3], radius: f64, pd: f64) -> f64 {
+    pub fn thin_ball(&mut self, centre: [f64; 3], radius: f64, pd: f64, scratch: &mut ThinScratch) -> f64 {
         if !(centre.iter().all(|c| c.is_finite()) && radius > 0.0 && radius.is_finite()) {
             return 0.0;
         }
@@ -981,7 +1008,7 @@ impl LayeredGrid {
                 continue;
             }
             let disc = Fov::new((radius * radius - dz * dz).sqrt(), std::f64::consts::PI);
-            mass += c * self.layer_mut(k).thin_sector(&pose, &disc, &detection);
+            mass += c * self.layer_mut(k).thin_sector_in(&pose, &disc, &detection, scratch);
         }
         mass
     }
@@ -1187,7 +1214,7 @@ mod tests {
         let (r, centre) = (10.0, [0.3, -0.2, 0.1]);
         let volume = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
         let mut g = LayeredGrid::new(1.0);
-        let first = g.thin_ball(centre, r, PD);
+        let first = g.thin_ball(centre, r, PD, &mut ThinScratch::default());
         assert!((first - PD * volume).abs() < 0.01 * PD * volume, "{first} vs {}", PD * volume);
         assert_eq!(g.layers(), 20);
         assert!((g.multiplier(0.5, 0.5, 0.5) - (1.0 - PD)).abs() < 1e-6);
@@ -1203,7 +1230,7 @@ mod tests {
                 .collect::<Vec<_>>()
         };
         let before = cells(&g);
-        let second = g.thin_ball([1.3, 0.4, -0.6], r, PD);
+        let second = g.thin_ball([1.3, 0.4, -0.6], r, PD, &mut ThinScratch::default());
         let removed: f64 = before.iter().zip(cells(&g)).map(|(b, a)| b - a).sum();
         assert!((second - removed).abs() < 1e-4 * removed, "{second} vs {removed}");
         assert!(second > PD * (1.0 - PD) * volume && second < PD * volume, "{second}");
@@ -1228,7 +1255,7 @@ mod tests {
         let x = SVector::<f64, 5>::from([70.0, 0.0, 0.0, 1.5, 300.0]);
         let planar = Pose::new(70.0, 0.0, 1.5);
         let before = u.clone();
-        let mass = u.thin(&sensor, &x, &planar);
+        let mass = u.thin(&sensor, &x, &planar, &mut ThinScratch::default());
         let ball = pd * 4.0 / 3.0 * std::f64::consts::PI * 50f64.powi(3);
         assert!((mass - ball).abs() < 0.02 * ball, "{mass} vs {ball}");
         let cov = SMatrix::<f64, 3, 3>::identity() * 0.01;
@@ -1240,11 +1267,11 @@ mod tests {
         assert!((at(&u, [80.0, 5.0, 12.0], LandmarkType::ScatteringPoint) - (1.0 - pd)).abs() < 1e-6);
         assert_eq!(at(&u, [140.0, 0.0, 12.0], LandmarkType::ScatteringPoint), 1.0, "70 m away");
         assert_eq!(at(&before, [80.0, 5.0, 12.0], LandmarkType::ScatteringPoint), 1.0, "the copy is untouched");
-        u.thin(&sensor, &x, &planar);
+        u.thin(&sensor, &x, &planar, &mut ThinScratch::default());
         let va = at(&u, [-200.0, 0.0, 10.0], LandmarkType::VirtualAnchor);
         assert!((va - (1.0 - pd) * (1.0 - pd)).abs() < 1e-12, "{va}");
         let mut none = Undetected::for_sensor(UndetectedModel::Constant, 5.0, &sensor);
-        assert_eq!(none.thin(&sensor, &x, &planar), 0.0);
+        assert_eq!(none.thin(&sensor, &x, &planar, &mut ThinScratch::default()), 0.0);
         assert_eq!(at(&none, [80.0, 5.0, 12.0], LandmarkType::ScatteringPoint), 1.0);
     }
 }
