@@ -3,7 +3,7 @@
 //! the first lap of 520 steps: a map of most landmarks, in the loop closure). Target (issue 7):
 //! glmb-2.0 at most 5 ms per recursion on one core.
 
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::Criterion;
 use rfslam_bench::bench_recursion_after;
 use rfslam_core::FilterBuild;
 use rfslam_data::{Dataset, ScenarioConfig};
@@ -31,9 +31,4 @@ fn recursion(c: &mut Criterion) {
     bench_filter::<glmb_slam::LmbSlam>(c, "lmb-slam", &ds, 10);
 }
 
-criterion_group! {
-    name = benches;
-    config = Criterion::default().sample_size(30).warm_up_time(std::time::Duration::from_secs(1)).measurement_time(std::time::Duration::from_secs(3));
-    targets = recursion
-}
-criterion_main!(benches);
+rfslam_bench::recursion_main!(recursion, 30, 3);

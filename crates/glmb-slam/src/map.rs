@@ -299,59 +299,34 @@ impl<const X: usize, const M: usize> Workspace<X, M> {
         self.log_kappa.clear();
         self.log_kappa.extend(z.iter().map(|zj| m.sensor.clutter_intensity(zj).max(m.min_clutter_intensity).ln()));
         let pd_of = |t: &Track<M>| m.sensor.detection_probability(x, &t.mean, &t.cov, S::Mark::from_index(t.mark));
+        // The row of the track, anchor or birth `t` (the `src`-th of its `kind`), after its
+        // likelihoods (none when `pd` is 0).
+        let mut row = |t: &Track<M>, src: usize, kind: Source, pd: f64, log_r: f64, ps: f64| {
+            let lik_start = self.liks.len() as u32;
+            if pd > 0.0 && !likelihoods(m, x, t, pose_cov, z, &mut self.liks) {
+                chol += 1;
+            }
+            Row { src: src as u32, kind, pd, log_r, ps, lik_start, lik_end: self.liks.len() as u32 }
+        };
         for (idx, t) in tracks.iter().enumerate() {
             let pd = pd_of(t);
             if pd <= 0.0 {
                 continue; // out of the FOV: p_S = 1, p_D = 0, deterministic
             }
-            let start = self.liks.len() as u32;
-            if !likelihoods(m, x, t, pose_cov, z, &mut self.liks) {
-                chol += 1;
-            }
             self.row_of[idx] = self.rows.len() as u32;
-            let (kind, lr, ps) = (Source::Track, log_r.map_or(0.0, |l| l[idx]), m.survival);
-            let lik_end = self.liks.len() as u32;
-            self.rows.push(Row { src: idx as u32, kind, pd, log_r: lr, ps, lik_start: start, lik_end });
+            self.rows.push(row(t, idx, Source::Track, pd, log_r.map_or(0.0, |l| l[idx]), m.survival));
         }
         // Anchors: r = 1, p_S = 1 (never dead); out of view they are certainly missed and
         // change nothing.
         self.first_anchor_row = self.rows.len();
         for (a, t) in m.anchors.iter().enumerate() {
             let pd = pd_of(t);
-            if pd <= 0.0 {
-                continue;
+            if pd > 0.0 {
+                self.rows.push(row(t, a, Source::Anchor, pd, 0.0, 1.0));
             }
-            let start = self.liks.len() as u32;
-            if !likelihoods(m, x, t, pose_cov, z, &mut self.liks) {
-                chol += 1;
-            }
-            let lik_end = self.liks.len() as u32;
-            self.rows.push(Row {
-                src: a as u32,
-                kind: Source::Anchor,
-                pd,
-                log_r: 0.0,
-                ps: 1.0,
-                lik_start: start,
-                lik_end,
-            });
         }
-        for (b, (t, lr)) in self.births.iter().enumerate() {
-            let pd = pd_of(t);
-            let start = self.liks.len() as u32;
-            if pd > 0.0 && !likelihoods(m, x, t, pose_cov, z, &mut self.liks) {
-                chol += 1;
-            }
-            let lik_end = self.liks.len() as u32;
-            self.rows.push(Row {
-                src: b as u32,
-                kind: Source::Birth,
-                pd,
-                log_r: *lr,
-                ps: 1.0,
-                lik_start: start,
-                lik_end,
-            });
+        for (b, (t, log_r)) in self.births.iter().enumerate() {
+            self.rows.push(row(t, b, Source::Birth, pd_of(t), *log_r, 1.0));
         }
         chol
     }

@@ -93,11 +93,11 @@
 //! ```
 
 use nalgebra::{SMatrix, SVector};
-use rbphd::{PhdVehicle, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd, sample_transition};
+use rbphd::{PhdVehicle, PoseSample, Proposal, ProposalContext, ProposalStats, sample_transition};
 use rfslam_core::gaussian::{log_normal, sample, symmetrise};
 use rfslam_core::model::{LandmarkMark, RangeBearingModel};
 use rfslam_core::state::StateSpace;
-use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Pose, Rng};
+use rfslam_core::{InvertibleSensorModel, Motion, Pose, Rng};
 use serde::{Deserialize, Serialize};
 use std::marker::PhantomData;
 
@@ -368,10 +368,6 @@ where
     type Vehicle = V;
     type Sensor = S;
 
-    fn validate(_: &Gao2021Params) -> Result<(), ParamError> {
-        Ok(())
-    }
-
     fn new(params: &Gao2021Params) -> Self {
         Gao2021Proposal {
             models: PhantomData,
@@ -469,16 +465,7 @@ where
 }
 
 // PHD-SLAM 2.0a's density on another world: the same density, in that world's dimensions.
-rbphd::proposal_in!(Gao2021Proposal);
-
-/// PHD-SLAM 2.0a on the planar sensor model `S` (default: range-bearing): the registered
-/// `phd-2.0a`.
-pub type PhdSlam2a<S = RangeBearingModel> = RbPhd<Gao2021Proposal<S>>;
-
-/// PHD-SLAM 2.0a on the vehicle model `V` and the sensor model `S` of any world (states of `X`
-/// components, landmarks of `M` coordinates, measurements of `Z` components).
-pub type PhdSlam2aIn<V, S, const X: usize, const M: usize, const Z: usize> =
-    RbPhd<Gao2021Proposal<S, V, X, M, Z>, X, M, Z>;
+rbphd::proposal_in!(Gao2021Proposal => PhdSlam2a, PhdSlam2aIn, "PHD-SLAM 2.0a", "phd-2.0a");
 
 #[cfg(test)]
 mod tests {

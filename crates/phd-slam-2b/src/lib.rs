@@ -38,8 +38,7 @@
 
 use nalgebra::{SMatrix, SVector};
 use rbphd::{
-    CostMatrixBuffers, MissedCost, PhdVehicle, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd,
-    sample_transition,
+    CostMatrixBuffers, MissedCost, PhdVehicle, PoseSample, Proposal, ProposalContext, ProposalStats, sample_transition,
 };
 use rfslam_assign::{Assignment, CostMatrix, Murty, MurtyOptions};
 use rfslam_core::gaussian::{log_normal, sample};
@@ -274,16 +273,7 @@ where
 }
 
 // PHD-SLAM 2.0b's density on another world: the same density, in that world's dimensions.
-rbphd::proposal_in!(JointProposal);
-
-/// PHD-SLAM 2.0b on the planar sensor model `S` (default: range-bearing): the registered
-/// `phd-2.0b`.
-pub type PhdSlam2b<S = RangeBearingModel> = RbPhd<JointProposal<S>>;
-
-/// PHD-SLAM 2.0b on the vehicle model `V` and the sensor model `S` of any world (states of `X`
-/// components, landmarks of `M` coordinates, measurements of `Z` components).
-pub type PhdSlam2bIn<V, S, const X: usize, const M: usize, const Z: usize> =
-    RbPhd<JointProposal<S, V, X, M, Z>, X, M, Z>;
+rbphd::proposal_in!(JointProposal => PhdSlam2b, PhdSlam2bIn, "PHD-SLAM 2.0b", "phd-2.0b");
 
 #[cfg(test)]
 mod tests {
@@ -415,38 +405,27 @@ mod tests {
         let q = Matrix3::from_diagonal(&Vector3::new(4.0, 4.0, 1e-4));
         let (a, b) = (Point2::new(40.0, 2.0), Point2::new(40.0, -2.0));
         let z = [sensor.predict(&truth, &a), sensor.predict(&truth, &b)];
-        let run = |first: Point2, second: Point2| {
+        // The best association and the proposal mean for the map `[first, second]`, the
+        // measurements `z` and the prediction `x_bar`.
+        let run = |first: Point2, second: Point2, z: &[RangeBearing], x_bar: Pose| {
             let mut map = GmMap::default();
             map.push(0.0, first, Matrix2::identity() * 0.01);
             map.push(0.0, second, Matrix2::identity() * 0.01);
-            let x_bar = Pose::new(0.0, 1.0, 0.0);
-            let c = ctx(&m, &map, &z, &[0, 1], &[0.95, 0.95], x_bar, q);
+            let c = ctx(&m, &map, z, &[0, 1], &[0.95, 0.95], x_bar, q);
             let mut p = <JointProposal as Proposal>::new(&JointParams::default());
             let mut out = Vec::new();
             p.propose(&c, 1, &mut Rng::seed_from_u64(1), &mut out);
             let (phi, mean, _) = p.last();
             (phi.to_vec(), *mean)
         };
-        let (phi_ok, mean_ok) = run(a, b);
-        let (phi_bad, mean_bad) = run(b, a);
+        let (phi_ok, mean_ok) = run(a, b, &z, Pose::new(0.0, 1.0, 0.0));
+        let (phi_bad, mean_bad) = run(b, a, &z, Pose::new(0.0, 1.0, 0.0));
         assert_eq!(phi_ok, vec![Some(0), Some(1)]);
         assert_eq!(phi_bad, vec![Some(1), Some(0)], "the swapped map is paired by position");
         assert!((mean_ok - truth).xy().norm() < 0.5, "{mean_ok:?}");
         assert!((mean_bad - truth).xy().norm() < 0.5, "{mean_bad:?}");
-        let mut map = GmMap::default();
-        map.push(0.0, a, Matrix2::identity() * 0.01);
-        map.push(0.0, b, Matrix2::identity() * 0.01);
-        let x_bar = Pose::new(0.0, 0.0, 0.0);
-        let c = ctx(&m, &map, &z, &[0, 1], &[0.95, 0.95], x_bar, q);
-        let mut p = <JointProposal as Proposal>::new(&JointParams::default());
-        let mut out = Vec::new();
-        p.propose(&c, 1, &mut Rng::seed_from_u64(1), &mut out);
-        let forced = [z[1], z[0]];
-        let c = ctx(&m, &map, &forced, &[0, 1], &[0.95, 0.95], x_bar, q);
-        let mut p2 = <JointProposal as Proposal>::new(&JointParams::default());
-        p2.propose(&c, 1, &mut Rng::seed_from_u64(1), &mut out);
-        let (phi2, mean2, _) = p2.last();
-        assert_eq!(phi2, &[Some(1), Some(0)], "the association follows the measurements");
+        let (phi2, mean2) = run(a, b, &[z[1], z[0]], truth);
+        assert_eq!(phi2, vec![Some(1), Some(0)], "the association follows the measurements");
         assert!((mean2 - truth).xy().norm() < 0.5);
     }
 

@@ -3,7 +3,7 @@
 //! into run 1 of the papers' synthetic environment when it is found, else the procedural
 //! world). Run with `cargo bench -p phd-slam-3sp`.
 
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::Criterion;
 use rfslam_bench::{bench_recursion as bench_filter, benchmark_dataset};
 
 fn recursion(c: &mut Criterion) {
@@ -14,9 +14,4 @@ fn recursion(c: &mut Criterion) {
     }
 }
 
-criterion_group! {
-    name = benches;
-    config = Criterion::default().sample_size(30).warm_up_time(std::time::Duration::from_secs(1)).measurement_time(std::time::Duration::from_secs(3));
-    targets = recursion
-}
-criterion_main!(benches);
+rfslam_bench::recursion_main!(recursion, 30, 3);

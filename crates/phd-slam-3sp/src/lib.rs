@@ -78,7 +78,7 @@ pub mod sigma;
 
 use mh_importance_density::{MhParams, MhProposal, PoseSlr, SlrInput};
 use nalgebra::{SMatrix, SVector};
-use rbphd::{PhdVehicle, PoseSample, Proposal, ProposalContext, ProposalStats, RbPhd};
+use rbphd::{PhdVehicle, PoseSample, Proposal, ProposalContext, ProposalStats};
 use rfslam_core::gaussian::{log_normal, symmetrise};
 use rfslam_core::ipl::Linearised;
 use rfslam_core::model::RangeBearingModel;
@@ -309,15 +309,7 @@ where
 }
 
 // `phd-3.0-sp`'s density on another world: the same density, in that world's dimensions.
-rbphd::proposal_in!(SpProposal);
-
-/// PHD-SLAM 3.0 with the sigma-point SLR on the planar sensor model `S`: registered as
-/// `phd-3.0-sp`.
-pub type PhdSlam3Sp<S = RangeBearingModel> = RbPhd<SpProposal<S>>;
-
-/// `phd-3.0-sp` on the vehicle model `V` and the sensor model `S` of any world (states of `X`
-/// components, landmarks of `M` coordinates, measurements of `Z` components).
-pub type PhdSlam3SpIn<V, S, const X: usize, const M: usize, const Z: usize> = RbPhd<SpProposal<S, V, X, M, Z>, X, M, Z>;
+rbphd::proposal_in!(SpProposal => PhdSlam3Sp, PhdSlam3SpIn, "PHD-SLAM 3.0 with the sigma-point SLR", "phd-3.0-sp");
 
 #[cfg(test)]
 mod tests {

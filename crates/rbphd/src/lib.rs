@@ -23,6 +23,8 @@ pub use proposal::{
 };
 #[doc(hidden)]
 pub use rfslam_core::InvertibleSensorModel as __InvertibleSensorModel;
+#[doc(hidden)]
+pub use rfslam_core::model::RangeBearingModel as __RangeBearingModel;
 pub use weighting::{MfTerms, MultiFeatureSettings, Weighting};
 
 /// The range-bearing model of `sensor` with noise `r` (the rest unused by the GM-PHD code),

@@ -79,11 +79,13 @@ impl<V, const X: usize> PhdVehicle<X> for V where V: VehicleModel<X, 3> + std::f
 {}
 
 /// Implements [`crate::ProposalIn`] for the default (planar) instance of a density type
-/// `$density<S, V, X, M, Z>` written over any sensor and vehicle model: on the vehicle model `V`
-/// and the sensor model `S` of another world it is `$density<S, V, X, M, Z>`.
+/// `$density<S, V, X, M, Z>` written over any sensor and vehicle model (on the vehicle model `V`
+/// and the sensor model `S` of another world it is `$density<S, V, X, M, Z>`), and declares the
+/// filter on it twice: `$planar<S>`, the planar filter registered as `$name`, and
+/// `$in<V, S, X, M, Z>`, the same filter in any world, both documented with `$title`.
 #[macro_export]
 macro_rules! proposal_in {
-    ($density:ident) => {
+    ($density:ident => $planar:ident, $in:ident, $title:literal, $name:literal) => {
         impl<S, V, const X: usize, const M: usize, const Z: usize> $crate::ProposalIn<V, S, X, M, Z> for $density
         where
             S: $crate::__InvertibleSensorModel<X, M, Z>,
@@ -91,6 +93,17 @@ macro_rules! proposal_in {
         {
             type In = $density<S, V, X, M, Z>;
         }
+
+        #[doc = concat!($title, " on the planar sensor model `S` (default: range-bearing): the registered `", $name, "`.")]
+        pub type $planar<S = $crate::__RangeBearingModel> = $crate::RbPhd<$density<S>>;
+
+        #[doc = concat!(
+            $title,
+            " on the vehicle model `V` and the sensor model `S` of any world (states of `X` components, \
+             landmarks of `M` coordinates, measurements of `Z` components)."
+        )]
+        pub type $in<V, S, const X: usize, const M: usize, const Z: usize> =
+            $crate::RbPhd<$density<S, V, X, M, Z>, X, M, Z>;
     };
 }
 
@@ -112,21 +125,27 @@ pub trait Proposal<const X: usize = 3, const M: usize = 2, const Z: usize = 2>: 
     /// The sensor model the proposal (and so the filter) is built for.
     type Sensor: InvertibleSensorModel<X, M, Z>;
 
-    /// Checks the proposal's parameters.
-    fn validate(params: &Self::Params) -> Result<(), ParamError>;
+    /// Checks the proposal's parameters. The default accepts any: for a density whose
+    /// parameters need no check beyond their types.
+    fn validate(_params: &Self::Params) -> Result<(), ParamError> {
+        Ok(())
+    }
 
     /// A proposal with these parameters.
     fn new(params: &Self::Params) -> Self;
 
     /// Computes the importance density for `ctx` once and draws `n` states into `out`
-    /// (cleared first).
+    /// (cleared first). The default is the transition density, drawn by
+    /// [`sample_transition`]: the bootstrap proposal ([`Transition`]).
     fn propose(
         &mut self,
         ctx: &ProposalContext<Self::Sensor, Self::Vehicle, X, M, Z>,
         n: usize,
         rng: &mut Rng,
         out: &mut Vec<PoseSample<X>>,
-    ) -> ProposalStats;
+    ) -> ProposalStats {
+        sample_transition(ctx, n, rng, out)
+    }
 
     /// For proposals that condition on an association: the map component (index into
     /// `ctx.map`) each measurement was associated with in `component` of the last
@@ -180,7 +199,7 @@ impl<B, S, V, const X: usize, const M: usize, const Z: usize> Proposal<X, M, Z> 
 where
     B: Bootstrap,
     S: InvertibleSensorModel<X, M, Z>,
-    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
+    V: PhdVehicle<X>,
 {
     const NAME: &'static str = B::NAME;
     const ESTIMATE_THRESHOLD: Option<f64> = B::ESTIMATE_THRESHOLD;
@@ -189,22 +208,8 @@ where
     type Vehicle = V;
     type Sensor = S;
 
-    fn validate(_: &B::Params) -> Result<(), ParamError> {
-        Ok(())
-    }
-
     fn new(_: &B::Params) -> Self {
         Transition::default()
-    }
-
-    fn propose(
-        &mut self,
-        ctx: &ProposalContext<S, V, X, M, Z>,
-        n: usize,
-        rng: &mut Rng,
-        out: &mut Vec<PoseSample<X>>,
-    ) -> ProposalStats {
-        sample_transition(ctx, n, rng, out)
     }
 
     fn weighting(params: &B::Params) -> Option<Weighting> {
@@ -216,7 +221,7 @@ impl<B, V, S, const X: usize, const M: usize, const Z: usize> crate::ProposalIn<
 where
     B: Bootstrap,
     S: InvertibleSensorModel<X, M, Z>,
-    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
+    V: PhdVehicle<X>,
 {
     type In = Transition<B, S, V>;
 }

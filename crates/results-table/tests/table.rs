@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use results_table::{BEGIN_MARKER, END_MARKER, Error, SummaryFile, build, collect, render, replace_between_markers};
+use rfslam_data::testutil::TempDir;
 
 const TABLE2: &str = "\
 filter,particles,pos_rmse_m,pos_std_m,head_rmse_deg,head_std_deg,gospa_m,gospa_std_m,ess_pct,resampling_pct,time_ms,time_std_ms,runs,tpr,tnr
@@ -82,24 +83,6 @@ fn no_setting_column_without_a_grid() {
     assert!(t.contains("|---|---|---:|---:|---:|---:|---:|\n"), "{t}");
 }
 
-/// A temporary directory removed on drop.
-struct Tmp(PathBuf);
-
-impl Tmp {
-    fn new(tag: &str) -> Tmp {
-        let p = std::env::temp_dir().join(format!("results-table-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&p);
-        std::fs::create_dir_all(&p).unwrap();
-        Tmp(p)
-    }
-}
-
-impl Drop for Tmp {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
 fn write(root: &Path, rel: &str, text: &str) {
     let p = root.join(rel);
     std::fs::create_dir_all(p.parent().unwrap()).unwrap();
@@ -108,8 +91,8 @@ fn write(root: &Path, rel: &str, text: &str) {
 
 #[test]
 fn collect_follows_the_resolved_experiment_to_the_published_table() {
-    let tmp = Tmp::new("collect");
-    let root = &tmp.0;
+    let tmp = TempDir::new("collect");
+    let root = tmp.path();
     write(root, "results/table2/summary.csv", TABLE2);
     write(root, "results/table2/experiment.resolved.toml", "experiment_file = \"configs/t2.toml\"\nname = \"t2\"\n");
     write(root, "configs/t2.toml", "name = \"t2\"\npublished = \"../published/t2.csv\"\n");
@@ -157,8 +140,8 @@ fn missing_or_misplaced_markers_are_errors() {
     assert!(e.contains("once"), "{e}");
 
     // Through the file: the error names it and the file is left alone.
-    let tmp = Tmp::new("markers");
-    let readme = tmp.0.join("README.md");
+    let tmp = TempDir::new("markers");
+    let readme = tmp.join("README.md");
     std::fs::write(&readme, "# no markers\n").unwrap();
     let e = results_table::update_file(&readme, "t\n").unwrap_err().to_string();
     assert!(e.starts_with(&readme.display().to_string()) && e.contains("not found"), "{e}");

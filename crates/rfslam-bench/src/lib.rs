@@ -4,7 +4,10 @@
 //! found, else the procedural world), so that its map holds the landmarks seen so far. Each
 //! sample steps a clone of that state with a clone of its draw stream, so every sample
 //! measures the same recursion. The filter crates' `benches/recursion.rs` call
-//! [`bench_recursion`] per filter and particle count.
+//! [`bench_recursion`] per filter and particle count, and [`recursion_main!`] for their
+//! `main` with the shared [`settings`].
+
+use std::time::Duration;
 
 use criterion::{BatchSize, Criterion};
 use rfslam_core::FilterBuild;
@@ -12,6 +15,32 @@ use rfslam_data::Dataset;
 use rfslam_eval::fixtures::warmed_up;
 
 pub use rfslam_eval::fixtures::benchmark_dataset;
+
+#[doc(hidden)]
+pub use criterion as __criterion;
+
+/// The criterion settings of the recursion benches: `samples` samples measured over
+/// `seconds` s after a warm-up of 1 s.
+pub fn settings(samples: usize, seconds: u64) -> Criterion {
+    Criterion::default()
+        .sample_size(samples)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(seconds))
+}
+
+/// The `main` of a recursion bench: the criterion group `benches` of the bench function
+/// `$target` with [`settings`]`($samples, $seconds)`.
+#[macro_export]
+macro_rules! recursion_main {
+    ($target:path, $samples:expr, $seconds:expr) => {
+        $crate::__criterion::criterion_group! {
+            name = benches;
+            config = $crate::settings($samples, $seconds);
+            targets = $target
+        }
+        $crate::__criterion::criterion_main!(benches);
+    };
+}
 
 /// Recursions run before the measured one.
 pub const WARM_STEPS: usize = 1000;

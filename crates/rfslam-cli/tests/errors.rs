@@ -11,7 +11,7 @@ use rfslam_harness::registry::REGISTRY;
 fn setup(test: &str) -> (TempDir, String, String) {
     let tmp = TempDir::new(test);
     let scen = scenario(50, 10, 0.95, 2.0);
-    let entries = [Entry::new("dead-reckoning", "dr-a", &[1]), Entry::new("dead-reckoning", "dr-b", &[1])];
+    let entries = dead_reckoning_pair();
     let exp = experiment("scen.toml", 2, 1, &entries, "");
     tmp.write("scen.toml", &scen);
     tmp.write("exp.toml", &exp);

@@ -157,6 +157,29 @@ fn finish(
     }
 }
 
+/// Runs the property `case` on `cases` values of `strategy`, in an emptied `case_dir` each
+/// time, and tallies the outcomes: `case` checks a case against the contract and returns
+/// its exit code (0, 1 or 2) or the violation. Prints the tally, then fails with the minimal
+/// violating case if any.
+fn fuzz<S: Strategy>(
+    what: &str,
+    cases: u32,
+    strategy: S,
+    case_dir: &Path,
+    case: impl Fn(S::Value, &RefCell<Tally>) -> Result<i32, TestCaseError>,
+) where
+    S::Value: std::fmt::Debug,
+{
+    let tally = RefCell::new(Tally::default());
+    let result = runner(cases).run(&strategy, |value| {
+        let _ = std::fs::remove_dir_all(case_dir);
+        let code = case(value, &tally)?;
+        count_exit(&tally, code);
+        Ok(())
+    });
+    finish(&tally, what, result);
+}
+
 /// The part of the contract common to every invocation: returns the exit code (0, 1 or 2)
 /// or the violation. `files`: the files the mutations touched (one must be named on
 /// failure); `located`: whether the message must also give a line, key or column.
@@ -517,11 +540,9 @@ fn dataset_mutations_keep_the_contract() {
         }
     }
 
-    let tally = RefCell::new(Tally::default());
     let case_dir = tmp.join("case");
     let strategy = (prop::collection::vec(data_mutation(), 1..=3), 0..FILTERS.len());
-    let result = runner(DATASET_CASES).run(&strategy, |(muts, fi)| {
-        let _ = std::fs::remove_dir_all(&case_dir);
+    fuzz("dataset mutations", DATASET_CASES, strategy, &case_dir, |(muts, fi), tally| {
         copy_dir(&tmp.join("valid"), &case_dir.join("ds"));
         for m in &muts {
             m.apply(&case_dir.join("ds"));
@@ -530,19 +551,15 @@ fn dataset_mutations_keep_the_contract() {
         let located = muts.iter().all(DataMut::in_content);
         let (f, n) = FILTERS[fi];
         let e = run_bounded(&case_dir, &["run", "--dataset", "ds", "--filter", f, "--particles", n, "--out", "o"]);
-        let code = check_exit(&tally, &e, &touched, located).map_err(|err| with_case(err, &muts, f))?;
+        let code = check_exit(tally, &e, &touched, located).map_err(|err| with_case(err, &muts, f))?;
         if code == 0 {
             let path = case_dir.join("o/metrics.json");
             if !path.exists() {
-                return Err(violation(
-                    &tally,
-                    |t| &mut t.other,
-                    format!("exit 0 without metrics.json ({muts:?}, {f})"),
-                ));
+                return Err(violation(tally, |t| &mut t.other, format!("exit 0 without metrics.json ({muts:?}, {f})")));
             }
             let m = metrics_raw(&path);
             if m.get("scored_steps").is_none_or(|v| v == "0") && !may_be_unscored(&touched) {
-                return Err(violation(&tally, |t| &mut t.other, format!("exit 0, no scored step ({muts:?}, {f})")));
+                return Err(violation(tally, |t| &mut t.other, format!("exit 0, no scored step ({muts:?}, {f})")));
             }
             for (k, v) in &m {
                 let bad = match v.as_str() {
@@ -552,17 +569,15 @@ fn dataset_mutations_keep_the_contract() {
                 };
                 if bad {
                     return Err(violation(
-                        &tally,
+                        tally,
                         |t| &mut t.non_finite,
                         format!("exit 0 with {k} = {v} ({muts:?}, {f})"),
                     ));
                 }
             }
         }
-        count_exit(&tally, code);
-        Ok(())
+        Ok(code)
     });
-    finish(&tally, "dataset mutations", result);
 }
 
 /// A failure with the case that caused it.
@@ -763,11 +778,9 @@ fn experiment_and_scenario_mutations_keep_the_contract() {
     ok(tmp.path(), &["sweep", "exp.toml", "--jobs", "1", "--quiet", "--out", "valid"]);
     assert_eq!(Csv::read(&tmp.join("valid/runs.csv")).rows.len(), 4);
 
-    let tally = RefCell::new(Tally::default());
     let case_dir = tmp.join("case");
     let strategy = prop::collection::vec(sweep_mutation(), 1..=2);
-    let result = runner(SWEEP_CASES).run(&strategy, |muts| {
-        let _ = std::fs::remove_dir_all(&case_dir);
+    fuzz("experiment mutations", SWEEP_CASES, strategy, &case_dir, |muts, tally| {
         std::fs::create_dir_all(case_dir.join("data")).unwrap();
         let (mut exp, mut sc) = (EXPERIMENT.to_string(), scen.clone());
         for m in &muts {
@@ -777,18 +790,18 @@ fn experiment_and_scenario_mutations_keep_the_contract() {
         std::fs::write(case_dir.join("scen.toml"), &sc).unwrap();
         let touched: Vec<String> = muts.iter().map(|m| m.target().file().to_string()).collect();
         let e = run_bounded(&case_dir, &["sweep", "exp.toml", "--jobs", "1", "--quiet", "--out", "out"]);
-        let code = check_exit(&tally, &e, &touched, true).map_err(|err| with_case(err, &muts, "sweep"))?;
+        let code = check_exit(tally, &e, &touched, true).map_err(|err| with_case(err, &muts, "sweep"))?;
         if code == 0 {
             let path = case_dir.join("out/runs.csv");
             if !path.exists() {
-                return Err(violation(&tally, |t| &mut t.other, format!("exit 0 without runs.csv ({muts:?})")));
+                return Err(violation(tally, |t| &mut t.other, format!("exit 0 without runs.csv ({muts:?})")));
             }
             let runs = Csv::read(&path);
             for row in runs.maps() {
                 for (k, v) in row.iter().filter(|(k, _)| k.as_str() != "filter") {
                     if !(v.is_empty() || v.parse::<f64>().is_ok_and(f64::is_finite)) {
                         return Err(violation(
-                            &tally,
+                            tally,
                             |t| &mut t.non_finite,
                             format!("exit 0 with {k} = {v:?} in runs.csv ({muts:?})"),
                         ));
@@ -796,8 +809,6 @@ fn experiment_and_scenario_mutations_keep_the_contract() {
                 }
             }
         }
-        count_exit(&tally, code);
-        Ok(())
+        Ok(code)
     });
-    finish(&tally, "experiment mutations", result);
 }

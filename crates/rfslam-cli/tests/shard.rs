@@ -12,7 +12,7 @@ use common::*;
 /// goes to shard (k mod 3) + 1.
 fn small(tmp: &TempDir) {
     tmp.write("scen.toml", &scenario(60, 10, 0.95, 2.0));
-    let entries = [Entry::new("dead-reckoning", "dr-a", &[1]), Entry::new("dead-reckoning", "dr-b", &[1])];
+    let entries = dead_reckoning_pair();
     tmp.write("exp.toml", &experiment("scen.toml", 5, 3, &entries, ""));
 }
 
@@ -20,6 +20,16 @@ fn small(tmp: &TempDir) {
 fn shard(tmp: &TempDir, i: usize, n: usize, extra: &[&str]) -> Output {
     let (spec, out) = (format!("{i}/{n}"), format!("s{i}"));
     ok(tmp.path(), &[&["sweep", "exp.toml", "--shard", &spec, "--out", &out, "--jobs", "1", "--quiet"], extra].concat())
+}
+
+/// The test directory `test` with [`small`] written and the shards `shards` of 3 run.
+fn sharded(test: &str, shards: &[usize]) -> TempDir {
+    let tmp = TempDir::new(test);
+    small(&tmp);
+    for &i in shards {
+        shard(&tmp, i, 3, &[]);
+    }
+    tmp
 }
 
 /// (filter, run) of every row of a runs.csv.
@@ -122,10 +132,7 @@ fn three_shards_merged_equal_the_unsharded_sweep() {
 
 #[test]
 fn merge_lists_the_missing_jobs_and_never_writes_a_partial_sweep() {
-    let tmp = TempDir::new("shard-missing");
-    small(&tmp);
-    shard(&tmp, 1, 3, &[]);
-    shard(&tmp, 3, 3, &[]);
+    let tmp = sharded("shard-missing", &[1, 3]);
 
     // Shard 2 (dr-a runs 1 and 4, dr-b run 2) is missing.
     let o = fails(
@@ -156,11 +163,7 @@ fn merge_lists_the_missing_jobs_and_never_writes_a_partial_sweep() {
 
 #[test]
 fn merge_reports_duplicated_jobs() {
-    let tmp = TempDir::new("shard-duplicates");
-    small(&tmp);
-    for i in 1..=3 {
-        shard(&tmp, i, 3, &[]);
-    }
+    let tmp = sharded("shard-duplicates", &[1, 2, 3]);
     ok(tmp.path(), &["merge", "s1", "s2", "s3", "--out", "merged"]);
     let merged = Csv::read(&tmp.join("merged/runs.csv"));
 
@@ -197,10 +200,7 @@ fn merge_reports_duplicated_jobs() {
 
 #[test]
 fn merge_refuses_shards_of_different_sweeps() {
-    let tmp = TempDir::new("shard-different");
-    small(&tmp);
-    shard(&tmp, 1, 3, &[]);
-    shard(&tmp, 2, 3, &[]);
+    let tmp = sharded("shard-different", &[1, 2]);
     let exp = tmp.read("exp.toml");
     let mismatch = "are not shards of the same sweep";
 
@@ -243,9 +243,7 @@ fn bad_shard_values_are_usage_errors() {
 
 #[test]
 fn resume_continues_only_its_own_shard() {
-    let tmp = TempDir::new("shard-resume");
-    small(&tmp);
-    shard(&tmp, 2, 3, &[]);
+    let tmp = sharded("shard-resume", &[2]);
     let done = Csv::read(&tmp.join("s2/runs.csv"));
     assert_eq!(jobs_of(&done), job_list(&[("dr-a", 1), ("dr-a", 4), ("dr-b", 2)]));
 

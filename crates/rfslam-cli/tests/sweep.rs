@@ -36,10 +36,19 @@ fn a_closed_stdout_is_not_a_panic() {
     assert!(out.status.success() && !stderr.contains("panicked"), "{:?}: {stderr}", out.status);
 }
 
+/// The test directory `test` with a 100-step scenario (20 landmarks, pD 0.95, 2 clutter per
+/// scan) written to `scen.toml`, and its text.
+fn with_scenario(test: &str) -> (TempDir, String) {
+    let tmp = TempDir::new(test);
+    let scen = scenario(100, 20, 0.95, 2.0);
+    tmp.write("scen.toml", &scen);
+    (tmp, scen)
+}
+
 /// Every registered filter (dead reckoning twice, under two labels) with the particle
 /// counts among 1 and 3 it accepts.
 fn all_entries(models: &rfslam_core::SlamModels) -> Vec<Entry> {
-    let mut entries = vec![Entry::new("dead-reckoning", "dr-a", &[1]), Entry::new("dead-reckoning", "dr-b", &[1])];
+    let mut entries = dead_reckoning_pair();
     for (e, counts) in registered(models, &[1, 3]) {
         if e.name != "dead-reckoning" {
             entries.push(Entry::new(e.name, e.name, &counts));
@@ -50,9 +59,7 @@ fn all_entries(models: &rfslam_core::SlamModels) -> Vec<Entry> {
 
 #[test]
 fn sweep_is_identical_with_one_or_two_jobs() {
-    let tmp = TempDir::new("determinism");
-    let scen = scenario(100, 20, 0.95, 2.0);
-    tmp.write("scen.toml", &scen);
+    let (tmp, scen) = with_scenario("determinism");
     let entries = all_entries(&models(&scen));
     let runs = 3;
     tmp.write("exp.toml", &experiment("scen.toml", runs, 11, &entries, ""));
@@ -79,10 +86,8 @@ fn sweep_is_identical_with_one_or_two_jobs() {
 
 #[test]
 fn every_filter_of_a_run_sees_the_same_data_and_run_reproduces_the_row() {
-    let tmp = TempDir::new("paired");
-    let scen = scenario(100, 20, 0.95, 2.0);
-    tmp.write("scen.toml", &scen);
-    let mut entries = vec![Entry::new("dead-reckoning", "dr-a", &[1]), Entry::new("dead-reckoning", "dr-b", &[1])];
+    let (tmp, scen) = with_scenario("paired");
+    let mut entries = dead_reckoning_pair();
     for (e, counts) in registered(&models(&scen), &[3, 1]) {
         if e.name != "dead-reckoning" {
             entries.push(Entry::new(e.name, e.name, &counts[..1]));
@@ -140,9 +145,19 @@ fn every_filter_of_a_run_sees_the_same_data_and_run_reproduces_the_row() {
 /// The resume experiment: two dead-reckoning entries over a two-point grid, 5 runs (20 jobs).
 fn resume_setup(tmp: &TempDir) {
     tmp.write("scen.toml", &scenario(300, 30, 0.95, 5.0));
-    let entries = [Entry::new("dead-reckoning", "dr-a", &[1]), Entry::new("dead-reckoning", "dr-b", &[1])];
+    let entries = dead_reckoning_pair();
     let grid = "\n[grid]\n\"scenario.clutter.rate\" = [1.0, 5.0]\n";
     tmp.write("exp.toml", &experiment("scen.toml", 5, 3, &entries, grid));
+}
+
+/// The test directory `test` with [`resume_setup`]'s experiment swept into `out`, and
+/// the runs.csv it wrote.
+fn swept(test: &str) -> (TempDir, String) {
+    let tmp = TempDir::new(test);
+    resume_setup(&tmp);
+    ok(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--quiet"]);
+    let before = tmp.read("out/runs.csv");
+    (tmp, before)
 }
 
 #[test]
@@ -292,10 +307,7 @@ fn resume_keeps_the_runs_and_the_resolved_experiment_consistent() {
 
 #[test]
 fn existing_output_is_never_overwritten_without_resume() {
-    let tmp = TempDir::new("no-resume");
-    resume_setup(&tmp);
-    ok(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--quiet"]);
-    let before = tmp.read("out/runs.csv");
+    let (tmp, before) = swept("no-resume");
     let o = rfslam(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--quiet"]);
     assert_ne!(o.code, 0);
     assert!(o.stderr.contains("runs.csv") && o.stderr.contains("--resume"), "{}", o.stderr);
@@ -304,27 +316,25 @@ fn existing_output_is_never_overwritten_without_resume() {
 
 #[test]
 fn resume_refuses_a_changed_experiment() {
-    let tmp = TempDir::new("changed");
-    resume_setup(&tmp);
-    ok(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--quiet"]);
-    let before = tmp.read("out/runs.csv");
+    let (tmp, before) = swept("changed");
     let exp = tmp.read("exp.toml");
     let scen = tmp.read("scen.toml");
+    // Resuming is refused as a different experiment and leaves runs.csv as it was.
+    let refused = || {
+        let o = rfslam(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--resume"]);
+        assert_ne!(o.code, 0, "{}", o.stdout);
+        assert!(o.stderr.contains("different experiment"), "{}", o.stderr);
+        assert_eq!(tmp.read("out/runs.csv"), before);
+    };
 
     // Another master seed.
     tmp.write("exp.toml", &exp.replace("seed = 3", "seed = 4"));
-    let o = rfslam(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--resume"]);
-    assert_ne!(o.code, 0, "{}", o.stdout);
-    assert!(o.stderr.contains("different experiment"), "{}", o.stderr);
-    assert_eq!(tmp.read("out/runs.csv"), before);
+    refused();
 
     // The same experiment file over a changed scenario.
     tmp.write("exp.toml", &exp);
     tmp.write("scen.toml", &scen.replace("sigma_v = 0.8", "sigma_v = 0.7"));
-    let o = rfslam(tmp.path(), &["sweep", "exp.toml", "--out", "out", "--resume"]);
-    assert_ne!(o.code, 0, "{}", o.stdout);
-    assert!(o.stderr.contains("different experiment"), "{}", o.stderr);
-    assert_eq!(tmp.read("out/runs.csv"), before);
+    refused();
 
     // Back to the original: resuming is accepted again, however the file is named and
     // from whichever directory.
@@ -338,10 +348,8 @@ fn resume_refuses_a_changed_experiment() {
 
 #[test]
 fn filters_and_particles_select_jobs() {
-    let tmp = TempDir::new("subsets");
-    let scen = scenario(100, 20, 0.95, 2.0);
-    tmp.write("scen.toml", &scen);
-    let mut entries = vec![Entry::new("dead-reckoning", "dr-a", &[1]), Entry::new("dead-reckoning", "dr-b", &[1])];
+    let (tmp, scen) = with_scenario("subsets");
+    let mut entries = dead_reckoning_pair();
     // A registered filter that runs with several particle counts, when there is one.
     let multi =
         registered(&models(&scen), &[1, 2, 3]).into_iter().find(|(e, c)| e.name != "dead-reckoning" && c.len() > 1);

@@ -565,6 +565,24 @@ mod tests {
         &s[s.find("[motion]").expect("[motion] in the test scenario")..]
     }
 
+    /// [`tables`] with `keys` added to its `[sensor]` table.
+    fn with(keys: &str) -> String {
+        tables().replace("sigma_bearing_deg = 0.3", &format!("sigma_bearing_deg = 0.3\n{keys}"))
+    }
+
+    /// [`with`]`(keys)` parsed, which must validate.
+    fn valid_with(keys: &str) -> ModelConfig {
+        let c: ModelConfig = toml::from_str(&with(keys)).unwrap();
+        c.validate().unwrap();
+        c
+    }
+
+    /// The validation error of [`with`]`(keys)`, which must parse.
+    fn err(keys: &str) -> String {
+        let c: ModelConfig = toml::from_str(&with(keys)).unwrap();
+        c.validate().unwrap_err().to_string()
+    }
+
     #[test]
     fn parses_the_documented_example_and_converts_units() {
         let c: ModelConfig = toml::from_str(tables()).unwrap();
@@ -586,18 +604,15 @@ mod tests {
 
     #[test]
     fn ackermann_defaults_and_odometry_sigmas() {
-        let text = tables().replace(
-            "model = \"velocity\"\nsigma_v = 0.8\nsigma_omega_deg = 0.5",
-            "model = \"ackermann\"\nsigma_v = 1.0\nsigma_steer_deg = 4.0",
-        );
-        let c: ModelConfig = toml::from_str(&text).unwrap();
+        // The test tables with the motion model `motion` (its keys) for the velocity model.
+        let with_motion = |motion: &str| -> ModelConfig {
+            toml::from_str(&tables().replace("model = \"velocity\"\nsigma_v = 0.8\nsigma_omega_deg = 0.5", motion))
+                .unwrap()
+        };
+        let c = with_motion("model = \"ackermann\"\nsigma_v = 1.0\nsigma_steer_deg = 4.0");
         assert_eq!(c.motion.motion(), Motion::Ackermann(AckermannModel::default()));
         assert!((c.motion.sigmas()[1] - 4f64.to_radians()).abs() < 1e-15);
-        let text = tables().replace(
-            "model = \"velocity\"\nsigma_v = 0.8\nsigma_omega_deg = 0.5",
-            "model = \"odometry2d\"\nsigma_dx = 0.1\nsigma_dy = 0.05\nsigma_dtheta_deg = 1.0",
-        );
-        let c: ModelConfig = toml::from_str(&text).unwrap();
+        let c = with_motion("model = \"odometry2d\"\nsigma_dx = 0.1\nsigma_dy = 0.05\nsigma_dtheta_deg = 1.0");
         let q = c.motion.control_noise();
         assert!((q[(1, 1)] - 0.0025).abs() < 1e-18 && (q[(2, 2)] - 1f64.to_radians().powi(2)).abs() < 1e-18);
     }
@@ -623,12 +638,7 @@ mod tests {
 
     #[test]
     fn min_range_and_edge_keys() {
-        let with =
-            |keys: &str| tables().replace("sigma_bearing_deg = 0.3", &format!("sigma_bearing_deg = 0.3\n{keys}"));
-        let c: ModelConfig =
-            toml::from_str(&with("min_range = 0.5\nedge = \"taper\"\nedge_band_range = 2.0\nedge_band_deg = 5.0"))
-                .unwrap();
-        c.validate().unwrap();
+        let c = valid_with("min_range = 0.5\nedge = \"taper\"\nedge_band_range = 2.0\nedge_band_deg = 5.0");
         let f = c.sensor.fov();
         assert_eq!(f.min_range, 0.5);
         assert_eq!(f.edge, FovEdge::Taper { band_range: 2.0, band_angle: 5f64.to_radians() });
@@ -639,10 +649,6 @@ mod tests {
         assert_eq!(c.sensor.fov(), Fov::new(150.0, std::f64::consts::FRAC_PI_2));
         let written = toml::to_string(&c).unwrap();
         assert!(!written.contains("min_range") && !written.contains("edge"), "{written}");
-        let err = |keys: &str| {
-            let c: ModelConfig = toml::from_str(&with(keys)).unwrap();
-            c.validate().unwrap_err().to_string()
-        };
         assert_eq!(err("min_range = 150.0"), "sensor.min_range must be in [0, max_range) (got 150)");
         assert_eq!(err("min_range = -1.0"), "sensor.min_range must be in [0, max_range) (got -1)");
         assert!(err("edge = \"taper\"\nedge_band_deg = 5.0").starts_with("sensor.edge_band_range is required"));
@@ -651,8 +657,7 @@ mod tests {
         let e = err("min_range = 100.0\nedge = \"taper\"\nedge_band_range = 60.0\nedge_band_deg = 1.0");
         assert_eq!(e, "sensor.edge_band_range must be in (0, 50] (got 60)");
         // Read by the taper only, but allowed (and checked) with any edge, for grids over `edge`.
-        let c: ModelConfig = toml::from_str(&with("edge = \"expected\"\nedge_band_deg = 5.0")).unwrap();
-        c.validate().unwrap();
+        let c = valid_with("edge = \"expected\"\nedge_band_deg = 5.0");
         assert_eq!(c.sensor.fov().edge, FovEdge::Expected);
         assert_eq!(err("edge_band_deg = 0.0"), "sensor.edge_band_deg must be in (0, 90] (got 0)");
         let e = toml::from_str::<ModelConfig>(&with("edge = \"soft\"")).unwrap_err();
@@ -662,18 +667,9 @@ mod tests {
     /// `edge = "hold"` takes the taper's band keys, both required and bounded.
     #[test]
     fn hold_edge_keys() {
-        let with =
-            |keys: &str| tables().replace("sigma_bearing_deg = 0.3", &format!("sigma_bearing_deg = 0.3\n{keys}"));
-        let c: ModelConfig =
-            toml::from_str(&with("min_range = 0.5\nedge = \"hold\"\nedge_band_range = 0.05\nedge_band_deg = 1.0"))
-                .unwrap();
-        c.validate().unwrap();
+        let c = valid_with("min_range = 0.5\nedge = \"hold\"\nedge_band_range = 0.05\nedge_band_deg = 1.0");
         assert_eq!(c.sensor.fov().edge, FovEdge::Hold { band_range: 0.05, band_angle: 1f64.to_radians() });
         assert!(toml::to_string(&c).unwrap().contains("edge = \"hold\""));
-        let err = |keys: &str| {
-            let c: ModelConfig = toml::from_str(&with(keys)).unwrap();
-            c.validate().unwrap_err().to_string()
-        };
         assert_eq!(
             err("edge = \"hold\"\nedge_band_deg = 5.0"),
             "sensor.edge_band_range is required with edge = \"hold\""

@@ -759,6 +759,17 @@ mod tests {
         assert_eq!(d.truth_at(5.0, 0.1), None);
     }
 
+    /// Scan times and odometry rows (row `i` with the control `[i, 0, 0]`) at the quarter
+    /// seconds `scan_q / 4` and `row_q / 4`, sorted: on this grid the sums of the segment
+    /// lengths are exact.
+    fn quarter_grid(mut scan_q: Vec<u32>, mut row_q: Vec<u32>) -> (Vec<f64>, Vec<(f64, [f64; 3])>) {
+        scan_q.sort_unstable();
+        row_q.sort_unstable();
+        let scan_t = scan_q.iter().map(|&q| q as f64 / 4.0).collect();
+        let rows = row_q.iter().enumerate().map(|(i, &q)| (q as f64 / 4.0, [i as f64, 0.0, 0.0])).collect();
+        (scan_t, rows)
+    }
+
     use proptest::strategy::Strategy as _;
 
     proptest::proptest! {
@@ -768,14 +779,10 @@ mod tests {
         /// instant, the control of the last row at or before it.
         #[test]
         fn velocity_segments_tile_the_interval(
-            mut scan_q in proptest::collection::vec(1u32..200, 1..8),
-            mut row_q in proptest::collection::vec(0u32..200, 0..10),
+            scan_q in proptest::collection::vec(1u32..200, 1..8),
+            row_q in proptest::collection::vec(0u32..200, 0..10),
         ) {
-            // Times on a quarter-second grid, so the sums below are exact.
-            scan_q.sort_unstable();
-            row_q.sort_unstable();
-            let scan_t: Vec<f64> = scan_q.iter().map(|&q| q as f64 / 4.0).collect();
-            let rows: Vec<(f64, [f64; 3])> = row_q.iter().enumerate().map(|(i, &q)| (q as f64 / 4.0, [i as f64, 0.0, 0.0])).collect();
+            let (scan_t, rows) = quarter_grid(scan_q, row_q);
             let d = with_odometry(VEL, &scan_t, &rows);
             let mut out = Vec::new();
             for (k, &b) in scan_t.iter().enumerate() {
@@ -802,13 +809,10 @@ mod tests {
         /// Odometry2d segments use every row after the initial time exactly once, in order.
         #[test]
         fn odometry2d_segments_use_each_row_once(
-            mut scan_q in proptest::collection::vec(1u32..200, 1..8),
-            mut row_q in proptest::collection::vec(0u32..220, 0..10),
+            scan_q in proptest::collection::vec(1u32..200, 1..8),
+            row_q in proptest::collection::vec(0u32..220, 0..10),
         ) {
-            scan_q.sort_unstable();
-            row_q.sort_unstable();
-            let scan_t: Vec<f64> = scan_q.iter().map(|&q| q as f64 / 4.0).collect();
-            let rows: Vec<(f64, [f64; 3])> = row_q.iter().enumerate().map(|(i, &q)| (q as f64 / 4.0, [i as f64, 0.0, 0.0])).collect();
+            let (scan_t, rows) = quarter_grid(scan_q, row_q);
             let odo = MotionConfig::Odometry2d { sigma_dx: 0.1, sigma_dy: 0.1, sigma_dtheta_deg: 1.0 };
             let d = with_odometry(odo, &scan_t, &rows);
             let mut out = Vec::new();

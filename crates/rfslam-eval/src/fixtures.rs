@@ -103,6 +103,16 @@ pub fn final_map_figures<F: FilterBuild>(params: F::Params, ds: &Dataset, n: usi
     (o["gospa_false"], o["gospa_missed"], o["gospa_loc_m"] / matched.sqrt(), o["pos_rmse_m"])
 }
 
+/// Asserts that a final map of [`final_map_figures`]` = (false, missed, landmark RMS, pose
+/// RMSE)` holds every landmark once (none false, none missed) at about the pose error: the
+/// landmark RMS error below 1.5 times the position RMSE plus 0.2 m. Prints the figures,
+/// labelled `what`, first.
+pub fn assert_every_landmark_once(what: &str, (f, m, lm, pos): (f64, f64, f64, f64)) {
+    eprintln!("{what}: {f} false, {m} missed, landmark RMS {lm:.2} m, pose RMSE {pos:.2} m");
+    assert_eq!((f, m), (0.0, 0.0), "{what}: every landmark once");
+    assert!(lm < 1.5 * pos + 0.2, "{what}: landmark RMS {lm:.2} m against pose RMSE {pos:.2} m");
+}
+
 /// Position RMSE of the odometry integrated from the initial pose, against the truth at
 /// every scan (within 25 ms).
 pub fn dead_reckoning_rmse(ds: &Dataset) -> f64 {

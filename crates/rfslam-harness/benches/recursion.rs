@@ -4,7 +4,7 @@
 //! the papers' synthetic environment when it is found (else the procedural world).
 //! Compare with the time column of \[Kaltiokallio2024\] Table II (one recursion, one core).
 
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::Criterion;
 use rfslam_bench::{bench_recursion as bench_filter, benchmark_dataset};
 
 fn recursion(c: &mut Criterion) {
@@ -18,9 +18,4 @@ fn recursion(c: &mut Criterion) {
     }
 }
 
-criterion_group! {
-    name = benches;
-    config = Criterion::default().sample_size(30).warm_up_time(std::time::Duration::from_secs(1)).measurement_time(std::time::Duration::from_secs(3));
-    targets = recursion
-}
-criterion_main!(benches);
+rfslam_bench::recursion_main!(recursion, 30, 3);

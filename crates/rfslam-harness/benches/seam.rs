@@ -4,7 +4,7 @@
 //! the procedural world). `scripts/bench-compare.sh` runs this file at two revisions side by
 //! side, on one machine in one session.
 
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::Criterion;
 use rfslam_bench::{bench_recursion as bench_filter, benchmark_dataset};
 
 fn seam(c: &mut Criterion) {
@@ -15,9 +15,4 @@ fn seam(c: &mut Criterion) {
     bench_filter::<pmbm_slam::PmbmSlam>(c, "pmbm-slam", &ds, 10);
 }
 
-criterion_group! {
-    name = benches;
-    config = Criterion::default().sample_size(40).warm_up_time(std::time::Duration::from_secs(1)).measurement_time(std::time::Duration::from_secs(4));
-    targets = seam
-}
-criterion_main!(benches);
+rfslam_bench::recursion_main!(seam, 40, 4);

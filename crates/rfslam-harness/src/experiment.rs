@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use rfslam_data::{RadioScenario, ScenarioConfig, is_radio};
+use rfslam_data::{ConfigError, RadioScenario, ScenarioConfig, is_radio};
 use rfslam_sim::ScenarioData;
 use rfslam_sim::World;
 use serde::{Deserialize, Serialize};
@@ -380,27 +380,24 @@ pub fn scenario_from_table(
     table: &toml::Table,
     origin: &dyn Fn(&str, String) -> HarnessError,
 ) -> Result<ScenarioConfig, HarnessError> {
-    let sc: ScenarioConfig = toml::Value::Table(table.clone()).try_into().map_err(|e: toml::de::Error| {
-        let msg = e.message().trim().to_string();
-        let key = msg.split('`').nth(1).unwrap_or("").to_string();
-        origin(&key, msg)
-    })?;
-    sc.validate().map_err(|e| origin(e.key().unwrap_or_default(), e.to_string()))?;
-    Ok(sc)
+    from_table(table, origin, ScenarioConfig::validate, ConfigError::to_string)
 }
 
-/// Deserializes and validates a radio scenario table; `origin` says where an error should
-/// point.
-fn radio_from_table(
+/// Deserializes `table` as a `T` and checks it with `validate`; `origin` says where an error
+/// should point: a serde error at the key its message names, a validation error at its key,
+/// with the text `text` gives it.
+fn from_table<T: serde::de::DeserializeOwned>(
     table: &toml::Table,
     origin: &dyn Fn(&str, String) -> HarnessError,
-) -> Result<RadioScenario, HarnessError> {
-    let sc: RadioScenario = toml::Value::Table(table.clone()).try_into().map_err(|e: toml::de::Error| {
+    validate: impl Fn(&T) -> Result<(), ConfigError>,
+    text: impl Fn(&ConfigError) -> String,
+) -> Result<T, HarnessError> {
+    let sc: T = toml::Value::Table(table.clone()).try_into().map_err(|e: toml::de::Error| {
         let msg = e.message().trim().to_string();
         let key = msg.split('`').nth(1).unwrap_or("").to_string();
         origin(&key, msg)
     })?;
-    sc.validate().map_err(|e| origin(e.key().unwrap_or_default(), e.message().to_string()))?;
+    validate(&sc).map_err(|e| origin(e.key().unwrap_or_default(), text(&e)))?;
     Ok(sc)
 }
 
@@ -682,7 +679,7 @@ impl Plan {
                 return Err(origin("world.kind", "a grid may not change whether the world is the radio world".into()));
             }
             if radio {
-                let sc = radio_from_table(&sc_table, &origin)?;
+                let sc = from_table(&sc_table, &origin, RadioScenario::validate, |e| e.message().to_string())?;
                 let models = radio_models(&sc);
                 for (i, f) in filters.iter().enumerate() {
                     let entry = registry::find(&f.name).expect("checked above");

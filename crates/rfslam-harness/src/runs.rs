@@ -388,6 +388,7 @@ pub fn group(rows: &[RunRow]) -> Vec<(GroupKey, Vec<&RunRow>)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::path::PathBuf;
 
     fn row(run: usize) -> RunRow {
         let mut values = Values::default();
@@ -414,11 +415,21 @@ mod tests {
         RunsLayout::new(&MetricsConfig::default(), &["scenario.clutter.rate".to_string()])
     }
 
+    /// The test directory `name`, the path of its runs.csv and the test layout.
+    fn runs_file(name: &str) -> (PathBuf, PathBuf, RunsLayout) {
+        let dir = crate::test_dir("runs", name);
+        let path = dir.join("runs.csv");
+        (dir, path, layout())
+    }
+
+    /// Writes to `path` a runs.csv of the header `hdr` and the one row `fields`.
+    fn write_row(path: &Path, hdr: &[String], fields: &[String]) {
+        std::fs::write(path, format!("{}\n{}\n", hdr.join(","), fields.join(","))).unwrap();
+    }
+
     #[test]
     fn rows_round_trip_with_the_aligned_column() {
-        let dir = crate::test_dir("runs", "rt");
-        let path = dir.join("runs.csv");
-        let layout = layout();
+        let (dir, path, layout) = runs_file("rt");
         write_rows(&path, &layout, &[row(0), row(1)]).unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
         assert!(text.lines().next().unwrap().ends_with(",cholesky_failures,pos_rmse_se2_m,scenario.clutter.rate"));
@@ -433,16 +444,14 @@ mod tests {
 
     #[test]
     fn legacy_file_without_the_aligned_column_is_read_with_nan() {
-        let dir = crate::test_dir("runs", "legacy");
-        let path = dir.join("runs.csv");
-        let layout = layout();
+        let (dir, path, layout) = runs_file("legacy");
         // The header and row of a runs.csv written before pos_rmse_se2_m existed.
         let se2 = layout.header().iter().position(|h| h == "pos_rmse_se2_m").unwrap();
         let mut hdr = layout.header();
         hdr.remove(se2);
         let mut fields = row(0).fields(&layout);
         fields.remove(se2);
-        std::fs::write(&path, format!("{}\n{}\n", hdr.join(","), fields.join(","))).unwrap();
+        write_row(&path, &hdr, &fields);
         let back = read_rows(&path, &layout).unwrap();
         assert_eq!(back.len(), 1);
         assert!(back[0].get("pos_rmse_se2_m").is_nan());
@@ -459,14 +468,12 @@ mod tests {
 
     #[test]
     fn columns_are_read_by_header_in_any_order() {
-        let dir = crate::test_dir("runs", "order");
-        let path = dir.join("runs.csv");
-        let layout = layout();
+        let (dir, path, layout) = runs_file("order");
         let mut hdr = layout.header();
         let mut fields = row(3).fields(&layout);
         hdr.reverse();
         fields.reverse();
-        std::fs::write(&path, format!("{}\n{}\n", hdr.join(","), fields.join(","))).unwrap();
+        write_row(&path, &hdr, &fields);
         let back = read_rows(&path, &layout).unwrap();
         assert_eq!(back[0].fields(&layout), row(3).fields(&layout));
         std::fs::remove_dir_all(&dir).ok();

@@ -78,6 +78,23 @@ fn serving(models: &SlamModels) -> impl Iterator<Item = &'static FilterEntry> + 
     REGISTRY.iter().filter(move |e| !refuses(e, models))
 }
 
+/// The models of a short scenario on `sensor` (50 steps, 10 landmarks, control noise
+/// 0.8 m/s and 0.5 deg/s, pD 0.95, 5 clutter per scan): enough to validate and build on.
+fn short_models(sensor: SensorKind) -> SlamModels {
+    scenario(sensor, 50, 10, 0.8, 0.5, 0.95, 5.0).models_for(None).unwrap()
+}
+
+/// Calls `check` with every registered filter that serves a sensor and the
+/// [`short_models`] of that sensor, for each sensor.
+fn each_served(mut check: impl FnMut(&FilterEntry, &SlamModels)) {
+    for sensor in SENSORS {
+        let models = short_models(sensor);
+        for entry in serving(&models) {
+            check(entry, &models);
+        }
+    }
+}
+
 /// The data of run `seed` of `sc`.
 fn dataset(sc: &ScenarioConfig, seed: u64) -> Dataset {
     sc.build_dataset(None, seed).expect("dataset")
@@ -138,7 +155,7 @@ fn registry_names_are_unique_with_a_baseline() {
 #[test]
 fn every_filter_serves_or_refuses_each_sensor() {
     for sensor in SENSORS {
-        let models = scenario(sensor, 50, 10, 0.8, 0.5, 0.95, 5.0).models_for(None).unwrap();
+        let models = short_models(sensor);
         for entry in REGISTRY {
             let listed = sensor != SensorKind::RangeBearing && RANGE_BEARING_ONLY.contains(&entry.name);
             assert_eq!(refuses(entry, &models), listed, "{} on the {} sensor", entry.name, sensor.name());
@@ -153,40 +170,36 @@ fn every_filter_serves_or_refuses_each_sensor() {
 
 #[test]
 fn default_parameters_validate_and_build() {
-    for sensor in SENSORS {
-        let sc = scenario(sensor, 50, 10, 0.8, 0.5, 0.95, 5.0);
-        let models = sc.models_for(None).unwrap();
-        for entry in serving(&models) {
-            let defaults = (entry.defaults)();
-            let mut built = 0;
-            for n in [1, 3] {
-                let empty = (entry.validate)(&toml::Table::new(), &models, n);
-                let written = (entry.validate)(&defaults, &models, n);
-                assert_eq!(empty, written, "{} N={n}: the written defaults validate differently from none", entry.name);
-                match (entry.build)(&defaults, &models, n) {
-                    Ok(f) => {
-                        assert!(empty.is_ok(), "{} N={n} builds but does not validate: {empty:?}", entry.name);
-                        assert_eq!(f.name(), entry.name, "the filter calls itself by another name");
-                        assert_eq!(f.particles(), n, "{} N={n}: particles()", entry.name);
-                        let e = f.estimate();
-                        assert!(
-                            (e.pose - models.initial_pose).norm() < 1e-9,
-                            "{} N={n}: starts at {:?}",
-                            entry.name,
-                            e.pose
-                        );
-                        assert!(e.map.is_empty(), "{} N={n}: starts with a map", entry.name);
-                        built += 1;
-                    }
-                    Err(e) => {
-                        assert!(empty.is_err(), "{} N={n} validates but does not build: {e}", entry.name);
-                        assert_eq!(e.key, "particles", "{} N={n}: rejected for {e}", entry.name);
-                    }
+    each_served(|entry, models| {
+        let defaults = (entry.defaults)();
+        let mut built = 0;
+        for n in [1, 3] {
+            let empty = (entry.validate)(&toml::Table::new(), models, n);
+            let written = (entry.validate)(&defaults, models, n);
+            assert_eq!(empty, written, "{} N={n}: the written defaults validate differently from none", entry.name);
+            match (entry.build)(&defaults, models, n) {
+                Ok(f) => {
+                    assert!(empty.is_ok(), "{} N={n} builds but does not validate: {empty:?}", entry.name);
+                    assert_eq!(f.name(), entry.name, "the filter calls itself by another name");
+                    assert_eq!(f.particles(), n, "{} N={n}: particles()", entry.name);
+                    let e = f.estimate();
+                    assert!(
+                        (e.pose - models.initial_pose).norm() < 1e-9,
+                        "{} N={n}: starts at {:?}",
+                        entry.name,
+                        e.pose
+                    );
+                    assert!(e.map.is_empty(), "{} N={n}: starts with a map", entry.name);
+                    built += 1;
+                }
+                Err(e) => {
+                    assert!(empty.is_err(), "{} N={n} validates but does not build: {e}", entry.name);
+                    assert_eq!(e.key, "particles", "{} N={n}: rejected for {e}", entry.name);
                 }
             }
-            assert!(built > 0, "{} builds with neither 1 nor 3 particles", entry.name);
         }
-    }
+        assert!(built > 0, "{} builds with neither 1 nor 3 particles", entry.name);
+    });
 }
 
 /// (b) The same seed gives bit-identical estimates at every step (and the same scores);
@@ -257,43 +270,39 @@ fn empty_scans_mean_prediction_only() {
 /// `build` with an error naming the key.
 #[test]
 fn bad_parameters_are_rejected_naming_the_key() {
-    for sensor in SENSORS {
-        let sc = scenario(sensor, 50, 10, 0.8, 0.5, 0.95, 5.0);
-        let models = sc.models_for(None).unwrap();
-        for entry in serving(&models) {
-            let n = counts(entry, &models, &[1, 3])[0];
-            let mut bad: Vec<(String, toml::Table)> = Vec::new();
-            let mut t = toml::Table::new();
-            t.insert("definitely_not_a_parameter".into(), toml::Value::Integer(1));
-            bad.push(("definitely_not_a_parameter".into(), t));
-            for (k, v) in (entry.defaults)() {
-                if matches!(v, toml::Value::Integer(_) | toml::Value::Float(_) | toml::Value::Boolean(_)) {
-                    let mut t = toml::Table::new();
-                    t.insert(k.clone(), toml::Value::String("not-a-number".into()));
-                    bad.push((k.clone(), t));
-                }
-                if matches!(v, toml::Value::Integer(_)) {
-                    let mut t = toml::Table::new();
-                    t.insert(k.clone(), toml::Value::Integer(1_000_000_000_000));
-                    bad.push((k, t));
-                }
+    each_served(|entry, models| {
+        let n = counts(entry, models, &[1, 3])[0];
+        let mut bad: Vec<(String, toml::Table)> = Vec::new();
+        let mut t = toml::Table::new();
+        t.insert("definitely_not_a_parameter".into(), toml::Value::Integer(1));
+        bad.push(("definitely_not_a_parameter".into(), t));
+        for (k, v) in (entry.defaults)() {
+            if matches!(v, toml::Value::Integer(_) | toml::Value::Float(_) | toml::Value::Boolean(_)) {
+                let mut t = toml::Table::new();
+                t.insert(k.clone(), toml::Value::String("not-a-number".into()));
+                bad.push((k.clone(), t));
             }
-            // Too many particles, whatever the machine's memory.
-            let too_many = rfslam_core::params::MAX_PARTICLES + 1;
-            let e = (entry.validate)(&toml::Table::new(), &models, too_many).expect_err(entry.name);
-            assert_eq!(e.key, "particles", "{}: {too_many} particles rejected as {e}", entry.name);
-            for (key, table) in bad {
-                match (entry.validate)(&table, &models, n) {
-                    Ok(()) => panic!("{}: {table:?} is accepted", entry.name),
-                    Err(e) => assert_eq!(e.key, key, "{}: {table:?} rejected as {e}", entry.name),
-                }
-                match (entry.build)(&table, &models, n) {
-                    Ok(_) => panic!("{}: {table:?} builds", entry.name),
-                    Err(e) => assert_eq!(e.key, key, "{}: {table:?} rejected as {e}", entry.name),
-                }
+            if matches!(v, toml::Value::Integer(_)) {
+                let mut t = toml::Table::new();
+                t.insert(k.clone(), toml::Value::Integer(1_000_000_000_000));
+                bad.push((k, t));
             }
         }
-    }
+        // Too many particles, whatever the machine's memory.
+        let too_many = rfslam_core::params::MAX_PARTICLES + 1;
+        let e = (entry.validate)(&toml::Table::new(), models, too_many).expect_err(entry.name);
+        assert_eq!(e.key, "particles", "{}: {too_many} particles rejected as {e}", entry.name);
+        for (key, table) in bad {
+            match (entry.validate)(&table, models, n) {
+                Ok(()) => panic!("{}: {table:?} is accepted", entry.name),
+                Err(e) => assert_eq!(e.key, key, "{}: {table:?} rejected as {e}", entry.name),
+            }
+            match (entry.build)(&table, models, n) {
+                Ok(_) => panic!("{}: {table:?} builds", entry.name),
+                Err(e) => assert_eq!(e.key, key, "{}: {table:?} rejected as {e}", entry.name),
+            }
+        }
+    });
 }
 
 /// (e) With pD = 1, no clutter and landmarks at least 5 m apart (sensor noise 0.8 m and

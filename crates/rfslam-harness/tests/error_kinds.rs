@@ -3,36 +3,15 @@
 
 use std::path::{Path, PathBuf};
 
+use rfslam_data::testutil::TempDir;
 use rfslam_harness::{HarnessError, JobFilter, Plan, Shard, SweepOptions, merge, sweep};
-
-struct Tmp(PathBuf);
-
-impl Tmp {
-    fn new(name: &str) -> Tmp {
-        let p = std::env::temp_dir().join(format!("rfslam-error-kinds-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&p);
-        std::fs::create_dir_all(&p).unwrap();
-        Tmp(p)
-    }
-    fn write(&self, name: &str, text: &str) -> PathBuf {
-        let p = self.0.join(name);
-        std::fs::write(&p, text).unwrap();
-        p
-    }
-}
-
-impl Drop for Tmp {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
 
 fn scenarios() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios")
 }
 
 /// A three-run dead-reckoning experiment on the procedural world.
-fn experiment(tmp: &Tmp, extra: &str) -> PathBuf {
+fn experiment(tmp: &TempDir, extra: &str) -> PathBuf {
     let scen = scenarios().join("procedural.toml");
     tmp.write(
         "exp.toml",
@@ -49,7 +28,7 @@ fn opts(out: PathBuf) -> SweepOptions {
 
 #[test]
 fn configuration_errors_name_the_key() {
-    let tmp = Tmp::new("config");
+    let tmp = TempDir::new("config");
     let path = experiment(&tmp, "[metrics]\ngospa_c = -1.0\n");
     match Plan::load(&path) {
         Err(e @ HarnessError::Config { .. }) => {
@@ -63,7 +42,7 @@ fn configuration_errors_name_the_key() {
 
 #[test]
 fn missing_data_is_a_data_error() {
-    let tmp = Tmp::new("data");
+    let tmp = TempDir::new("data");
     let scen = tmp.write("scen.toml", &std::fs::read_to_string(scenarios().join("victoria-park.toml")).unwrap());
     let text = std::fs::read_to_string(&scen).unwrap();
     let moved = text.replace("path = \"victoria-park\"", "path = \"/nonexistent/victoria-park\"");
@@ -75,7 +54,7 @@ fn missing_data_is_a_data_error() {
     );
     // A data-set scenario reads its data when a job runs.
     let plan = Plan::load(&exp).unwrap();
-    match sweep(&plan, &opts(tmp.0.join("out"))) {
+    match sweep(&plan, &opts(tmp.join("out"))) {
         Err(e @ HarnessError::Data(_)) => assert!(e.is_usage()),
         other => panic!("expected a data error, got {other:?}"),
     }
@@ -83,9 +62,9 @@ fn missing_data_is_a_data_error() {
 
 #[test]
 fn resume_conflicts_and_incomplete_merges_are_their_own_kinds() {
-    let tmp = Tmp::new("resume");
+    let tmp = TempDir::new("resume");
     let plan = Plan::load(&experiment(&tmp, "")).unwrap();
-    let out = tmp.0.join("out");
+    let out = tmp.join("out");
     sweep(&plan, &opts(out.clone())).unwrap();
     // Without --resume, and without the resolved experiment, the directory is not reused.
     assert!(matches!(sweep(&plan, &opts(out.clone())), Err(HarnessError::ResumeConflict { .. })));
@@ -101,11 +80,11 @@ fn resume_conflicts_and_incomplete_merges_are_their_own_kinds() {
     }
 
     // Shard 1 of 2 alone: the merge lists shard 2's jobs as missing (run 1 of the three).
-    let s1 = tmp.0.join("s1");
+    let s1 = tmp.join("s1");
     let shard =
         SweepOptions { shard: Some(Shard::new(1, 2).unwrap()), select: JobFilter::default(), ..opts(s1.clone()) };
     sweep(&plan, &shard).unwrap();
-    match merge(std::slice::from_ref(&s1), &tmp.0.join("merged")) {
+    match merge(std::slice::from_ref(&s1), &tmp.join("merged")) {
         Err(e @ HarnessError::IncompleteMerge { .. }) => {
             assert!(!e.is_usage());
             let HarnessError::IncompleteMerge { missing, conflicting, foreign, .. } = e else { unreachable!() };
@@ -115,5 +94,5 @@ fn resume_conflicts_and_incomplete_merges_are_their_own_kinds() {
         other => panic!("expected an incomplete merge, got {other:?}"),
     }
     // A sweep's own directory is not a shard's.
-    assert!(matches!(merge(&[tmp.0.join("out")], &tmp.0.join("m2")), Err(HarnessError::ShardMismatch(_))));
+    assert!(matches!(merge(&[tmp.join("out")], &tmp.join("m2")), Err(HarnessError::ShardMismatch(_))));
 }

@@ -16,9 +16,9 @@ use std::f64::consts::PI;
 use rand::RngExt;
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{Control, Motion, Point2, Pose};
-use rfslam_data::{ConfigError, DataError, Landmark, LoopParams};
+use rfslam_data::{DataError, LoopParams};
 
-use crate::world::World;
+use crate::world::{World, place_apart};
 
 /// The circuit of length `lap`: the point and the unwrapped heading at arc length `s >= 0`.
 fn on_circuit(lap: f64, s: f64) -> (Point2, f64) {
@@ -52,34 +52,13 @@ pub fn loop_world(p: &LoopParams) -> Result<World, DataError> {
         .collect();
 
     let mut rng = stream(&[p.seed, purpose::WORLD]);
-    let mut placed: Vec<Point2> = Vec::with_capacity(p.landmarks);
-    let max_attempts = 1000 + 1000 * p.landmarks;
-    let mut attempts = 0;
-    while placed.len() < p.landmarks {
-        attempts += 1;
-        if attempts > max_attempts {
-            return Err(DataError::config(ConfigError::new(
-                "world.landmarks",
-                format!(
-                    "could not place {} landmarks {} m apart ({} placed)",
-                    p.landmarks,
-                    LoopParams::MIN_SEPARATION,
-                    placed.len()
-                ),
-            )));
-        }
+    let landmarks = place_apart(p.landmarks, LoopParams::MIN_SEPARATION, 1000 + 1000 * p.landmarks, "", || {
         let s = rng.random_range(0.0..p.lap_length);
         let side = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
         let off = rng.random_range(LoopParams::MIN_OFFSET..=LoopParams::MAX_OFFSET);
         let (c, h) = on_circuit(p.lap_length, s);
-        let q = c + Point2::new(-h.sin(), h.cos()) * (side * off);
-        if placed.iter().any(|o| (o - q).norm() < LoopParams::MIN_SEPARATION) {
-            continue;
-        }
-        placed.push(q);
-    }
-    let landmarks =
-        placed.into_iter().enumerate().map(|(i, q)| Landmark { id: i as i64 + 1, position: q, mark: 0 }).collect();
+        c + Point2::new(-h.sin(), h.cos()) * (side * off)
+    })?;
     Ok(World::from_controls("loop", Motion::Velocity, p.dt, Pose::new(0.0, 0.0, 0.0), controls, landmarks))
 }
 

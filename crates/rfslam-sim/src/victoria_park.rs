@@ -422,6 +422,13 @@ pub(crate) mod tests {
         }
     }
 
+    /// [`models`] with `rate` clutter detections per scan.
+    fn models_with_clutter(rate: f64) -> ModelConfig {
+        let mut m = models();
+        m.clutter.rate = rate;
+        m
+    }
+
     pub(crate) fn write_excerpt(tmp: &TempDir, meas: &str, inputs: &str, gps: &str) {
         std::fs::write(tmp.path().join(files::MEASUREMENTS), meas).unwrap();
         std::fs::write(tmp.path().join(files::INPUTS), inputs).unwrap();
@@ -452,8 +459,7 @@ pub(crate) mod tests {
     #[test]
     fn import_converts_bearings_applies_the_fov_and_labels() {
         let vp = excerpt();
-        let mut m = models();
-        m.clutter.rate = 0.0;
+        let m = models_with_clutter(0.0);
         let d = vp.import(&m, Pose::zeros(), 1).unwrap();
         assert_eq!(d.scans.len(), 3);
         assert_eq!(d.meta.initial_t, 0.852);
@@ -558,8 +564,7 @@ pub(crate) mod tests {
     #[test]
     fn clutter_is_reproducible_labelled_and_inside_the_fov() {
         let vp = excerpt();
-        let mut m = models();
-        m.clutter.rate = 20.0;
+        let m = models_with_clutter(20.0);
         let a = vp.import(&m, Pose::zeros(), 7).unwrap();
         let b = vp.import(&m, Pose::zeros(), 7).unwrap();
         assert_eq!(a, b, "same seed, same data set");

@@ -343,45 +343,63 @@ impl World {
         }
         let poses = propagate_poses(&Motion::Velocity, p.dt, x0, &controls);
 
-        // Landmarks beside the route, kept apart with a grid of cell MIN_SEPARATION.
-        let sep = ProceduralParams::MIN_SEPARATION;
-        let cell = |q: &Point2| ((q.x / sep).floor() as i64, (q.y / sep).floor() as i64);
-        let mut grid: HashMap<(i64, i64), Vec<Point2>> = HashMap::new();
-        let mut landmarks = Vec::with_capacity(p.landmarks);
-        let max_attempts = 1000 + 100 * p.landmarks;
-        let mut attempts = 0;
-        while landmarks.len() < p.landmarks {
-            attempts += 1;
-            if attempts > max_attempts {
-                return Err(DataError::config(ConfigError::new(
-                    "world.landmarks",
-                    format!(
-                        "could not place {} landmarks {sep} m apart along the route ({} placed)",
-                        p.landmarks,
-                        landmarks.len()
-                    ),
-                )));
-            }
-            let (_, at) = poses[rng.random_range(0..poses.len())];
-            let side = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
-            let off = rng.random_range(ProceduralParams::MIN_OFFSET..=ProceduralParams::MAX_OFFSET);
-            let along = rng.random_range(-10.0..=10.0);
-            let (s, c) = at.z.sin_cos();
-            let q = Point2::new(at.x + along * c - side * off * s, at.y + along * s + side * off * c);
-            let (cx, cy) = cell(&q);
-            let close = (cx - 1..=cx + 1)
-                .flat_map(|i| (cy - 1..=cy + 1).map(move |j| (i, j)))
-                .filter_map(|k| grid.get(&k))
-                .flatten()
-                .any(|o| (o - q).norm() < sep);
-            if close {
-                continue;
-            }
-            grid.entry((cx, cy)).or_default().push(q);
-            landmarks.push(Landmark { id: landmarks.len() as i64 + 1, position: q, mark: 0 });
-        }
+        // Landmarks beside the route, kept apart.
+        let landmarks = place_apart(
+            p.landmarks,
+            ProceduralParams::MIN_SEPARATION,
+            1000 + 100 * p.landmarks,
+            " along the route",
+            || {
+                let (_, at) = poses[rng.random_range(0..poses.len())];
+                let side = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+                let off = rng.random_range(ProceduralParams::MIN_OFFSET..=ProceduralParams::MAX_OFFSET);
+                let along = rng.random_range(-10.0..=10.0);
+                let (s, c) = at.z.sin_cos();
+                Point2::new(at.x + along * c - side * off * s, at.y + along * s + side * off * c)
+            },
+        )?;
         Ok(World { name: "procedural".into(), dt: p.dt, landmarks, controls, poses, motion: Motion::Velocity })
     }
+}
+
+/// `n` landmarks at the positions `draw` gives, each at least `sep` from those kept before it
+/// (by rejection: a grid of cell `sep` finds the neighbours to test), with the ids 1, 2, ...
+/// in the order kept and mark 0. After `max_attempts` draws without `n` kept, the error
+/// names `world.landmarks` and says where they were placed (`place`, e.g. " along the
+/// route").
+pub(crate) fn place_apart(
+    n: usize,
+    sep: f64,
+    max_attempts: usize,
+    place: &str,
+    mut draw: impl FnMut() -> Point2,
+) -> Result<Vec<Landmark>, DataError> {
+    let cell = |q: &Point2| ((q.x / sep).floor() as i64, (q.y / sep).floor() as i64);
+    let mut grid: HashMap<(i64, i64), Vec<Point2>> = HashMap::new();
+    let mut landmarks = Vec::with_capacity(n);
+    let mut attempts = 0;
+    while landmarks.len() < n {
+        attempts += 1;
+        if attempts > max_attempts {
+            return Err(DataError::config(ConfigError::new(
+                "world.landmarks",
+                format!("could not place {n} landmarks {sep} m apart{place} ({} placed)", landmarks.len()),
+            )));
+        }
+        let q = draw();
+        let (cx, cy) = cell(&q);
+        let close = (cx - 1..=cx + 1)
+            .flat_map(|i| (cy - 1..=cy + 1).map(move |j| (i, j)))
+            .filter_map(|k| grid.get(&k))
+            .flatten()
+            .any(|o| (o - q).norm() < sep);
+        if close {
+            continue;
+        }
+        grid.entry((cx, cy)).or_default().push(q);
+        landmarks.push(Landmark { id: landmarks.len() as i64 + 1, position: q, mark: 0 });
+    }
+    Ok(landmarks)
 }
 
 /// `poses[0] = (t_0, x0)`, `poses[i+1] = (t_{i+1}, f(poses[i], u_i, dt))`: one pose per

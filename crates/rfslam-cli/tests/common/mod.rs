@@ -4,55 +4,16 @@
 #![allow(dead_code)]
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 use rfslam_data::testutil::small_scenario;
 use rfslam_harness::registry::{FilterEntry, REGISTRY};
 use rfslam_sim::ScenarioData;
 
-/// A directory under the system temp dir, unique per process and test, removed when the
-/// test passes (kept, and its path printed, when it fails).
-pub struct TempDir(PathBuf);
-
-impl TempDir {
-    pub fn new(test: &str) -> TempDir {
-        let p = std::env::temp_dir().join(format!("rfslam-cli-{}-{test}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&p);
-        std::fs::create_dir_all(&p).expect("create the test directory");
-        TempDir(p)
-    }
-
-    pub fn path(&self) -> &Path {
-        &self.0
-    }
-
-    pub fn join(&self, rel: &str) -> PathBuf {
-        self.0.join(rel)
-    }
-
-    /// Writes `text` to `rel` and returns the path.
-    pub fn write(&self, rel: &str, text: &str) -> PathBuf {
-        let p = self.0.join(rel);
-        std::fs::write(&p, text).unwrap_or_else(|e| panic!("writing {}: {e}", p.display()));
-        p
-    }
-
-    pub fn read(&self, rel: &str) -> String {
-        let p = self.0.join(rel);
-        std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("reading {}: {e}", p.display()))
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        if std::thread::panicking() {
-            eprintln!("test files kept in {}", self.0.display());
-        } else {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
-    }
-}
+/// A directory under the system temp dir, unique per test, removed when the test passes
+/// (kept, and its path printed, when it fails).
+pub use rfslam_data::testutil::TempDir;
 
 /// What one invocation of `rfslam` did.
 #[derive(Debug)]
@@ -130,6 +91,12 @@ impl Entry {
     pub fn new(name: &str, label: &str, particles: &[usize]) -> Entry {
         Entry { name: name.into(), label: label.into(), particles: particles.to_vec() }
     }
+}
+
+/// Dead reckoning twice, labelled `dr-a` and `dr-b`, at N = 1: the cheapest experiment
+/// with two labels.
+pub fn dead_reckoning_pair() -> Vec<Entry> {
+    vec![Entry::new("dead-reckoning", "dr-a", &[1]), Entry::new("dead-reckoning", "dr-b", &[1])]
 }
 
 /// An experiment file over `scenario` with `entries`, then `extra` (e.g. a `[grid]` table).
