@@ -84,6 +84,9 @@ pub struct ReportInfo<'a> {
     pub grid_keys: &'a [String],
     /// Sweep invocations that ran jobs ([`crate::invocations`]).
     pub invocations: Vec<crate::invocations::Invocation>,
+    /// Whether the directory holds `radio.png` (`rfslam plot --kind radio`), which the
+    /// report of a radio-world sweep then shows.
+    pub radio_figure: bool,
 }
 
 /// Whether the report shows the SE(2)-aligned position RMSE: only where it adds
@@ -168,7 +171,18 @@ pub fn render(info: &ReportInfo, rows: &[SummaryRow], published: Option<&Publish
     if let Some(p) = published {
         let _ = writeln!(s, "- published figures: `{}`; ratio = ours / published", p.source);
     }
+    let radio = rows.iter().any(|r| r.get("va_gospa_m").is_some_and(f64::is_finite));
+    if radio {
+        let _ = writeln!(
+            s,
+            "- over time (Kim et al. 2022 Figs. 3 and 4: the mean over runs of the virtual anchors' and the scattering points' GOSPA, and the RMSE of the position, clock bias and heading, per step): `rfslam plot <this directory> --kind radio --out <this directory>/radio.png`{}",
+            if info.radio_figure { ", shown below" } else { "" }
+        );
+    }
     let _ = writeln!(s);
+    if radio && info.radio_figure {
+        let _ = writeln!(s, "![GOSPA per landmark type and vehicle errors over time](radio.png)\n");
+    }
 
     // The summary figures of the metric table, in its order; a column where neither we nor
     // the published table have a value is left out.
@@ -313,9 +327,11 @@ mod tests {
             "resampling_pct" => (0.0, 0.0),
             "time_ms" => (0.08, 0.001),
             "pos_rmse_se2_m" => (3.25, 0.25),
+            "va_gospa_m" if filter.starts_with("pmbm") => (1.0, 0.5),
             _ => (f64::NAN, f64::NAN),
         };
-        let layout = crate::runs::RunsLayout::new(&rfslam_eval::MetricsConfig::default(), &[]);
+        let metrics = rfslam_eval::MetricsConfig { typed_world: true, ..Default::default() };
+        let layout = crate::runs::RunsLayout::new(&metrics, &[]);
         let figures = layout
             .columns
             .iter()
@@ -337,6 +353,7 @@ mod tests {
             seed: 1,
             grid_keys: &[],
             invocations: vec![],
+            radio_figure: false,
         }
     }
 
@@ -374,6 +391,19 @@ mod tests {
         assert!(!md.contains("SE(2)"), "{md}");
         let head = md.lines().find(|l| l.starts_with("| filter")).unwrap();
         assert_eq!(head, "| filter | N | runs | pos RMSE [m] | published | ratio | head RMSE [deg] |");
+    }
+
+    /// A radio-world sweep's report says how to draw Kim et al. 2022 Figs. 3 and 4, and shows
+    /// them once `radio.png` is in the directory; other sweeps say neither.
+    #[test]
+    fn radio_report_shows_the_figure() {
+        let image = "![GOSPA per landmark type and vehicle errors over time](radio.png)";
+        let md = render(&info(), &[row("pmbm-slam", 0.4)], None);
+        assert!(md.contains("--kind radio --out <this directory>/radio.png`\n") && !md.contains(image), "{md}");
+        let md = render(&ReportInfo { radio_figure: true, ..info() }, &[row("pmbm-slam", 0.4)], None);
+        assert!(md.contains(", shown below\n") && md.contains(image), "{md}");
+        let md = render(&ReportInfo { radio_figure: true, ..info() }, &[row("phd-3.0", 0.4)], None);
+        assert!(!md.contains("radio"), "{md}");
     }
 
     #[test]

@@ -528,6 +528,7 @@ pub fn write_outputs(
         seed: ctx.config.seed,
         grid_keys: &grid_keys,
         invocations,
+        radio_figure: out.join("radio.png").is_file(),
     };
     let md = render(&info, &summary, ctx.published);
     let report = out.join("report.md");
