@@ -76,17 +76,24 @@ fn radio_world_sweeps_with_typed_columns() {
     }
 }
 
-/// A key of the planar models, the thinned undetected intensity (which needs a planar field
-/// of view) and `rfslam run` are refused with exit 2, each saying why. (Every registered
+/// A key of the planar models, a thinned undetected intensity with too many cells per scan
+/// and `rfslam run` are refused with exit 2, each saying why. (Every registered
 /// filter runs in the radio world, so the refusal of one that does not, which names the
 /// filters that do, has no registered filter to try.)
 #[test]
 fn radio_world_refusals_say_why() {
     let dir = TempDir::new("radio-refuse");
     dir.write("radio5g.toml", SCENARIO);
-    let thinned = entries("").replace("params = { undetected = \"constant\" }\n", "");
-    let exp = dir.write("thinned.toml", &thinned);
-    fails(dir.path(), &["sweep", exp.to_str().unwrap(), "--out", "o"], 2, &["filters[2].params.undetected"]);
+    // The thinned intensity runs here (a ball per scattering point's visibility), but cells
+    // so small that one scan would thin more than 1e7 of them are refused before any job.
+    let tiny = entries("").replace("params = { undetected = \"constant\" }", "params = { undetected_cell = 0.01 }");
+    let exp = dir.write("tiny.toml", &tiny);
+    fails(
+        dir.path(),
+        &["sweep", exp.to_str().unwrap(), "--out", "o"],
+        2,
+        &["filters[2].params.undetected_cell", "detection ball"],
+    );
     let keyed = entries("").replace("undetected = \"constant\" }", "undetected = \"constant\", detection_pd = 0.9 }");
     let exp = dir.write("keyed.toml", &keyed);
     fails(dir.path(), &["sweep", exp.to_str().unwrap(), "--out", "o"], 2, &["detection_pd", "planar scenarios"]);
