@@ -8,8 +8,8 @@
 #   scripts/bench-compare.sh OLD_REV [ROUNDS]
 #
 # The old revision is checked out in a temporary worktree with its own target directory;
-# seam.rs is copied into it (the filters' type names are the same there), and its
-# rfslam-bench given this revision's batching. Data: the papers' synthetic environment where
+# seam.rs and this revision's rfslam-bench (the timing harness) are copied into it (the
+# filters' type names are the same there). Data: the papers' synthetic environment where
 # the CLI finds it (RFSLAM_DATA, then ../shared/data, then ./data), else the procedural world.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -19,27 +19,9 @@ work=$(mktemp -d /tmp/bench-compare.XXXXXX)
 trap 'git worktree remove --force "$work/old" >/dev/null 2>&1 || true' EXIT
 git worktree add --detach "$work/old" "$old" >/dev/null
 cp crates/rfslam-harness/benches/seam.rs "$work/old/crates/rfslam-harness/benches/seam.rs"
-# The same batching at both revisions: before this script's revision the recursion benches
-# set up their clones in criterion's SmallInput batches (see rfslam_bench::bench_recursion_after).
-sed -i 's/BatchSize::SmallInput/BatchSize::LargeInput/' "$work/old/crates/rfslam-bench/src/lib.rs"
-# Before rfslam_bench::recursion_main! existed (revisions before aa85c44), write its
-# expansion: the same criterion settings.
-if ! grep -q 'macro_rules! recursion_main' "$work/old/crates/rfslam-bench/src/lib.rs"; then
-    settings=$(sed -n 's/^rfslam_bench::recursion_main!(seam, \([0-9]*\), \([0-9]*\));$/\1 \2/p' crates/rfslam-harness/benches/seam.rs)
-    read -r samples seconds <<<"$settings"
-    sed -i '/^rfslam_bench::recursion_main!/d' "$work/old/crates/rfslam-harness/benches/seam.rs"
-    cat >>"$work/old/crates/rfslam-harness/benches/seam.rs" <<EOF
-criterion::criterion_group! {
-    name = benches;
-    config = Criterion::default()
-        .sample_size($samples)
-        .warm_up_time(std::time::Duration::from_secs(1))
-        .measurement_time(std::time::Duration::from_secs($seconds));
-    targets = seam
-}
-criterion::criterion_main!(benches);
-EOF
-fi
+# The same harness at both revisions: this revision's rfslam-bench (its batching, its
+# recursion_main!; it needs only FilterBuild and the eval fixtures, which 9166aef has too).
+cp crates/rfslam-bench/src/lib.rs "$work/old/crates/rfslam-bench/src/lib.rs"
 grep -q 'name = "seam"' "$work/old/crates/rfslam-harness/Cargo.toml" ||
     printf '\n[[bench]]\nname = "seam"\nharness = false\n' >>"$work/old/crates/rfslam-harness/Cargo.toml"
 bin() { # dir -> path of the built seam bench binary

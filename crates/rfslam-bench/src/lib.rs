@@ -54,12 +54,10 @@ pub fn bench_recursion<F: FilterBuild + Clone>(c: &mut Criterion, name: &str, ds
 /// Benchmarks recursion `warm` (counted from 0) of filter `F` with `n` particles on `ds`,
 /// as the criterion function `label`.
 ///
-/// Each timed step runs on its own clone, set up untimed in batches of criterion's
-/// `LargeInput` (about one clone per batch at these step times), not `SmallInput` (a tenth
-/// of a sample's iterations, up to about 50 warmed filters alive at once): with that many
-/// clones the timed steps ran on memory that had just been faulted in and left the cache,
-/// and the figure followed the allocator more than the filter (phd-3.0 at N = 10: 120 us a
-/// step under `SmallInput`, 82 us under `LargeInput`, 80-85 us stepping one clone at a time).
+/// Each timed step runs on its own clone, set up untimed in criterion's `LargeInput`
+/// batches: `SmallInput` keeps tens of warmed filters alive at once, and the timed steps
+/// then ran on cache-cold, freshly faulted memory (phd-3.0 at N = 10 measured 120 us
+/// instead of 82 us; results/performance.md).
 pub fn bench_recursion_after<F: FilterBuild + Clone>(
     c: &mut Criterion,
     label: &str,
