@@ -32,6 +32,8 @@ slices=(
   "leung|configs/leung.toml|--runs 2"
   "victoria-park|configs/table3-victoria-park.toml|--runs 1 --particles 1,5"
   "pmbm|configs/pmbm.toml|--runs 1 --particles 1,10"
+  "relative-position|configs/relative-position.toml|--runs 2"
+  "radio5g|configs/radio5g.toml|--runs 1 --particles 1,10"
 )
 
 # runs.csv without the wall-time column, rows sorted: what must not change.
