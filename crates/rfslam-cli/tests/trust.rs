@@ -48,10 +48,41 @@ fn a_second_sweep_into_a_locked_directory_is_refused_naming_the_lock_and_its_hol
     assert_eq!(tmp.read("out/runs.csv"), rows_before, "the refused sweep wrote rows");
     // `rfslam report` writes the directory too; `merge` refuses a shard still being written.
     fails(tmp.path(), &["report", "out"], 2, &[LOCK_FILE]);
-    drop(held);
+    release(held);
     // Once the holder has ended, the lock file left behind does not block.
     let o = ok(tmp.path(), &["sweep", "exp.toml", "--runs", "8", "--resume", "--quiet", "--out", "out"]);
     assert!(o.stdout.contains("3 jobs run (5 already done)"), "{}", o.stdout);
+}
+
+/// The flaky failure of the test above, made certain: a child started by another thread
+/// holds a copy of the lock's file between its fork and its exec (here for 300 ms), so a
+/// lock dropped then stays held by that child. [`release`] waits until no child is being
+/// started, so the sweep that follows finds the lock free.
+#[test]
+fn a_lock_released_while_another_test_starts_a_child_is_free() {
+    use std::os::unix::process::CommandExt;
+    let tmp = TempDir::new("lock-fork");
+    setup(&tmp);
+    let held = DirLock::acquire(&tmp.join("out"), "rfslam sweep exp.toml (the test)").unwrap();
+    let starter = std::thread::spawn(|| {
+        let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_rfslam"));
+        cmd.arg("--version").stdout(std::process::Stdio::null());
+        // SAFETY: the closure runs in the child between fork and exec and only sleeps (a
+        // nanosleep system call), which is async-signal-safe.
+        unsafe {
+            cmd.pre_exec(|| {
+                std::thread::sleep(std::time::Duration::from_millis(300));
+                Ok(())
+            });
+        }
+        spawn(&mut cmd).wait().unwrap()
+    });
+    // Let the other thread fork (its child then sleeps before its exec).
+    std::thread::sleep(std::time::Duration::from_millis(100));
+    release(held);
+    let o = ok(tmp.path(), &["sweep", "exp.toml", "--runs", "6", "--resume", "--quiet", "--out", "out"]);
+    assert!(o.stdout.contains("1 jobs run (5 already done)"), "{}", o.stdout);
+    assert!(starter.join().unwrap().success());
 }
 
 #[test]
@@ -65,7 +96,7 @@ fn a_running_shard_is_not_merged() {
     }
     let held = DirLock::acquire(&tmp.join("s2"), "rfslam sweep exp.toml --shard 2/2").unwrap();
     fails(tmp.path(), &["merge", "s1", "s2", "--out", "m"], 2, &[LOCK_FILE, "--shard 2/2"]);
-    drop(held);
+    release(held);
     ok(tmp.path(), &["merge", "s1", "s2", "--out", "m"]);
 }
 
@@ -176,14 +207,14 @@ fn two_sweeps_started_at_once_lose_no_row() {
     tmp.write("exp.toml", &experiment("scen.toml", 20, 1, &[Entry::new("phd-1.0", "p1", &[1, 10])], ""));
     let args = ["sweep", "exp.toml", "--resume", "--quiet", "--jobs", "1", "--out", "out"];
     let spawn = || {
-        std::process::Command::new(env!("CARGO_BIN_EXE_rfslam"))
-            .args(args)
-            .current_dir(tmp.path())
-            .env("RFSLAM_DATA", tmp.join("data"))
-            .stdout(std::process::Stdio::piped())
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .expect("start rfslam")
+        spawn(
+            std::process::Command::new(env!("CARGO_BIN_EXE_rfslam"))
+                .args(args)
+                .current_dir(tmp.path())
+                .env("RFSLAM_DATA", tmp.join("data"))
+                .stdout(std::process::Stdio::piped())
+                .stderr(std::process::Stdio::piped()),
+        )
     };
     let (a, b) = (spawn(), spawn());
     let outs = [a.wait_with_output().unwrap(), b.wait_with_output().unwrap()];

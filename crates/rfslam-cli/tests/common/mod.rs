@@ -5,7 +5,8 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::process::Command;
+use std::process::{Child, Command};
+use std::sync::RwLock;
 
 use rfslam_data::testutil::small_scenario;
 use rfslam_harness::registry::{FilterEntry, REGISTRY};
@@ -36,7 +37,8 @@ pub fn rfslam_env(dir: &Path, args: &[&str], env: &[(&str, &Path)]) -> Output {
     for (k, v) in env {
         cmd.env(k, v);
     }
-    let out = cmd.output().expect("start rfslam");
+    cmd.stdout(std::process::Stdio::piped()).stderr(std::process::Stdio::piped());
+    let out = spawn(&mut cmd).wait_with_output().expect("run rfslam");
     let o = Output {
         code: out.status.code().unwrap_or(-1),
         stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
@@ -48,6 +50,30 @@ pub fn rfslam_env(dir: &Path, args: &[&str], env: &[(&str, &Path)]) -> Output {
         o.stderr
     );
     o
+}
+
+/// Held for reading while a child process is started, for writing while a test releases a
+/// lock it holds in this process ([`release`]).
+///
+/// A directory lock is an `flock` on an open file, and a child started by another test
+/// thread holds a copy of every open file of this process between its fork and its exec:
+/// a lock released then stayed held by that child, and the next `rfslam` into the directory
+/// was refused naming this test's pid (seen once under load). Every start of a child in the
+/// tests goes through [`spawn`], so no child is between fork and exec while a lock is
+/// released.
+static STARTING: RwLock<()> = RwLock::new(());
+
+/// Starts `cmd` (the fork and the exec) while no test releases a lock ([`STARTING`]).
+pub fn spawn(cmd: &mut Command) -> Child {
+    let _starting = STARTING.read().unwrap_or_else(|p| p.into_inner());
+    cmd.spawn().expect("start a child process")
+}
+
+/// Releases a directory lock this test holds, once no child is being started ([`STARTING`]):
+/// then no child process holds a copy of it.
+pub fn release(lock: rfslam_harness::lock::DirLock) {
+    let _no_start = STARTING.write().unwrap_or_else(|p| p.into_inner());
+    drop(lock);
 }
 
 /// Runs `rfslam args` and requires exit code 0.
