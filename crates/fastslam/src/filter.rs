@@ -3,7 +3,6 @@
 //! ([`OracleFastSlam2`]).
 
 use nalgebra::{SMatrix, SVector};
-use rfslam_core::gaussian::symmetrise;
 use rfslam_core::ipl::IplSettings;
 use rfslam_core::model::{InvertibleSensorModel, LandmarkMark, Vehicle, VehicleModel};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet};
@@ -154,8 +153,9 @@ where
         }
     }
 
-    /// The EKF a first sighting of landmark `id` starts at state `x`: the inverse sensor
-    /// model, or the anchor of its type when the sensor does not map it.
+    /// The EKF a first sighting of landmark `id` starts at state `x`: the sensor's birth
+    /// density of `z` ([`InvertibleSensorModel::birth`]), or the anchor of its type when the
+    /// sensor does not map it.
     fn first_sighting(&self, id: i64, x: &SVector<f64, X>, z: &SVector<f64, Z>) -> Landmark<M> {
         let mark = self.mark_of(id);
         let t = S::Mark::from_index(mark);
@@ -164,9 +164,8 @@ where
         {
             return Landmark { id, mean: *m, cov: SMatrix::zeros(), mark };
         }
-        let inv = self.sensor.inverse(x, z, t);
-        let r = self.sensor.noise(t);
-        Landmark { id, mean: inv.m, cov: symmetrise(&(inv.jz * r * inv.jz.transpose())), mark }
+        let (mean, cov) = self.sensor.birth(x, z, t);
+        Landmark { id, mean, cov, mark }
     }
 
     /// One recursion (see the crate documentation).

@@ -285,8 +285,10 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
     }
 
     /// Typed births (eq. 19): each `z` of `Z^B_{k-1}` becomes one component per mapped type
-    /// `t`, placed with the state at k-1 through that type's inverse sensor model,
-    /// covariance `J_z R_t J_z^T`, weight `birth_weight`.
+    /// `t`, the sensor's birth density of `z` for that type at the state of k-1
+    /// ([`InvertibleSensorModel::birth`]: `N(h^-1(z, x), J_z R_t J_z^T)` for a measurement that
+    /// fixes its landmark, the sensor's own density for one that does not), weight
+    /// `birth_weight`.
     fn add_births(
         sensor: &P::Sensor,
         types: &[<P::Sensor as SensorModel<X, M, Z>>::Mark],
@@ -295,9 +297,8 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
     ) {
         for z in &p.birth {
             for &t in types {
-                let r = sensor.noise(t);
-                let inv = sensor.inverse(&p.pose, z, t);
-                p.map.push_marked(ln_birth, inv.m, inv.jz * r * inv.jz.transpose(), t.index());
+                let (mean, cov) = sensor.birth(&p.pose, z, t);
+                p.map.push_marked(ln_birth, mean, cov, t.index());
             }
         }
         p.birth.clear();
