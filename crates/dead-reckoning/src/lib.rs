@@ -7,8 +7,7 @@
 use nalgebra::SVector;
 use rfslam_core::motion::propagate;
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, Motion, ParamError, Rng, Scan, SlamFilter, SlamModels, StepReport,
-    Validated, VehicleModel,
+    ControlSegment, Estimate, FilterBuild, Motion, ParamError, Rng, Scan, SlamFilter, StepReport, VehicleModel,
 };
 use serde::{Deserialize, Serialize};
 
@@ -56,39 +55,35 @@ impl<V: VehicleModel<X, 3> + Send, const X: usize, const M: usize, const Z: usiz
 
 impl FilterBuild for DeadReckoning {
     type Params = Params;
+}
 
-    /// Odometry only: any sensor (its measurements are never read).
-    fn serves(_sensor: rfslam_core::SensorKind) -> bool {
-        true
-    }
-
-    fn check(_params: &Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
+/// Odometry only, in any world (its measurements are never read).
+impl<V, S, const X: usize, const M: usize, const Z: usize> rfslam_core::WorldBuild<V, S, X, M, Z> for DeadReckoning
+where
+    V: rfslam_core::model::WorldVehicle<X>,
+    S: rfslam_core::InvertibleSensorModel<X, M, Z>,
+{
+    fn check_world(
+        _params: &Params,
+        _models: &rfslam_core::WorldModels<V, S, X, M, Z>,
+        particles: usize,
+    ) -> Result<(), ParamError> {
         if particles != 1 {
             return Err(ParamError::new("particles", "dead-reckoning has no particles: use 1"));
         }
         Ok(())
     }
 
-    fn build(_params: Validated<Self>, models: &SlamModels) -> Self {
-        DeadReckoning::new(models.motion, models.initial_pose)
-    }
-}
+    type Filter = DeadReckoning<V, X, M, Z>;
 
-impl<V, S, const X: usize, const M: usize, const Z: usize> rfslam_core::WorldBuild<V, S, X, M, Z> for DeadReckoning
-where
-    V: VehicleModel<X, 3> + Clone + Send + 'static,
-    S: rfslam_core::InvertibleSensorModel<X, M, Z>,
-{
     fn build_world(
-        _params: Params,
+        params: Params,
         models: &rfslam_core::WorldModels<V, S, X, M, Z>,
         particles: usize,
-    ) -> Result<Box<dyn SlamFilter<X, M, Z>>, ParamError> {
-        if particles != 1 {
-            return Err(ParamError::new("particles", "dead-reckoning has no particles: use 1"));
-        }
+    ) -> Result<Self::Filter, ParamError> {
+        <Self as rfslam_core::WorldBuild<V, S, X, M, Z>>::check_world(&params, models, particles)?;
         let v = &models.vehicle;
-        Ok(Box::new(DeadReckoning::<V, X, M, Z>::new(v.model.clone(), v.initial_state)))
+        Ok(DeadReckoning::new(v.model.clone(), v.initial_state))
     }
 }
 

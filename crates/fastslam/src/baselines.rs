@@ -9,7 +9,7 @@
 //! scenario's sensor). Neither filter reads truth labels.
 
 use rfslam_core::params::{CountRange, Interval, MAX_PARAM};
-use rfslam_core::{Motion, ParamError, PlanarSensorModel, RbpfParams, SlamModels};
+use rfslam_core::{ClutterIntensity, ParamError, RbpfParams, SensorChange, SensorModel};
 use serde::{Deserialize, Serialize};
 
 use crate::da::{DaFastSlam, DaSettings};
@@ -167,36 +167,32 @@ impl MhParams {
     }
 }
 
-/// The planar sensor of `models` as the existence filter reads it: the clutter intensity in
-/// measurement space, the rate over the measurement volume the field of view covers (0 for
-/// an empty one), whatever units `[clutter] intensity` gives the other filters.
-pub(crate) fn planar_sensor<S: PlanarSensorModel>(models: &SlamModels) -> S {
-    let volume = models.sensor_kind.measurement_volume(&models.fov);
-    let kappa = if volume > 0.0 { models.clutter.rate / volume } else { 0.0 };
-    S::from_models(models, kappa)
+/// The sensor of a world as the existence filter reads it: the clutter intensity in
+/// measurement space (the planar sector models: the rate over the measurement volume the
+/// field of view covers, whatever units `[clutter] intensity` gives the other filters; every
+/// other model's intensity is in measurement space already).
+pub(crate) fn existence_sensor<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
+    sensor: &S,
+) -> Result<S, ParamError> {
+    sensor.assume(&SensorChange { clutter_intensity: Some(ClutterIntensity::Measurement), ..SensorChange::default() })
 }
 
-/// A registered variant of [`DaFastSlam`] with its parameters `$params`: on a planar
-/// scenario, the existence filter's sensor ([`planar_sensor`]); in a world beyond the planar
-/// ones, the same parameters (the gate an absolute threshold on the squared Mahalanobis
-/// distance in the sensor's measurement dimension: set it for a sensor of other than two
-/// components) and the engine built on the world's models.
+/// A registered variant of [`DaFastSlam`] with its parameters `$params`, in every world: the
+/// existence filter's sensor ([`existence_sensor`]); the gate an absolute threshold on the
+/// squared Mahalanobis distance in the sensor's measurement dimension (set it for a sensor of
+/// other than two components).
 macro_rules! da_variant {
     ($(#[$doc:meta])* $ty:ident, $params:ty, $name:literal) => {
         rfslam_core::filter_variant!(
-            $(#[$doc])* $ty<S>(DaFastSlam<Motion, S, 3, 2, 2>), $name;
+            $(#[$doc])* $ty<S>(DaFastSlam), $name;
             params: $params,
             check: |params, models, particles| {
                 params.validate(particles)?;
-                DaFastSlam::<Motion, S, 3, 2, 2>::check_model(&planar_sensor(models))
+                DaFastSlam::<V, S, X, M, Z>::check_model(&existence_sensor(&models.sensor)?)
             },
             build: |params, models, particles| {
-                DaFastSlam::new(Self::NAME, params.settings(), models.vehicle(), planar_sensor(models), particles)
-            },
-            world: |params, models, particles| {
-                params.validate(particles)?;
-                let (v, s) = (models.vehicle.clone(), models.sensor.clone());
-                DaFastSlam::try_new(Self::NAME, params.settings(), v, s, particles)?
+                let sensor = existence_sensor(&models.sensor)?;
+                DaFastSlam::try_new($name, params.settings(), models.vehicle.clone(), sensor, particles)?
             },
         );
     };

@@ -785,7 +785,9 @@ mod tests {
 
     /// The planar engine as the registered filters build it.
     fn engine(name: &'static str, settings: DaSettings, m: &SlamModels, n: usize) -> DaFastSlam {
-        DaFastSlam::new(name, settings, m.vehicle(), crate::baselines::planar_sensor(m), n)
+        let sensor =
+            crate::baselines::existence_sensor(&m.world::<rfslam_core::model::RangeBearingModel>().sensor).unwrap();
+        DaFastSlam::new(name, settings, m.vehicle(), sensor, n)
     }
 
     /// Computed by hand: pD = 0.95 from l = 0, one miss in view gives P = 0.025 / 0.525 and one
@@ -1046,6 +1048,9 @@ mod typed {
         }
         fn clutter_intensity(&self, _: &Vector2<f64>) -> f64 {
             1e-3
+        }
+        fn clutter_rate(&self) -> f64 {
+            0.0
         }
         fn pd_true(&self, _: &Pose, _: &Point2, _: Kind) -> f64 {
             0.9

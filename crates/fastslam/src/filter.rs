@@ -7,7 +7,7 @@ use rfslam_core::ipl::IplSettings;
 use rfslam_core::model::{InvertibleSensorModel, LandmarkMark, Vehicle, VehicleModel};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet};
 use rfslam_core::state::StateSpace;
-use rfslam_core::{ControlSegment, Estimate, FilterEngine, MapPoint, Motion, PlanarSensorModel, Rng, Scan, StepReport};
+use rfslam_core::{ControlSegment, Estimate, FilterEngine, MapPoint, PlanarSensorModel, Rng, Scan, StepReport};
 
 use crate::params::{Params, WeightMode};
 use crate::proposal::{Landmark, ProposalSampler, landmark_update, oid_proposal, sequential_predictive};
@@ -317,16 +317,11 @@ rfslam_core::filter_variant!(
     /// \[Kaltiokallio2024\]), on a planar sensor of a scenario (the range-bearing one by
     /// default). In another world the oracle is given the landmark types by id, as it is
     /// given the associations.
-    OracleFastSlam2<S>(OracleEngine<Motion, S, 3, 2, 2>), "fastslam-2.0-oracle";
+    OracleFastSlam2<S>(OracleEngine), "fastslam-2.0-oracle";
     params: Params,
     requires_truth: crate::requires_truth_labels(),
     check: |params, _models, particles| params.validate(particles),
     build: |params, models, particles| {
-        let sensor = S::from_models(models, models.clutter_intensity());
-        OracleEngine::new(params, models.vehicle(), sensor, particles)
-    },
-    world: |params, models, particles| {
-        params.validate(particles)?;
         OracleEngine::new(params, models.vehicle.clone(), models.sensor.clone(), particles)
             .with_landmark_types(models.landmark_types.iter().copied())
     },

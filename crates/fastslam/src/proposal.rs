@@ -274,6 +274,9 @@ mod tests {
         fn clutter_intensity(&self, _: &Vector2<f64>) -> f64 {
             0.0
         }
+        fn clutter_rate(&self) -> f64 {
+            0.0
+        }
         fn pd_true(&self, _: &Pose, _: &Point2, _: ()) -> f64 {
             1.0
         }

@@ -6,7 +6,7 @@
 use std::collections::HashSet;
 
 use fastslam::{OracleFastSlam2, Params};
-use rfslam_core::{FilterBuild, Point2};
+use rfslam_core::Point2;
 use rfslam_data::Dataset;
 use rfslam_eval::MetricsConfig;
 use rfslam_eval::fixtures::{dead_reckoning_rmse, procedural_500};
@@ -28,7 +28,8 @@ fn oracle_tracks_and_maps_with_one_and_ten_particles() {
         let dr = dead_reckoning_rmse(&ds);
         let seen = seen_landmarks(&ds);
         for n in [1, 10] {
-            let mut f = <OracleFastSlam2>::try_build(Params::default(), &ds.models(), n).unwrap();
+            let mut f =
+                rfslam_eval::fixtures::try_build::<OracleFastSlam2>(Params::default(), &ds.models(), n).unwrap();
             let o = run_filter(&ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {});
             assert_eq!(o["steps"] as usize, 500);
             assert_eq!(o["cholesky_failures"] as usize, 0);

@@ -13,16 +13,15 @@
 //! 1-3.
 
 use fastslam::{FastSlam1, MhFastSlam};
-use rfslam_core::FilterBuild;
 use rfslam_eval::fixtures::{assert_every_landmark_once, final_map_figures, map_simple};
 
 /// `(false, missed, landmark RMS error, position RMSE)` of `F` with `params` (TOML) and 10
 /// particles on run `seed` of the simple world.
-fn map_figures<F: FilterBuild>(params: &str, seed: u64) -> (f64, f64, f64, f64) {
+fn map_figures<F: rfslam_eval::fixtures::Planar>(params: &str, seed: u64) -> (f64, f64, f64, f64) {
     final_map_figures::<F>(toml::from_str(params).unwrap(), &map_simple(seed), 10, seed)
 }
 
-fn check<F: FilterBuild>(name: &str) {
+fn check<F: rfslam_eval::fixtures::Planar>(name: &str) {
     for seed in 1..=3 {
         let (false_default, ..) = map_figures::<F>("", seed);
         eprintln!("{name} seed {seed}: default {false_default} false");

@@ -6,8 +6,7 @@ use fastslam::{OracleFastSlam2, Params, WeightMode, requires_truth_labels};
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use rfslam_core::{
-    ControlSegment, Estimate, FilterBuild, Point2, Pose, RangeBearing, RangeBearingSensor, RbpfParams, Rng, Scan,
-    SlamFilter,
+    ControlSegment, Estimate, Point2, Pose, RangeBearing, RangeBearingSensor, RbpfParams, Rng, Scan, SlamFilter,
 };
 use rfslam_data::ScenarioConfig;
 use rfslam_data::testutil::small_scenario;
@@ -40,8 +39,8 @@ const L0: Point2 = Point2::new(25.0, 8.0);
 const L1: Point2 = Point2::new(40.0, -12.0);
 
 /// A filter after one step that saw landmarks 0 and 1 and one clutter measurement.
-fn after_first_step(n: usize) -> (OracleFastSlam2, Rng) {
-    let mut f = <OracleFastSlam2>::try_build(Params::default(), &models(), n).unwrap();
+fn after_first_step(n: usize) -> (rfslam_eval::fixtures::Built<OracleFastSlam2>, Rng) {
+    let mut f = rfslam_eval::fixtures::try_build::<OracleFastSlam2>(Params::default(), &models(), n).unwrap();
     let mut rng = Rng::seed_from_u64(5);
     let x1 = Pose::new(1.0, 0.0, 0.0);
     let s = scan(1.0, vec![meas(&x1, &L0), RangeBearing::new(60.0, 0.3), meas(&x1, &L1)], Some(vec![0, -1, 1]));
@@ -86,10 +85,10 @@ fn clutter_only_scan_is_prediction_only() {
 #[test]
 fn missed_landmark_is_not_updated() {
     let (mut f, mut rng) = after_first_step(1);
-    let before = f.particle_set()[0].landmarks.clone();
+    let before = f.engine.particle_set()[0].landmarks.clone();
     let x2 = Pose::new(2.0, 0.0, 0.0);
     let rep = f.step(&ODO, &scan(2.0, vec![meas(&x2, &L0)], Some(vec![0])), &mut rng);
-    let after = &f.particle_set()[0].landmarks;
+    let after = &f.engine.particle_set()[0].landmarks;
     assert_eq!(after.len(), 2);
     assert_eq!(after[1], before[1], "landmark 1 was not detected and must not change");
     assert_ne!(after[0].mean, before[0].mean, "landmark 0 was detected");
@@ -114,21 +113,21 @@ fn scan_without_labels_is_prediction_only() {
         let p = f.estimate().pose;
         assert!((p.x - 2.0).abs() < 4.0 && p.y.abs() < 1.0, "predicted: {p:?}");
         assert_eq!(rep.associations, Some(vec![None; 3]));
-        assert_eq!(f.unlabelled_scans(), 1);
+        assert_eq!(f.engine.unlabelled_scans(), 1);
         g.step(&ODO, &scan(3.0, vec![], None), &mut rng_g);
-        assert_eq!(g.unlabelled_scans(), 0, "an empty scan needs no labels");
+        assert_eq!(g.engine.unlabelled_scans(), 0, "an empty scan needs no labels");
     }
 }
 
 /// A brand-new landmark seen twice in one scan is created once and updated once.
 #[test]
 fn duplicate_first_sighting_creates_one_landmark() {
-    let mut f = <OracleFastSlam2>::try_build(Params::default(), &models(), 1).unwrap();
+    let mut f = rfslam_eval::fixtures::try_build::<OracleFastSlam2>(Params::default(), &models(), 1).unwrap();
     let mut rng = Rng::seed_from_u64(1);
     let x1 = Pose::new(1.0, 0.0, 0.0);
     let z = meas(&x1, &L0);
     f.step(&ODO, &scan(1.0, vec![z, z + RangeBearing::new(0.3, 0.0)], Some(vec![0, 0])), &mut rng);
-    let lms = &f.particle_set()[0].landmarks;
+    let lms = &f.engine.particle_set()[0].landmarks;
     assert_eq!(lms.len(), 1);
     let birth = {
         let (_, jz, _) = RangeBearingSensor::default().inverse_with_jacobians(&f.estimate().pose, &z);
@@ -143,7 +142,7 @@ fn small_dataset(seed: u64) -> rfslam_data::Dataset {
 }
 
 fn run(ds: &rfslam_data::Dataset, params: &Params, n: usize, seed: u64) -> Vec<Vec<u64>> {
-    let mut f = <OracleFastSlam2>::try_build(params.clone(), &ds.models(), n).unwrap();
+    let mut f = rfslam_eval::fixtures::try_build::<OracleFastSlam2>(params.clone(), &ds.models(), n).unwrap();
     let mut out = Vec::new();
     run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |r| out.push(bits(r.estimate)));
     out
@@ -169,9 +168,12 @@ fn same_seed_same_output() {
 #[test]
 fn parameters_are_checked() {
     let m = models();
-    assert!(<OracleFastSlam2>::check(&Params::default(), &m, 1).is_ok());
-    assert_eq!(<OracleFastSlam2>::check(&Params::default(), &m, 0).unwrap_err().key, "particles");
-    let bad = |p: Params| <OracleFastSlam2>::check(&p, &m, 3).unwrap_err().key;
+    assert!(rfslam_eval::fixtures::check::<OracleFastSlam2>(&Params::default(), &m, 1).is_ok());
+    assert_eq!(
+        rfslam_eval::fixtures::check::<OracleFastSlam2>(&Params::default(), &m, 0).unwrap_err().key,
+        "particles"
+    );
+    let bad = |p: Params| rfslam_eval::fixtures::check::<OracleFastSlam2>(&p, &m, 3).unwrap_err().key;
     assert_eq!(bad(Params { ipl_iterations: 0, ..Params::default() }), "ipl_iterations");
     assert_eq!(bad(Params { ipl_kl_threshold: -1.0, ..Params::default() }), "ipl_kl_threshold");
     assert_eq!(bad(Params { rbpf: RbpfParams::with_fraction(1.5), ..Params::default() }), "resample_ess_fraction");
@@ -182,7 +184,7 @@ fn parameters_are_checked() {
         }),
         "q_jitter"
     );
-    let f = <OracleFastSlam2>::try_build(Params::default(), &m, 3).unwrap();
+    let f = rfslam_eval::fixtures::try_build::<OracleFastSlam2>(Params::default(), &m, 3).unwrap();
     assert_eq!(f.name(), "fastslam-2.0-oracle");
     assert_eq!(SlamFilter::particles(&f), 3);
     assert_eq!(f.estimate().pose, m.initial_pose);
@@ -196,7 +198,7 @@ fn copies_share_the_proposal_but_draw_their_own_poses() {
     let ds = small_dataset(4);
     let n = 10;
     let params = Params { rbpf: RbpfParams::with_fraction(0.6), ..Params::default() };
-    let mut f = <OracleFastSlam2>::try_build(params, &ds.models(), n).unwrap();
+    let mut f = rfslam_eval::fixtures::try_build::<OracleFastSlam2>(params, &ds.models(), n).unwrap();
     let mut rng = Rng::seed_from_u64(9);
     let mut segments = Vec::new();
     let (mut families_before, mut checked) = (None, 0);
@@ -210,7 +212,7 @@ fn copies_share_the_proposal_but_draw_their_own_poses() {
             && !rep.resampled
         {
             assert_eq!(rep.proposal_components, parents, "step {k}: one proposal per family");
-            let poses: Vec<_> = f.particle_set().iter().map(|p| p.pose).collect();
+            let poses: Vec<_> = f.engine.particle_set().iter().map(|p| p.pose).collect();
             for i in 0..n {
                 for j in 0..i {
                     assert_ne!(poses[i], poses[j], "step {k}: copies {i} and {j} drew the same pose");
@@ -219,7 +221,7 @@ fn copies_share_the_proposal_but_draw_their_own_poses() {
             checked += 1;
         }
         families_before = rep.resampled.then(|| {
-            let ps = f.particle_set();
+            let ps = f.engine.particle_set();
             (0..n).filter(|&i| i == 0 || ps[i].pose != ps[i - 1].pose).count()
         });
     }
@@ -233,7 +235,7 @@ fn copies_share_the_proposal_but_draw_their_own_poses() {
 fn mh_counts_are_bounded() {
     use fastslam::{MAX_CHILDREN, MhFastSlam, MhParams};
     let m = models();
-    let key = |p: MhParams| <MhFastSlam>::check(&p, &m, 25).err().map(|e| e.key);
+    let key = |p: MhParams| rfslam_eval::fixtures::check::<MhFastSlam>(&p, &m, 25).err().map(|e| e.key);
     assert_eq!(key(MhParams::default()), None);
     assert_eq!(key(MhParams { hypotheses: 0, ..MhParams::default() }).as_deref(), Some("hypotheses"));
     assert_eq!(key(MhParams { hypotheses: 1001, ..MhParams::default() }).as_deref(), Some("hypotheses"));
@@ -246,7 +248,7 @@ fn mh_counts_are_bounded() {
     );
     let at = |h: usize| MhParams { hypotheses: h, max_population: 100_000, ..MhParams::default() };
     assert_eq!(key(at(MAX_CHILDREN / 100_000)), None);
-    let e = <MhFastSlam>::check(&at(MAX_CHILDREN / 100_000 + 1), &m, 25).unwrap_err();
+    let e = rfslam_eval::fixtures::check::<MhFastSlam>(&at(MAX_CHILDREN / 100_000 + 1), &m, 25).unwrap_err();
     assert_eq!(e.key, "hypotheses");
     assert!(e.message.contains("children per step"), "{e}");
 }

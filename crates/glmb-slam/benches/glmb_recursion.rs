@@ -5,7 +5,6 @@
 
 use criterion::Criterion;
 use rfslam_bench::bench_recursion_after;
-use rfslam_core::FilterBuild;
 use rfslam_data::{Dataset, ScenarioConfig};
 use rfslam_sim::ScenarioData;
 
@@ -20,7 +19,7 @@ fn dataset() -> Dataset {
     sc.build_dataset(None, 1).expect("dataset")
 }
 
-fn bench_filter<F: FilterBuild + Clone>(c: &mut Criterion, name: &str, ds: &Dataset, n: usize) {
+fn bench_filter<F: rfslam_eval::fixtures::Planar>(c: &mut Criterion, name: &str, ds: &Dataset, n: usize) {
     bench_recursion_after::<F>(c, &format!("{name} N={n} clutter 15 one recursion"), ds, n, WARM);
 }
 

@@ -2,8 +2,8 @@
 //! their log weights, the best particle's hypotheses and its map against the truth.
 //! `cargo run --release -p glmb-slam --example glmb_debug -- <filter> <clutter> <seed> [N] [steering or turn-rate noise, deg]`
 
+use rfslam_core::ControlSegment;
 use rfslam_core::rng::{purpose, stream};
-use rfslam_core::{ControlSegment, FilterBuild};
 use rfslam_data::ScenarioConfig;
 use rfslam_sim::ScenarioData;
 
@@ -27,9 +27,9 @@ fn main() {
     let params = glmb_slam::Params::default();
     let m = ds.models();
     let mut f = match filter.as_str() {
-        "glmb-1.0" => <glmb_slam::Glmb1>::try_build(params, &m, n).map(|f| f.0),
-        "glmb-2.0" => <glmb_slam::Glmb2>::try_build(params, &m, n).map(|f| f.0),
-        _ => <glmb_slam::LmbSlam>::try_build(params, &m, n).map(|f| f.0),
+        "glmb-1.0" => rfslam_eval::fixtures::try_build::<glmb_slam::Glmb1>(params, &m, n).map(|f| f.engine),
+        "glmb-2.0" => rfslam_eval::fixtures::try_build::<glmb_slam::Glmb2>(params, &m, n).map(|f| f.engine),
+        _ => rfslam_eval::fixtures::try_build::<glmb_slam::LmbSlam>(params, &m, n).map(|f| f.engine),
     }
     .unwrap();
     let mut rng = stream(&[seed, purpose::FILTER, n as u64]);

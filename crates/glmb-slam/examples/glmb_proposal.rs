@@ -18,7 +18,7 @@ use nalgebra::Matrix3;
 use rfslam_core::ipl::IplSettings;
 use rfslam_core::motion::propagate_with_covariance;
 use rfslam_core::rng::{purpose, stream};
-use rfslam_core::{ControlSegment, FilterBuild, SlamFilter};
+use rfslam_core::{ControlSegment, SlamFilter};
 use rfslam_data::ScenarioConfig;
 use rfslam_sim::ScenarioData;
 
@@ -40,11 +40,11 @@ fn main() {
     let ds = sc.build_dataset(None, seed).unwrap();
     let models = ds.models();
     let params = glmb_slam::Params { survival_fov: ps, ..Default::default() };
-    let mut g = <glmb_slam::Glmb2>::try_build(params, &models, n).unwrap().0;
+    let mut g = rfslam_eval::fixtures::try_build::<glmb_slam::Glmb2>(params, &models, n).unwrap().engine;
     let mut rng = stream(&[seed, purpose::FILTER, n as u64]);
     let op = fastslam::Params::default();
     let ipl = IplSettings { max_iterations: op.ipl_iterations, kl_threshold: op.ipl_kl_threshold };
-    let mut o = <fastslam::OracleFastSlam2>::try_build(op, &models, n).unwrap();
+    let mut o = rfslam_eval::fixtures::try_build::<fastslam::OracleFastSlam2>(op, &models, n).unwrap();
     let mut orng = stream(&[seed, purpose::FILTER, n as u64 + 1000]);
     let gt = ds.groundtruth.as_ref().unwrap();
     let mut segs: Vec<ControlSegment> = Vec::new();
@@ -56,7 +56,7 @@ fn main() {
     for (k, (scan, t)) in ds.scans.iter().zip(gt).enumerate() {
         ds.segments_for_scan(k, &mut segs);
         // Oracle's IPL proposal for its particle 0 (before its step).
-        let p0 = &o.particle_set()[0];
+        let p0 = &o.engine.particle_set()[0];
         let (x_bar, q) = propagate_with_covariance(&models.motion, &p0.pose, &segs, &models.control_noise);
         let q = q + Matrix3::from_diagonal(&[1e-9, 1e-9, 1e-18].into());
         let (mut known, mut kz) = (Vec::new(), Vec::new());

@@ -140,8 +140,8 @@ where
     /// sensor's anchors are known to every hypothesis. `sensor` is the sensor as the filter
     /// assumes it (its clutter intensity floored at `params.min_clutter_intensity`). The
     /// registered variants build it through
-    /// [`FilterBuild::build`](rfslam_core::FilterBuild::build) (validated); a caller checks
-    /// `params` with [`Params::validate`].
+    /// [`WorldBuild::build_world`](rfslam_core::WorldBuild::build_world) (validated); a caller
+    /// checks `params` with [`Params::validate`].
     pub fn new(variant: Variant, params: Params, vehicle: Vehicle<V, X>, sensor: S, n: usize) -> Self {
         let p0 = Particle { pose: vehicle.initial_state, ..Default::default() };
         let noise = S::Mark::ALL.iter().map(|&t| sensor.noise(t)).collect();
@@ -367,15 +367,10 @@ where
 macro_rules! variant_filter {
     ($(#[$doc:meta])* $ty:ident, $variant:expr, $name:literal) => {
         rfslam_core::filter_variant!(
-            $(#[$doc])* $ty<S>(GlmbSlam<Motion, S, 3, 2, 2>), $name;
+            $(#[$doc])* $ty<S>(GlmbSlam), $name;
             params: Params,
             check: |params, _models, particles| params.validate(particles),
             build: |params, models, particles| {
-                let sensor = S::from_models(models, models.clutter_intensity());
-                GlmbSlam::new($variant, params, models.vehicle(), sensor, particles)
-            },
-            world: |params, models, particles| {
-                params.validate(particles)?;
                 GlmbSlam::new($variant, params, models.vehicle.clone(), models.sensor.clone(), particles)
             },
         );

@@ -203,7 +203,6 @@ fn proposal_weight_is_the_pose_marginal_likelihood() {
 /// dead reckoning drift by tens of degrees: no filter could localise on it).
 #[test]
 fn short_run_end_to_end() {
-    use rfslam_core::FilterBuild;
     use rfslam_eval::{MetricsConfig, run_filter};
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/glmb-sim.toml")).unwrap();
     let mut table: toml::Table = toml::from_str(&text).unwrap();
@@ -211,12 +210,28 @@ fn short_run_end_to_end() {
     let sc: rfslam_data::ScenarioConfig = toml::Value::Table(table).try_into().unwrap();
     let ds = sc.build_dataset(None, 1).unwrap();
     let metrics = MetricsConfig::default();
-    let mut dr = dead_reckoning::DeadReckoning::try_build(Default::default(), &ds.models(), 1).unwrap();
+    let mut dr =
+        rfslam_eval::fixtures::try_build::<dead_reckoning::DeadReckoning>(Default::default(), &ds.models(), 1).unwrap();
     let o_dr = run_filter(&ds, &mut dr, 1, &metrics, &mut |_| {});
     let filters: [(&str, Box<dyn rfslam_core::SlamFilter>); 3] = [
-        ("glmb-1.0", Box::new(<glmb_slam::Glmb1>::try_build(Default::default(), &ds.models(), 5).unwrap())),
-        ("glmb-2.0", Box::new(<glmb_slam::Glmb2>::try_build(Default::default(), &ds.models(), 5).unwrap())),
-        ("lmb-slam", Box::new(<glmb_slam::LmbSlam>::try_build(Default::default(), &ds.models(), 5).unwrap())),
+        (
+            "glmb-1.0",
+            Box::new(
+                rfslam_eval::fixtures::try_build::<glmb_slam::Glmb1>(Default::default(), &ds.models(), 5).unwrap(),
+            ),
+        ),
+        (
+            "glmb-2.0",
+            Box::new(
+                rfslam_eval::fixtures::try_build::<glmb_slam::Glmb2>(Default::default(), &ds.models(), 5).unwrap(),
+            ),
+        ),
+        (
+            "lmb-slam",
+            Box::new(
+                rfslam_eval::fixtures::try_build::<glmb_slam::LmbSlam>(Default::default(), &ds.models(), 5).unwrap(),
+            ),
+        ),
     ];
     for (name, mut f) in filters {
         let mut landmarks = 0;

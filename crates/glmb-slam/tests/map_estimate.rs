@@ -18,19 +18,23 @@
 //! default loses one, and checks both.
 
 use glmb_slam::{Glmb1, Glmb2, LmbSlam};
-use rfslam_core::FilterBuild;
 use rfslam_data::Dataset;
 use rfslam_eval::fixtures::{assert_every_landmark_once, final_map_figures, map_simple};
 
 /// `F` with `params` (TOML) and `n` particles: `(false, missed, landmark RMS, pose RMSE)` of
 /// the final map ([`final_map_figures`]).
-fn map_figures<F: FilterBuild>(params: &str, ds: &Dataset, n: usize, seed: u64) -> (f64, f64, f64, f64) {
+fn map_figures<F: rfslam_eval::fixtures::Planar>(
+    params: &str,
+    ds: &Dataset,
+    n: usize,
+    seed: u64,
+) -> (f64, f64, f64, f64) {
     final_map_figures::<F>(toml::from_str(params).unwrap(), ds, n, seed)
 }
 
 /// On `seeds`, the default survival loses landmarks; `survival_fov = 0.999` (and `extra`)
 /// maps every landmark once, at about the pose error.
-fn check<F: FilterBuild>(name: &str, n: usize, extra: &str, seeds: [u64; 2]) {
+fn check<F: rfslam_eval::fixtures::Planar>(name: &str, n: usize, extra: &str, seeds: [u64; 2]) {
     for seed in seeds {
         let ds = map_simple(seed);
         let (_, missed_default, ..) = map_figures::<F>(extra, &ds, n, seed);

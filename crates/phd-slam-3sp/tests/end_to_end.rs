@@ -3,13 +3,12 @@
 
 use phd_slam_3::PhdSlam3;
 use phd_slam_3sp::PhdSlam3Sp;
-use rfslam_core::FilterBuild;
 use rfslam_data::Dataset;
 use rfslam_eval::JobOutcome;
 use rfslam_eval::fixtures::{assert_tracks_and_associates, procedural_500_runs, run_job};
 
 /// Runs filter `F` with the parameters written in `params` (TOML) and `n` particles.
-fn run<F: FilterBuild>(params: &str, ds: &Dataset, n: usize, seed: u64) -> JobOutcome {
+fn run<F: rfslam_eval::fixtures::Planar>(params: &str, ds: &Dataset, n: usize, seed: u64) -> JobOutcome {
     run_job::<F>(toml::from_str(params).unwrap(), ds, n, seed)
 }
 

@@ -26,7 +26,7 @@ use nalgebra::Vector2;
 use pmbm_slam::model::SensorModel;
 use pmbm_slam::{MhPmbmParams, PmbmSlamMh};
 use rfslam_core::rng::{purpose, stream};
-use rfslam_core::{ControlSegment, FilterBuild, SlamFilter};
+use rfslam_core::{ControlSegment, SlamFilter};
 use rfslam_data::Dataset;
 
 /// What was seen of one track (keyed by its mean's bits).
@@ -56,7 +56,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let ds = Dataset::read(Path::new(dir))?;
     let truth: Vec<Vector2<f64>> =
         ds.landmarks.as_ref().ok_or("the data set has no landmarks.csv")?.iter().map(|l| l.position).collect();
-    let mut f = <PmbmSlamMh>::try_build(params, &ds.models(), 1)?;
+    let mut f = rfslam_eval::fixtures::try_build::<PmbmSlamMh>(params, &ds.models(), 1)?;
     let mut rng = stream(&[seed, purpose::FILTER, 1]);
     let mut seg: Vec<ControlSegment> = Vec::new();
     let mut seen: HashMap<(u64, u64), Seen> = HashMap::new();
@@ -64,8 +64,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (k, scan) in ds.scans.iter().enumerate() {
         ds.segments_for_scan(k, &mut seg);
         f.step(&seg, scan, &mut rng);
-        let p = &f.0.filter.particle_set()[0];
-        let model = f.0.filter.model();
+        let p = &f.engine.filter.particle_set()[0];
+        let model = f.engine.filter.model();
         let t = ds.truth_at(scan.t, 0.025).map(|t| (p.pose.xy() - t.position).norm()).unwrap_or(f64::NAN);
         pos_err.push(t);
         for h in p.map.global(0).filter(|h| h.r > 0.0) {
@@ -86,7 +86,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let last = ds.scans.len() - 1;
     let est = f.estimate();
-    let p = &f.0.filter.particle_set()[0];
+    let p = &f.engine.filter.particle_set()[0];
     let nearest = |m: &Vector2<f64>| {
         truth.iter().enumerate().map(|(i, t)| (i, (m - t).norm())).min_by(|a, b| a.1.total_cmp(&b.1)).unwrap()
     };

@@ -4,15 +4,12 @@
 use nalgebra::{SMatrix, SVector};
 use rfslam_core::model::{LandmarkMark, Vehicle, VehicleModel};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet, draw_state};
-use rfslam_core::{
-    ControlSegment, Estimate, FilterEngine, MapPoint, Motion, ParamError, Rng, Scan, SlamModels, StepReport,
-};
+use rfslam_core::{ControlSegment, Estimate, FilterEngine, MapPoint, ParamError, Rng, Scan, SensorModel, StepReport};
 
 use crate::model::InvertibleSensorModel;
 use crate::params::{Params, undetected_cell};
 use crate::pmbm::{LocalHypothesis, PmbWeight, PmbmDensity, UpdateSettings, Workspace, pmb_update, pmbm_update};
 use crate::undetected::{ThinScratch, Undetected};
-use rfslam_core::PlanarSensorModel;
 
 /// Which filter of the family.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -277,12 +274,19 @@ where
     }
 }
 
-/// The planar sensor model `S` a filter with `params` assumes on `models`: the scenario's
-/// sensor with the filter's clutter intensity and detection model (`detection_pd`).
-pub fn sensor_model<S: PlanarSensorModel>(params: &Params, models: &SlamModels) -> S {
-    let mut assumed = models.clone();
-    assumed.detection = params.detection(models);
-    S::from_models(&assumed, params.clutter_intensity(models))
+/// The sensor a filter with `params` assumes in a world: the world's with the filter's
+/// `detection_pd`, `clutter_rate` and clutter intensity units (`clutter_intensity`, in
+/// measurement space by default) applied ([`SensorModel::assume`]: the planar sector models
+/// take all three, the radio model the measurement-space units alone).
+pub fn assumed_sensor<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
+    params: &Params,
+    sensor: &S,
+) -> Result<S, ParamError> {
+    sensor.assume(&rfslam_core::SensorChange {
+        detection_pd: params.detection_pd,
+        clutter_rate: params.clutter_rate,
+        clutter_intensity: Some(params.clutter_intensity),
+    })
 }
 
 impl<V, S, const X: usize, const M: usize, const Z: usize> FilterEngine<X, M, Z> for PmbmFilter<V, S, X, M, Z>
@@ -306,23 +310,15 @@ where
 macro_rules! variant_filter {
     ($(#[$doc:meta])* $ty:ident, $variant:expr, $name:literal) => {
         rfslam_core::filter_variant!(
-            $(#[$doc])* $ty<S>(PmbmFilter<Motion, S, 3, 2, 2>), $name;
+            $(#[$doc])* $ty<S>(PmbmFilter), $name;
             params: Params,
             check: |params, models, particles| {
                 params.validate(particles)?;
-                let model = sensor_model::<S>(params, models);
-                params.detection(models).validate().map_err(|e| ParamError::new("detection_pd", e))?;
-                params.check_undetected(&model)
+                params.check_undetected(&assumed_sensor(params, &models.sensor)?)
             },
             build: |params, models, particles| {
-                let model = sensor_model::<S>(&params, models);
-                PmbmFilter::new($variant, params, models.vehicle(), model, particles)
-            },
-            world: |params, models, particles| {
-                params.validate(particles)?;
-                crate::params::refuse_planar_keys(params.detection_pd, params.clutter_rate)?;
-                params.check_undetected(&models.sensor)?;
-                PmbmFilter::new($variant, params, models.vehicle.clone(), models.sensor.clone(), particles)
+                let model = assumed_sensor(&params, &models.sensor)?;
+                PmbmFilter::new($variant, params, models.vehicle.clone(), model, particles)
             },
         );
     };

@@ -27,10 +27,10 @@ use rbphd::{GmMap, PoseSample, ProposalContext};
 use rfslam_core::model::{LandmarkMark, Vehicle, VehicleModel};
 use rfslam_core::params::Interval;
 use rfslam_core::state::StateSpace;
-use rfslam_core::{ControlSegment, Estimate, FilterEngine, Motion, ParamError, Rng, Scan, StepReport};
+use rfslam_core::{ControlSegment, Estimate, FilterEngine, ParamError, Rng, Scan, StepReport};
 use serde::{Deserialize, Serialize};
 
-use crate::filter::{PmbmFilter, PoseDraw, Variant, sensor_model};
+use crate::filter::{PmbmFilter, PoseDraw, Variant, assumed_sensor};
 use crate::model::InvertibleSensorModel;
 use crate::params::Params;
 
@@ -204,25 +204,16 @@ rfslam_core::filter_variant!(
     /// `pmbm-slam-mh`: PMBM-SLAM (\[Kim2022\] Section IV-B) with the poses drawn from PHD-SLAM
     /// 3.0's multi-hypotheses importance density on each particle's heaviest global
     /// hypothesis (our variant; see the module docs), on the planar sensor model `S`.
-    PmbmSlamMh<S>(PmbmMh<Motion, S, 3, 2, 2>), "pmbm-slam-mh";
+    PmbmSlamMh<S>(PmbmMh), "pmbm-slam-mh";
     params: MhPmbmParams,
     check: |params, models, particles| {
         params.validate(particles)?;
-        let model = sensor_model::<S>(&params.pmbm, models);
-        params.pmbm.detection(models).validate().map_err(|e| ParamError::new("detection_pd", e))?;
-        params.pmbm.check_undetected(&model)
+        params.pmbm.check_undetected(&assumed_sensor(&params.pmbm, &models.sensor)?)
     },
     build: |params, models, particles| {
-        let model = sensor_model::<S>(&params.pmbm, models);
-        let kappa = params.pmbm.clutter_intensity(models);
-        PmbmMh::new(params, models.vehicle(), model, kappa, particles)
-    },
-    world: |params, models, particles| {
-        params.validate(particles)?;
-        crate::params::refuse_planar_keys(params.pmbm.detection_pd, params.pmbm.clutter_rate)?;
-        params.pmbm.check_undetected(&models.sensor)?;
-        // The world's clutter intensity is the sensor's (constant over the measurement box).
-        let kappa = models.sensor.clutter_intensity(&SVector::zeros());
-        PmbmMh::new(params, models.vehicle.clone(), models.sensor.clone(), kappa, particles)
+        let model = assumed_sensor(&params.pmbm, &models.sensor)?;
+        // The clutter intensity the proposal assumes: the sensor's, uniform.
+        let kappa = model.clutter_intensity(&SVector::zeros());
+        PmbmMh::new(params, models.vehicle.clone(), model, kappa, particles)
     },
 );

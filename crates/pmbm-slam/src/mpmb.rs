@@ -38,17 +38,16 @@ use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::state::StateSpace;
 use rfslam_core::{
     ClutterIntensity, ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, Motion, ParamError, Rng, Scan,
-    SlamFilter, SlamModels, StepReport, Validated,
+    SlamFilter, StepReport,
 };
 use serde::{Deserialize, Serialize};
 
 use crate::cubature::{InputPoints, PairMoments, PosePoints, lower_factor};
-use crate::filter::sensor_model;
 use crate::model::{InvertibleSensorModel, RangeBearingModel, chi2_quantile, typed_birth};
 use crate::params::{Params, check_cell, check_undetected, undetected_cell};
 use crate::pmbm::typed::{TypeDensity, single_type, type_count};
 use crate::undetected::{ThinScratch, Undetected, UndetectedModel};
-use rfslam_core::{PlanarSensorModel, SensorKind};
+use rfslam_core::PlanarSensorModel;
 
 mod typed;
 
@@ -685,45 +684,38 @@ impl<S: PlanarSensorModel> SlamFilter for MpmbSlam<S> {
 
 impl<S: PlanarSensorModel> FilterBuild for MpmbSlam<S> {
     type Params = MpmbParams;
-
-    fn serves(sensor: SensorKind) -> bool {
-        sensor == S::KIND
-    }
-
-    fn check(params: &MpmbParams, models: &SlamModels, particles: usize) -> Result<(), ParamError> {
-        if particles != 1 {
-            return Err(ParamError::new("particles", "mpmb-slam has no particles (one Gaussian vehicle): use 1"));
-        }
-        params.validate()?;
-        let model = sensor_model::<S>(&params.sensor_params(), models);
-        params.sensor_params().detection(models).validate().map_err(|e| ParamError::new("detection_pd", e))?;
-        check_undetected(params.undetected, params.undetected_cell, &model)
-    }
-
-    fn build(params: Validated<Self>, models: &SlamModels) -> Self {
-        let (params, _) = params.into_parts();
-        let model = sensor_model::<S>(&params.sensor_params(), models);
-        MpmbSlam(MpmbFilter::new(params, models.vehicle(), model))
-    }
 }
 
+/// In every world: one Gaussian vehicle (no particles), the sensor the filter assumes
+/// ([`crate::filter::assumed_sensor`]).
 impl<V, S2, const X: usize, const M: usize, const Z: usize> rfslam_core::WorldBuild<V, S2, X, M, Z> for MpmbSlam
 where
     V: VehicleModel<X, 3> + Clone + Send + 'static,
     S2: InvertibleSensorModel<X, M, Z>,
 {
-    fn build_world(
-        params: MpmbParams,
+    fn check_world(
+        params: &MpmbParams,
         models: &rfslam_core::WorldModels<V, S2, X, M, Z>,
         particles: usize,
-    ) -> Result<Box<dyn rfslam_core::SlamFilter<X, M, Z>>, ParamError> {
+    ) -> Result<(), ParamError> {
         if particles != 1 {
             return Err(ParamError::new("particles", "mpmb-slam has no particles (one Gaussian vehicle): use 1"));
         }
         params.validate()?;
-        crate::params::refuse_planar_keys(params.detection_pd, params.clutter_rate)?;
-        check_undetected(params.undetected, params.undetected_cell, &models.sensor)?;
-        let engine = MpmbFilter::new(params, models.vehicle.clone(), models.sensor.clone());
-        Ok(Box::new(rfslam_core::Named { name: Self::NAME, engine }))
+        let model = crate::filter::assumed_sensor(&params.sensor_params(), &models.sensor)?;
+        check_undetected(params.undetected, params.undetected_cell, &model)
+    }
+
+    type Filter = rfslam_core::Named<MpmbFilter<V, S2, X, M, Z>>;
+
+    fn build_world(
+        params: MpmbParams,
+        models: &rfslam_core::WorldModels<V, S2, X, M, Z>,
+        particles: usize,
+    ) -> Result<Self::Filter, ParamError> {
+        <Self as rfslam_core::WorldBuild<V, S2, X, M, Z>>::check_world(&params, models, particles)?;
+        let model = crate::filter::assumed_sensor(&params.sensor_params(), &models.sensor)?;
+        let engine = MpmbFilter::new(params, models.vehicle.clone(), model);
+        Ok(rfslam_core::Named { name: Self::NAME, engine })
     }
 }

@@ -53,21 +53,6 @@ pub(crate) fn check_cell(cell: Option<f64>) -> Result<(), ParamError> {
     Interval::closed(1e-3, 1e4).check_opt("undetected_cell", cell)
 }
 
-/// Refuses the keys that change the planar scenario's detection or clutter model
-/// (`detection_pd`, `clutter_rate`) in a world whose sensor model carries its own (the radio
-/// world's `[sensor] filter_pd` and `[clutter] rate`), rather than ignoring them.
-pub(crate) fn refuse_planar_keys(detection_pd: Option<f64>, clutter_rate: Option<f64>) -> Result<(), ParamError> {
-    for (key, set) in [("detection_pd", detection_pd.is_some()), ("clutter_rate", clutter_rate.is_some())] {
-        if set {
-            return Err(ParamError::new(
-                key,
-                "applies to the planar scenarios' detection and clutter models only; this world's sensor model sets its own",
-            ));
-        }
-    }
-    Ok(())
-}
-
 /// Refuses the thinned intensity for a model with a mapped landmark type that has no
 /// detection region, or with cells so small that one scan would thin more than
 /// [`MAX_CELLS_PER_SCAN`] in a type's region.

@@ -13,7 +13,7 @@
 //! range admits only tracks detected twice.
 
 use pmbm_slam::{MhPmbmParams, MpmbParams, MpmbSlam, Params, PmbmSlamMh};
-use rfslam_core::{FilterBuild, SlamFilter};
+use rfslam_core::SlamFilter;
 use rfslam_eval::{MetricsConfig, run_filter};
 use rfslam_sim::ScenarioData;
 
@@ -112,16 +112,19 @@ fn maps_hold_every_landmark_once_when_single_detections_are_not_reported() {
     // pmbm-slam-mh with 10 particles (with one, the pose error of the single trajectory
     // exceeds the gate at times and a re-observed landmark starts a second track); T_EP
     // only selects its estimate, so one run gives both maps.
-    let mut f = <PmbmSlamMh>::try_build(MhPmbmParams::default(), &ds.models(), 10).unwrap();
+    let mut f = rfslam_eval::fixtures::try_build::<PmbmSlamMh>(MhPmbmParams::default(), &ds.models(), 10).unwrap();
     check("pmbm-slam-mh", score(&ds, &mut f, [T_EP, 0.4]));
 
     // mpmb-slam: T_EP also picks the Bernoullis that update the vehicle (Section IV-D), so
     // the threshold is the filter's parameter, not only a filter on its estimate.
-    let mut f =
-        <MpmbSlam>::try_build(MpmbParams { estimate_existence: T_EP, ..MpmbParams::default() }, &ds.models(), 1)
-            .unwrap();
+    let mut f = rfslam_eval::fixtures::try_build::<MpmbSlam>(
+        MpmbParams { estimate_existence: T_EP, ..MpmbParams::default() },
+        &ds.models(),
+        1,
+    )
+    .unwrap();
     let [s] = score(&ds, &mut f, [T_EP]);
-    let mut f = <MpmbSlam>::try_build(MpmbParams::default(), &ds.models(), 1).unwrap();
+    let mut f = rfslam_eval::fixtures::try_build::<MpmbSlam>(MpmbParams::default(), &ds.models(), 1).unwrap();
     let [paper] = score(&ds, &mut f, [0.4]);
     check("mpmb-slam", [s, paper]);
 }

@@ -4,7 +4,7 @@
 
 use pmbm_slam::{MhPmbmParams, Params, PmbmSlam, PmbmSlamMh};
 use rand::SeedableRng;
-use rfslam_core::{ControlSegment, FilterBuild, Pose, Rng, SlamFilter};
+use rfslam_core::{ControlSegment, Pose, Rng, SlamFilter};
 use rfslam_eval::{MetricsConfig, run_filter};
 use rfslam_sim::ScenarioData;
 
@@ -35,8 +35,8 @@ fn poses(f: &dyn SlamFilter) -> Vec<(Pose, f64)> {
 fn transition_on_an_empty_map_then_the_importance_density() {
     let ds = dataset(40);
     let models = ds.models();
-    let mut a = <PmbmSlam>::try_build(Params::default(), &models, 8).unwrap();
-    let mut b = <PmbmSlamMh>::try_build(MhPmbmParams::default(), &models, 8).unwrap();
+    let mut a = rfslam_eval::fixtures::try_build::<PmbmSlam>(Params::default(), &models, 8).unwrap();
+    let mut b = rfslam_eval::fixtures::try_build::<PmbmSlamMh>(MhPmbmParams::default(), &models, 8).unwrap();
     let (mut ra, mut rb) = (Rng::seed_from_u64(5), Rng::seed_from_u64(5));
     let mut seg: Vec<ControlSegment> = Vec::new();
     ds.segments_for_scan(0, &mut seg);
@@ -65,11 +65,12 @@ fn transition_on_an_empty_map_then_the_importance_density() {
 fn localises_at_least_as_well_as_pmbm_slam() {
     let ds = dataset(300);
     let metrics = MetricsConfig::default();
-    let mut dr = dead_reckoning::DeadReckoning::try_build(Default::default(), &ds.models(), 1).unwrap();
+    let mut dr =
+        rfslam_eval::fixtures::try_build::<dead_reckoning::DeadReckoning>(Default::default(), &ds.models(), 1).unwrap();
     let o_dr = run_filter(&ds, &mut dr, 1, &metrics, &mut |_| {});
-    let mut pmbm = <PmbmSlam>::try_build(Params::default(), &ds.models(), 10).unwrap();
+    let mut pmbm = rfslam_eval::fixtures::try_build::<PmbmSlam>(Params::default(), &ds.models(), 10).unwrap();
     let o_pmbm = run_filter(&ds, &mut pmbm, 1, &metrics, &mut |_| {});
-    let mut mh = <PmbmSlamMh>::try_build(MhPmbmParams::default(), &ds.models(), 10).unwrap();
+    let mut mh = rfslam_eval::fixtures::try_build::<PmbmSlamMh>(MhPmbmParams::default(), &ds.models(), 10).unwrap();
     let o_mh = run_filter(&ds, &mut mh, 1, &metrics, &mut |_| {});
     println!(
         "pos RMSE / GOSPA: pmbm-slam-mh {:.3} m / {:.2} m, pmbm-slam {:.3} m / {:.2} m, dead reckoning {:.3} m / {:.2} m",
@@ -103,9 +104,9 @@ fn bad_parameters_name_the_key() {
     for (key, set) in cases {
         let mut p = MhPmbmParams::default();
         set(&mut p);
-        assert_eq!(<PmbmSlamMh>::validate(p, &models, 5).unwrap_err().key, key);
+        assert_eq!(rfslam_eval::fixtures::check::<PmbmSlamMh>(&p, &models, 5).unwrap_err().key, key);
     }
-    assert!(<PmbmSlamMh>::validate(MhPmbmParams::default(), &models, 5).is_ok());
+    assert!(rfslam_eval::fixtures::check::<PmbmSlamMh>(&MhPmbmParams::default(), &models, 5).is_ok());
     // The flat table: both parts' keys are read, an unknown one is named.
     let t: toml::Table = toml::from_str("max_assignments = 7\ngh_prune = 0.01\nproposal_gate = 20.0").unwrap();
     let p: MhPmbmParams = rfslam_core::params::from_table(&t).unwrap();

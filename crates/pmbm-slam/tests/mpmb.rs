@@ -6,8 +6,8 @@ use pmbm_slam::cubature::{InputPoints, PairMoments, PosePoints, lower_factor};
 use pmbm_slam::model::{InvertibleSensorModel, Linearised, SensorModel};
 use pmbm_slam::{MpmbFilter, MpmbParams, MpmbSlam};
 use rfslam_assign::tomb::GaussianBernoulli;
+use rfslam_core::Pose;
 use rfslam_core::model::{Inverse, MeasurementComponent};
-use rfslam_core::{FilterBuild, Pose};
 use rfslam_sim::ScenarioData;
 
 const PD: f64 = 0.9;
@@ -42,6 +42,9 @@ impl SensorModel<3, 2, 2> for Linear {
     }
     fn clutter_intensity(&self, _z: &Vector2<f64>) -> f64 {
         1e-12
+    }
+    fn clutter_rate(&self) -> f64 {
+        0.0
     }
     fn pd_true(&self, _x: &Pose, _m: &Vector2<f64>, _: ()) -> f64 {
         PD
@@ -219,8 +222,11 @@ fn bad_parameters_name_the_key() {
     for (key, set) in cases {
         let mut p = MpmbParams::default();
         set(&mut p);
-        assert_eq!(<MpmbSlam>::validate(p, &models, 1).unwrap_err().key, key);
+        assert_eq!(rfslam_eval::fixtures::check::<MpmbSlam>(&p, &models, 1).unwrap_err().key, key);
     }
-    assert!(<MpmbSlam>::validate(MpmbParams::default(), &models, 1).is_ok());
-    assert_eq!(<MpmbSlam>::validate(MpmbParams::default(), &models, 3).unwrap_err().key, "particles");
+    assert!(rfslam_eval::fixtures::check::<MpmbSlam>(&MpmbParams::default(), &models, 1).is_ok());
+    assert_eq!(
+        rfslam_eval::fixtures::check::<MpmbSlam>(&MpmbParams::default(), &models, 3).unwrap_err().key,
+        "particles"
+    );
 }

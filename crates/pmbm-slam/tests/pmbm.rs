@@ -9,7 +9,7 @@ use rfslam_assign::tomb::GaussianBernoulli;
 use rfslam_assign::{AssociationProblem, LbpOptions, exact_association, for_each_association};
 use rfslam_core::gaussian::log_normal;
 use rfslam_core::sensor::RangeBearingSensor;
-use rfslam_core::{DetectionModel, FilterBuild, Fov, FovEdge, Pose, RangeBearing};
+use rfslam_core::{DetectionModel, Fov, FovEdge, Pose, RangeBearing};
 use rfslam_sim::ScenarioData;
 
 const PD: f64 = 0.9;
@@ -291,10 +291,10 @@ fn bad_parameters_name_the_key() {
     for (key, set) in cases {
         let mut p = Params::default();
         set(&mut p);
-        assert_eq!(<PmbmSlam>::validate(p.clone(), &models, 5).unwrap_err().key, key);
-        assert_eq!(<PmbSlam>::validate(p, &models, 5).unwrap_err().key, key);
+        assert_eq!(rfslam_eval::fixtures::check::<PmbmSlam>(&p.clone(), &models, 5).unwrap_err().key, key);
+        assert_eq!(rfslam_eval::fixtures::check::<PmbSlam>(&p, &models, 5).unwrap_err().key, key);
     }
-    assert!(<PmbmSlam>::validate(Params::default(), &models, 5).is_ok());
+    assert!(rfslam_eval::fixtures::check::<PmbmSlam>(&Params::default(), &models, 5).is_ok());
 }
 
 /// The three filters on a small procedural world (pD 0.95, clutter 1 per scan, control noise
@@ -314,12 +314,22 @@ fn short_run_end_to_end() {
     let sc = rfslam_data::ScenarioConfig::from_toml_str(&text, "t.toml").unwrap();
     let ds = sc.build_dataset(None, 1).unwrap();
     let metrics = MetricsConfig::default();
-    let mut dr = dead_reckoning::DeadReckoning::try_build(Default::default(), &ds.models(), 1).unwrap();
+    let mut dr =
+        rfslam_eval::fixtures::try_build::<dead_reckoning::DeadReckoning>(Default::default(), &ds.models(), 1).unwrap();
     let o_dr = run_filter(&ds, &mut dr, 1, &metrics, &mut |_| {});
     let filters: [(&str, Box<dyn rfslam_core::SlamFilter>); 3] = [
-        ("pmbm-slam", Box::new(<PmbmSlam>::try_build(Params::default(), &ds.models(), 10).unwrap())),
-        ("pmb-slam", Box::new(<PmbSlam>::try_build(Params::default(), &ds.models(), 10).unwrap())),
-        ("mpmb-slam", Box::new(<MpmbSlam>::try_build(MpmbParams::default(), &ds.models(), 1).unwrap())),
+        (
+            "pmbm-slam",
+            Box::new(rfslam_eval::fixtures::try_build::<PmbmSlam>(Params::default(), &ds.models(), 10).unwrap()),
+        ),
+        (
+            "pmb-slam",
+            Box::new(rfslam_eval::fixtures::try_build::<PmbSlam>(Params::default(), &ds.models(), 10).unwrap()),
+        ),
+        (
+            "mpmb-slam",
+            Box::new(rfslam_eval::fixtures::try_build::<MpmbSlam>(MpmbParams::default(), &ds.models(), 1).unwrap()),
+        ),
     ];
     for (name, mut f) in filters {
         let o = run_filter(&ds, f.as_mut(), 1, &metrics, &mut |_| {});

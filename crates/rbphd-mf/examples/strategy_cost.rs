@@ -15,7 +15,7 @@ use std::time::Instant;
 
 use rbphd::PhdParams;
 use rbphd_mf::{MfParams, RbPhdMf, Strategy};
-use rfslam_core::{ControlSegment, FilterBuild};
+use rfslam_core::ControlSegment;
 use rfslam_data::ScenarioConfig;
 use rfslam_sim::ScenarioData;
 
@@ -43,7 +43,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             params.common.rbpf.resample_ess = Some(6.25);
             params.common.estimate_threshold = Some(0.5);
             params.proposal.strategy = strategies[s];
-            let mut f = <RbPhdMf>::try_build(params, &models, 25)?;
+            let mut f = rfslam_eval::fixtures::try_build::<RbPhdMf>(params, &models, 25)?;
             let mut rng = rfslam_core::rng::stream(&[run, 99]);
             let t0 = Instant::now();
             for (i, scan) in ds.scans.iter().enumerate() {

@@ -93,7 +93,7 @@ mod tests {
     use super::*;
     use rbphd::{PhdParams, Proposal};
     use rfslam_core::Rng;
-    use rfslam_core::{FilterBuild, SlamModels};
+    use rfslam_core::SlamModels;
 
     fn params(text: &str) -> Result<PhdParams<MfParams>, String> {
         toml::from_str(text).map_err(|e| e.message().to_string())
@@ -118,15 +118,15 @@ mod tests {
         for (s, w) in [("empty", Weighting::Empty), ("single", Weighting::Single), ("multi", Weighting::Multi)] {
             let p = params(&format!("strategy = \"{s}\"\nresample_ess = 6.25")).unwrap();
             assert_eq!(p.proposal.strategy.weighting(), w);
-            assert_eq!(<RbPhdMf>::check(&p, &m, 25), Ok(()));
+            assert_eq!(rfslam_eval::fixtures::check::<RbPhdMf>(&p, &m, 25), Ok(()));
             let agree = params(&format!("strategy = \"{s}\"\nweighting = \"{s}\"")).unwrap();
-            assert_eq!(<RbPhdMf>::check(&agree, &m, 25), Ok(()));
+            assert_eq!(rfslam_eval::fixtures::check::<RbPhdMf>(&agree, &m, 25), Ok(()));
         }
         let clash = params("strategy = \"single\"\nweighting = \"multi\"").unwrap();
-        assert_eq!(<RbPhdMf>::check(&clash, &m, 25).unwrap_err().key, "weighting");
+        assert_eq!(rfslam_eval::fixtures::check::<RbPhdMf>(&clash, &m, 25).unwrap_err().key, "weighting");
         assert!(params("strategy = \"double\"").unwrap_err().contains("double"));
         let bad = params("mf_max_features = 0").unwrap();
-        assert_eq!(<RbPhdMf>::check(&bad, &m, 25).unwrap_err().key, "mf_max_features");
+        assert_eq!(rfslam_eval::fixtures::check::<RbPhdMf>(&bad, &m, 25).unwrap_err().key, "mf_max_features");
     }
 
     /// The filter runs ten steps past one landmark with each strategy and maps it.
@@ -137,7 +137,9 @@ mod tests {
         let m = models();
         let odo = [ControlSegment { dt: 1.0, u: rfslam_core::Control::new(1.0, 0.0, 0.0) }];
         for s in ["empty", "single", "multi"] {
-            let mut f = <RbPhdMf>::try_build(params(&format!("strategy = \"{s}\"")).unwrap(), &m, 5).unwrap();
+            let mut f =
+                rfslam_eval::fixtures::try_build::<RbPhdMf>(params(&format!("strategy = \"{s}\"")).unwrap(), &m, 5)
+                    .unwrap();
             let mut rng = Rng::seed_from_u64(1);
             for k in 0..10 {
                 let landmark = nalgebra::Vector2::new(30.0, 5.0);

@@ -16,7 +16,6 @@
 //! exact, and checks both.
 
 use rbphd_mf::RbPhdMf;
-use rfslam_core::FilterBuild;
 use rfslam_data::{Dataset, ScenarioConfig};
 use rfslam_eval::{JobOutcome, MetricsConfig, run_filter};
 use rfslam_sim::ScenarioData;
@@ -31,7 +30,7 @@ fn simple_world(seed: u64) -> Dataset {
 /// `(false, missed, landmark RMS, pose RMSE)` of the final map with `params` (TOML) and 30
 /// particles; GOSPA with c = 5 m (landmarks are at least 5 m apart: a duplicate is false).
 fn map_figures(params: &str, ds: &Dataset, seed: u64) -> (f64, f64, f64, f64) {
-    let mut f = <RbPhdMf>::try_build(toml::from_str(params).unwrap(), &ds.models(), 30).unwrap();
+    let mut f = rfslam_eval::fixtures::try_build::<RbPhdMf>(toml::from_str(params).unwrap(), &ds.models(), 30).unwrap();
     let o: JobOutcome =
         run_filter(ds, &mut f, seed, &MetricsConfig { gospa_c: 5.0, ..MetricsConfig::default() }, &mut |_| {});
     let matched = (o.final_estimate.map.len() as f64 - o["gospa_false"]).max(1.0);

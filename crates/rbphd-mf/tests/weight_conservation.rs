@@ -10,7 +10,6 @@
 //! seen.
 
 use rbphd_mf::RbPhdMf;
-use rfslam_core::FilterBuild;
 use rfslam_data::{Dataset, ScenarioConfig};
 use rfslam_eval::{MetricsConfig, run_filter};
 use rfslam_sim::ScenarioData;
@@ -30,7 +29,8 @@ fn world(edge: &str, steps: usize, seed: u64) -> Dataset {
 fn mass_and_seen(edge: &str, steps: usize, particles: usize, seed: u64) -> (f64, usize) {
     let ds = world(edge, steps, seed);
     let params = "strategy = \"multi\"\nestimate_threshold = 0.75";
-    let mut f = <RbPhdMf>::try_build(toml::from_str(params).unwrap(), &ds.models(), particles).unwrap();
+    let mut f =
+        rfslam_eval::fixtures::try_build::<RbPhdMf>(toml::from_str(params).unwrap(), &ds.models(), particles).unwrap();
     run_filter(&ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {});
     let best = f.particles().iter().max_by(|a, b| a.log_w.total_cmp(&b.log_w)).unwrap();
     let mut seen: Vec<i64> =

@@ -8,8 +8,8 @@ use rfslam_core::rbpf::{LogWeighted, ParticleSet};
 use rfslam_core::state::StateSpace;
 use rfslam_core::{
     ControlSegment, DetectionModel, Estimate, FilterBuild, Fov, InvertibleSensorModel, MapPoint, Motion, ParamError,
-    PlacedFov, PlanarSensorModel, Point2, Rng, Scan, SensorKind, SensorModel, SlamFilter, SlamModels, StepReport,
-    Validated, WorldBuild, WorldModels,
+    PlacedFov, PlanarSensorModel, Point2, Rng, Scan, SensorModel, SlamFilter, SlamModels, StepReport, WorldBuild,
+    WorldModels,
 };
 
 use crate::gm::{GmMap, ReduceScratch, ReduceSettings, UpdateScratch, UpdateSettings, phd_update_hold, reduce};
@@ -216,13 +216,13 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
     /// The map-estimate threshold, when neither `estimate_threshold` nor the variant sets it,
     /// is `(1 - p_D)^2` of the sensor's sector detection model, and 0.5 for a sensor without
     /// a sector (our choice). `params.detection_pd`, `clutter_rate` and `clutter_intensity`
-    /// act on a planar world's models ([`RbPhd::from_models`]); here the sensor is given as
-    /// assumed.
+    /// change the world's sensor before it is given here ([`SensorModel::assume`]).
     pub fn new(params: RbPhdParams, proposal: P, vehicle: Vehicle<P::Vehicle, X>, sensor: P::Sensor, n: usize) -> Self {
         // A zero clutter rate makes c(z) = 0; keep ln c finite so unexplained measurements
         // do not produce NaN weights.
         let kappa = sensor.clutter_intensity(&SVector::zeros());
         let log_clutter = kappa.max(1e-300).ln();
+        let sensor_clutter_rate = sensor.clutter_rate();
         let mf = params.multi_feature();
         let sector = sensor.detection_sector().map(|(fov, detection)| Sector {
             fov,
@@ -248,7 +248,7 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
             proposal,
             set: ParticleSet::new(p0, n),
             log_clutter,
-            clutter_rate: 0.0,
+            clutter_rate: sensor_clutter_rate,
             estimate_threshold,
             estimate_count,
             has_associations: false,
@@ -268,7 +268,8 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
 
     /// The mean number of clutter measurements per scan `N_c` of the weighting strategies
     /// (\[LeungInostrozaAdams\] eq. 21). It is common to every particle, so it does not change
-    /// the normalised weights; [`RbPhd::new`] leaves it at 0.
+    /// the normalised weights; [`RbPhd::new`] takes the sensor's
+    /// ([`SensorModel::clutter_rate`]).
     pub fn with_clutter_rate(mut self, rate: f64) -> Self {
         self.clutter_rate = rate;
         self
@@ -513,33 +514,14 @@ where
     }
 }
 
-/// The registered planar filters (`phd-1.0`, `phd-3.0`, ...): the variant's proposal on the
-/// planar vehicle and the planar sensor the scenario declares. A variant whose proposal is
-/// written for the planar world alone has no instance on any other model.
+/// The registered filters (`phd-1.0`, `phd-3.0`, ...): a variant's parameters are the
+/// shared RB-PHD keys and its proposal's.
 impl<P> FilterBuild for RbPhd<P>
 where
     P: Proposal<Vehicle = Motion>,
     P::Sensor: PlanarSensorModel,
 {
     type Params = PhdParams<P::Params>;
-
-    fn serves(sensor: SensorKind) -> bool {
-        sensor == <P::Sensor as PlanarSensorModel>::KIND
-    }
-
-    fn check(params: &Self::Params, _models: &SlamModels, particles: usize) -> Result<(), ParamError> {
-        check_params::<P, 3, 2, 2>(params, particles)
-    }
-
-    fn build(params: Validated<Self>, models: &SlamModels) -> Self {
-        let (params, particles) = params.into_parts();
-        let proposal = P::new(&params.proposal);
-        let mut common = params.common;
-        if let Some(w) = P::weighting(&params.proposal) {
-            common.weighting = w;
-        }
-        RbPhd::from_models(common, proposal, models, particles)
-    }
 }
 
 /// The checks of a variant's parameters for `particles` particles, in any world: the shared
@@ -568,13 +550,13 @@ fn check_params<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: u
 /// registry would not build it there (every registered variant implements it today).
 pub trait ProposalIn<V, S, const X: usize, const M: usize, const Z: usize>: Proposal {
     /// The density on that world.
-    type In: Proposal<X, M, Z, Vehicle = V, Sensor = S, Params = Self::Params>;
+    type In: Proposal<X, M, Z, Vehicle = V, Sensor = S, Params = Self::Params> + Clone;
 }
 
-/// A registered variant in a world beyond the planar ones: its parameters checked as in the
-/// planar worlds, but the keys that change the planar scenario's detection or clutter model
-/// (`detection_pd`, `clutter_rate`, `clutter_intensity`) refused, since the world's sensor
-/// model carries its own; the engine built on the world's models.
+/// A registered variant in a world: its parameters checked, the sensor the filter assumes
+/// (the world's with `detection_pd`, `clutter_rate` and `clutter_intensity` applied, refused
+/// by a world's model that takes none of them, [`SensorModel::assume`]), the engine built on
+/// the world's models.
 impl<P, V, S, const X: usize, const M: usize, const Z: usize> WorldBuild<V, S, X, M, Z> for RbPhd<P>
 where
     P: Proposal<Vehicle = Motion> + ProposalIn<V, S, X, M, Z>,
@@ -582,33 +564,44 @@ where
     V: VehicleModel<X, 3> + Clone + Send + 'static,
     S: InvertibleSensorModel<X, M, Z>,
 {
+    fn check_world(
+        params: &PhdParams<P::Params>,
+        models: &WorldModels<V, S, X, M, Z>,
+        particles: usize,
+    ) -> Result<(), ParamError> {
+        check_params::<P::In, X, M, Z>(params, particles)?;
+        assumed_sensor(&params.common, &models.sensor).map(drop)
+    }
+
+    type Filter = RbPhd<P::In, X, M, Z>;
+
     fn build_world(
         params: PhdParams<P::Params>,
         models: &WorldModels<V, S, X, M, Z>,
         particles: usize,
-    ) -> Result<Box<dyn SlamFilter<X, M, Z>>, ParamError> {
-        check_params::<P::In, X, M, Z>(&params, particles)?;
-        let c = &params.common;
-        for (key, set) in [
-            ("detection_pd", c.detection_pd.is_some()),
-            ("clutter_rate", c.clutter_rate.is_some()),
-            ("clutter_intensity", c.clutter_intensity.is_some()),
-        ] {
-            if set {
-                return Err(ParamError::new(
-                    key,
-                    "applies to the planar scenarios' detection and clutter models only; this world's sensor model sets its own",
-                ));
-            }
-        }
+    ) -> Result<Self::Filter, ParamError> {
+        <Self as WorldBuild<V, S, X, M, Z>>::check_world(&params, models, particles)?;
         let proposal = <P::In as Proposal<X, M, Z>>::new(&params.proposal);
         let mut common = params.common;
         if let Some(w) = <P::In as Proposal<X, M, Z>>::weighting(&params.proposal) {
             common.weighting = w;
         }
-        let (v, s) = (models.vehicle.clone(), models.sensor.clone());
-        Ok(Box::new(RbPhd::<P::In, X, M, Z>::new(common, proposal, v, s, particles)))
+        let sensor = assumed_sensor(&common, &models.sensor)?;
+        Ok(RbPhd::new(common, proposal, models.vehicle.clone(), sensor, particles))
     }
+}
+
+/// The sensor an RB-PHD filter with `params` assumes: the world's `sensor` with the filter's
+/// `detection_pd`, `clutter_rate` and `clutter_intensity` ([`SensorModel::assume`]).
+fn assumed_sensor<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
+    params: &RbPhdParams,
+    sensor: &S,
+) -> Result<S, ParamError> {
+    sensor.assume(&rfslam_core::SensorChange {
+        detection_pd: params.detection_pd,
+        clutter_rate: params.clutter_rate,
+        clutter_intensity: params.clutter_intensity,
+    })
 }
 
 impl<const X: usize, const M: usize, const Z: usize> LogWeighted for Particle<X, M, Z> {

@@ -73,10 +73,7 @@ pub struct ProposalStats {
 /// A vehicle model an RB-PHD filter can run on (states of `X` components, a three-component
 /// control): every [`VehicleModel`] that can be shared between threads; one name for the
 /// bound every generic importance density repeats.
-pub trait PhdVehicle<const X: usize>: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static {}
-
-impl<V, const X: usize> PhdVehicle<X> for V where V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static
-{}
+pub use rfslam_core::model::WorldVehicle as PhdVehicle;
 
 /// Implements [`crate::ProposalIn`] for the default (planar) instance of a density type
 /// `$density<S, V, X, M, Z>` written over any sensor and vehicle model (on the vehicle model `V`
@@ -186,11 +183,18 @@ pub trait Bootstrap: Send + Sync + 'static {
 /// The transition density as importance density (\[Kaltiokallio2024\] eq. 26) of the
 /// bootstrap variant `B`, on the sensor model `S` and the vehicle model `V` (it reads no
 /// measurement; the filter's update does), so it runs in every world.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct Transition<B, S = RangeBearingModel, V = Motion>(PhantomData<(B, S, V)>);
 
 impl<B, S, V> Default for Transition<B, S, V> {
     fn default() -> Self {
+        Transition(PhantomData)
+    }
+}
+
+// By hand: a derive would ask `B`, `S` and `V` to be `Clone`, which the marker needs not.
+impl<B, S, V> Clone for Transition<B, S, V> {
+    fn clone(&self) -> Self {
         Transition(PhantomData)
     }
 }

@@ -10,9 +10,9 @@
 use std::time::Duration;
 
 use criterion::{BatchSize, Criterion};
-use rfslam_core::FilterBuild;
+use rfslam_core::SlamFilter;
 use rfslam_data::Dataset;
-use rfslam_eval::fixtures::warmed_up;
+use rfslam_eval::fixtures::{Planar, warmed_up};
 
 pub use rfslam_eval::fixtures::benchmark_dataset;
 
@@ -47,7 +47,7 @@ pub const WARM_STEPS: usize = 1000;
 
 /// Benchmarks recursion `WARM_STEPS` of filter `F` with `n` particles on `ds`, named
 /// `"{name} N={n} one recursion"`.
-pub fn bench_recursion<F: FilterBuild + Clone>(c: &mut Criterion, name: &str, ds: &Dataset, n: usize) {
+pub fn bench_recursion<F: Planar>(c: &mut Criterion, name: &str, ds: &Dataset, n: usize) {
     bench_recursion_after::<F>(c, &format!("{name} N={n} one recursion"), ds, n, WARM_STEPS);
 }
 
@@ -58,13 +58,7 @@ pub fn bench_recursion<F: FilterBuild + Clone>(c: &mut Criterion, name: &str, ds
 /// batches: `SmallInput` keeps tens of warmed filters alive at once, and the timed steps
 /// then ran on cache-cold, freshly faulted memory (phd-3.0 at N = 10 measured 120 us
 /// instead of 82 us; results/performance.md).
-pub fn bench_recursion_after<F: FilterBuild + Clone>(
-    c: &mut Criterion,
-    label: &str,
-    ds: &Dataset,
-    n: usize,
-    warm: usize,
-) {
+pub fn bench_recursion_after<F: Planar>(c: &mut Criterion, label: &str, ds: &Dataset, n: usize, warm: usize) {
     let w = warmed_up::<F>(ds, n, warm);
     let scan = &ds.scans[warm];
     c.bench_function(label, |b| {

@@ -376,6 +376,15 @@ impl DetectionModel {
         p.clamp(0.0, PD_MAX)
     }
 
+    /// The same model with its detection probability (`pd`, or `pd0` at zero range) set to
+    /// `pd`.
+    pub fn with_pd(&self, pd: f64) -> DetectionModel {
+        match self {
+            DetectionModel::Constant { .. } => DetectionModel::Constant { pd },
+            DetectionModel::RangeLinear { .. } => DetectionModel::RangeLinear { pd0: pd },
+        }
+    }
+
     /// Checks the parameters: probabilities in `[0, 1]`.
     pub fn validate(&self) -> Result<(), String> {
         let p = match *self {

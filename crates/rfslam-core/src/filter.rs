@@ -1,11 +1,9 @@
 //! The [`SlamFilter`] trait every filter implements, and how a registered filter is built
-//! ([`FilterBuild`], [`Validated`]).
+//! ([`FilterBuild`], [`WorldBuild`]).
 
 use nalgebra::SVector;
 
-use crate::detection::SensorKind;
 use crate::params::ParamError;
-use crate::planar::SlamModels;
 use crate::rng::Rng;
 use crate::types::{ControlSegment, Estimate, Scan, StepReport};
 
@@ -97,26 +95,23 @@ pub trait FilterEngine<const X: usize = 3, const M: usize = 2, const Z: usize = 
 /// );
 /// ```
 ///
-/// A family whose engine is generic over the vehicle and the sensor model also gives how the
-/// variant is built, and the macro writes its [`FilterBuild`] (serving the planar sensor `S`
-/// it is instantiated on) and its [`WorldBuild`] in every world of an invertible sensor
-/// model (the engine under the registered name, [`Named`]): the parameters' type, the
-/// oracle flag when set ([`FilterBuild::REQUIRES_TRUTH`]), the planar checks
-/// ([`FilterBuild::check`]), the engine on a planar scenario's models (after the checks) and
-/// the engine in another world (refusing the parameters there with `?`):
+/// A family whose engine `Engine<V, S, X, M, Z>` is generic over the vehicle and the sensor
+/// model (named alone: `GlmbSlam`; the planar newtype wraps `Engine<Motion, S, 3, 2, 2>`) also
+/// gives how the variant is built, and the macro writes its [`FilterBuild`] and its
+/// [`WorldBuild`] in every world (the engine under the registered name, [`Named`]): the parameters' type, the oracle
+/// flag when set ([`FilterBuild::REQUIRES_TRUTH`]), the checks of the parameters with the
+/// world's models and the number of particles ([`WorldBuild::check_world`]) and the engine
+/// on the world's models (after the checks; a change the filter makes to the sensor it
+/// assumes goes through [`crate::SensorModel::assume`], refused with `?` where the world's
+/// model takes none):
 ///
 /// ```ignore
 /// rfslam_core::filter_variant!(
 ///     /// `glmb-1.0`: delta-GLMB-SLAM 1.0.
-///     Glmb1<S>(GlmbSlam<Motion, S, 3, 2, 2>), "glmb-1.0";
+///     Glmb1<S>(GlmbSlam), "glmb-1.0";
 ///     params: Params,
 ///     check: |params, _models, particles| params.validate(particles),
 ///     build: |params, models, particles| {
-///         let sensor = S::from_models(models, models.clutter_intensity());
-///         GlmbSlam::new(Variant::Glmb1, params, models.vehicle(), sensor, particles)
-///     },
-///     world: |params, models, particles| {
-///         params.validate(particles)?;
 ///         GlmbSlam::new(Variant::Glmb1, params, models.vehicle.clone(), models.sensor.clone(), particles)
 ///     },
 /// );
@@ -124,45 +119,43 @@ pub trait FilterEngine<const X: usize = 3, const M: usize = 2, const Z: usize = 
 #[macro_export]
 macro_rules! filter_variant {
     (
-        $(#[$doc:meta])* $ty:ident<S>($engine:ty), $name:literal;
+        $(#[$doc:meta])* $ty:ident<S>($engine:ident), $name:literal;
         params: $params:ty,
         $(requires_truth: $truth:expr,)?
         check: |$cp:ident, $cm:ident, $cn:ident| $check:expr,
-        build: |$bp:ident, $bm:ident, $bn:ident| $build:expr,
-        world: |$wp:ident, $wm:ident, $wn:ident| $world:expr $(,)?
+        build: |$bp:ident, $bm:ident, $bn:ident| $build:expr $(,)?
     ) => {
-        $crate::filter_variant!($(#[$doc])* $ty<S>($engine), $name);
+        $crate::filter_variant!($(#[$doc])* $ty<S>($engine<$crate::Motion, S, 3, 2, 2>), $name);
 
         impl<S: $crate::PlanarSensorModel> $crate::FilterBuild for $ty<S> {
             type Params = $params;
             $(const REQUIRES_TRUTH: bool = $truth;)?
-
-            fn serves(sensor: $crate::SensorKind) -> bool {
-                sensor == <S as $crate::PlanarSensorModel>::KIND
-            }
-
-            fn check($cp: &$params, $cm: &$crate::SlamModels, $cn: usize) -> Result<(), $crate::ParamError> {
-                $check
-            }
-
-            fn build(params: $crate::Validated<Self>, $bm: &$crate::SlamModels) -> Self {
-                let ($bp, $bn) = params.into_parts();
-                $ty($build)
-            }
         }
 
         impl<V, S, const X: usize, const M: usize, const Z: usize> $crate::WorldBuild<V, S, X, M, Z> for $ty
         where
-            V: $crate::VehicleModel<X, 3> + Clone + Send + 'static,
+            V: $crate::model::WorldVehicle<X>,
             S: $crate::InvertibleSensorModel<X, M, Z>,
         {
+            fn check_world(
+                $cp: &$params,
+                $cm: &$crate::WorldModels<V, S, X, M, Z>,
+                $cn: usize,
+            ) -> Result<(), $crate::ParamError> {
+                $check
+            }
+
+            type Filter = $crate::Named<$engine<V, S, X, M, Z>>;
+
             fn build_world(
-                $wp: $params,
-                $wm: &$crate::WorldModels<V, S, X, M, Z>,
-                $wn: usize,
-            ) -> Result<Box<dyn $crate::SlamFilter<X, M, Z>>, $crate::ParamError> {
-                let engine = $world;
-                Ok(Box::new($crate::Named { name: $name, engine }))
+                params: $params,
+                models: &$crate::WorldModels<V, S, X, M, Z>,
+                particles: usize,
+            ) -> Result<Self::Filter, $crate::ParamError> {
+                <Self as $crate::WorldBuild<V, S, X, M, Z>>::check_world(&params, models, particles)?;
+                let ($bp, $bm, $bn) = (params, models, particles);
+                let engine = $build;
+                Ok($crate::Named { name: $name, engine })
             }
         }
     };
@@ -259,87 +252,21 @@ macro_rules! particle_set_methods {
     };
 }
 
-/// Parameters that passed [`FilterBuild::validate`] for the filter `F` and a number of
-/// particles: the only form [`FilterBuild::build`] takes, so no filter is built from
-/// unchecked parameters. Only [`FilterBuild::validate`] makes one.
-pub struct Validated<F: FilterBuild> {
-    params: F::Params,
-    particles: usize,
-}
-
-impl<F: FilterBuild> Validated<F> {
-    /// The parameters.
-    pub fn params(&self) -> &F::Params {
-        &self.params
-    }
-
-    /// The number of particles they were checked for.
-    pub fn particles(&self) -> usize {
-        self.particles
-    }
-
-    /// The parameters and the number of particles.
-    pub fn into_parts(self) -> (F::Params, usize) {
-        (self.params, self.particles)
-    }
-}
-
-impl<F: FilterBuild> std::fmt::Debug for Validated<F>
-where
-    F::Params: std::fmt::Debug,
-{
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Validated").field("params", &self.params).field("particles", &self.particles).finish()
-    }
-}
-
-/// How the registry builds a filter: typed parameters with defaults (a flat table whose keys
-/// [`crate::params::check_keys`] checks), validated before any run starts.
-pub trait FilterBuild: SlamFilter + Sized + 'static {
+/// A registered filter: its parameters (a flat table whose keys
+/// [`crate::params::check_keys`] checks, validated before any run starts) and whether it
+/// needs truth. How it is built in a world is its [`WorldBuild`].
+pub trait FilterBuild: 'static {
     /// The filter's parameters; `Default` gives the published settings.
     type Params: serde::de::DeserializeOwned + serde::Serialize + Default + Clone;
 
     /// Whether the filter needs the data set's truth labels (an oracle baseline); the
     /// harness refuses data without them before running.
     const REQUIRES_TRUTH: bool = false;
-
-    /// Whether the filter can run on a world with this sensor: [`FilterBuild::validate`]
-    /// refuses a world it cannot serve. A filter generic over the sensor is built once per
-    /// sensor, each instance serving its model's ([`crate::PlanarSensorModel::KIND`]); one
-    /// that reads no measurement serves all. Default: the range-bearing sensor only.
-    fn serves(sensor: SensorKind) -> bool {
-        sensor == SensorKind::RangeBearing
-    }
-
-    /// The filter's checks of ranges and consistency (with the scenario's models and the
-    /// number of particles, which some checks need), in the words of [`crate::params`].
-    fn check(params: &Self::Params, models: &SlamModels, particles: usize) -> Result<(), ParamError>;
-
-    /// [`FilterBuild::check`]s the parameters and returns them in the form
-    /// [`FilterBuild::build`] takes.
-    fn validate(params: Self::Params, models: &SlamModels, particles: usize) -> Result<Validated<Self>, ParamError> {
-        if !Self::serves(models.sensor_kind) {
-            return Err(ParamError::new(
-                "sensor",
-                format!("this filter is not implemented for the world's {} sensor", models.sensor_kind.name()),
-            ));
-        }
-        Self::check(&params, models, particles)?;
-        Ok(Validated { params, particles })
-    }
-
-    /// Builds a filter with `params.particles()` particles at the scenario's initial pose.
-    fn build(params: Validated<Self>, models: &SlamModels) -> Self;
-
-    /// [`FilterBuild::validate`] then [`FilterBuild::build`].
-    fn try_build(params: Self::Params, models: &SlamModels, particles: usize) -> Result<Self, ParamError> {
-        Ok(Self::build(Self::validate(params, models, particles)?, models))
-    }
 }
 
-/// The models a registered filter is built for in a world beyond the planar ones (the 5G
-/// radio world): the vehicle and the sensor as the filters assume them, and the landmark
-/// types by id, truth that only the oracle filters read (as they read the associations).
+/// The models a registered filter is built for in a world: the vehicle and the sensor as the
+/// filters assume them, and the landmark types by id, truth that only the oracle filters read
+/// (as they read the associations; empty in a world of one type).
 #[derive(Debug, Clone)]
 pub struct WorldModels<V, S, const X: usize, const M: usize, const Z: usize>
 where
@@ -353,21 +280,34 @@ where
     pub landmark_types: Vec<(i64, S::Mark)>,
 }
 
-/// A registered filter that also runs in the world of vehicle model `V` and sensor model
-/// `S`: the same parameters as in the planar worlds, checked for that world, and the
-/// family's engine built on its models. A filter without this implementation is refused
-/// for that world when the experiment is validated.
+/// A registered filter in the world of vehicle model `V` and sensor model `S`: its
+/// parameters checked with the world's models and a number of particles, then the family's
+/// engine built on them. Every registered filter implements it for every world; one that
+/// cannot serve a world's models refuses them in [`WorldBuild::check_world`], naming the
+/// reason, when the experiment is validated.
 pub trait WorldBuild<V, S, const X: usize, const M: usize, const Z: usize>: FilterBuild
 where
     V: crate::model::VehicleModel<X, 3>,
     S: crate::model::InvertibleSensorModel<X, M, Z>,
 {
-    /// Checks `params` for `particles` in this world and builds the filter.
+    /// The filter's checks of ranges and consistency with the world's models and the
+    /// number of particles, in the words of [`crate::params`]; builds nothing.
+    fn check_world(
+        params: &Self::Params,
+        models: &WorldModels<V, S, X, M, Z>,
+        particles: usize,
+    ) -> Result<(), ParamError>;
+
+    /// The filter in this world (the family's engine under the registered name, [`Named`]).
+    type Filter: SlamFilter<X, M, Z> + Clone + 'static;
+
+    /// Checks `params` for `particles` in this world ([`WorldBuild::check_world`]) and builds
+    /// the filter at the world's initial state.
     fn build_world(
         params: Self::Params,
         models: &WorldModels<V, S, X, M, Z>,
         particles: usize,
-    ) -> Result<Box<dyn SlamFilter<X, M, Z>>, ParamError>;
+    ) -> Result<Self::Filter, ParamError>;
 }
 
 /// A family's engine under a registered name: the [`SlamFilter`] of a filter built by

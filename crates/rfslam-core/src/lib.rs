@@ -40,8 +40,8 @@ pub mod state;
 pub mod types;
 
 pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov, FovEdge, PlacedFov, SensorKind};
-pub use filter::{FilterBuild, FilterEngine, Named, SlamFilter, Validated, WorldBuild, WorldModels};
-pub use model::{InvertibleSensorModel, SensorModel, VehicleModel};
+pub use filter::{FilterBuild, FilterEngine, Named, SlamFilter, WorldBuild, WorldModels};
+pub use model::{InvertibleSensorModel, SensorChange, SensorModel, VehicleModel};
 pub use motion::{AckermannModel, Motion, MotionModel, OdometryModel, VelocityModel};
 pub use params::{ParamError, RbpfParams};
 pub use planar::{PlanarSensorModel, SlamModels};

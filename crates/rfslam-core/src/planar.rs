@@ -6,6 +6,7 @@
 use nalgebra::{Matrix2, Matrix3};
 
 use crate::detection::{ClutterModel, DetectionModel, Fov, SensorKind};
+use crate::filter::WorldModels;
 use crate::model::{InvertibleSensorModel, Vehicle};
 use crate::motion::Motion;
 use crate::sensor::RangeBearingSensor;
@@ -53,6 +54,16 @@ impl SlamModels {
     pub fn vehicle(&self) -> Vehicle<Motion, 3> {
         Vehicle { model: self.motion, control_noise: self.control_noise, initial_state: self.initial_pose }
     }
+
+    /// The models a filter is built on ([`crate::WorldBuild`]): the vehicle and the planar
+    /// sensor model `S` with the scenario's clutter intensity; one landmark type.
+    pub fn world<S: PlanarSensorModel>(&self) -> WorldModels<Motion, S, 3, 2, 2> {
+        WorldModels {
+            vehicle: self.vehicle(),
+            sensor: S::from_models(self, self.clutter_intensity()),
+            landmark_types: Vec::new(),
+        }
+    }
 }
 
 /// A sensor model of the planar worlds (pose `[x, y, heading]`, point landmarks `[x, y]`, one
@@ -65,6 +76,6 @@ pub trait PlanarSensorModel: InvertibleSensorModel<3, 2, 2, Mark = ()> {
     /// The model of `models` (mounting, noise, field of view, detection) with the filters'
     /// clutter intensity `kappa`. It reads `models` as this sensor's whatever sensor they
     /// declare: the filters check [`SlamModels::sensor_kind`] against [`Self::KIND`] when they
-    /// are validated ([`crate::FilterBuild::serves`]).
+    /// are validated ([`crate::WorldBuild::check_world`]).
     fn from_models(models: &SlamModels, kappa: f64) -> Self;
 }

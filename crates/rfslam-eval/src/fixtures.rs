@@ -4,11 +4,12 @@
 //! and their warmed-up filter state.
 
 use nalgebra::{Matrix2, Matrix3};
+use rfslam_core::model::RangeBearingModel;
 use rfslam_core::motion::propagate;
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{
-    ClutterIntensity, ClutterModel, ControlSegment, DetectionModel, FilterBuild, Fov, Motion, Pose, RangeBearingSensor,
-    Rng, SensorKind, SlamModels,
+    ClutterIntensity, ClutterModel, ControlSegment, DetectionModel, Fov, Motion, ParamError, Pose, RangeBearingSensor,
+    Rng, SensorKind, SlamFilter, SlamModels, WorldBuild,
 };
 use rfslam_data::{Dataset, ModelConfig, ScenarioConfig};
 
@@ -64,10 +65,36 @@ pub fn procedural_500_runs(seeds: impl IntoIterator<Item = u64>) -> impl Iterato
     })
 }
 
+/// A registered filter on the planar world of the range-bearing sensor.
+pub trait Planar: WorldBuild<Motion, RangeBearingModel, 3, 2, 2> {}
+
+impl<F: WorldBuild<Motion, RangeBearingModel, 3, 2, 2>> Planar for F {}
+
+/// The filter a registered `F` builds on the planar world of the range-bearing sensor.
+pub type Built<F> = <F as WorldBuild<Motion, RangeBearingModel, 3, 2, 2>>::Filter;
+
+/// `F` with `params` and `n` particles on `models` with the range-bearing sensor, or the
+/// error naming the parameter it refuses.
+pub fn try_build<F: Planar>(params: F::Params, models: &SlamModels, n: usize) -> Result<F::Filter, ParamError> {
+    F::build_world(params, &models.world(), n)
+}
+
+/// The checks of `F`'s `params` for `n` particles on `models` with the range-bearing sensor
+/// ([`WorldBuild::check_world`]).
+pub fn check<F: Planar>(params: &F::Params, models: &SlamModels, n: usize) -> Result<(), ParamError> {
+    F::check_world(params, &models.world(), n)
+}
+
+/// `F` with `params` and `n` particles on `ds`'s models (the range-bearing sensor); panics on
+/// parameters the filter refuses (a test's).
+pub fn build<F: Planar>(params: F::Params, ds: &Dataset, n: usize) -> F::Filter {
+    try_build::<F>(params, &ds.models(), n).expect("valid parameters")
+}
+
 /// Builds `F` with `params` and `n` particles on `ds`'s models and runs it as run `seed`
 /// with the default metrics: an end-to-end test's job.
-pub fn run_job<F: FilterBuild>(params: F::Params, ds: &Dataset, n: usize, seed: u64) -> JobOutcome {
-    let mut f = F::try_build(params, &ds.models(), n).expect("valid parameters");
+pub fn run_job<F: Planar>(params: F::Params, ds: &Dataset, n: usize, seed: u64) -> JobOutcome {
+    let mut f = build::<F>(params, ds, n);
     crate::run_filter(ds, &mut f, seed, &MetricsConfig::default(), &mut |_| {})
 }
 
@@ -95,8 +122,8 @@ pub fn map_simple(seed: u64) -> Dataset {
 /// error, position RMSE)` of the final map, its GOSPA with `c = 5 m` (on [`map_simple`], whose
 /// landmarks are at least 5 m apart, a duplicate counts as a false landmark). The landmark
 /// error is the GOSPA localisation part over the matched landmarks.
-pub fn final_map_figures<F: FilterBuild>(params: F::Params, ds: &Dataset, n: usize, seed: u64) -> (f64, f64, f64, f64) {
-    let mut f = F::try_build(params, &ds.models(), n).expect("valid parameters");
+pub fn final_map_figures<F: Planar>(params: F::Params, ds: &Dataset, n: usize, seed: u64) -> (f64, f64, f64, f64) {
+    let mut f = build::<F>(params, ds, n);
     let metrics = MetricsConfig { gospa_c: 5.0, ..MetricsConfig::default() };
     let o = crate::run_filter(ds, &mut f, seed, &metrics, &mut |_| {});
     let matched = (o.final_estimate.map.len() as f64 - o["gospa_false"]).max(1.0);
@@ -160,8 +187,8 @@ pub struct WarmedUp<F> {
 
 /// Builds `F` with default parameters and `n` particles on `ds`'s models and steps it through
 /// scans `0..warm` with the filter stream of run seed 1 (as a sweep's run 0 would).
-pub fn warmed_up<F: FilterBuild>(ds: &Dataset, n: usize, warm: usize) -> WarmedUp<F> {
-    let mut filter = F::try_build(F::Params::default(), &ds.models(), n).expect("the default parameters are valid");
+pub fn warmed_up<F: Planar>(ds: &Dataset, n: usize, warm: usize) -> WarmedUp<F::Filter> {
+    let mut filter = build::<F>(F::Params::default(), ds, n);
     let mut rng = stream(&[1, purpose::FILTER, n as u64]);
     let mut segments: Vec<ControlSegment> = Vec::new();
     for k in 0..warm {

@@ -1357,11 +1357,12 @@ mod tests {
 
     #[test]
     fn xy_and_split_decompose_the_position_rmse() {
-        use rfslam_core::FilterBuild;
         let sc = crate::fixtures::procedural_500();
         let world = sc.load_world().unwrap();
         let ds = sc.build_dataset(world.as_ref(), 3).unwrap();
-        let build = || dead_reckoning::DeadReckoning::try_build(Default::default(), &ds.models(), 1).unwrap();
+        let build = || {
+            crate::fixtures::try_build::<dead_reckoning::DeadReckoning>(Default::default(), &ds.models(), 1).unwrap()
+        };
         let mut f = build();
         let m = MetricsConfig { xy: true, split_step: Some(200), ..Default::default() };
         let mut err_200 = f64::NAN;
@@ -1397,10 +1398,11 @@ mod tests {
     /// `ds` (its scans replaced by empty ones carrying `labels[k]`), the map estimate after
     /// step k being `maps[k]`, and returns the values of its columns.
     fn gospa_time(ds: &mut Dataset, every: usize, labels: &[Option<Vec<i64>>], maps: &[Vec<(f64, f64)>]) -> Values {
-        use rfslam_core::{FilterBuild, Scan, StepReport};
+        use rfslam_core::{Scan, StepReport};
         ds.scans = labels.iter().enumerate().map(|(k, l)| Scan { t: k as f64, z: vec![], truth: l.clone() }).collect();
         let m = MetricsConfig { gospa_p: 1.0, gospa_every: Some(every), ..Default::default() };
-        let filter = dead_reckoning::DeadReckoning::try_build(Default::default(), &ds.models(), 1).unwrap();
+        let filter =
+            crate::fixtures::try_build::<dead_reckoning::DeadReckoning>(Default::default(), &ds.models(), 1).unwrap();
         let report = StepReport::plain(1);
         let mut o = (METRICS.iter().find(|d| d.name == "map_gospa_time").unwrap().observer)(
             &m,

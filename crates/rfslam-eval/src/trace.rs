@@ -255,7 +255,7 @@ fn write_csv<T>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rfslam_core::{Estimate, FilterBuild, MapPoint, StepReport};
+    use rfslam_core::{Estimate, MapPoint, StepReport};
     use rfslam_sim::ScenarioData;
 
     fn dataset() -> Dataset {
@@ -269,7 +269,7 @@ mod tests {
         let ds = dataset();
         let mut w = StepsWriter::new(csv::Writer::from_writer(Vec::new()), &ds, &MetricsConfig::default()).unwrap();
         let filter =
-            <dead_reckoning::DeadReckoning as FilterBuild>::try_build(Default::default(), &ds.models(), 1).unwrap();
+            crate::fixtures::try_build::<dead_reckoning::DeadReckoning>(Default::default(), &ds.models(), 1).unwrap();
         let truth = &ds.groundtruth.as_ref().unwrap()[5];
         let est = Estimate {
             pose: Pose::new(truth.position.x + 3.0, truth.position.y - 4.0, truth.heading.unwrap() + 0.1),
@@ -313,7 +313,7 @@ mod tests {
         let m = MetricsConfig { gospa_every: Some(1), ..Default::default() };
         let mut w = StepsWriter::new(csv::Writer::from_writer(Vec::new()), &ds, &m).unwrap();
         let mut f =
-            <dead_reckoning::DeadReckoning as FilterBuild>::try_build(Default::default(), &ds.models(), 1).unwrap();
+            crate::fixtures::try_build::<dead_reckoning::DeadReckoning>(Default::default(), &ds.models(), 1).unwrap();
         let o = crate::run_filter(&ds, &mut f, 3, &m, &mut |r| w.record(&ds, r).unwrap());
         let text = String::from_utf8(w.out.into_inner().unwrap()).unwrap();
         let col = |name: &str| STEP_COLUMNS.iter().position(|c| *c == name).unwrap();

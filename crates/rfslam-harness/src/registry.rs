@@ -1,8 +1,10 @@
 //! The filter registry: name -> typed parameters -> filter. Adding a filter is one line in
 //! [`REGISTRY`] (and one dependency in this crate's Cargo.toml).
 
-use rfslam_core::model::{RadioSensor, RadioVehicle, RangeBearingModel, RelativePositionModel};
-use rfslam_core::{FilterBuild, ParamError, SensorKind, SlamFilter, SlamModels, WorldBuild, WorldModels};
+use rfslam_core::model::{RadioSensor, RadioVehicle, RangeBearingModel, RelativePositionModel, WorldVehicle};
+use rfslam_core::{
+    FilterBuild, InvertibleSensorModel, ParamError, SensorKind, SlamFilter, SlamModels, WorldBuild, WorldModels,
+};
 
 /// Builds a boxed filter from a parameter table, the scenario's models and a particle count.
 pub type BuildFn = fn(&toml::Table, &SlamModels, usize) -> Result<Box<dyn SlamFilter>, ParamError>;
@@ -25,14 +27,13 @@ pub struct FilterEntry {
     pub baseline: bool,
     /// The filter needs truth labels on every scan (oracle baselines).
     pub requires_truth: bool,
-    /// Parses and validates parameters without building.
+    /// Parses and validates parameters without building (a planar world).
     pub validate: fn(&toml::Table, &SlamModels, usize) -> Result<(), ParamError>,
-    /// Parses, validates and builds.
+    /// Parses, validates and builds (a planar world).
     pub build: BuildFn,
     /// The default parameters, as a table (written into resolved configurations).
     pub defaults: fn() -> toml::Table,
-    /// Builds the filter in the 5G radio world; `None` for a filter that does not run there
-    /// (refused when an experiment on that world is validated).
+    /// Builds the filter in the 5G radio world.
     pub radio: Option<RadioBuildFn>,
 }
 
@@ -90,22 +91,6 @@ fn filter_params<F: FilterBuild>(t: &toml::Table) -> Result<F::Params, ParamErro
     parse_params(t)
 }
 
-fn validate_with<F: FilterBuild>(t: &toml::Table, m: &SlamModels, n: usize) -> Result<(), ParamError> {
-    F::validate(filter_params::<F>(t)?, m, n).map(drop)
-}
-
-fn build_with<F: FilterBuild>(t: &toml::Table, m: &SlamModels, n: usize) -> Result<Box<dyn SlamFilter>, ParamError> {
-    Ok(Box::new(F::try_build(filter_params::<F>(t)?, m, n)?))
-}
-
-fn radio_with<F: WorldBuild<RadioVehicle, RadioSensor, 5, 3, 5>>(
-    t: &toml::Table,
-    m: &RadioModels,
-    n: usize,
-) -> Result<Box<dyn SlamFilter<5, 3, 5>>, ParamError> {
-    F::build_world(filter_params::<F>(t)?, m, n)
-}
-
 fn defaults_with<F: FilterBuild>() -> toml::Table {
     match toml::Value::try_from(F::Params::default()) {
         Ok(toml::Value::Table(t)) => t,
@@ -113,161 +98,108 @@ fn defaults_with<F: FilterBuild>() -> toml::Table {
     }
 }
 
-/// The radio-world builder of an entry: `radio` where the filter implements
-/// [`WorldBuild`] for the radio world, nothing where it does not run there.
-macro_rules! radio_build {
-    ($ty:ty) => {
-        None
-    };
-    ($ty:ty, radio) => {
-        Some(radio_with::<$ty>)
-    };
-}
+/// The registry: every filter by name, with its summary; `baseline` marks a filter that
+/// builds no map. Declares [`REGISTRY`] and the two functions that check and build a filter
+/// by name in any world ([`check_in`], [`build_in`]).
+macro_rules! registry {
+    ($($name:literal => $ty:ty, $summary:literal $(, $baseline:ident)?;)*) => {
+        /// Every filter the harness can run.
+        pub static REGISTRY: &[FilterEntry] = &[$(
+            FilterEntry {
+                name: $name,
+                summary: $summary,
+                baseline: registry!(@baseline $($baseline)?),
+                requires_truth: <$ty as FilterBuild>::REQUIRES_TRUTH,
+                validate: |t, m, n| match m.sensor_kind {
+                    SensorKind::RangeBearing => check_in(t, &m.world::<RangeBearingModel>(), n, $name),
+                    SensorKind::RelativePosition => check_in(t, &m.world::<RelativePositionModel>(), n, $name),
+                },
+                build: |t, m, n| match m.sensor_kind {
+                    SensorKind::RangeBearing => build_in(t, &m.world::<RangeBearingModel>(), n, $name),
+                    SensorKind::RelativePosition => build_in(t, &m.world::<RelativePositionModel>(), n, $name),
+                },
+                defaults: defaults_with::<$ty>,
+                radio: Some(|t, m, n| build_in(t, m, n, $name)),
+            },
+        )*];
 
-macro_rules! entry {
-    ($name:literal, $ty:ty, $summary:literal, $baseline:literal $(, $radio:ident)?) => {
-        FilterEntry {
-            name: $name,
-            summary: $summary,
-            baseline: $baseline,
-            requires_truth: <$ty as FilterBuild>::REQUIRES_TRUTH,
-            validate: validate_with::<$ty>,
-            build: build_with::<$ty>,
-            defaults: defaults_with::<$ty>,
-            radio: radio_build!($ty $(, $radio)?),
+        /// Checks the parameter table `t` of the registered filter `name` for `particles`
+        /// particles in the world of `models` (keys, ranges, and what the world's models allow),
+        /// without building it.
+        pub fn check_in<V, S, const X: usize, const M: usize, const Z: usize>(
+            t: &toml::Table,
+            models: &WorldModels<V, S, X, M, Z>,
+            particles: usize,
+            name: &str,
+        ) -> Result<(), ParamError>
+        where
+            V: WorldVehicle<X>,
+            S: InvertibleSensorModel<X, M, Z>,
+        {
+            match name {
+                $($name => <$ty as WorldBuild<V, S, X, M, Z>>::check_world(&filter_params::<$ty>(t)?, models, particles),)*
+                _ => Err(ParamError::new("name", format!("unknown filter `{name}`; registered filters: {}", names()))),
+            }
+        }
+
+        /// Checks and builds the registered filter `name` with the parameter table `t` and
+        /// `particles` particles on the world's `models`.
+        pub fn build_in<V, S, const X: usize, const M: usize, const Z: usize>(
+            t: &toml::Table,
+            models: &WorldModels<V, S, X, M, Z>,
+            particles: usize,
+            name: &str,
+        ) -> Result<Box<dyn SlamFilter<X, M, Z>>, ParamError>
+        where
+            V: WorldVehicle<X>,
+            S: InvertibleSensorModel<X, M, Z>,
+        {
+            match name {
+                $($name => Ok(Box::new(<$ty as WorldBuild<V, S, X, M, Z>>::build_world(filter_params::<$ty>(t)?, models, particles)?)),)*
+                _ => Err(ParamError::new("name", format!("unknown filter `{name}`; registered filters: {}", names()))),
+            }
         }
     };
+    (@baseline baseline) => { true };
+    (@baseline) => { false };
 }
 
-/// An entry for a filter generic over the planar sensor model (`$ty<S>`): validated and
-/// built with the model of the sensor the scenario declares.
-macro_rules! planar_entry {
-    ($name:literal, $($ty:ident)::+, $summary:literal $(, $radio:ident)?) => {
-        FilterEntry {
-            name: $name,
-            summary: $summary,
-            baseline: false,
-            requires_truth: <$($ty)::+<RangeBearingModel> as FilterBuild>::REQUIRES_TRUTH,
-            validate: |t, m, n| match m.sensor_kind {
-                SensorKind::RangeBearing => validate_with::<$($ty)::+<RangeBearingModel>>(t, m, n),
-                SensorKind::RelativePosition => validate_with::<$($ty)::+<RelativePositionModel>>(t, m, n),
-            },
-            build: |t, m, n| match m.sensor_kind {
-                SensorKind::RangeBearing => build_with::<$($ty)::+<RangeBearingModel>>(t, m, n),
-                SensorKind::RelativePosition => build_with::<$($ty)::+<RelativePositionModel>>(t, m, n),
-            },
-            defaults: defaults_with::<$($ty)::+<RangeBearingModel>>,
-            radio: radio_build!($($ty)::+<RangeBearingModel> $(, $radio)?),
-        }
-    };
+registry! {
+    "dead-reckoning" => dead_reckoning::DeadReckoning,
+        "odometry only, no map: the baseline every SLAM filter must beat", baseline;
+    "phd-1.0" => phd_slam_1::PhdSlam1,
+        "PHD-SLAM 1.0 (Mullane et al. 2011): RB-PHD SLAM, transition density as proposal";
+    "phd-2.0a" => phd_slam_2a::PhdSlam2a,
+        "PHD-SLAM 2.0a (Gao, Battistelli, Chisci 2021): pose conditioned on each gated pair, moment-matched Gaussian proposal";
+    "phd-2.0b" => phd_slam_2b::PhdSlam2b,
+        "PHD-SLAM 2.0b (Kaltiokallio et al. 2022): joint pose-and-map IPL importance density on the best association";
+    "phd-3.0" => phd_slam_3::PhdSlam3,
+        "PHD-SLAM 3.0 (Kaltiokallio et al. 2024): multi-hypotheses importance density (Murty + partitioned IPL)";
+    "phd-3.0-sp" => phd_slam_3sp::PhdSlam3Sp,
+        "PHD-SLAM 3.0 with sigma points (cubature rule by default) in Algorithm 1's statistical linear regression (eq. 42)";
+    "rbphd-mf" => rbphd_mf::RbPhdMf,
+        "RB-PHD SLAM (Leung, Inostroza, Adams): bootstrap proposal, empty-set / single-feature / multi-feature particle weighting (`strategy`)";
+    "fastslam-2.0-oracle" => fastslam::OracleFastSlam2,
+        "oracle RBPF of Kaltiokallio et al. 2024: FastSLAM 2.0 with the true associations and the IPL importance density";
+    "fastslam-1.0" => fastslam::FastSlam1,
+        "FastSLAM 1.0: most likely gated association per particle, new landmarks otherwise, existence filter (Leung et al. eqs. 29-32)";
+    "mh-fastslam" => fastslam::MhFastSlam,
+        "MH-FastSLAM (Nieto et al. 2003, as in Leung et al.): up to 4 association hypotheses per particle, resampling above 125, existence filter";
+    "glmb-1.0" => glmb_slam::Glmb1,
+        "delta-GLMB-SLAM 1.0 (Moratuwage et al. 2018): delta-GLMB map per particle, Gibbs joint prediction/update, transition density as proposal";
+    "glmb-2.0" => glmb_slam::Glmb2,
+        "delta-GLMB-SLAM 2.0 (Moratuwage et al. 2019): as glmb-1.0 with the optimal-kernel pose proposal (eqs. 30-33)";
+    "lmb-slam" => glmb_slam::LmbSlam,
+        "LMB-SLAM (Deusch et al. 2015): LMB map per particle, Gibbs update then LMB collapse, existence pruning 0.019";
+    "pmbm-slam" => pmbm_slam::PmbmSlam,
+        "PMBM-SLAM (Kim et al. 2022): PMBM map per particle, Murty k-best global hypotheses (B_max 200), transition density as proposal";
+    "pmbm-slam-mh" => pmbm_slam::PmbmSlamMh,
+        "our variant: PMBM-SLAM with PHD-SLAM 3.0's multi-hypotheses importance density (Murty + partitioned IPL) on each particle's heaviest global hypothesis";
+    "pmb-slam" => pmbm_slam::PmbSlam,
+        "PMB-SLAM (Kim et al. 2022): PMB map per particle, LBP marginals and TOMB/P, Bethe free-energy particle weight";
+    "mpmb-slam" => pmbm_slam::MpmbSlam,
+        "Marginalized PMB-SLAM (Kim et al. 2022): no particles, CKF vehicle, LBP + TOMB/P map, stacked update with the most likely association";
 }
-
-/// Every filter the harness can run.
-pub static REGISTRY: &[FilterEntry] = &[
-    entry!(
-        "dead-reckoning",
-        dead_reckoning::DeadReckoning,
-        "odometry only, no map: the baseline every SLAM filter must beat",
-        true,
-        radio
-    ),
-    planar_entry!(
-        "phd-1.0",
-        phd_slam_1::PhdSlam1,
-        "PHD-SLAM 1.0 (Mullane et al. 2011): RB-PHD SLAM, transition density as proposal",
-        radio
-    ),
-    planar_entry!(
-        "phd-2.0a",
-        phd_slam_2a::PhdSlam2a,
-        "PHD-SLAM 2.0a (Gao, Battistelli, Chisci 2021): pose conditioned on each gated pair, moment-matched Gaussian proposal",
-        radio
-    ),
-    planar_entry!(
-        "phd-2.0b",
-        phd_slam_2b::PhdSlam2b,
-        "PHD-SLAM 2.0b (Kaltiokallio et al. 2022): joint pose-and-map IPL importance density on the best association",
-        radio
-    ),
-    planar_entry!(
-        "phd-3.0",
-        phd_slam_3::PhdSlam3,
-        "PHD-SLAM 3.0 (Kaltiokallio et al. 2024): multi-hypotheses importance density (Murty + partitioned IPL)",
-        radio
-    ),
-    planar_entry!(
-        "phd-3.0-sp",
-        phd_slam_3sp::PhdSlam3Sp,
-        "PHD-SLAM 3.0 with sigma points (cubature rule by default) in Algorithm 1's statistical linear regression (eq. 42)",
-        radio
-    ),
-    planar_entry!(
-        "rbphd-mf",
-        rbphd_mf::RbPhdMf,
-        "RB-PHD SLAM (Leung, Inostroza, Adams): bootstrap proposal, empty-set / single-feature / multi-feature particle weighting (`strategy`)",
-        radio
-    ),
-    planar_entry!(
-        "fastslam-2.0-oracle",
-        fastslam::OracleFastSlam2,
-        "oracle RBPF of Kaltiokallio et al. 2024: FastSLAM 2.0 with the true associations and the IPL importance density",
-        radio
-    ),
-    planar_entry!(
-        "fastslam-1.0",
-        fastslam::FastSlam1,
-        "FastSLAM 1.0: most likely gated association per particle, new landmarks otherwise, existence filter (Leung et al. eqs. 29-32)",
-        radio
-    ),
-    planar_entry!(
-        "mh-fastslam",
-        fastslam::MhFastSlam,
-        "MH-FastSLAM (Nieto et al. 2003, as in Leung et al.): up to 4 association hypotheses per particle, resampling above 125, existence filter",
-        radio
-    ),
-    planar_entry!(
-        "glmb-1.0",
-        glmb_slam::Glmb1,
-        "delta-GLMB-SLAM 1.0 (Moratuwage et al. 2018): delta-GLMB map per particle, Gibbs joint prediction/update, transition density as proposal",
-        radio
-    ),
-    planar_entry!(
-        "glmb-2.0",
-        glmb_slam::Glmb2,
-        "delta-GLMB-SLAM 2.0 (Moratuwage et al. 2019): as glmb-1.0 with the optimal-kernel pose proposal (eqs. 30-33)",
-        radio
-    ),
-    planar_entry!(
-        "lmb-slam",
-        glmb_slam::LmbSlam,
-        "LMB-SLAM (Deusch et al. 2015): LMB map per particle, Gibbs update then LMB collapse, existence pruning 0.019",
-        radio
-    ),
-    planar_entry!(
-        "pmbm-slam",
-        pmbm_slam::PmbmSlam,
-        "PMBM-SLAM (Kim et al. 2022): PMBM map per particle, Murty k-best global hypotheses (B_max 200), transition density as proposal",
-        radio
-    ),
-    planar_entry!(
-        "pmbm-slam-mh",
-        pmbm_slam::PmbmSlamMh,
-        "our variant: PMBM-SLAM with PHD-SLAM 3.0's multi-hypotheses importance density (Murty + partitioned IPL) on each particle's heaviest global hypothesis",
-        radio
-    ),
-    planar_entry!(
-        "pmb-slam",
-        pmbm_slam::PmbSlam,
-        "PMB-SLAM (Kim et al. 2022): PMB map per particle, LBP marginals and TOMB/P, Bethe free-energy particle weight",
-        radio
-    ),
-    planar_entry!(
-        "mpmb-slam",
-        pmbm_slam::MpmbSlam,
-        "Marginalized PMB-SLAM (Kim et al. 2022): no particles, CKF vehicle, LBP + TOMB/P map, stacked update with the most likely association",
-        radio
-    ),
-];
 
 /// Looks a filter up by name.
 pub fn find(name: &str) -> Option<&'static FilterEntry> {

@@ -61,6 +61,28 @@ macro_rules! planar_sector_methods {
         fn detection_sector(&self) -> Option<(Fov, DetectionModel)> {
             Some((self.fov, self.detection))
         }
+
+        #[inline]
+        fn clutter_rate(&self) -> f64 {
+            self.clutter.rate
+        }
+
+        /// A filter's own detection probability (`p_D`, or `p_D0` of the range-linear model)
+        /// and clutter (rate, the units of `kappa`) on the scenario's sector: `kappa` is then
+        /// the changed clutter's intensity over the field of view, as the scenario's was.
+        fn assume(&self, change: &crate::model::SensorChange) -> Result<Self, crate::ParamError> {
+            let mut s = *self;
+            if let Some(pd) = change.detection_pd {
+                s.detection = s.detection.with_pd(pd);
+                s.detection.validate().map_err(|e| crate::ParamError::new("detection_pd", e))?;
+            }
+            if change.clutter_rate.is_some() || change.clutter_intensity.is_some() {
+                s.clutter.rate = change.clutter_rate.unwrap_or(s.clutter.rate);
+                s.clutter.intensity = change.clutter_intensity.unwrap_or(s.clutter.intensity);
+                s.kappa = s.clutter.intensity(&s.fov, <Self as crate::PlanarSensorModel>::KIND);
+            }
+            Ok(s)
+        }
     };
 }
 
@@ -210,6 +232,16 @@ pub trait VehicleModel<const X: usize, const U: usize> {
     }
 }
 
+/// A vehicle model every filter family can carry: its model with the bounds the engines need
+/// to clone and share it across threads (every [`VehicleModel`] of three control inputs that
+/// is `Debug`, `Clone`, `Send` and `Sync`).
+pub trait WorldVehicle<const X: usize>: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static {}
+
+impl<V, const X: usize> WorldVehicle<X> for V where
+    V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static
+{
+}
+
 /// The vehicle as a filter assumes it: its model, the covariance `Q_u` of the control noise
 /// (zero rows and columns for unused inputs; all zero for a model whose control is known and
 /// whose noise is additive, [`VehicleModel::process_noise`]) and the known initial state.
@@ -354,6 +386,20 @@ pub trait SensorModel<const X: usize, const M: usize, const Z: usize>:
     /// appended to `out`.
     fn sample_clutter<R: rand::Rng + ?Sized>(&self, x: &SVector<f64, X>, rng: &mut R, out: &mut Vec<SVector<f64, Z>>);
 
+    /// The mean number of clutter returns per scan the filters assume (`lambda_c`; Leung et
+    /// al.'s strategies weigh with it).
+    fn clutter_rate(&self) -> f64;
+
+    /// This sensor as a filter assumes it with its own detection probability or clutter
+    /// ([`SensorChange`]: a filter's `detection_pd`, `clutter_rate` and `clutter_intensity`
+    /// keys), or an error naming the key when the model takes no such change. The default
+    /// takes none but the units of a clutter intensity in measurement space, which every
+    /// model's `kappa` already is ([`SensorChange::refused`]).
+    fn assume(&self, change: &SensorChange) -> Result<Self, crate::ParamError> {
+        change.refused(Self::NAME)?;
+        Ok(self.clone())
+    }
+
     /// Whether the filters map landmarks of type `mark`, starting them from measurements.
     /// A type whose landmarks the world knows (the radio world's base station) is not
     /// mapped: its landmarks are [`SensorModel::anchors`]. Every type by default.
@@ -380,6 +426,47 @@ pub trait SensorModel<const X: usize, const M: usize, const Z: usize>:
     /// [`SensorModel::detection_sector`] for every type, `None` without one.
     fn detection_region(&self, _mark: Self::Mark) -> Option<DetectionRegion> {
         self.detection_sector().map(|(fov, detection)| DetectionRegion::Sector(fov, detection))
+    }
+}
+
+/// A filter's own changes to the sensor it assumes ([`SensorModel::assume`]): the keys
+/// `detection_pd`, `clutter_rate` and `clutter_intensity` of the filters that take them,
+/// `None` where the filter keeps the world's.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SensorChange {
+    /// `p_D` (or `p_D0` of a range-linear model).
+    pub detection_pd: Option<f64>,
+    /// The clutter rate `lambda_c`.
+    pub clutter_rate: Option<f64>,
+    /// The units of the clutter intensity `kappa`.
+    pub clutter_intensity: Option<crate::ClutterIntensity>,
+}
+
+impl SensorChange {
+    /// The error of a model `name` that takes none of the changes: the first key given, but
+    /// a clutter intensity in measurement space (`"measurement"`), which a model's `kappa`
+    /// is unless it says otherwise (the planar sector models take both units).
+    pub fn refused(&self, name: &str) -> Result<(), crate::ParamError> {
+        let why = |what: &str| {
+            format!(
+                "applies to the planar scenarios' detection and clutter models only; the {name} sensor model sets its own {what}"
+            )
+        };
+        if self.detection_pd.is_some() {
+            return Err(crate::ParamError::new("detection_pd", why("detection probability")));
+        }
+        if self.clutter_rate.is_some() {
+            return Err(crate::ParamError::new("clutter_rate", why("clutter rate")));
+        }
+        if self.clutter_intensity.is_some_and(|u| u != crate::ClutterIntensity::Measurement) {
+            return Err(crate::ParamError::new(
+                "clutter_intensity",
+                format!(
+                    "the {name} sensor model's clutter intensity is per unit of its measurement space: only \"measurement\" applies"
+                ),
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -536,6 +623,9 @@ mod tests {
             }
             fn clutter_intensity(&self, z: &Vector2<f64>) -> f64 {
                 self.0.clutter_intensity(z)
+            }
+            fn clutter_rate(&self) -> f64 {
+                self.0.clutter_rate()
             }
             fn pd_true(&self, x: &Pose, m: &Point2, _: ()) -> f64 {
                 self.0.pd_true(x, m, ())

@@ -282,6 +282,10 @@ impl SensorModel<5, 3, 5> for RadioSensor {
         self.kappa
     }
 
+    fn clutter_rate(&self) -> f64 {
+        self.clutter_rate
+    }
+
     fn pd_true(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, mark: LandmarkType) -> f64 {
         if self.in_fov(x, m, mark) { self.pd_true } else { 0.0 }
     }
