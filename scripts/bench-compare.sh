@@ -8,8 +8,8 @@
 #   scripts/bench-compare.sh OLD_REV [ROUNDS]
 #
 # The old revision is checked out in a temporary worktree with its own target directory;
-# seam.rs and this revision's rfslam-bench (the timing harness) are copied into it (the
-# filters' type names are the same there). Data: the papers' synthetic environment where
+# seam.rs is copied into it (the filters' type names are the same there), and the timing
+# harness is the same at both (see below). Data: the papers' synthetic environment where
 # the CLI finds it (RFSLAM_DATA, then ../shared/data, then ./data), else the procedural world.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -19,9 +19,13 @@ work=$(mktemp -d /tmp/bench-compare.XXXXXX)
 trap 'git worktree remove --force "$work/old" >/dev/null 2>&1 || true' EXIT
 git worktree add --detach "$work/old" "$old" >/dev/null
 cp crates/rfslam-harness/benches/seam.rs "$work/old/crates/rfslam-harness/benches/seam.rs"
-# The same harness at both revisions: this revision's rfslam-bench (its batching, its
-# recursion_main!; it needs only FilterBuild and the eval fixtures, which 9166aef has too).
-cp crates/rfslam-bench/src/lib.rs "$work/old/crates/rfslam-bench/src/lib.rs"
+# The same harness at both revisions: the old revision keeps its own rfslam-bench when it
+# times each step on its own clone in LargeInput batches (from f2c4bf3 on, and its API is the
+# old revision's); an older one gets this revision's batching and recursion_main! copied in
+# (it needs FilterBuild and the eval fixtures of that time, as 9166aef has).
+if ! grep -q 'BatchSize::LargeInput' "$work/old/crates/rfslam-bench/src/lib.rs"; then
+    git show f2c4bf3:crates/rfslam-bench/src/lib.rs >"$work/old/crates/rfslam-bench/src/lib.rs"
+fi
 grep -q 'name = "seam"' "$work/old/crates/rfslam-harness/Cargo.toml" ||
     printf '\n[[bench]]\nname = "seam"\nharness = false\n' >>"$work/old/crates/rfslam-harness/Cargo.toml"
 bin() { # dir -> path of the built seam bench binary
