@@ -39,12 +39,12 @@ fn main() {
     for (k, (scan, t)) in ds.scans.iter().zip(gt).enumerate() {
         ds.segments_for_scan(k, &mut segs);
         let rep = f.step_impl(&segs, scan, &mut rng);
-        let th = t.heading.unwrap();
+        let th = t.heading().unwrap();
         let ps = f.particle_set();
         let errs: Vec<String> = ps
             .iter()
             .map(|p| {
-                let d = ((p.pose[0] - t.position[0]).powi(2) + (p.pose[1] - t.position[1]).powi(2)).sqrt();
+                let d = ((p.pose[0] - t.position()[0]).powi(2) + (p.pose[1] - t.position()[1]).powi(2)).sqrt();
                 let dh = rfslam_core::angle::wrap(p.pose[2] - th).to_degrees();
                 format!("{d:.2}/{dh:.1}")
             })

@@ -114,8 +114,8 @@ fn main() {
                 .to_degrees();
         let ge = g.estimate_impl().pose;
         let oe = o.estimate().pose;
-        let eg = ((ge[0] - t.position[0]).powi(2) + (ge[1] - t.position[1]).powi(2)).sqrt();
-        let eo = ((oe[0] - t.position[0]).powi(2) + (oe[1] - t.position[1]).powi(2)).sqrt();
+        let eg = ((ge[0] - t.position()[0]).powi(2) + (ge[1] - t.position()[1]).powi(2)).sqrt();
+        let eo = ((oe[0] - t.position()[0]).powi(2) + (oe[1] - t.position()[1]).powi(2)).sqrt();
         at.push((eg, spread, hspread));
         g_err += eg * eg;
         o_err += eo * eo;
@@ -130,7 +130,7 @@ fn main() {
     // Loop closure: the first step whose true position is within 1 m of one at least 100
     // steps earlier; the final map's tracks by birth step (label >> 20) before and after it.
     let close = (100..gt.len())
-        .find(|&k| (0..k - 100).any(|j| (gt[k].position - gt[j].position).norm() < 1.0))
+        .find(|&k| (0..k - 100).any(|j| (gt[k].position() - gt[j].position()).norm() < 1.0))
         .unwrap_or(gt.len());
     let b = &g.particle_set()[g.best_index()];
     let h = b.glmb.map_hypothesis();

@@ -17,7 +17,7 @@ fn thinning(c: &mut Criterion) {
     let models = ds.models();
     let truth = ds.groundtruth.as_ref().expect("the benchmark data set has its ground truth");
     let poses: Vec<Pose> =
-        truth.iter().map(|t| Pose::new(t.position.x, t.position.y, t.heading.unwrap_or(0.0))).collect();
+        truth.iter().map(|t| Pose::new(t.position().x, t.position().y, t.heading().unwrap_or(0.0))).collect();
     for divisor in [1.0, 2.0] {
         let cell = models.fov.max_range / CELLS_PER_RANGE / divisor;
         let mut grid = ThinnedGrid::new(cell);

@@ -66,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let Some(dir) = args.first() else {
         return Err("usage: intensity_error DATASET_DIR [cell_m]".into());
     };
-    let ds = Dataset::read(Path::new(dir))?;
+    let ds = <Dataset>::read(Path::new(dir))?;
     let models = ds.models();
     let params = Params::default();
     let model = RangeBearingModel::new(&models, params.clutter_intensity(&models));
@@ -81,7 +81,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut clutter, mut detections) = (Tally::default(), Tally::default());
     for scan in &ds.scans {
         let t = ds.truth_at(scan.t, 0.025).ok_or("a scan without its true pose")?;
-        let x = Pose::new(t.position.x, t.position.y, t.heading.ok_or("a true pose without its heading")?);
+        let x = Pose::new(t.position().x, t.position().y, t.heading().ok_or("a true pose without its heading")?);
         for (k, z) in scan.z.iter().enumerate() {
             let (mean, cov) = model.birth(&x, z, ());
             let pd = model.detection_probability(&x, &mean, &cov, ());

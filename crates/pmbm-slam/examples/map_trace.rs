@@ -53,7 +53,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let seed: u64 = seed.parse()?;
     let params: MhPmbmParams = toml::from_str(&args[2..].join("\n"))?;
     let t_ep = params.pmbm.estimate_existence;
-    let ds = Dataset::read(Path::new(dir))?;
+    let ds = <Dataset>::read(Path::new(dir))?;
     let truth: Vec<Vector2<f64>> =
         ds.landmarks.as_ref().ok_or("the data set has no landmarks.csv")?.iter().map(|l| l.position).collect();
     let mut f = rfslam_eval::fixtures::try_build::<PmbmSlamMh>(params, &ds.models(), 1)?;
@@ -66,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         f.step(&seg, scan, &mut rng);
         let p = &f.engine.filter.particle_set()[0];
         let model = f.engine.filter.model();
-        let t = ds.truth_at(scan.t, 0.025).map(|t| (p.pose.xy() - t.position).norm()).unwrap_or(f64::NAN);
+        let t = ds.truth_at(scan.t, 0.025).map(|t| (p.pose.xy() - t.position()).norm()).unwrap_or(f64::NAN);
         pos_err.push(t);
         for h in p.map.global(0).filter(|h| h.r > 0.0) {
             let in_fov = model.detection_probability(&p.pose, &h.mean, &h.cov, ()) > 0.0;

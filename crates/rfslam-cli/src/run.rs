@@ -106,7 +106,7 @@ fn load_dataset(args: &RunArgs, scen_sets: &[(String, toml::Value)]) -> Result<D
             if !scen_sets.is_empty() {
                 return Err(usage("--set scenario.* needs --scenario, not --dataset".into()));
             }
-            let ds = Dataset::read(dir).map_err(HarnessError::Data)?;
+            let ds = <Dataset>::read(dir).map_err(HarnessError::Data)?;
             fits(args, &JobMemory::estimate(None, &ds.models(), args.particles))?;
             Ok(ds)
         }

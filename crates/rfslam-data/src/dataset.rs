@@ -1,19 +1,27 @@
-//! The dataset directory format (docs/datasets.md): `dataset.toml`, `scans.csv`,
-//! `measurements.csv`, `odometry.csv` and optional `groundtruth.csv` and `landmarks.csv`.
+//! The dataset directory format (docs/datasets.md), one format for every world:
+//! `dataset.toml` (the world, its models and the initial state), `scans.csv`,
+//! `measurements.csv` (one column per component of the world's sensor model), `odometry.csv`
+//! (the controls of its vehicle model), and optional `groundtruth.csv` (one column per state
+//! component), `landmarks.csv` (the true landmarks, with their types) and `anchors.csv` (the
+//! landmarks the world knows, such as base stations).
+//!
+//! [`Dataset`] is generic over the world's model tables `C` ([`DatasetModels`]: what
+//! `dataset.toml` holds besides the data set's own keys, and the column names its models
+//! give) and the dimensions of its state (`X`), landmarks (`M`) and measurements (`Z`); the
+//! defaults are the planar worlds'.
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
+use nalgebra::SVector;
 use rfslam_core::angle::wrap;
-use rfslam_core::{
-    Control, ControlSegment, DetectionModel, Motion, Point2, Pose, RangeBearing, Scan, SensorKind, SlamModels,
-    TRUTH_UNKNOWN,
-};
+use rfslam_core::model::MeasurementComponent;
+use rfslam_core::{Control, ControlSegment, Point2, Scan, SlamModels, TRUTH_UNKNOWN};
 use serde::{Deserialize, Serialize};
 
 use rfslam_core::params::Interval;
 
-use crate::config::{ClutterConfig, ModelConfig, MotionConfig, SensorConfig, in_range};
+use crate::config::{ModelConfig, in_range};
 use crate::csvio::{CsvOut, CsvRows, Opt};
 use crate::error::{ConfigError, DataError};
 
@@ -23,15 +31,18 @@ pub mod files {
     pub const META: &str = "dataset.toml";
     /// `scan,t`.
     pub const SCANS: &str = "scans.csv";
-    /// `scan` and the sensor model's measurement columns (`range,bearing` or `x,y`), then
-    /// `truth`.
+    /// `scan` and the sensor model's measurement columns (`range,bearing`, `x,y`, `bearing`,
+    /// `toa,dod_az,dod_el,doa_az,doa_el`), then `truth`.
     pub const MEASUREMENTS: &str = "measurements.csv";
-    /// `t` and the control columns of the motion model.
+    /// `t` and the control columns of the vehicle model.
     pub const ODOMETRY: &str = "odometry.csv";
-    /// `t,x,y,heading` (optional file).
+    /// `t` and one column per state component (`x,y,heading`; optional file).
     pub const GROUNDTRUTH: &str = "groundtruth.csv";
-    /// `id,x,y` and, in a world of several landmark types, `type` (optional file).
+    /// `id` and the landmark coordinates (`x,y` or `x,y,z`) and, in a world of several
+    /// landmark types, `type` (optional file).
     pub const LANDMARKS: &str = "landmarks.csv";
+    /// The landmarks the world knows (base stations), as `landmarks.csv` (optional file).
+    pub const ANCHORS: &str = "anchors.csv";
 }
 
 /// The plausible magnitudes of the values of a data set (`dataset.toml`'s initial pose and
@@ -39,14 +50,16 @@ pub mod files {
 /// finite (a coordinate or a speed of 1e308 made results `inf`). A cell beyond its bound is
 /// refused with its file, line and column; docs/datasets.md lists them.
 pub mod limits {
-    /// Positions and displacements (m): landmark and ground-truth `x`, `y`, the initial
-    /// pose, measurement `range`, odometry `dx`, `dy`.
+    /// Positions and displacements (m): landmark and ground-truth coordinates, the initial
+    /// pose, measured distances (`range`, `toa`, relative `x`, `y`), odometry `dx`, `dy`, a
+    /// clock bias.
     pub const MAX_COORDINATE: f64 = 1e9;
     /// Speeds (m/s): odometry `v`.
     pub const MAX_SPEED: f64 = 1e4;
     /// Turn rates (rad/s): odometry `omega`.
     pub const MAX_TURN_RATE: f64 = 1e4;
-    /// Angles (rad, before wrapping): `bearing`, `heading`, `steer`, `dtheta`.
+    /// Angles (rad, before wrapping): `bearing`, `heading`, `steer`, `dtheta`, the radio
+    /// world's azimuths and elevations.
     pub const MAX_ANGLE: f64 = 1e4;
     /// Times (s): every `t` column and the initial pose's (about 31,700 years).
     pub const MAX_TIME: f64 = 1e12;
@@ -64,34 +77,53 @@ pub mod limits {
 
 /// One odometry row: control `u` logged at time `t`.
 ///
-/// For `velocity` and `ackermann` the control is held from `t` until the next row;
-/// for `odometry2d` it is the body-frame increment accumulated since the previous row.
+/// For a held control (velocity, Ackermann, the radio vehicle) the control is held from `t`
+/// until the next row; for `odometry2d` it is the body-frame increment accumulated since the
+/// previous row ([`DatasetModels::control_held`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OdometryRow {
     /// Time (s).
     pub t: f64,
-    /// Control (third entry 0 for two-input models).
+    /// Control (trailing entries 0 for models of fewer inputs).
     pub u: Control,
 }
 
-/// A ground-truth pose: position and, when known, heading (GPS gives none).
+/// A ground-truth state at time `t`: each of the `X` components of the world's vehicle state
+/// when it is known (GPS gives no heading: `None` there). The planar default is
+/// `[x, y, heading]`.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TruthPose {
+pub struct TruthPose<const X: usize = 3> {
     /// Time (s).
     pub t: f64,
-    /// Position (m).
-    pub position: Point2,
-    /// Heading (rad, wrapped), when known.
-    pub heading: Option<f64>,
+    /// The components, in the vehicle model's order (angles wrapped).
+    pub state: [Option<f64>; X],
 }
 
-/// A ground-truth landmark.
+impl TruthPose<3> {
+    /// A planar truth: the position and, when known, the heading (rad, wrapped here).
+    pub fn planar(t: f64, position: Point2, heading: Option<f64>) -> Self {
+        TruthPose { t, state: [Some(position.x), Some(position.y), heading.map(wrap)] }
+    }
+
+    /// The planar position (NaN for a coordinate the truth does not know).
+    pub fn position(&self) -> Point2 {
+        Point2::new(self.state[0].unwrap_or(f64::NAN), self.state[1].unwrap_or(f64::NAN))
+    }
+
+    /// The heading (rad), when known.
+    pub fn heading(&self) -> Option<f64> {
+        self.state[2]
+    }
+}
+
+/// A landmark of a data set (`landmarks.csv`, `anchors.csv`): its id, position of `M`
+/// coordinates (the planar default: `[x, y]`) and type.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Landmark {
+pub struct Landmark<const M: usize = 2> {
     /// Identifier (the truth label of its detections).
     pub id: i64,
     /// Position (m).
-    pub position: Point2,
+    pub position: SVector<f64, M>,
     /// Its type, as an index into the data set's landmark types ([`LandmarkTypes`]; 0 in a
     /// world of one type).
     pub mark: u8,
@@ -144,123 +176,266 @@ impl LandmarkTypes {
     }
 }
 
-/// The contents of `dataset.toml`.
+/// A component of the vehicle state as the data set files write it: its name (a column of
+/// `groundtruth.csv`, a key of `[initial_pose]`), whether it is an angle (wrapped on reading)
+/// and whether it is a position axis (required in every ground-truth row).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StateColumn {
+    /// Name (`x`, `heading`, `clock_bias`).
+    pub name: &'static str,
+    /// An angle (rad).
+    pub angle: bool,
+    /// A position axis (m).
+    pub position: bool,
+}
+
+/// The columns of a world's data set files, as its models name them.
 #[derive(Debug, Clone, PartialEq)]
-pub struct DatasetMeta {
+pub struct Columns {
+    /// The state components (`groundtruth.csv` after `t`, `[initial_pose]` after `t`).
+    pub state: Vec<StateColumn>,
+    /// The controls (`odometry.csv` after `t`).
+    pub control: &'static [&'static str],
+    /// The measurement components (`measurements.csv` after `scan`).
+    pub measurement: Vec<MeasurementComponent>,
+    /// The landmark coordinates (`landmarks.csv` and `anchors.csv` after `id`).
+    pub landmark: &'static [&'static str],
+}
+
+impl Columns {
+    /// The state columns of the planar vehicles: `x`, `y`, `heading`.
+    pub fn planar_state() -> Vec<StateColumn> {
+        vec![
+            StateColumn { name: "x", angle: false, position: true },
+            StateColumn { name: "y", angle: false, position: true },
+            StateColumn { name: "heading", angle: true, position: false },
+        ]
+    }
+}
+
+/// The model tables of a world's `dataset.toml` (everything but the data set's own keys
+/// `name`, `description`, `world`, `[initial_pose]` and `[landmarks]`): parsed and validated,
+/// written back, and the column names of its files.
+pub trait DatasetModels: Clone + PartialEq + std::fmt::Debug + Sized {
+    /// The world a data set of these models is of (`dataset.toml`'s `world`).
+    fn world(&self) -> &'static str;
+
+    /// The model tables of the text of a `dataset.toml`, validated (the data set's own keys
+    /// are the caller's); an error names `path`, the line and the key.
+    fn read_models(text: &str, path: &Path) -> Result<Self, DataError>;
+
+    /// The model tables as TOML text (the lines after the data set's own keys).
+    fn write_models(&self) -> Result<String, DataError>;
+
+    /// The column names of the data set's files.
+    fn columns(&self) -> Columns;
+
+    /// Whether an odometry row's control holds until the next row (`true`: velocity,
+    /// Ackermann, the radio vehicle), or is the increment since the previous row
+    /// (`false`: `odometry2d`).
+    fn control_held(&self) -> bool;
+}
+
+/// The contents of `dataset.toml`: the data set's own keys and the world's models `C`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DatasetMeta<C = ModelConfig, const X: usize = 3> {
     /// Short name.
     pub name: String,
     /// Free text (source, licence, settings).
     pub description: Option<String>,
-    /// Time of the initial pose (s); scan 0's odometry starts here.
+    /// Time of the initial state (s); scan 0's odometry starts here.
     pub initial_t: f64,
-    /// Known initial pose `x_0`.
-    pub initial_pose: Pose,
+    /// Known initial state `x_0` (the planar default: the pose `[x, y, heading]`).
+    pub initial_pose: SVector<f64, X>,
     /// Nominal models (a filter run on the data set uses them).
-    pub models: ModelConfig,
+    pub models: C,
     /// The landmark types (`[landmarks]`; one type when absent).
     pub landmarks: LandmarkTypes,
 }
 
-/// The `dataset.toml` file as written.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct MetaFile {
+/// The data set's own keys of `dataset.toml`, as written (the model tables are `C`'s).
+#[derive(Debug, Clone, Deserialize)]
+struct OwnKeys {
     name: String,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default)]
     description: Option<String>,
-    initial_pose: InitialPose,
-    motion: MotionConfig,
-    sensor: SensorConfig,
-    #[serde(deserialize_with = "crate::config::de_detection")]
-    detection: DetectionModel,
-    clutter: ClutterConfig,
-    #[serde(default, skip_serializing_if = "LandmarkTypes::is_default")]
+    #[serde(default)]
+    world: Option<String>,
+    initial_pose: toml::Table,
+    #[serde(default)]
     landmarks: LandmarkTypes,
 }
 
-#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct InitialPose {
-    t: f64,
-    x: f64,
-    y: f64,
-    heading: f64,
+/// The data set's own keys, written first.
+#[derive(Serialize)]
+struct OwnHead<'a> {
+    name: &'a str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    description: Option<&'a str>,
+    world: &'a str,
 }
 
-impl DatasetMeta {
+/// `[initial_pose]` in the order of its keys (`t`, then the state components).
+struct InitialPose<'a>(Vec<(&'a str, f64)>);
+
+impl Serialize for InitialPose<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut m = s.serialize_map(Some(self.0.len()))?;
+        for (k, v) in &self.0 {
+            m.serialize_entry(k, v)?;
+        }
+        m.end()
+    }
+}
+
+#[derive(Serialize)]
+struct InitialPoseTable<'a> {
+    initial_pose: InitialPose<'a>,
+}
+
+#[derive(Serialize)]
+struct LandmarksTable<'a> {
+    landmarks: &'a LandmarkTypes,
+}
+
+impl<C: DatasetModels, const X: usize> DatasetMeta<C, X> {
     /// Reads and validates `dir/dataset.toml` alone.
-    pub fn read(dir: &Path) -> Result<DatasetMeta, DataError> {
+    pub fn read(dir: &Path) -> Result<Self, DataError> {
         let path = dir.join(files::META);
         let text = DataError::read_text(&path)?;
-        DatasetMeta::from_toml_str(&text, &path)
+        Self::from_toml_str(&text, &path)
     }
 
     /// Parses and validates the text of a `dataset.toml`; errors name `path`.
-    pub fn from_toml_str(text: &str, path: &Path) -> Result<DatasetMeta, DataError> {
-        let f: MetaFile = toml::from_str(text).map_err(|e| DataError::toml(path, text, &e))?;
-        let models = ModelConfig { motion: f.motion, sensor: f.sensor, detection: f.detection, clutter: f.clutter };
-        let ip = f.initial_pose;
-        let check = || -> Result<(), ConfigError> {
-            let (c, a) = (limits::MAX_COORDINATE, limits::MAX_ANGLE);
-            for (k, bound, v) in
-                [("t", limits::MAX_TIME, ip.t), ("x", c, ip.x), ("y", c, ip.y), ("heading", a, ip.heading)]
-            {
-                in_range(&format!("initial_pose.{k}"), Interval::magnitude(bound), v)?;
-            }
-            models.validate()?;
-            f.landmarks.validate()
+    pub fn from_toml_str(text: &str, path: &Path) -> Result<Self, DataError> {
+        // The model tables first: their parser knows every key of the file (spans, unknown keys).
+        let models = C::read_models(text, path)?;
+        let own: OwnKeys = toml::from_str(text).map_err(|e| DataError::toml(path, text, &e))?;
+        let bad = |e: ConfigError| DataError::config_in(path, text, e);
+        if let Some(w) = &own.world
+            && w != models.world()
+        {
+            return Err(bad(ConfigError::new(
+                "world",
+                format!("is \"{w}\" but the model tables are those of the world \"{}\"", models.world()),
+            )));
+        }
+        let state = models.columns().state;
+        if state.len() != X {
+            return Err(DataError::Mismatch(format!(
+                "the world {} has {} state components, not {X}",
+                models.world(),
+                state.len()
+            )));
+        }
+        let names: Vec<&str> = std::iter::once("t").chain(state.iter().map(|c| c.name)).collect();
+        if let Some(k) = own.initial_pose.keys().find(|k| !names.contains(&k.as_str())) {
+            return Err(bad(ConfigError::new(
+                format!("initial_pose.{k}"),
+                format!("unknown field `{k}`: the initial pose has {}", names.join(", ")),
+            )));
+        }
+        let value = |name: &str, bound: f64| -> Result<f64, DataError> {
+            let key = format!("initial_pose.{name}");
+            let v = own.initial_pose.get(name).ok_or_else(|| {
+                bad(ConfigError::new(
+                    key.clone(),
+                    format!("missing field `{name}` (the initial pose has {})", names.join(", ")),
+                ))
+            })?;
+            let v = v
+                .as_float()
+                .or_else(|| v.as_integer().map(|i| i as f64))
+                .ok_or_else(|| bad(ConfigError::new(key.clone(), format!("must be a number (got {v})"))))?;
+            in_range(&key, Interval::magnitude(bound), v).map_err(bad)?;
+            Ok(v)
         };
-        check().map_err(|source| DataError::config_in(path, text, source))?;
+        let initial_t = value("t", limits::MAX_TIME)?;
+        let mut initial_pose = SVector::<f64, X>::zeros();
+        for (i, c) in state.iter().enumerate() {
+            let v = value(c.name, if c.angle { limits::MAX_ANGLE } else { limits::MAX_COORDINATE })?;
+            initial_pose[i] = if c.angle { wrap(v) } else { v };
+        }
+        own.landmarks.validate().map_err(bad)?;
         Ok(DatasetMeta {
-            name: f.name,
-            description: f.description,
-            initial_t: ip.t,
-            initial_pose: Pose::new(ip.x, ip.y, wrap(ip.heading)),
+            name: own.name,
+            description: own.description,
+            initial_t,
+            initial_pose,
             models,
-            landmarks: f.landmarks,
+            landmarks: own.landmarks,
         })
     }
 
     /// The `dataset.toml` text.
     pub fn to_toml_string(&self) -> Result<String, DataError> {
-        let m = &self.models;
-        let f = MetaFile {
-            name: self.name.clone(),
-            description: self.description.clone(),
-            initial_pose: InitialPose {
-                t: self.initial_t,
-                x: self.initial_pose.x,
-                y: self.initial_pose.y,
-                heading: self.initial_pose.z,
-            },
-            motion: m.motion,
-            sensor: m.sensor,
-            detection: m.detection,
-            clutter: m.clutter,
-            landmarks: self.landmarks.clone(),
-        };
-        toml::to_string(&f).map_err(|e| DataError::Mismatch(format!("cannot serialize dataset.toml: {e}")))
+        let ser = |e: toml::ser::Error| DataError::Mismatch(format!("cannot serialize dataset.toml: {e}"));
+        let head = OwnHead { name: &self.name, description: self.description.as_deref(), world: self.models.world() };
+        let mut text = toml::to_string(&head).map_err(ser)?;
+        let state = self.models.columns().state;
+        let mut keys = vec![("t", self.initial_t)];
+        keys.extend(state.iter().zip(self.initial_pose.iter()).map(|(c, v)| (c.name, *v)));
+        text.push('\n');
+        text.push_str(&toml::to_string(&InitialPoseTable { initial_pose: InitialPose(keys) }).map_err(ser)?);
+        text.push('\n');
+        text.push_str(&self.models.write_models()?);
+        if !self.landmarks.is_default() {
+            text.push('\n');
+            text.push_str(&toml::to_string(&LandmarksTable { landmarks: &self.landmarks }).map_err(ser)?);
+        }
+        Ok(text)
     }
 }
 
-/// A data set: scans with their measurements, odometry, and optional ground truth.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Dataset {
-    /// Name, initial pose and nominal models.
-    pub meta: DatasetMeta,
-    /// Every scan in time order (also scans without measurements); scan `k` has index `k`.
-    pub scans: Vec<Scan>,
-    /// Odometry rows in time order, interpreted per `meta.models.motion`.
-    pub odometry: Vec<OdometryRow>,
-    /// Ground-truth poses in time order, when known.
-    pub groundtruth: Option<Vec<TruthPose>>,
-    /// Ground-truth landmarks, when known.
-    pub landmarks: Option<Vec<Landmark>>,
+/// The world a data set directory is of: `dataset.toml`'s `world`, or for a data set written
+/// before the key existed, the planar world of its `[sensor] model` (`range_bearing` when the
+/// key is absent too).
+pub fn world_of(dir: &Path) -> Result<String, DataError> {
+    if !dir.is_dir() {
+        return Err(DataError::MissingFile { path: dir.to_path_buf() });
+    }
+    let path = dir.join(files::META);
+    let text = DataError::read_text(&path)?;
+    let table: toml::Table = toml::from_str(&text).map_err(|e| DataError::toml(&path, &text, &e))?;
+    match table.get("world") {
+        Some(toml::Value::String(w)) => Ok(w.clone()),
+        Some(other) => Err(DataError::config_in(
+            &path,
+            &text,
+            ConfigError::new("world", format!("must be the name of a world (got {other})")),
+        )),
+        None => {
+            let sensor = table.get("sensor").and_then(|s| s.get("model")).and_then(|m| m.as_str());
+            Ok(sensor.unwrap_or("range_bearing").to_string())
+        }
+    }
 }
 
-impl Dataset {
+/// A data set: scans with their measurements, odometry, and optional ground truth, in the
+/// world of the models `C` (states of `X` components, landmarks of `M` coordinates,
+/// measurements of `Z` components; the planar worlds by default).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dataset<C = ModelConfig, const X: usize = 3, const M: usize = 2, const Z: usize = 2> {
+    /// Name, initial state and nominal models.
+    pub meta: DatasetMeta<C, X>,
+    /// Every scan in time order (also scans without measurements); scan `k` has index `k`.
+    pub scans: Vec<Scan<Z>>,
+    /// Odometry rows in time order, interpreted per the vehicle model
+    /// ([`DatasetModels::control_held`]).
+    pub odometry: Vec<OdometryRow>,
+    /// Ground-truth states in time order, when known.
+    pub groundtruth: Option<Vec<TruthPose<X>>>,
+    /// Ground-truth landmarks, when known.
+    pub landmarks: Option<Vec<Landmark<M>>>,
+    /// The landmarks the world knows (anchors: the radio world's base stations); none in the
+    /// planar worlds.
+    pub anchors: Vec<Landmark<M>>,
+}
+
+impl<const Z: usize> Dataset<ModelConfig, 3, 2, Z> {
     /// The motion model of the odometry.
-    pub fn motion(&self) -> Motion {
+    pub fn motion(&self) -> rfslam_core::Motion {
         self.meta.models.motion.motion()
     }
 
@@ -268,31 +443,47 @@ impl Dataset {
     pub fn models(&self) -> SlamModels {
         self.meta.models.to_models(self.meta.initial_pose)
     }
+}
 
+impl<C: DatasetModels, const X: usize, const M: usize, const Z: usize> Dataset<C, X, M, Z> {
     /// Reads and validates a dataset directory. Every error names the file and, for a bad
     /// value, the line and the column.
-    pub fn read(dir: &Path) -> Result<Dataset, DataError> {
+    pub fn read(dir: &Path) -> Result<Self, DataError> {
         if !dir.is_dir() {
             return Err(DataError::MissingFile { path: dir.to_path_buf() });
         }
-        let meta = DatasetMeta::read(dir)?;
-        let landmarks = optional(dir.join(files::LANDMARKS), |p| read_landmarks(p, &meta.landmarks))?;
+        let meta = DatasetMeta::<C, X>::read(dir)?;
+        let columns = meta.models.columns();
+        if columns.measurement.len() != Z || columns.landmark.len() != M {
+            return Err(DataError::Mismatch(format!(
+                "the world {} measures {} components of landmarks of {} coordinates, not {Z} of {M}",
+                meta.models.world(),
+                columns.measurement.len(),
+                columns.landmark.len()
+            )));
+        }
+        let landmarks = optional(dir.join(files::LANDMARKS), |p| read_landmarks(p, &meta.landmarks, columns.landmark))?;
+        let anchors = optional(dir.join(files::ANCHORS), |p| read_landmarks(p, &meta.landmarks, columns.landmark))?;
         let mut scans = read_scans(&dir.join(files::SCANS), meta.initial_t)?;
-        let ids: Option<HashSet<i64>> = landmarks.as_ref().map(|l| l.iter().map(|l| l.id).collect());
-        let sensor = meta.models.sensor.model;
-        read_measurements(&dir.join(files::MEASUREMENTS), sensor, &mut scans, ids.as_ref())?;
-        let odometry = read_odometry(&dir.join(files::ODOMETRY), &meta.models.motion.motion())?;
-        let groundtruth = optional(dir.join(files::GROUNDTRUTH), read_groundtruth)?;
-        Ok(Dataset { meta, scans, odometry, groundtruth, landmarks })
+        let mut ids: Option<HashSet<i64>> = landmarks.as_ref().map(|l| l.iter().map(|l| l.id).collect());
+        if let (Some(ids), Some(a)) = (&mut ids, &anchors) {
+            ids.extend(a.iter().map(|l| l.id));
+        }
+        read_measurements(&dir.join(files::MEASUREMENTS), &columns.measurement, &mut scans, ids.as_ref())?;
+        let odometry = read_odometry(&dir.join(files::ODOMETRY), columns.control)?;
+        let groundtruth = optional(dir.join(files::GROUNDTRUTH), |p| read_groundtruth(p, &columns.state))?;
+        Ok(Dataset { meta, scans, odometry, groundtruth, landmarks, anchors: anchors.unwrap_or_default() })
     }
 
     /// Writes the data set to `dir` (created if needed) with full-precision numbers, so that
     /// [`Dataset::read`] gives back exactly the same data set. An existing
-    /// `groundtruth.csv` or `landmarks.csv` is removed when the data set has none.
+    /// `groundtruth.csv`, `landmarks.csv` or `anchors.csv` is removed when the data set has
+    /// none.
     pub fn write(&self, dir: &Path) -> Result<(), DataError> {
         std::fs::create_dir_all(dir).map_err(|e| DataError::io(dir, e))?;
         let meta_path = dir.join(files::META);
         std::fs::write(&meta_path, self.meta.to_toml_string()?).map_err(|e| DataError::io(&meta_path, e))?;
+        let columns = self.meta.models.columns();
 
         let mut w = CsvOut::create(&dir.join(files::SCANS), "scan,t")?;
         for (k, s) in self.scans.iter().enumerate() {
@@ -301,9 +492,10 @@ impl Dataset {
         w.finish()?;
 
         let labelled = self.scans.iter().any(|s| s.truth.is_some());
-        let [c1, c2] = self.meta.models.sensor.model.columns();
-        let header = if labelled { format!("scan,{c1},{c2},truth") } else { format!("scan,{c1},{c2}") };
+        let names: Vec<&str> = columns.measurement.iter().map(|c| c.name).collect();
+        let header = format!("scan,{}{}", names.join(","), if labelled { ",truth" } else { "" });
         let mut w = CsvOut::create(&dir.join(files::MEASUREMENTS), &header)?;
+        let mut line = String::new();
         for (k, s) in self.scans.iter().enumerate() {
             if let Some(t) = &s.truth
                 && t.len() != s.z.len()
@@ -315,25 +507,28 @@ impl Dataset {
                 )));
             }
             for (i, z) in s.z.iter().enumerate() {
+                use std::fmt::Write as _;
+                line.clear();
+                let _ = write!(line, "{k}");
+                for v in z.iter() {
+                    let _ = write!(line, ",{v}");
+                }
                 if labelled {
                     let label = s.truth.as_ref().map(|t| t[i]).filter(|&l| l != TRUTH_UNKNOWN);
-                    w.line(format_args!("{k},{},{},{}", z[0], z[1], Opt(label)))?;
-                } else {
-                    w.line(format_args!("{k},{},{}", z[0], z[1]))?;
+                    let _ = write!(line, ",{}", Opt(label));
                 }
+                w.line(format_args!("{line}"))?;
             }
         }
         w.finish()?;
 
-        let motion = self.motion();
-        let header = format!("t,{}", motion.control_columns().join(","));
+        let header = format!("t,{}", columns.control.join(","));
         let mut w = CsvOut::create(&dir.join(files::ODOMETRY), &header)?;
-        let three = motion.control_columns().len() == 3;
+        let inputs = columns.control.len();
         for r in &self.odometry {
-            if three {
-                w.line(format_args!("{},{},{},{}", r.t, r.u[0], r.u[1], r.u[2]))?;
-            } else {
-                w.line(format_args!("{},{},{}", r.t, r.u[0], r.u[1]))?;
+            match inputs {
+                3 => w.line(format_args!("{},{},{},{}", r.t, r.u[0], r.u[1], r.u[2]))?,
+                _ => w.line(format_args!("{},{},{}", r.t, r.u[0], r.u[1]))?,
             }
         }
         w.finish()?;
@@ -341,9 +536,16 @@ impl Dataset {
         let gt_path = dir.join(files::GROUNDTRUTH);
         match &self.groundtruth {
             Some(gt) => {
-                let mut w = CsvOut::create(&gt_path, "t,x,y,heading")?;
+                let names: Vec<&str> = columns.state.iter().map(|c| c.name).collect();
+                let mut w = CsvOut::create(&gt_path, &format!("t,{}", names.join(",")))?;
                 for g in gt {
-                    w.line(format_args!("{},{},{},{}", g.t, g.position.x, g.position.y, Opt(g.heading)))?;
+                    use std::fmt::Write as _;
+                    line.clear();
+                    let _ = write!(line, "{}", g.t);
+                    for v in &g.state {
+                        let _ = write!(line, ",{}", Opt(*v));
+                    }
+                    w.line(format_args!("{line}"))?;
                 }
                 w.finish()?;
             }
@@ -351,8 +553,13 @@ impl Dataset {
         }
         let lm_path = dir.join(files::LANDMARKS);
         match &self.landmarks {
-            Some(lms) => write_landmarks(&lm_path, lms, &self.meta.landmarks)?,
+            Some(lms) => write_landmarks(&lm_path, lms, &self.meta.landmarks, columns.landmark)?,
             None => remove_if_exists(&lm_path)?,
+        }
+        let anchor_path = dir.join(files::ANCHORS);
+        match self.anchors.is_empty() {
+            false => write_landmarks(&anchor_path, &self.anchors, &self.meta.landmarks, columns.landmark)?,
+            true => remove_if_exists(&anchor_path)?,
         }
         Ok(())
     }
@@ -366,13 +573,14 @@ impl Dataset {
     /// The odometry between the previous scan (or `initial_t` for scan 0) and scan `k`,
     /// written to `out` (cleared first) as the segments a filter predicts through.
     ///
-    /// - `velocity` / `ackermann`: piecewise-constant controls on `(t_prev, t_k]`, cut at the
-    ///   row times; the last row before (or at) `t_prev` applies from `t_prev`; a row at
-    ///   exactly `t_k` belongs to the next interval. Before the first odometry row there is
-    ///   no control and no segment (the robot is taken to stand still). Zero-length pieces
-    ///   are dropped.
-    /// - `odometry2d`: one segment per row with `t` in `(t_prev, t_k]`, in order; `dt` is the
-    ///   time since the previous row (or since `initial_t` for the first row), informational.
+    /// - A held control (velocity, Ackermann, the radio vehicle): piecewise-constant controls
+    ///   on `(t_prev, t_k]`, cut at the row times; the last row before (or at) `t_prev`
+    ///   applies from `t_prev`; a row at exactly `t_k` belongs to the next interval. Before
+    ///   the first odometry row there is no control and no segment (the vehicle is taken to
+    ///   stand still). Zero-length pieces are dropped.
+    /// - An increment (`odometry2d`): one segment per row with `t` in `(t_prev, t_k]`, in
+    ///   order; `dt` is the time since the previous row (or since `initial_t` for the first
+    ///   row), informational.
     ///
     /// `out` is left empty for `k` out of range.
     pub fn segments_for_scan(&self, k: usize, out: &mut Vec<ControlSegment>) {
@@ -381,37 +589,34 @@ impl Dataset {
         let (a, b) = (self.interval_start(k), scan.t);
         let rows = &self.odometry;
         let first_after_a = rows.partition_point(|r| r.t <= a);
-        match self.motion() {
-            Motion::Odometry2d => {
-                let end = rows.partition_point(|r| r.t <= b);
-                for i in first_after_a..end {
-                    let prev = if i == 0 { self.meta.initial_t } else { rows[i - 1].t };
-                    out.push(ControlSegment { dt: (rows[i].t - prev).max(0.0), u: rows[i].u });
-                }
+        if !self.meta.models.control_held() {
+            let end = rows.partition_point(|r| r.t <= b);
+            for i in first_after_a..end {
+                let prev = if i == 0 { self.meta.initial_t } else { rows[i - 1].t };
+                out.push(ControlSegment { dt: (rows[i].t - prev).max(0.0), u: rows[i].u });
             }
-            Motion::Velocity | Motion::Ackermann(_) => {
-                let mut start = a;
-                let mut current = first_after_a.checked_sub(1).map(|i| rows[i].u);
-                for r in rows[first_after_a..].iter().take_while(|r| r.t < b) {
-                    if let Some(u) = current
-                        && r.t > start
-                    {
-                        out.push(ControlSegment { dt: r.t - start, u });
-                    }
-                    start = r.t;
-                    current = Some(r.u);
-                }
-                if let Some(u) = current
-                    && b > start
-                {
-                    out.push(ControlSegment { dt: b - start, u });
-                }
+            return;
+        }
+        let mut start = a;
+        let mut current = first_after_a.checked_sub(1).map(|i| rows[i].u);
+        for r in rows[first_after_a..].iter().take_while(|r| r.t < b) {
+            if let Some(u) = current
+                && r.t > start
+            {
+                out.push(ControlSegment { dt: r.t - start, u });
             }
+            start = r.t;
+            current = Some(r.u);
+        }
+        if let Some(u) = current
+            && b > start
+        {
+            out.push(ControlSegment { dt: b - start, u });
         }
     }
 
     /// The ground-truth row nearest to `t`, if one lies within `tol` seconds (binary search).
-    pub fn truth_at(&self, t: f64, tol: f64) -> Option<&TruthPose> {
+    pub fn truth_at(&self, t: f64, tol: f64) -> Option<&TruthPose<X>> {
         let gt = self.groundtruth.as_deref()?;
         let i = gt.partition_point(|g| g.t < t);
         let before = i.checked_sub(1).and_then(|j| gt.get(j));
@@ -449,14 +654,25 @@ fn remove_if_exists(path: &Path) -> Result<(), DataError> {
     }
 }
 
-/// Reads `landmarks.csv` (`id,x,y`, and `type` naming one of `types` in a world of several
-/// landmark types, where it is required); ids must be unique.
-pub fn read_landmarks(path: &Path, types: &LandmarkTypes) -> Result<Vec<Landmark>, DataError> {
-    let mut r = CsvRows::open(path, &["id", "x", "y"], &["type"])?;
+/// The planar landmark coordinates.
+pub const PLANAR_LANDMARK: &[&str] = &["x", "y"];
+
+/// Reads `landmarks.csv` or `anchors.csv` (`id`, the coordinates `coords`, and `type` naming
+/// one of `types` in a world of several landmark types, where it is required); ids must be
+/// unique.
+pub fn read_landmarks<const M: usize>(
+    path: &Path,
+    types: &LandmarkTypes,
+    coords: &'static [&'static str],
+) -> Result<Vec<Landmark<M>>, DataError> {
+    let mut required = vec!["id"];
+    required.extend_from_slice(coords);
+    let mut r = CsvRows::open(path, &required, &["type"])?;
+    let ty = 1 + M;
     let typed = types.types.len() > 1;
-    if typed && !r.has(3) {
+    if typed && !r.has(ty) {
         return Err(
-            r.err(3, format!("is missing: dataset.toml declares the landmark types {}", types.types.join(", ")))
+            r.err(ty, format!("is missing: dataset.toml declares the landmark types {}", types.types.join(", ")))
         );
     }
     let mut out = Vec::new();
@@ -466,12 +682,14 @@ pub fn read_landmarks(path: &Path, types: &LandmarkTypes) -> Result<Vec<Landmark
         if !seen.insert(id) {
             return Err(r.err(0, format!("landmark id {id} appears twice")));
         }
-        let c = limits::MAX_COORDINATE;
-        let position = Point2::new(r.bounded_f64(1, c, "m")?, r.bounded_f64(2, c, "m")?);
-        let mark = match (r.has(3), r.text(3)?) {
+        let mut position = SVector::<f64, M>::zeros();
+        for i in 0..M {
+            position[i] = r.bounded_f64(1 + i, limits::MAX_COORDINATE, "m")?;
+        }
+        let mark = match (r.has(ty), r.text(ty)?) {
             (false, _) => 0,
             (true, name) => types.mark(name).ok_or_else(|| {
-                r.err(3, format!("{name:?} is not a landmark type of dataset.toml ({})", types.types.join(", ")))
+                r.err(ty, format!("{name:?} is not a landmark type of dataset.toml ({})", types.types.join(", ")))
             })?,
         };
         out.push(Landmark { id, position, mark });
@@ -479,27 +697,39 @@ pub fn read_landmarks(path: &Path, types: &LandmarkTypes) -> Result<Vec<Landmark
     Ok(out)
 }
 
-/// Writes `landmarks.csv` (`id,x,y`, and `type` in a world of several landmark types) at
-/// full precision.
-pub fn write_landmarks(path: &Path, lms: &[Landmark], types: &LandmarkTypes) -> Result<(), DataError> {
+/// Writes `landmarks.csv` or `anchors.csv` (`id`, the coordinates `coords`, and `type` in a
+/// world of several landmark types) at full precision.
+pub fn write_landmarks<const M: usize>(
+    path: &Path,
+    lms: &[Landmark<M>],
+    types: &LandmarkTypes,
+    coords: &[&str],
+) -> Result<(), DataError> {
+    use std::fmt::Write as _;
     let typed = types.types.len() > 1;
-    let mut w = CsvOut::create(path, if typed { "id,x,y,type" } else { "id,x,y" })?;
+    let header = format!("id,{}{}", coords.join(","), if typed { ",type" } else { "" });
+    let mut w = CsvOut::create(path, &header)?;
+    let mut line = String::new();
     for l in lms {
         let name = types.types.get(usize::from(l.mark)).ok_or_else(|| {
             DataError::Mismatch(format!("landmark {} has mark {} beyond the {} types", l.id, l.mark, types.types.len()))
         })?;
-        if typed {
-            w.line(format_args!("{},{},{},{name}", l.id, l.position.x, l.position.y))?;
-        } else {
-            w.line(format_args!("{},{},{}", l.id, l.position.x, l.position.y))?;
+        line.clear();
+        let _ = write!(line, "{}", l.id);
+        for v in l.position.iter() {
+            let _ = write!(line, ",{v}");
         }
+        if typed {
+            let _ = write!(line, ",{name}");
+        }
+        w.line(format_args!("{line}"))?;
     }
     w.finish()
 }
 
-fn read_scans(path: &Path, initial_t: f64) -> Result<Vec<Scan>, DataError> {
+fn read_scans<const Z: usize>(path: &Path, initial_t: f64) -> Result<Vec<Scan<Z>>, DataError> {
     let mut r = CsvRows::open(path, &["scan", "t"], &[])?;
-    let mut scans: Vec<Scan> = Vec::new();
+    let mut scans: Vec<Scan<Z>> = Vec::new();
     while r.next_row()? {
         let k = r.i64(0)?;
         if k != scans.len() as i64 {
@@ -521,14 +751,16 @@ fn read_scans(path: &Path, initial_t: f64) -> Result<Vec<Scan>, DataError> {
     Ok(scans)
 }
 
-fn read_measurements(
+fn read_measurements<const Z: usize>(
     path: &Path,
-    sensor: SensorKind,
-    scans: &mut [Scan],
+    components: &[MeasurementComponent],
+    scans: &mut [Scan<Z>],
     ids: Option<&HashSet<i64>>,
 ) -> Result<(), DataError> {
-    let [c1, c2] = sensor.columns();
-    let mut r = CsvRows::open(path, &["scan", c1, c2], &["truth"])?;
+    let mut required = vec!["scan"];
+    required.extend(components.iter().map(|c| c.name));
+    let truth = 1 + Z;
+    let mut r = CsvRows::open(path, &required, &["truth"])?;
     let n = scans.len();
     let mut current: Option<usize> = None;
     let (mut any_labelled, mut any_unlabelled) = (false, false);
@@ -543,26 +775,23 @@ fn read_measurements(
                 r.err(0, format!("scan index {k} after scan {}: rows must be in scan order", current.unwrap_or(0)))
             );
         }
-        let z = match sensor {
-            SensorKind::RangeBearing => {
-                let range = r.bounded_f64(1, limits::MAX_COORDINATE, "m")?;
-                RangeBearing::new(range, wrap(r.bounded_f64(2, limits::MAX_ANGLE, "rad")?))
-            }
-            SensorKind::RelativePosition => RangeBearing::new(
-                r.bounded_f64(1, limits::MAX_COORDINATE, "m")?,
-                r.bounded_f64(2, limits::MAX_COORDINATE, "m")?,
-            ),
-        };
-        let label = r.opt_i64(3)?;
+        let mut z = SVector::<f64, Z>::zeros();
+        for (i, c) in components.iter().enumerate() {
+            z[i] = match c.angle {
+                true => wrap(r.bounded_f64(1 + i, limits::MAX_ANGLE, "rad")?),
+                false => r.bounded_f64(1 + i, limits::MAX_COORDINATE, "m")?,
+            };
+        }
+        let label = r.opt_i64(truth)?;
         if let Some(id) = label {
             if id < -1 {
-                return Err(r.err(3, format!("truth {id}: use a landmark id >= 0, -1 for clutter, or empty")));
+                return Err(r.err(truth, format!("truth {id}: use a landmark id >= 0, -1 for clutter, or empty")));
             }
             if let Some(ids) = ids
                 && id >= 0
                 && !ids.contains(&id)
             {
-                return Err(r.err(3, format!("landmark id {id} is not in landmarks.csv")));
+                return Err(r.err(truth, format!("landmark id {id} is not in landmarks.csv")));
             }
             any_labelled = true;
         } else {
@@ -587,7 +816,7 @@ fn read_measurements(
     }
     // Scans without measurements are labelled (with no labels) when the file has a truth
     // column and some labelled row, or a truth column and no rows at all.
-    if r.has(3) && (any_labelled || !any_unlabelled) {
+    if r.has(truth) && (any_labelled || !any_unlabelled) {
         for s in scans.iter_mut().filter(|s| s.z.is_empty()) {
             s.truth = Some(Vec::new());
         }
@@ -595,8 +824,7 @@ fn read_measurements(
     Ok(())
 }
 
-fn read_odometry(path: &Path, motion: &Motion) -> Result<Vec<OdometryRow>, DataError> {
-    let cols = motion.control_columns();
+fn read_odometry(path: &Path, cols: &'static [&'static str]) -> Result<Vec<OdometryRow>, DataError> {
     let mut required = vec!["t"];
     required.extend_from_slice(cols);
     let mut r = CsvRows::open(path, &required, &[])?;
@@ -618,24 +846,99 @@ fn read_odometry(path: &Path, motion: &Motion) -> Result<Vec<OdometryRow>, DataE
     Ok(out)
 }
 
-fn read_groundtruth(path: &Path) -> Result<Vec<TruthPose>, DataError> {
-    let mut r = CsvRows::open(path, &["t", "x", "y"], &["heading"])?;
-    let mut out: Vec<TruthPose> = Vec::new();
+fn read_groundtruth<const X: usize>(path: &Path, state: &[StateColumn]) -> Result<Vec<TruthPose<X>>, DataError> {
+    let required: Vec<&'static str> =
+        std::iter::once("t").chain(state.iter().filter(|c| c.position).map(|c| c.name)).collect();
+    let optional: Vec<&'static str> = state.iter().filter(|c| !c.position).map(|c| c.name).collect();
+    let mut r = CsvRows::open(path, &required, &optional)?;
+    // The CSV column of each state component (required ones first, as opened).
+    let mut col = [0usize; X];
+    let (mut req, mut opt) = (1, required.len());
+    for (i, c) in state.iter().enumerate() {
+        if c.position {
+            col[i] = req;
+            req += 1;
+        } else {
+            col[i] = opt;
+            opt += 1;
+        }
+    }
+    let mut out: Vec<TruthPose<X>> = Vec::new();
     while r.next_row()? {
         let t = r.bounded_f64(0, limits::MAX_TIME, "s")?;
         r.check_time(0, t, out.last().map(|g| g.t))?;
-        let c = limits::MAX_COORDINATE;
-        let position = Point2::new(r.bounded_f64(1, c, "m")?, r.bounded_f64(2, c, "m")?);
-        let heading = r.opt_bounded_f64(3, limits::MAX_ANGLE, "rad")?.map(wrap);
-        out.push(TruthPose { t, position, heading });
+        let mut x = [None; X];
+        for (i, c) in state.iter().enumerate() {
+            x[i] = match (c.position, c.angle) {
+                (true, _) => Some(r.bounded_f64(col[i], limits::MAX_COORDINATE, "m")?),
+                (false, true) => r.opt_bounded_f64(col[i], limits::MAX_ANGLE, "rad")?.map(wrap),
+                (false, false) => r.opt_bounded_f64(col[i], limits::MAX_COORDINATE, "m")?,
+            };
+        }
+        out.push(TruthPose { t, state: x });
     }
     Ok(out)
+}
+
+/// The planar worlds' model tables (`[motion]`, `[sensor]`, `[detection]`, `[clutter]`).
+impl DatasetModels for ModelConfig {
+    fn world(&self) -> &'static str {
+        self.sensor.model.name()
+    }
+
+    fn read_models(text: &str, path: &Path) -> Result<Self, DataError> {
+        /// The file as the planar model tables read it: their four tables, the data set's own
+        /// keys passed over (the caller reads them).
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        #[allow(dead_code)]
+        struct File {
+            name: serde::de::IgnoredAny,
+            #[serde(default)]
+            description: Option<serde::de::IgnoredAny>,
+            #[serde(default)]
+            world: Option<serde::de::IgnoredAny>,
+            initial_pose: serde::de::IgnoredAny,
+            #[serde(default)]
+            landmarks: Option<serde::de::IgnoredAny>,
+            motion: crate::config::MotionConfig,
+            sensor: crate::config::SensorConfig,
+            #[serde(deserialize_with = "crate::config::de_detection")]
+            detection: rfslam_core::DetectionModel,
+            clutter: crate::config::ClutterConfig,
+        }
+        let f: File = toml::from_str(text).map_err(|e| DataError::toml(path, text, &e))?;
+        let models = ModelConfig { motion: f.motion, sensor: f.sensor, detection: f.detection, clutter: f.clutter };
+        models.validate().map_err(|e| DataError::config_in(path, text, e))?;
+        Ok(models)
+    }
+
+    fn write_models(&self) -> Result<String, DataError> {
+        toml::to_string(self).map_err(|e| DataError::Mismatch(format!("cannot serialize dataset.toml: {e}")))
+    }
+
+    fn columns(&self) -> Columns {
+        let [a, b] = self.sensor.model.columns();
+        let angle = self.sensor.model == rfslam_core::SensorKind::RangeBearing;
+        Columns {
+            state: Columns::planar_state(),
+            control: self.motion.motion().control_columns(),
+            measurement: vec![MeasurementComponent { name: a, angle: false }, MeasurementComponent { name: b, angle }],
+            landmark: PLANAR_LANDMARK,
+        }
+    }
+
+    fn control_held(&self) -> bool {
+        !matches!(self.motion.motion(), rfslam_core::Motion::Odometry2d)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::MotionConfig;
     use crate::testutil::TempDir;
+    use rfslam_core::{Pose, RangeBearing};
 
     fn meta(motion: MotionConfig) -> DatasetMeta {
         let mut models = ModelConfig::phd_slam_synthetic();
@@ -657,6 +960,7 @@ mod tests {
             odometry: rows.iter().map(|&(t, u)| OdometryRow { t, u: Control::new(u[0], u[1], u[2]) }).collect(),
             groundtruth: None,
             landmarks: None,
+            anchors: Vec::new(),
         }
     }
 
@@ -745,12 +1049,8 @@ mod tests {
     fn truth_at_finds_the_nearest_row_within_tolerance() {
         let mut d = with_odometry(VEL, &[1.0], &[]);
         assert!(d.truth_at(1.0, 10.0).is_none());
-        d.groundtruth = Some(
-            [0.0, 1.0, 2.0, 2.1]
-                .iter()
-                .map(|&t| TruthPose { t, position: Point2::new(t, 0.0), heading: None })
-                .collect(),
-        );
+        d.groundtruth =
+            Some([0.0, 1.0, 2.0, 2.1].iter().map(|&t| TruthPose::planar(t, Point2::new(t, 0.0), None)).collect());
         assert_eq!(d.truth_at(1.02, 0.025).map(|g| g.t), Some(1.0));
         assert_eq!(d.truth_at(1.03, 0.025), None);
         assert_eq!(d.truth_at(2.06, 0.1).map(|g| g.t), Some(2.1));
@@ -845,7 +1145,7 @@ mod tests {
             }
             d.meta.initial_pose = Pose::new(v, v / 7.0, 0.1);
             d.write(tmp.path()).unwrap();
-            let back = Dataset::read(tmp.path()).unwrap();
+            let back = <Dataset>::read(tmp.path()).unwrap();
             proptest::prop_assert_eq!(back, d);
         }
     }
@@ -859,12 +1159,12 @@ mod tests {
         let blocks: Vec<&str> =
             doc.split("```toml\n").skip(1).map(|b| b.split("```").next().unwrap_or_default()).collect();
         assert!(blocks.len() >= 3, "{}", doc_path.display());
-        let meta = DatasetMeta::from_toml_str(blocks[0], Path::new("docs/datasets.md")).unwrap();
+        let meta = DatasetMeta::<ModelConfig>::from_toml_str(blocks[0], Path::new("docs/datasets.md")).unwrap();
         assert_eq!(meta.initial_pose, Pose::new(300.0, 400.0, -0.0873));
         assert_eq!(meta.models, ModelConfig::phd_slam_synthetic());
         assert!(meta.landmarks.is_default());
         let typed = format!("{}\n{}", blocks[0], blocks[1]);
-        let meta = DatasetMeta::from_toml_str(&typed, Path::new("docs/datasets.md")).unwrap();
+        let meta = DatasetMeta::<ModelConfig>::from_toml_str(&typed, Path::new("docs/datasets.md")).unwrap();
         assert_eq!(meta.landmarks.mark("scattering_point"), Some(2));
         let sc = crate::ScenarioConfig::from_toml_str(blocks[2], "docs/datasets.md").unwrap();
         assert_eq!(sc.models(), ModelConfig::phd_slam_synthetic());
@@ -883,8 +1183,8 @@ mod tests {
         d.scans[2].truth = Some(vec![7]);
         d.scans[3].truth = Some(vec![]);
         d.groundtruth = Some(vec![
-            TruthPose { t: 0.0, position: Point2::new(1.0, 2.0), heading: Some(0.5) },
-            TruthPose { t: 0.7, position: Point2::new(-0.0, 1e9 / 7.0), heading: None },
+            TruthPose::planar(0.0, Point2::new(1.0, 2.0), Some(0.5)),
+            TruthPose::planar(0.7, Point2::new(-0.0, 1e9 / 7.0), None),
         ]);
         d.landmarks = Some(vec![
             Landmark { id: 3, position: Point2::new(0.1, 0.2), mark: 0 },
@@ -907,7 +1207,7 @@ mod tests {
         assert!(meta.contains("[landmarks]") && meta.contains("scattering_point"), "{meta}");
         let lms = std::fs::read_to_string(tmp.path().join(files::LANDMARKS)).unwrap();
         assert!(lms.starts_with("id,x,y,type\n3,0.1,0.2,base_station\n7,"), "{lms}");
-        let back = Dataset::read(tmp.path()).unwrap();
+        let back = <Dataset>::read(tmp.path()).unwrap();
         assert_eq!(back, d);
         assert_eq!(back.landmarks.unwrap()[1].mark, 2);
         // The one-type default writes no [landmarks] table and no type column.
@@ -923,7 +1223,7 @@ mod tests {
             std::fs::write(&mp, text.replace("\"scattering_point\"", edit_meta)).unwrap();
             let lp = tmp.path().join(files::LANDMARKS);
             std::fs::write(&lp, edit_lms(std::fs::read_to_string(&lp).unwrap())).unwrap();
-            Dataset::read(tmp.path()).unwrap_err().to_string()
+            <Dataset>::read(tmp.path()).unwrap_err().to_string()
         };
         let same = |t: String| t;
         let e =
@@ -944,11 +1244,11 @@ mod tests {
         let tmp = TempDir::new("roundtrip");
         let d = example();
         d.write(tmp.path()).unwrap();
-        let back = Dataset::read(tmp.path()).unwrap();
+        let back = <Dataset>::read(tmp.path()).unwrap();
         assert_eq!(back, d);
         // Bit-exact, also for signed zeros.
         let gt = back.groundtruth.as_ref().unwrap();
-        assert_eq!(gt[1].position.x.to_bits(), (-0.0f64).to_bits());
+        assert_eq!(gt[1].position().x.to_bits(), (-0.0f64).to_bits());
         // An unlabelled data set stays unlabelled, without optional files.
         let mut d2 = example();
         d2.scans.iter_mut().for_each(|s| s.truth = None);
@@ -957,7 +1257,7 @@ mod tests {
         d2.meta.description = None;
         d2.write(tmp.path()).unwrap();
         assert!(!tmp.path().join(files::LANDMARKS).exists());
-        assert_eq!(Dataset::read(tmp.path()).unwrap(), d2);
+        assert_eq!(<Dataset>::read(tmp.path()).unwrap(), d2);
         // A detection of unknown origin beside labelled clutter (the Victoria Park import)
         // is an empty cell, read back as TRUTH_UNKNOWN.
         let mut d3 = example();
@@ -965,7 +1265,29 @@ mod tests {
         d3.write(tmp.path()).unwrap();
         let text = std::fs::read_to_string(tmp.path().join(files::MEASUREMENTS)).unwrap();
         assert!(text.lines().nth(1).unwrap().ends_with(','), "{text}");
-        assert_eq!(Dataset::read(tmp.path()).unwrap(), d3);
+        assert_eq!(<Dataset>::read(tmp.path()).unwrap(), d3);
+    }
+
+    /// `dataset.toml` names its world; a data set written before the key existed is of the
+    /// planar world of its `[sensor] model`; a `world` that the model tables are not of is
+    /// refused naming the key and its line.
+    #[test]
+    fn the_world_of_a_data_set() {
+        let tmp = TempDir::new("world");
+        example().write(tmp.path()).unwrap();
+        let meta = std::fs::read_to_string(tmp.path().join(files::META)).unwrap();
+        assert!(meta.contains("world = \"range_bearing\""), "{meta}");
+        assert_eq!(world_of(tmp.path()).unwrap(), "range_bearing");
+        std::fs::write(tmp.path().join(files::META), meta.replace("world = \"range_bearing\"\n", "")).unwrap();
+        assert_eq!(world_of(tmp.path()).unwrap(), "range_bearing");
+        assert_eq!(<Dataset>::read(tmp.path()).unwrap(), example());
+        let wrong = meta.replace("world = \"range_bearing\"", "world = \"relative_position\"");
+        std::fs::write(tmp.path().join(files::META), &wrong).unwrap();
+        assert_eq!(world_of(tmp.path()).unwrap(), "relative_position");
+        let e = <Dataset>::read(tmp.path()).unwrap_err().to_string();
+        let line = 1 + wrong.lines().position(|l| l.starts_with("world")).unwrap();
+        assert!(e.contains(&format!("dataset.toml:{line}: world is \"relative_position\"")), "{e}");
+        assert!(world_of(&tmp.path().join("absent")).is_err());
     }
 
     #[test]
@@ -976,7 +1298,7 @@ mod tests {
         d.write(tmp.path()).unwrap();
         let text = std::fs::read_to_string(tmp.path().join(files::ODOMETRY)).unwrap();
         assert!(text.starts_with("t,dx,dy,dtheta\n0.5,0.1,-0.2,0.3\n"), "{text}");
-        assert_eq!(Dataset::read(tmp.path()).unwrap(), d);
+        assert_eq!(<Dataset>::read(tmp.path()).unwrap(), d);
     }
 
     #[test]
@@ -1000,7 +1322,7 @@ mod tests {
         } else {
             std::fs::write(&p, new).unwrap();
         }
-        let e = Dataset::read(tmp.path()).unwrap_err().to_string();
+        let e = <Dataset>::read(tmp.path()).unwrap_err().to_string();
         assert!(e.contains(file), "error does not name {file}: {e}");
         e
     }
@@ -1015,12 +1337,12 @@ mod tests {
         let text = std::fs::read_to_string(&p).unwrap();
         let turned = 0.5 + 6.0 * std::f64::consts::PI;
         std::fs::write(&p, text.replace("0,1,2,0.5", &format!("0,1,2,{turned}"))).unwrap();
-        let ds = Dataset::read(tmp.path()).unwrap();
-        let h = ds.groundtruth.as_ref().unwrap()[0].heading.unwrap();
+        let ds = <Dataset>::read(tmp.path()).unwrap();
+        let h = ds.groundtruth.as_ref().unwrap()[0].heading().unwrap();
         assert!((h - 0.5).abs() < 1e-12, "{h}");
         let again = TempDir::new("unwrapped-out");
         ds.write(again.path()).unwrap();
-        assert_eq!(Dataset::read(again.path()).unwrap().groundtruth.unwrap()[0].heading, Some(h));
+        assert_eq!(<Dataset>::read(again.path()).unwrap().groundtruth.unwrap()[0].heading(), Some(h));
         assert!(
             std::fs::read_to_string(again.path().join(files::GROUNDTRUTH)).unwrap().contains(&format!("0,1,2,{h}"))
         );
@@ -1111,7 +1433,7 @@ mod tests {
     #[test]
     fn missing_directory_is_reported() {
         let tmp = TempDir::new("nodir");
-        let e = Dataset::read(&tmp.path().join("absent")).unwrap_err();
+        let e = <Dataset>::read(&tmp.path().join("absent")).unwrap_err();
         assert!(matches!(e, DataError::MissingFile { .. }) && e.to_string().ends_with("absent: not found"), "{e}");
     }
 

@@ -150,7 +150,7 @@ impl DataError {
     }
 
     /// Reads the text file `path`; bytes that are not UTF-8 are an error naming their line.
-    pub(crate) fn read_text(path: &Path) -> Result<String, DataError> {
+    pub fn read_text(path: &Path) -> Result<String, DataError> {
         let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
         String::from_utf8(bytes).map_err(|e| {
             let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
@@ -170,7 +170,7 @@ impl DataError {
     }
 
     /// A toml error on `text` read from `path`, with its line and column.
-    pub(crate) fn toml(path: &Path, text: &str, e: &toml::de::Error) -> Self {
+    pub fn toml(path: &Path, text: &str, e: &toml::de::Error) -> Self {
         let (line, column, snippet) = match e.span() {
             Some(span) => {
                 let (l, c) = crate::locate::line_col(text, span.start);
@@ -190,7 +190,7 @@ impl DataError {
     }
 
     /// A validation error of the TOML `text` of `path`, located at the line of its key.
-    pub(crate) fn config_in(path: &Path, text: &str, source: ConfigError) -> Self {
+    pub fn config_in(path: &Path, text: &str, source: ConfigError) -> Self {
         let line = source.key().and_then(|k| crate::locate::locate(text, k));
         DataError::Config { path: Some(path.to_path_buf()), line, source }
     }

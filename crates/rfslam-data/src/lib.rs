@@ -36,7 +36,10 @@ pub mod scenario;
 pub mod testutil;
 
 pub use config::{ClutterConfig, EdgeKind, ModelConfig, MotionConfig, SensorConfig};
-pub use dataset::{Dataset, DatasetMeta, Landmark, LandmarkTypes, OdometryRow, TruthPose};
+pub use dataset::{
+    Columns, Dataset, DatasetMeta, DatasetModels, Landmark, LandmarkTypes, OdometryRow, StateColumn, TruthPose,
+    world_of,
+};
 pub use error::{ConfigError, DataError};
 pub use find::{DATA_ENV, data_dirs, find_data};
 pub use mat::{MatArray, MatError, MatFile};

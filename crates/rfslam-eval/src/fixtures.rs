@@ -151,7 +151,7 @@ pub fn dead_reckoning_rmse(ds: &Dataset) -> f64 {
         ds.segments_for_scan(k, &mut segments);
         pose = propagate(&models.motion, &pose, &segments);
         let t = ds.truth_at(scan.t, 0.025).expect("truth");
-        sq += (pose.xy() - t.position).norm_squared();
+        sq += (pose.xy() - t.position()).norm_squared();
     }
     (sq / ds.scans.len() as f64).sqrt()
 }

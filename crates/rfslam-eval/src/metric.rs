@@ -649,7 +649,7 @@ struct PoseMetric {
 impl Observer for PoseMetric {
     fn observe(&mut self, rec: &StepRecord) {
         if let Some(t) = rec.truth {
-            self.errors.push(&rec.estimate.pose, t.position, t.heading);
+            self.errors.push(&rec.estimate.pose, t.position(), t.heading());
         }
     }
     fn finish(&mut self, _: &RunEnd, out: &mut Values) {
@@ -668,7 +668,7 @@ struct AlignedMetric {
 impl Observer for AlignedMetric {
     fn observe(&mut self, rec: &StepRecord) {
         if let Some(t) = rec.truth {
-            self.aligned.push(Point2::new(rec.estimate.pose.x, rec.estimate.pose.y), t.position);
+            self.aligned.push(Point2::new(rec.estimate.pose.x, rec.estimate.pose.y), t.position());
         }
     }
     fn finish(&mut self, _: &RunEnd, out: &mut Values) {
@@ -831,7 +831,7 @@ impl Observer for LandmarksMetric {
 
 /// The error of the estimated position against the truth at a scored step.
 fn position_error(rec: &StepRecord) -> Option<Point2> {
-    rec.truth.map(|t| Point2::new(rec.estimate.pose.x, rec.estimate.pose.y) - t.position)
+    rec.truth.map(|t| Point2::new(rec.estimate.pose.x, rec.estimate.pose.y) - t.position())
 }
 
 /// RMSE of `sum_sq` over `n` values; NaN for none.

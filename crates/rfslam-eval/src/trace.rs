@@ -109,10 +109,10 @@ impl<W: Write> StepsWriter<W> {
         self.map.detect(scan.and_then(|s| s.truth.as_deref()));
         let pose = rec.estimate.pose;
         let truth = dataset.truth_at(rec.t, self.metrics.truth_tolerance_s);
-        let err = truth.map(|g| Point2::new(pose.x, pose.y) - g.position);
+        let err = truth.map(|g| Point2::new(pose.x, pose.y) - g.position());
         let pos_err = err.map_or(f64::NAN, |e| e.norm());
         let head_err =
-            truth.and_then(|g| g.heading).map_or(f64::NAN, |h| rfslam_core::angle::diff(pose.z, h).to_degrees());
+            truth.and_then(|g| g.heading()).map_or(f64::NAN, |h| rfslam_core::angle::diff(pose.z, h).to_degrees());
         let (gospa, seen) = (self.map.gospa(rec.estimate), self.map.count());
         self.out.write_record([
             rec.k.to_string(),
@@ -213,7 +213,7 @@ pub fn write_run_context(dataset: &Dataset, dir: &Path) -> Result<(), EvalError>
     let gt_path = dir.join(files::GROUNDTRUTH);
     match &dataset.groundtruth {
         Some(gt) => write_csv(&gt_path, &["t", "x", "y", "heading"], gt.iter(), |g| {
-            vec![fmt_f(g.t), fmt_f(g.position.x), fmt_f(g.position.y), fmt_f(g.heading.unwrap_or(f64::NAN))]
+            vec![fmt_f(g.t), fmt_f(g.position().x), fmt_f(g.position().y), fmt_f(g.heading().unwrap_or(f64::NAN))]
         })?,
         None => remove_stale(&gt_path)?,
     }
@@ -272,7 +272,7 @@ mod tests {
             crate::fixtures::try_build::<dead_reckoning::DeadReckoning>(Default::default(), &ds.models(), 1).unwrap();
         let truth = &ds.groundtruth.as_ref().unwrap()[5];
         let est = Estimate {
-            pose: Pose::new(truth.position.x + 3.0, truth.position.y - 4.0, truth.heading.unwrap() + 0.1),
+            pose: Pose::new(truth.position().x + 3.0, truth.position().y - 4.0, truth.heading().unwrap() + 0.1),
             map: vec![MapPoint { position: Point2::new(1e6, 1e6), mark: 0, weight: 1.0 }],
         };
         let report = StepReport::plain(1);

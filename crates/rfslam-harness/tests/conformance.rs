@@ -324,7 +324,7 @@ fn slam_filters_beat_dead_reckoning_and_the_empty_map_on_easy_data() {
                 .zip(&dr)
                 .map(|(s, p)| {
                     let t = ds.truth_at(s.t, metrics.truth_tolerance_s).expect("truth at every scan");
-                    (p.xy() - t.position).norm_squared()
+                    (p.xy() - t.position()).norm_squared()
                 })
                 .sum();
             let dr_rmse = (sq / dr.len() as f64).sqrt();

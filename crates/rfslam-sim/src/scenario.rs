@@ -53,7 +53,7 @@ impl ScenarioData for ScenarioConfig {
             return Ok(models.to_models(x0));
         }
         if let Some(dir) = self.dataset_dir() {
-            let meta = DatasetMeta::read(&dir?)?;
+            let meta = <DatasetMeta>::read(&dir?)?;
             check_same_motion(&self.motion, &meta.models.motion, &meta.name)?;
             return Ok(models.to_models(meta.initial_pose));
         }
@@ -76,7 +76,7 @@ impl ScenarioData for ScenarioConfig {
             return VictoriaPark::read(&find_data(path)?)?.import_in(&self.models(), x0, *gps_frame, run_seed);
         }
         if let Some(dir) = self.dataset_dir() {
-            let mut d = Dataset::read(&dir?)?;
+            let mut d = <Dataset>::read(&dir?)?;
             check_same_motion(&self.motion, &d.meta.models.motion, &d.meta.name)?;
             d.meta.models = self.models();
             return Ok(d);
@@ -324,7 +324,7 @@ mod tests {
         let tmp = TempDir::new("scenario-vp-paper");
         let d = on_victoria_park_excerpt(&text, &tmp).build_dataset(None, 1).unwrap();
         assert_eq!(d.meta.initial_pose, x0);
-        let gt: Vec<_> = d.groundtruth.unwrap().iter().map(|g| (g.t, g.position)).collect();
+        let gt: Vec<_> = d.groundtruth.unwrap().iter().map(|g| (g.t, g.position())).collect();
         let recorded = [(0.0, (-2.023, -1.923)), (1.08, (0.5, -1.8)), (1.29, (1.0, -1.7))];
         assert_eq!(gt, recorded.map(|(t, (x, y))| (t, rfslam_core::Point2::new(x, y))));
     }
@@ -338,7 +338,7 @@ mod tests {
         let text = victoria_park_paper_frame_scenario().replace("path = \"victoria-park\"", &toml_path(&dir));
         let d = ScenarioConfig::from_toml_str(&text, "vp.toml").unwrap().build_dataset(None, 1).unwrap();
         assert_eq!(d.scans.len(), 7230);
-        let first = d.groundtruth.unwrap()[0].position;
+        let first = d.groundtruth.unwrap()[0].position();
         assert!((first - d.meta.initial_pose.xy()).norm() < 0.01, "{first}");
         assert!((first - rfslam_core::Point2::new(-2.023, -1.923)).norm() < 0.01, "{first}");
     }

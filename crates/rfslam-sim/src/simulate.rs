@@ -71,8 +71,7 @@ pub fn simulate(world: &World, models: &ModelConfig, run_seed: u64) -> Result<Da
         }
     };
     let (scans, odometry) = scans_odometry;
-    let groundtruth =
-        world.poses.iter().map(|&(t, x)| TruthPose { t, position: x.xy(), heading: Some(x.z) }).collect::<Vec<_>>();
+    let groundtruth = world.poses.iter().map(|&(t, x)| TruthPose::planar(t, x.xy(), Some(x.z))).collect::<Vec<_>>();
     Ok(Dataset {
         meta: DatasetMeta {
             name: world.name.clone(),
@@ -89,6 +88,7 @@ pub fn simulate(world: &World, models: &ModelConfig, run_seed: u64) -> Result<Da
         odometry,
         groundtruth: Some(groundtruth),
         landmarks: Some(world.landmarks.clone()),
+        anchors: Vec::new(),
     })
 }
 
@@ -265,7 +265,7 @@ mod tests {
         // It survives a write/read round trip unchanged.
         let tmp = TempDir::new("sim");
         a.write(tmp.path()).unwrap();
-        assert_eq!(Dataset::read(tmp.path()).unwrap(), a);
+        assert_eq!(<Dataset>::read(tmp.path()).unwrap(), a);
     }
 
     /// The generator's sensor: the minimum range applies, the filters' edge treatment does
@@ -331,7 +331,7 @@ mod tests {
             assert_eq!(segs.len(), usize::from(k > 0), "scan {k}");
             x = rfslam_core::motion::propagate(&w.motion, &x, &segs);
             let truth = d.truth_at(d.scans[k].t, 1e-9).unwrap();
-            assert!((x.xy() - truth.position).norm() < 1e-9, "scan {k}");
+            assert!((x.xy() - truth.position()).norm() < 1e-9, "scan {k}");
         }
     }
 
@@ -377,7 +377,7 @@ mod tests {
         d.write(tmp.path()).unwrap();
         let text = std::fs::read_to_string(tmp.path().join("measurements.csv")).unwrap();
         assert!(text.starts_with("scan,x,y,truth\n"), "{}", &text[..40]);
-        assert_eq!(rfslam_data::Dataset::read(tmp.path()).unwrap(), d);
+        assert_eq!(<rfslam_data::Dataset>::read(tmp.path()).unwrap(), d);
     }
 
     #[test]

@@ -248,10 +248,7 @@ impl VictoriaPark {
             GpsFrame::Recorded => (Rotation2::identity(), Point2::zeros()),
         };
         let groundtruth = (!self.gps.is_empty()).then(|| {
-            self.gps
-                .iter()
-                .map(|&(t, p)| TruthPose { t, position: origin + to_frame * p, heading: None })
-                .collect::<Vec<_>>()
+            self.gps.iter().map(|&(t, p)| TruthPose::planar(t, origin + to_frame * p, None)).collect::<Vec<_>>()
         });
         let description = format!(
             "ACFR Victoria Park (J. Guivant, E. Nebot), tree detections as distributed with K. Leung's RFS-SLAM \
@@ -281,6 +278,7 @@ impl VictoriaPark {
             odometry,
             groundtruth,
             landmarks: None,
+            anchors: Vec::new(),
         })
     }
 }
@@ -474,8 +472,8 @@ pub(crate) mod tests {
         assert!(d.landmarks.is_none());
         let gt = d.groundtruth.as_ref().unwrap();
         assert_eq!(gt.len(), 3);
-        assert!(gt.iter().all(|g| g.heading.is_none()));
-        assert_eq!(gt[0].position, Point2::new(-2.023, -1.923));
+        assert!(gt.iter().all(|g| g.heading().is_none()));
+        assert_eq!(gt[0].position(), Point2::new(-2.023, -1.923));
         // The truth is scored at scans within 25 ms of a fix: scans 1 (3 ms) and 2 (12 ms).
         assert!(d.truth_at(d.scans[0].t, 0.025).is_none());
         assert_eq!(d.truth_at(d.scans[1].t, 0.025).map(|g| g.t), Some(1.08));
@@ -491,12 +489,12 @@ pub(crate) mod tests {
         let gt = d.groundtruth.unwrap();
         assert_eq!(gt.len(), vp.gps.len());
         for (g, &(t, p)) in gt.iter().zip(&vp.gps) {
-            assert_eq!((g.t, g.position), (t, p));
+            assert_eq!((g.t, g.position()), (t, p));
         }
         assert_eq!(d.meta.initial_pose, x0);
         // The default frame is the initial pose's: the same fixes move.
         let moved = vp.import(&models(), x0, 1).unwrap().groundtruth.unwrap();
-        assert_ne!(moved[0].position, gt[0].position);
+        assert_ne!(moved[0].position(), gt[0].position());
     }
 
     #[test]
@@ -507,11 +505,11 @@ pub(crate) mod tests {
         let gt = d.groundtruth.unwrap();
         for (g, &(t, p)) in gt.iter().zip(&vp.gps) {
             assert_eq!(g.t, t);
-            let back = Rotation2::new(-x0[2]) * (g.position - x0.xy());
+            let back = Rotation2::new(-x0[2]) * (g.position() - x0.xy());
             assert!((back - p).norm() < 1e-12, "{back} vs {p}");
         }
         // Distances (and therefore position errors) do not depend on the frame.
-        let d01 = (gt[0].position - gt[1].position).norm();
+        let d01 = (gt[0].position() - gt[1].position()).norm();
         assert!((d01 - (vp.gps[0].1 - vp.gps[1].1).norm()).abs() < 1e-12);
     }
 
@@ -604,7 +602,7 @@ pub(crate) mod tests {
         a.write(tmp.path()).unwrap();
         let text = std::fs::read_to_string(tmp.path().join("measurements.csv")).unwrap();
         assert!(text.lines().any(|l| l.ends_with(",-1")) && text.lines().any(|l| l.ends_with(',')), "{text}");
-        assert_eq!(Dataset::read(tmp.path()).unwrap(), a);
+        assert_eq!(<Dataset>::read(tmp.path()).unwrap(), a);
     }
 
     #[test]

@@ -17,7 +17,7 @@ use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{Control, Motion, MotionModel, Point2, Pose};
 use rfslam_data::LandmarkTypes;
 use rfslam_data::csvio::{CsvOut, CsvRows};
-use rfslam_data::dataset::{limits, read_landmarks, write_landmarks};
+use rfslam_data::dataset::{PLANAR_LANDMARK, limits, read_landmarks, write_landmarks};
 use rfslam_data::find::where_to_get;
 use rfslam_data::mat::{MatArray, MatFile};
 use rfslam_data::{ConfigError, DataError, Landmark, ProceduralParams};
@@ -103,7 +103,7 @@ impl World {
     /// (`t,v,omega`, uniformly spaced: `dt` is the spacing) and `groundtruth.csv`
     /// (`t,x,y,heading`, of which the first row is the initial pose). Velocity model.
     pub fn from_csv_dir(dir: &Path) -> Result<World, DataError> {
-        let landmarks = read_landmarks(&dir.join(files::LANDMARKS), &LandmarkTypes::default())?;
+        let landmarks = read_landmarks(&dir.join(files::LANDMARKS), &LandmarkTypes::default(), PLANAR_LANDMARK)?;
         let controls_path = dir.join(files::CONTROLS);
         let mut r = CsvRows::open(&controls_path, &["t", "v", "omega"], &[])?;
         let mut controls: Vec<(f64, Control)> = Vec::new();
@@ -252,7 +252,7 @@ impl World {
     /// reads it back. This converts `Environment_SLAM.mat` to CSV.
     pub fn write_csv_dir(&self, dir: &Path) -> Result<(), DataError> {
         std::fs::create_dir_all(dir).map_err(|e| DataError::io(dir, e))?;
-        write_landmarks(&dir.join(files::LANDMARKS), &self.landmarks, &LandmarkTypes::default())?;
+        write_landmarks(&dir.join(files::LANDMARKS), &self.landmarks, &LandmarkTypes::default(), PLANAR_LANDMARK)?;
         let cols = self.motion.control_columns();
         let mut w = CsvOut::create(&dir.join(files::CONTROLS), &format!("t,{}", cols.join(",")))?;
         for (t, u) in &self.controls {

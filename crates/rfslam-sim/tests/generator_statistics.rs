@@ -114,7 +114,7 @@ fn a_4000_scan_dataset_reads_in_milliseconds() {
     d.write(&dir).unwrap();
     let write_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t0 = Instant::now();
-    let back = Dataset::read(&dir).unwrap();
+    let back = <Dataset>::read(&dir).unwrap();
     let read_ms = t0.elapsed().as_secs_f64() * 1e3;
     let _ = std::fs::remove_dir_all(&dir);
     println!(
