@@ -166,7 +166,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         .into());
     }
     write_map(out, &o)?;
-    trace::write_run_context(&ds, out)?;
+    trace::write_run_context(&ds, &ds.models().motion, &rfslam_eval::run::PLANAR, out)?;
     write_metrics(args, &ds, &o, &ov.metrics)?;
     outln!(
         "{filter} N={} seed={}: {} steps, pos RMSE {} m, heading RMSE {} deg, GOSPA {} m, {} ms/step -> {}",
@@ -196,14 +196,18 @@ fn run_with_outputs(
     let steps_path = out.join(trace::files::STEPS);
     let parts_path = out.join(trace::files::PARTICLES);
     let mut steps = match args.save_steps {
-        true => Some(StepsWriter::create(&steps_path, ds, metrics)?),
+        true => Some(StepsWriter::create(
+            &steps_path,
+            &rfslam_eval::run::Scoring::of(ds, rfslam_eval::run::PLANAR),
+            metrics,
+        )?),
         false => {
             trace::remove_stale(&steps_path)?;
             None
         }
     };
     let mut parts = match args.save_particles {
-        true => Some(ParticlesWriter::create(&parts_path)?),
+        true => Some(ParticlesWriter::create(&parts_path, &rfslam_eval::run::PLANAR)?),
         false => {
             trace::remove_stale(&parts_path)?;
             None
@@ -219,7 +223,7 @@ fn run_with_outputs(
         let res = traj
             .write_record(&[rec.t.to_string(), p[0].to_string(), p[1].to_string(), p[2].to_string()])
             .map_err(|e| (traj_path.clone(), e))
-            .and_then(|_| steps.as_mut().map_or(Ok(()), |w| w.record(ds, rec)).map_err(|e| (steps_path.clone(), e)))
+            .and_then(|_| steps.as_mut().map_or(Ok(()), |w| w.record(rec)).map_err(|e| (steps_path.clone(), e)))
             .and_then(|_| parts.as_mut().map_or(Ok(true), |w| w.record(rec)).map_err(|e| (parts_path.clone(), e)));
         if let Err(e) = res {
             write_err = Some(e);

@@ -16,7 +16,10 @@
 use rfslam_core::params::Interval;
 use serde::{Deserialize, Serialize};
 
+use std::path::Path;
+
 use crate::config::{in_range, limits};
+use crate::dataset::{Columns, DatasetModels, StateColumn};
 use crate::error::{ConfigError, DataError};
 
 /// The `[world]` table of a radio scenario: the lap, the scattering points' heights.
@@ -153,20 +156,26 @@ pub struct RadioScenario {
 /// Most transitions of a radio world (a hundred laps).
 pub const MAX_RADIO_STEPS: usize = 4000;
 
-impl RadioScenario {
-    /// Checks every value (keys as in the file: `sensor.pd`, `world.steps`).
+/// The model tables of the radio world as a data set's `dataset.toml` holds them: the
+/// vehicle's process noise, the sensor and the clutter (the tables of a radio scenario of the
+/// same names, with the same defaults). The base station is the data set's `anchors.csv`.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RadioModels {
+    /// `[vehicle]`.
+    #[serde(default)]
+    pub vehicle: RadioVehicleConfig,
+    /// `[sensor]`.
+    #[serde(default)]
+    pub sensor: RadioSensorConfig,
+    /// `[clutter]`.
+    #[serde(default)]
+    pub clutter: RadioClutterConfig,
+}
+
+impl RadioModels {
+    /// Checks every value (keys as in the file: `sensor.pd`, `vehicle.sigma[0]`).
     pub fn validate(&self) -> Result<(), ConfigError> {
-        let w = &self.world;
-        if w.steps == 0 || w.steps > MAX_RADIO_STEPS {
-            return Err(ConfigError::new("world.steps", format!("must be 1 to {MAX_RADIO_STEPS}, not {}", w.steps)));
-        }
-        in_range("world.dt", Interval::POSITIVE.up_to(limits::MAX_DT), w.dt)?;
-        let height = Interval::magnitude(limits::MAX_DISTANCE);
-        in_range("world.sp_height_min", height, w.sp_height_min)?;
-        in_range("world.sp_height_max", height, w.sp_height_max)?;
-        if w.sp_height_max < w.sp_height_min {
-            return Err(ConfigError::new("world.sp_height_max", "must not be below world.sp_height_min"));
-        }
         let sigma = Interval::NON_NEGATIVE.up_to(limits::MAX_SIGMA);
         for (i, s) in self.vehicle.sigma.iter().enumerate() {
             in_range(&format!("vehicle.sigma[{i}]"), sigma, *s)?;
@@ -185,10 +194,95 @@ impl RadioScenario {
             self.sensor.sp_visibility,
         )?;
         in_range("clutter.rate", Interval::NON_NEGATIVE.up_to(1e4), self.clutter.rate)?;
-        in_range("clutter.toa_max", Interval::POSITIVE.up_to(limits::MAX_DISTANCE), self.clutter.toa_max)?;
-        Ok(())
+        in_range("clutter.toa_max", Interval::POSITIVE.up_to(limits::MAX_DISTANCE), self.clutter.toa_max)
+    }
+}
+
+/// The landmark types of the radio world, in the order of their marks
+/// (`rfslam_core::model::LandmarkType`).
+pub const RADIO_LANDMARK_TYPES: [&str; 3] = ["base_station", "virtual_anchor", "scattering_point"];
+
+impl DatasetModels for RadioModels {
+    fn world(&self) -> &'static str {
+        "radio5g"
     }
 
+    fn read_models(text: &str, path: &Path) -> Result<Self, DataError> {
+        /// The file as the radio model tables read it: their three tables, the data set's own
+        /// keys passed over (the caller reads them).
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        #[allow(dead_code)]
+        struct File {
+            name: serde::de::IgnoredAny,
+            #[serde(default)]
+            description: Option<serde::de::IgnoredAny>,
+            #[serde(default)]
+            world: Option<serde::de::IgnoredAny>,
+            initial_pose: serde::de::IgnoredAny,
+            #[serde(default)]
+            landmarks: Option<serde::de::IgnoredAny>,
+            #[serde(default)]
+            vehicle: RadioVehicleConfig,
+            #[serde(default)]
+            sensor: RadioSensorConfig,
+            #[serde(default)]
+            clutter: RadioClutterConfig,
+        }
+        let f: File = toml::from_str(text).map_err(|e| DataError::toml(path, text, &e))?;
+        let models = RadioModels { vehicle: f.vehicle, sensor: f.sensor, clutter: f.clutter };
+        models.validate().map_err(|e| DataError::config_in(path, text, e))?;
+        Ok(models)
+    }
+
+    fn write_models(&self) -> Result<String, DataError> {
+        toml::to_string(self).map_err(|e| DataError::Mismatch(format!("cannot serialize dataset.toml: {e}")))
+    }
+
+    fn columns(&self) -> Columns {
+        use rfslam_core::model::{RadioSensor, RadioVehicle, SensorModel, StateComponent, VehicleModel};
+        let state = RadioVehicle { sigma: self.vehicle.sigma }.components().map(|c| StateColumn {
+            name: c.name(),
+            angle: c.is_angle(),
+            position: matches!(c, StateComponent::Position(_)),
+        });
+        Columns {
+            state: state.to_vec(),
+            control: &["v", "omega"],
+            measurement: RadioSensor::published().components().to_vec(),
+            landmark: &["x", "y", "z"],
+        }
+    }
+
+    fn control_held(&self) -> bool {
+        true
+    }
+}
+
+impl RadioScenario {
+    /// The model tables of the scenario, as its data sets write them.
+    pub fn models(&self) -> RadioModels {
+        RadioModels { vehicle: self.vehicle, sensor: self.sensor, clutter: self.clutter }
+    }
+
+    /// Checks every value (keys as in the file: `sensor.pd`, `world.steps`).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let w = &self.world;
+        if w.steps == 0 || w.steps > MAX_RADIO_STEPS {
+            return Err(ConfigError::new("world.steps", format!("must be 1 to {MAX_RADIO_STEPS}, not {}", w.steps)));
+        }
+        in_range("world.dt", Interval::POSITIVE.up_to(limits::MAX_DT), w.dt)?;
+        let height = Interval::magnitude(limits::MAX_DISTANCE);
+        in_range("world.sp_height_min", height, w.sp_height_min)?;
+        in_range("world.sp_height_max", height, w.sp_height_max)?;
+        if w.sp_height_max < w.sp_height_min {
+            return Err(ConfigError::new("world.sp_height_max", "must not be below world.sp_height_min"));
+        }
+        self.models().validate()
+    }
+}
+
+impl RadioScenario {
     /// Parses and validates a radio scenario; errors name `file_name`, the line and the key.
     pub fn from_toml_str(text: &str, file_name: impl AsRef<std::path::Path>) -> Result<RadioScenario, DataError> {
         let path = file_name.as_ref();

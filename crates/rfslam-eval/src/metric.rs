@@ -12,13 +12,13 @@
 //! columns of every earlier experiment keep their order), a line in [`METRICS`] and, when it
 //! takes settings, a field of [`MetricsConfig`] with its validation.
 
+use nalgebra::SVector;
 use rfslam_core::Point2;
-use rfslam_data::Dataset;
 use rfslam_metrics::stats::{mean_ci95, weighted_mean_ci95};
 use rfslam_metrics::{DaCounts, PoseErrors, Se2AlignedRmse, SumSquares};
 
 use crate::config::{MetricsConfig, OspaNormalise};
-use crate::run::{RunEnd, RunStart, StepRecord};
+use crate::run::{RunEnd, RunStart, Scoring, StepRecord};
 use crate::seen::SeenGospa;
 
 /// Whether a column holds a count (written as an integer) or a real number.
@@ -518,65 +518,67 @@ pub struct MetricDecl {
     pub name: &'static str,
     /// Whether an experiment with these settings scores it.
     pub enabled: fn(&MetricsConfig) -> bool,
-    /// A fresh observer for one run.
-    pub observer: fn(&MetricsConfig, &RunStart) -> Box<dyn Observer>,
 }
 
-/// Every metric. The first six are always on (the columns of every `runs.csv` since
-/// `pos_rmse_se2_m`); the others are chosen in `[metrics]`.
-pub static METRICS: &[MetricDecl] = &[
-    MetricDecl { name: "pose", enabled: |_| true, observer: |_, _| Box::new(PoseMetric::default()) },
-    MetricDecl {
-        name: "map_gospa",
-        enabled: |_| true,
-        observer: |m, _| Box::new(GospaMetric { c: m.gospa_c, p: m.gospa_p }),
-    },
-    MetricDecl {
-        name: "filter",
-        enabled: |_| true,
-        observer: |_, s| Box::new(FilterMetric { particles: s.particles as f64, ..Default::default() }),
-    },
-    MetricDecl { name: "time", enabled: |_| true, observer: |_, _| Box::new(TimeMetric::default()) },
-    MetricDecl { name: "association", enabled: |_| true, observer: |_, s| Box::new(AssociationMetric::new(s.dataset)) },
-    MetricDecl { name: "aligned_pose", enabled: |_| true, observer: |_, _| Box::new(AlignedMetric::default()) },
-    MetricDecl {
-        name: "ospa",
-        enabled: |m| m.ospa.is_some(),
-        observer: |m, _| {
-            let o = m.ospa.unwrap_or_default();
-            Box::new(OspaMetric { c: o.c, p: o.p, normalise: o.normalise })
-        },
-    },
-    MetricDecl { name: "landmarks", enabled: |m| m.landmarks, observer: |_, _| Box::new(LandmarksMetric) },
-    MetricDecl { name: "xy", enabled: |m| m.xy, observer: |_, _| Box::new(XyMetric::default()) },
-    MetricDecl {
-        name: "split",
-        enabled: |m| m.split_step.is_some(),
-        observer: |m, _| Box::new(SplitMetric::new(m.split_step.unwrap_or(1))),
-    },
-    MetricDecl {
-        name: "ancestry",
-        enabled: |m| m.ancestry,
-        observer: |_, s| Box::new(AncestryMetric::new(s.particles)),
-    },
-    MetricDecl {
-        name: "map_gospa_time",
-        enabled: |m| m.gospa_every.is_some(),
-        observer: |m, s| Box::new(GospaTimeMetric::new(m, s.dataset)),
-    },
-    // Scored by `crate::world::world_values` in the worlds beyond the planar ones, whose
-    // runs do not go through the planar observers; never on in a planar world.
-    MetricDecl { name: "clock", enabled: |m| m.typed_world, observer: |_, _| Box::new(NoObserver) },
-    MetricDecl { name: "typed", enabled: |m| m.typed_world, observer: |_, _| Box::new(NoObserver) },
-];
+/// Declares every metric once: its name, when it is on, and the observer a run of any world
+/// gets ([`METRICS`] and [`observers`]).
+macro_rules! metrics {
+    ($($name:literal => enabled: |$em:pat_param| $enabled:expr, observer: |$om:pat_param, $os:pat_param| $observer:expr;)*) => {
+        /// Every metric. The first six are always on (the columns of every `runs.csv` since
+        /// `pos_rmse_se2_m`); the others are chosen in `[metrics]`.
+        pub static METRICS: &[MetricDecl] = &[$(MetricDecl { name: $name, enabled: |$em| $enabled },)*];
 
-/// The observer of a metric the planar run loop does not score.
+        /// Makes the observers of the metrics an experiment scores, for a run of `start`.
+        pub fn observers<const X: usize, const M: usize, const Z: usize>(
+            m: &MetricsConfig,
+            start: &RunStart<X, M, Z>,
+        ) -> Vec<Box<dyn Observer<X, M, Z>>> {
+            let mut out: Vec<Box<dyn Observer<X, M, Z>>> = Vec::new();
+            $(
+                let on = |$em: &MetricsConfig| $enabled;
+                if on(m) {
+                    let make = |$om: &MetricsConfig, $os: &RunStart<X, M, Z>| -> Box<dyn Observer<X, M, Z>> {
+                        Box::new($observer)
+                    };
+                    out.push(make(m, start));
+                }
+            )*
+            out
+        }
+    };
+}
+
+metrics! {
+    "pose" => enabled: |_| true, observer: |_, s| PoseMetric::new(s.scoring);
+    "map_gospa" => enabled: |_| true, observer: |m, _| GospaMetric { c: m.gospa_c, p: m.gospa_p };
+    "filter" => enabled: |_| true,
+        observer: |_, s| FilterMetric { particles: s.particles as f64, ..Default::default() };
+    "time" => enabled: |_| true, observer: |_, _| TimeMetric::default();
+    "association" => enabled: |_| true, observer: |_, s| AssociationMetric::new(s.scoring);
+    "aligned_pose" => enabled: |_| true, observer: |_, s| AlignedMetric::new(s.scoring);
+    "ospa" => enabled: |m| m.ospa.is_some(), observer: |m, _| {
+        let o = m.ospa.unwrap_or_default();
+        OspaMetric { c: o.c, p: o.p, normalise: o.normalise }
+    };
+    "landmarks" => enabled: |m| m.landmarks, observer: |_, _| LandmarksMetric;
+    "xy" => enabled: |m| m.xy, observer: |_, s| XyMetric::new(s.scoring);
+    "split" => enabled: |m| m.split_step.is_some(),
+        observer: |m, s| SplitMetric::new(m.split_step.unwrap_or(1), s.scoring);
+    "ancestry" => enabled: |m| m.ancestry, observer: |_, s| AncestryMetric::new(s.particles);
+    "map_gospa_time" => enabled: |m| m.gospa_every.is_some(), observer: |m, s| GospaTimeMetric::new(m, s.scoring);
+    // The clock bias's RMSE is the pose metric's; its column is written in a world of
+    // landmark types beyond the planar ones (the 5G radio world), with the per-type GOSPA.
+    "clock" => enabled: |m| m.typed_world, observer: |_, _| NoObserver;
+    "typed" => enabled: |m| m.typed_world, observer: |m, s| TypedGospaMetric::new(m, s.scoring);
+}
+
+/// The observer of a metric whose columns another metric fills.
 struct NoObserver;
 
-impl Observer for NoObserver {
-    fn observe(&mut self, _: &StepRecord) {}
+impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for NoObserver {
+    fn observe(&mut self, _: &StepRecord<X, M, Z>) {}
 
-    fn finish(&mut self, _: &RunEnd, _: &mut Values) {}
+    fn finish(&mut self, _: &RunEnd<X, M, Z>, _: &mut Values) {}
 }
 
 /// The column named `name`.
@@ -631,47 +633,93 @@ impl Values {
     }
 }
 
-/// Watches one run: called after every recursion, then once at the end to give the values of
-/// its metric's columns.
-pub trait Observer {
+/// Watches one run (of a world of `X`-component states, `M`-coordinate landmarks and
+/// `Z`-component measurements): called after every recursion, then once at the end to give
+/// the values of its metric's columns.
+pub trait Observer<const X: usize = 3, const M: usize = 2, const Z: usize = 2> {
     /// After recursion `rec.k`.
-    fn observe(&mut self, rec: &StepRecord);
+    fn observe(&mut self, rec: &StepRecord<X, M, Z>);
     /// At the end of the run.
-    fn finish(&mut self, end: &RunEnd, out: &mut Values);
+    fn finish(&mut self, end: &RunEnd<X, M, Z>, out: &mut Values);
 }
 
-/// Position and heading errors against the ground truth at the scored steps.
-#[derive(Default)]
-struct PoseMetric {
+/// Position, heading and clock-bias errors against the ground truth at the scored steps
+/// (each kind of state component the vehicle model declares).
+struct PoseMetric<const X: usize> {
+    components: [rfslam_core::model::StateComponent; X],
     errors: PoseErrors,
 }
 
-impl Observer for PoseMetric {
-    fn observe(&mut self, rec: &StepRecord) {
+impl<const X: usize> PoseMetric<X> {
+    fn new<const M: usize, const Z: usize>(s: &Scoring<X, M, Z>) -> Self {
+        PoseMetric { components: s.components, errors: PoseErrors::new() }
+    }
+}
+
+impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for PoseMetric<X> {
+    fn observe(&mut self, rec: &StepRecord<X, M, Z>) {
         if let Some(t) = rec.truth {
-            self.errors.push(&rec.estimate.pose, t.position(), t.heading());
+            self.errors.push_state(&self.components, &rec.estimate.pose, &t.state);
         }
     }
-    fn finish(&mut self, _: &RunEnd, out: &mut Values) {
+    fn finish(&mut self, _: &RunEnd<X, M, Z>, out: &mut Values) {
         out.set("pos_rmse_m", self.errors.pos_rmse().unwrap_or(f64::NAN));
         out.set("head_rmse_deg", self.errors.head_rmse_deg().unwrap_or(f64::NAN));
+        out.set("clock_rmse_m", self.errors.clock_rmse().unwrap_or(f64::NAN));
         out.set("scored_steps", self.errors.steps() as f64);
     }
 }
 
-/// Position RMSE after the best rigid alignment of the run's trajectory to the truth.
-#[derive(Default)]
+/// The planar position (the state's x and y axes) of a state: the estimate's, or the
+/// truth's when it knows both.
+#[derive(Clone, Copy)]
+struct PlanarAxes {
+    /// The indices of the x and y components, when the state has both.
+    xy: Option<(usize, usize)>,
+}
+
+impl PlanarAxes {
+    fn of<const X: usize, const M: usize, const Z: usize>(s: &Scoring<X, M, Z>) -> Self {
+        PlanarAxes { xy: s.axis(0).zip(s.axis(1)) }
+    }
+
+    /// The estimate's planar position minus the truth's, when the truth knows both.
+    fn error<const X: usize, const M: usize, const Z: usize>(&self, rec: &StepRecord<X, M, Z>) -> Option<Point2> {
+        let (t, (i, j)) = (rec.truth?, self.xy?);
+        let truth = Point2::new(t.state[i]?, t.state[j]?);
+        Some(Point2::new(rec.estimate.pose[i], rec.estimate.pose[j]) - truth)
+    }
+
+    /// The estimate's and the truth's planar positions, when the truth knows both.
+    fn pair<const X: usize, const M: usize, const Z: usize>(
+        &self,
+        rec: &StepRecord<X, M, Z>,
+    ) -> Option<(Point2, Point2)> {
+        let (t, (i, j)) = (rec.truth?, self.xy?);
+        Some((Point2::new(rec.estimate.pose[i], rec.estimate.pose[j]), Point2::new(t.state[i]?, t.state[j]?)))
+    }
+}
+
+/// Position RMSE after the best rigid alignment of the run's trajectory to the truth (in the
+/// plane of the state's x and y axes).
 struct AlignedMetric {
+    axes: PlanarAxes,
     aligned: Se2AlignedRmse,
 }
 
-impl Observer for AlignedMetric {
-    fn observe(&mut self, rec: &StepRecord) {
-        if let Some(t) = rec.truth {
-            self.aligned.push(Point2::new(rec.estimate.pose.x, rec.estimate.pose.y), t.position());
+impl AlignedMetric {
+    fn new<const X: usize, const M: usize, const Z: usize>(s: &Scoring<X, M, Z>) -> Self {
+        AlignedMetric { axes: PlanarAxes::of(s), aligned: Se2AlignedRmse::default() }
+    }
+}
+
+impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for AlignedMetric {
+    fn observe(&mut self, rec: &StepRecord<X, M, Z>) {
+        if let Some((est, truth)) = self.axes.pair(rec) {
+            self.aligned.push(est, truth);
         }
     }
-    fn finish(&mut self, _: &RunEnd, out: &mut Values) {
+    fn finish(&mut self, _: &RunEnd<X, M, Z>, out: &mut Values) {
         out.set("pos_rmse_se2_m", self.aligned.rmse().unwrap_or(f64::NAN));
     }
 }
@@ -687,13 +735,13 @@ struct FilterMetric {
     cholesky: u64,
 }
 
-impl Observer for FilterMetric {
-    fn observe(&mut self, rec: &StepRecord) {
+impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for FilterMetric {
+    fn observe(&mut self, rec: &StepRecord<X, M, Z>) {
         self.ess_sum += rec.report.ess / self.particles;
         self.resampled += rec.report.resampled as usize;
         self.cholesky += rec.report.cholesky_failures as u64;
     }
-    fn finish(&mut self, end: &RunEnd, out: &mut Values) {
+    fn finish(&mut self, end: &RunEnd<X, M, Z>, out: &mut Values) {
         let s = end.steps.max(1) as f64;
         out.set("ess_pct", 100.0 * self.ess_sum / s);
         out.set("resampling_pct", 100.0 * self.resampled as f64 / s);
@@ -708,32 +756,35 @@ struct TimeMetric {
     elapsed_s: f64,
 }
 
-impl Observer for TimeMetric {
-    fn observe(&mut self, rec: &StepRecord) {
+impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for TimeMetric {
+    fn observe(&mut self, rec: &StepRecord<X, M, Z>) {
         self.elapsed_s += rec.time_s;
     }
-    fn finish(&mut self, end: &RunEnd, out: &mut Values) {
+    fn finish(&mut self, end: &RunEnd<X, M, Z>, out: &mut Values) {
         out.set("time_ms_per_step", 1e3 * self.elapsed_s / end.steps.max(1) as f64);
     }
 }
 
 /// Data-association TPR and TNR of the filters that report their associations, on data
-/// with truth labels.
-struct AssociationMetric {
-    landmarks: Vec<(i64, Point2)>,
+/// with truth labels (against the true landmarks and the known ones).
+struct AssociationMetric<const M: usize> {
+    landmarks: Vec<(i64, SVector<f64, M>)>,
     counts: Option<DaCounts>,
 }
 
-impl AssociationMetric {
-    fn new(ds: &Dataset) -> Self {
-        let landmarks =
-            ds.landmarks.as_ref().map(|l| l.iter().map(|l| (l.id, l.position)).collect()).unwrap_or_default();
+impl<const M: usize> AssociationMetric<M> {
+    fn new<const X: usize, const Z: usize>(s: &Scoring<X, M, Z>) -> Self {
+        let mut landmarks: Vec<(i64, SVector<f64, M>)> =
+            s.landmarks.map(|l| l.iter().map(|l| (l.id, l.position)).collect()).unwrap_or_default();
+        if !landmarks.is_empty() {
+            landmarks.extend(s.anchors.iter().map(|l| (l.id, l.position)));
+        }
         AssociationMetric { landmarks, counts: None }
     }
 }
 
-impl Observer for AssociationMetric {
-    fn observe(&mut self, rec: &StepRecord) {
+impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for AssociationMetric<M> {
+    fn observe(&mut self, rec: &StepRecord<X, M, Z>) {
         if let (Some(assoc), Some(labels)) = (&rec.report.associations, &rec.scan.truth)
             && !self.landmarks.is_empty()
         {
@@ -744,7 +795,7 @@ impl Observer for AssociationMetric {
             }
         }
     }
-    fn finish(&mut self, _: &RunEnd, out: &mut Values) {
+    fn finish(&mut self, _: &RunEnd<X, M, Z>, out: &mut Values) {
         let (tpr, tnr, pos, neg) = match &self.counts {
             Some(d) => (d.tpr().unwrap_or(f64::NAN), d.tnr().unwrap_or(f64::NAN), d.positives, d.negatives),
             None => (f64::NAN, f64::NAN, 0, 0),
@@ -757,8 +808,10 @@ impl Observer for AssociationMetric {
 }
 
 /// The true landmarks' and the final map's positions (empty without landmark truth).
-fn final_map(end: &RunEnd) -> Option<(Vec<Point2>, Vec<Point2>)> {
-    let lms = end.dataset.landmarks.as_ref()?;
+type Points<const M: usize> = Vec<SVector<f64, M>>;
+
+fn final_map<const X: usize, const M: usize, const Z: usize>(end: &RunEnd<X, M, Z>) -> Option<(Points<M>, Points<M>)> {
+    let lms = end.scoring.landmarks?;
     let truth = lms.iter().map(|l| l.position).collect();
     let est = end.estimate.map.iter().map(|m| m.position).collect();
     Some((truth, est))
@@ -770,9 +823,9 @@ struct GospaMetric {
     p: f64,
 }
 
-impl Observer for GospaMetric {
-    fn observe(&mut self, _: &StepRecord) {}
-    fn finish(&mut self, end: &RunEnd, out: &mut Values) {
+impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for GospaMetric {
+    fn observe(&mut self, _: &StepRecord<X, M, Z>) {}
+    fn finish(&mut self, end: &RunEnd<X, M, Z>, out: &mut Values) {
         let g = final_map(end).map(|(t, e)| rfslam_metrics::gospa(&t, &e, self.c, self.p));
         // Without true landmarks (Victoria Park) no part is known: the counts are empty
         // cells too, not zeros that a report would average into "nothing missed". With
@@ -799,9 +852,9 @@ struct OspaMetric {
     normalise: OspaNormalise,
 }
 
-impl Observer for OspaMetric {
-    fn observe(&mut self, _: &StepRecord) {}
-    fn finish(&mut self, end: &RunEnd, out: &mut Values) {
+impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for OspaMetric {
+    fn observe(&mut self, _: &StepRecord<X, M, Z>) {}
+    fn finish(&mut self, end: &RunEnd<X, M, Z>, out: &mut Values) {
         let o = final_map(end).and_then(|(t, e)| {
             let mut o = rfslam_metrics::ospa(&t, &e, self.c, self.p).ok()?;
             if self.normalise == OspaNormalise::Truth {
@@ -822,16 +875,11 @@ impl Observer for OspaMetric {
 /// Landmarks in the final map estimate.
 struct LandmarksMetric;
 
-impl Observer for LandmarksMetric {
-    fn observe(&mut self, _: &StepRecord) {}
-    fn finish(&mut self, end: &RunEnd, out: &mut Values) {
+impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for LandmarksMetric {
+    fn observe(&mut self, _: &StepRecord<X, M, Z>) {}
+    fn finish(&mut self, end: &RunEnd<X, M, Z>, out: &mut Values) {
         out.set("landmarks", end.estimate.map.len() as f64);
     }
-}
-
-/// The error of the estimated position against the truth at a scored step.
-fn position_error(rec: &StepRecord) -> Option<Point2> {
-    rec.truth.map(|t| Point2::new(rec.estimate.pose.x, rec.estimate.pose.y) - t.position())
 }
 
 /// RMSE of `sum_sq` over `n` values; NaN for none.
@@ -840,22 +888,28 @@ fn rmse(sum_sq: &SumSquares, n: usize) -> f64 {
 }
 
 /// The x and y RMSE apart (Moratuwage et al. 2019 plot them in their Figs. 2 and 3).
-#[derive(Default)]
 struct XyMetric {
+    axes: PlanarAxes,
     sum_sq_x: SumSquares,
     sum_sq_y: SumSquares,
     steps: usize,
 }
 
-impl Observer for XyMetric {
-    fn observe(&mut self, rec: &StepRecord) {
-        if let Some(e) = position_error(rec) {
+impl XyMetric {
+    fn new<const X: usize, const M: usize, const Z: usize>(s: &Scoring<X, M, Z>) -> Self {
+        XyMetric { axes: PlanarAxes::of(s), sum_sq_x: SumSquares::default(), sum_sq_y: SumSquares::default(), steps: 0 }
+    }
+}
+
+impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for XyMetric {
+    fn observe(&mut self, rec: &StepRecord<X, M, Z>) {
+        if let Some(e) = self.axes.error(rec) {
             self.sum_sq_x.add(e.x, e.x * e.x);
             self.sum_sq_y.add(e.y, e.y * e.y);
             self.steps += 1;
         }
     }
-    fn finish(&mut self, _: &RunEnd, out: &mut Values) {
+    fn finish(&mut self, _: &RunEnd<X, M, Z>, out: &mut Values) {
         out.set("x_rmse_m", rmse(&self.sum_sq_x, self.steps));
         out.set("y_rmse_m", rmse(&self.sum_sq_y, self.steps));
     }
@@ -864,6 +918,7 @@ impl Observer for XyMetric {
 /// The position RMSE before and after a given step and the error at it: where in the run a
 /// filter gains or loses (e.g. a loop closure).
 struct SplitMetric {
+    axes: PlanarAxes,
     split: usize,
     /// Sum of squared errors and scored steps before and from the split.
     before: (SumSquares, usize),
@@ -872,14 +927,20 @@ struct SplitMetric {
 }
 
 impl SplitMetric {
-    fn new(split: usize) -> Self {
-        SplitMetric { split, before: Default::default(), after: Default::default(), at: f64::NAN }
+    fn new<const X: usize, const M: usize, const Z: usize>(split: usize, s: &Scoring<X, M, Z>) -> Self {
+        SplitMetric {
+            axes: PlanarAxes::of(s),
+            split,
+            before: Default::default(),
+            after: Default::default(),
+            at: f64::NAN,
+        }
     }
 }
 
-impl Observer for SplitMetric {
-    fn observe(&mut self, rec: &StepRecord) {
-        if let Some(e) = position_error(rec) {
+impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for SplitMetric {
+    fn observe(&mut self, rec: &StepRecord<X, M, Z>) {
+        if let Some(e) = self.axes.error(rec) {
             let part = if rec.k < self.split { &mut self.before } else { &mut self.after };
             part.0.add_norm(e);
             part.1 += 1;
@@ -890,12 +951,81 @@ impl Observer for SplitMetric {
             }
         }
     }
-    fn finish(&mut self, _: &RunEnd, out: &mut Values) {
+    fn finish(&mut self, _: &RunEnd<X, M, Z>, out: &mut Values) {
         out.set("pos_rmse_before_m", rmse(&self.before.0, self.before.1));
         out.set("pos_rmse_after_m", rmse(&self.after.0, self.after.1));
         out.set("pos_err_split_m", self.at);
         out.set("scored_before", self.before.1 as f64);
         out.set("scored_after", self.after.1 as f64);
+    }
+}
+
+/// GOSPA per landmark type at every step, against every true landmark of the type (the
+/// PMBM-SLAM paper's Figs. 3 and 4 scoring): the final value and the mean over the steps of
+/// the radio world's virtual anchors (mark 1) and scattering points (mark 2).
+struct TypedGospaMetric<const M: usize> {
+    truth: Vec<(u8, SVector<f64, M>)>,
+    marks: usize,
+    c: f64,
+    p: f64,
+    /// The GOSPA of each type at every step so far.
+    per_step: Vec<Vec<f64>>,
+    est: Vec<(u8, SVector<f64, M>)>,
+    scratch: (Points<M>, Points<M>),
+    failed: bool,
+}
+
+impl<const M: usize> TypedGospaMetric<M> {
+    fn new<const X: usize, const Z: usize>(m: &MetricsConfig, s: &Scoring<X, M, Z>) -> Self {
+        let truth = s.landmarks.iter().flat_map(|l| l.iter()).map(|l| (l.mark, l.position)).collect();
+        TypedGospaMetric {
+            truth,
+            marks: s.marks,
+            c: m.gospa_c,
+            p: m.gospa_p,
+            per_step: Vec::new(),
+            est: Vec::new(),
+            scratch: (Vec::new(), Vec::new()),
+            failed: false,
+        }
+    }
+}
+
+/// The typed GOSPA columns: (mark, final column, mean column).
+const TYPED_COLUMNS: [(usize, &str, &str); 2] =
+    [(1, "va_gospa_m", "va_gospa_mean_m"), (2, "sp_gospa_m", "sp_gospa_mean_m")];
+
+impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for TypedGospaMetric<M> {
+    fn observe(&mut self, rec: &StepRecord<X, M, Z>) {
+        if self.truth.is_empty() || self.failed {
+            return;
+        }
+        self.est.clear();
+        self.est.extend(rec.estimate.map.iter().map(|p| (p.mark, p.position)));
+        match rfslam_metrics::gospa_per_mark(&self.truth, &self.est, self.marks, self.c, self.p, &mut self.scratch) {
+            Ok(g) => self.per_step.push(g.iter().map(|g| g.total).collect()),
+            Err(_) => self.failed = true,
+        }
+    }
+    fn finish(&mut self, _: &RunEnd<X, M, Z>, out: &mut Values) {
+        if self.truth.is_empty() {
+            return;
+        }
+        let n = self.per_step.len() as f64;
+        for (mark, final_col, mean_col) in TYPED_COLUMNS {
+            if mark < self.marks {
+                // A map GOSPA cannot score (a non-finite landmark estimate) fails the run.
+                let (last, mean) = match self.failed {
+                    true => (f64::INFINITY, f64::INFINITY),
+                    false => (
+                        self.per_step.last().map_or(f64::NAN, |g| g[mark]),
+                        self.per_step.iter().map(|g| g[mark]).sum::<f64>() / n,
+                    ),
+                };
+                out.set(final_col, last);
+                out.set(mean_col, mean);
+            }
+        }
     }
 }
 
@@ -1001,8 +1131,8 @@ impl AncestryMetric {
     }
 }
 
-impl Observer for AncestryMetric {
-    fn observe(&mut self, rec: &StepRecord) {
+impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for AncestryMetric {
+    fn observe(&mut self, rec: &StepRecord<X, M, Z>) {
         if !self.valid {
             return;
         }
@@ -1010,7 +1140,7 @@ impl Observer for AncestryMetric {
         self.valid = rec.filter.particle_parents(&mut parents) && self.push(&parents).is_some();
         self.parents = parents;
     }
-    fn finish(&mut self, _: &RunEnd, out: &mut Values) {
+    fn finish(&mut self, _: &RunEnd<X, M, Z>, out: &mut Values) {
         let v = if self.valid && self.steps > 0 { self.sum / self.steps as f64 } else { f64::NAN };
         out.set("ancestor_steps", v);
     }
@@ -1044,28 +1174,28 @@ const GOSPA_RISE_TOLERANCE: f64 = 1e-9;
 /// report for the PHD filter's map and not for the PMBM filters'. A checkpoint whose GOSPA
 /// is not a number (a non-finite map estimate) empties every real column, and
 /// [`crate::JobOutcome::not_finite`] fails the run.
-struct GospaTimeMetric {
+struct GospaTimeMetric<const M: usize> {
     every: usize,
     /// The index of the run's last step.
     last: usize,
-    map: SeenGospa,
+    map: SeenGospa<M>,
     /// (step, GOSPA, landmarks detected so far) at each checkpoint.
     checkpoints: Vec<(usize, f64, usize)>,
 }
 
-impl GospaTimeMetric {
-    fn new(m: &MetricsConfig, ds: &Dataset) -> Self {
+impl<const M: usize> GospaTimeMetric<M> {
+    fn new<const X: usize, const Z: usize>(m: &MetricsConfig, s: &Scoring<X, M, Z>) -> Self {
         GospaTimeMetric {
             every: m.gospa_every.unwrap_or(1).max(1),
-            last: ds.scans.len().saturating_sub(1),
-            map: SeenGospa::new(ds, m.gospa_c, m.gospa_p),
+            last: s.scans.len().saturating_sub(1),
+            map: SeenGospa::new(s, m.gospa_c, m.gospa_p),
             checkpoints: Vec::new(),
         }
     }
 }
 
-impl Observer for GospaTimeMetric {
-    fn observe(&mut self, rec: &StepRecord) {
+impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for GospaTimeMetric<M> {
+    fn observe(&mut self, rec: &StepRecord<X, M, Z>) {
         if !self.map.has_truth() {
             return;
         }
@@ -1075,7 +1205,7 @@ impl Observer for GospaTimeMetric {
             self.checkpoints.push((rec.k, g, self.map.count()));
         }
     }
-    fn finish(&mut self, end: &RunEnd, out: &mut Values) {
+    fn finish(&mut self, end: &RunEnd<X, M, Z>, out: &mut Values) {
         let cps = &self.checkpoints;
         if cps.is_empty() {
             // No true landmarks (or no step): nothing scored, every cell stays empty (NaN).
@@ -1217,11 +1347,6 @@ fn sample_std(v: &[f64]) -> f64 {
     scale * plain(&v.iter().map(|x| x / scale).collect::<Vec<_>>())
 }
 
-/// Makes the observers of the metrics an experiment scores.
-pub fn observers(m: &MetricsConfig, start: &RunStart) -> Vec<Box<dyn Observer>> {
-    METRICS.iter().filter(|d| (d.enabled)(m)).map(|d| (d.observer)(m, start)).collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1238,8 +1363,9 @@ mod tests {
             map: map.iter().map(|&(x, y)| MapPoint { position: Point2::new(x, y), mark: 0, weight: 1.0 }).collect(),
         };
         let mut values = Values::default();
-        let end = RunEnd { dataset: &ds, estimate: &estimate, steps: 0 };
-        for mut o in observers(m, &RunStart { dataset: &ds, particles: 1 }) {
+        let scoring = Scoring::of(&ds, crate::run::PLANAR);
+        let end = RunEnd { scoring: &scoring, estimate: &estimate, steps: 0 };
+        for mut o in observers(m, &RunStart { scoring: &scoring, particles: 1 }) {
             o.finish(&end, &mut values);
         }
         let truth: Vec<Point2> = ds.landmarks.as_ref().unwrap().iter().map(|l| l.position).collect();
@@ -1261,8 +1387,9 @@ mod tests {
             map: vec![MapPoint { position: Point2::new(1.0, 2.0), mark: 0, weight: 1.0 }],
         };
         let mut values = Values::default();
-        let end = RunEnd { dataset: &ds, estimate: &estimate, steps: 0 };
-        for mut o in observers(&MetricsConfig::default(), &RunStart { dataset: &ds, particles: 1 }) {
+        let scoring = Scoring::of(&ds, crate::run::PLANAR);
+        let end = RunEnd { scoring: &scoring, estimate: &estimate, steps: 0 };
+        for mut o in observers(&MetricsConfig::default(), &RunStart { scoring: &scoring, particles: 1 }) {
             o.finish(&end, &mut values);
         }
         for c in ["gospa_m", "gospa_loc_m", "gospa_missed", "gospa_false"] {
@@ -1277,7 +1404,7 @@ mod tests {
         let m = MetricsConfig::default();
         let (values, ..) = end_values(&m, &[(0.0, 0.0), (f64::NAN, 5.0)]);
         assert_eq!(values.get("gospa_m"), Some(f64::INFINITY));
-        let outcome = crate::run::JobOutcome { values, final_estimate: Estimate::default() };
+        let outcome: crate::run::JobOutcome = crate::run::JobOutcome { values, final_estimate: Estimate::default() };
         assert_eq!(outcome.not_finite(&m).as_deref(), Some("gospa_m is inf"));
     }
 
@@ -1368,7 +1495,7 @@ mod tests {
         let mut err_200 = f64::NAN;
         let o = crate::run_filter(&ds, &mut f, 3, &m, &mut |r| {
             if r.k == 200 {
-                err_200 = position_error(r).unwrap().norm();
+                err_200 = PlanarAxes { xy: Some((0, 1)) }.error(r).unwrap().norm();
             }
         });
         let v = |name| o[name];
@@ -1397,17 +1524,21 @@ mod tests {
     /// Drives the map GOSPA over time through a hand-made run of `maps.len()` steps over
     /// `ds` (its scans replaced by empty ones carrying `labels[k]`), the map estimate after
     /// step k being `maps[k]`, and returns the values of its columns.
-    fn gospa_time(ds: &mut Dataset, every: usize, labels: &[Option<Vec<i64>>], maps: &[Vec<(f64, f64)>]) -> Values {
+    fn gospa_time(
+        ds: &mut rfslam_data::Dataset,
+        every: usize,
+        labels: &[Option<Vec<i64>>],
+        maps: &[Vec<(f64, f64)>],
+    ) -> Values {
         use rfslam_core::{Scan, StepReport};
         ds.scans = labels.iter().enumerate().map(|(k, l)| Scan { t: k as f64, z: vec![], truth: l.clone() }).collect();
         let m = MetricsConfig { gospa_p: 1.0, gospa_every: Some(every), ..Default::default() };
         let filter =
             crate::fixtures::try_build::<dead_reckoning::DeadReckoning>(Default::default(), &ds.models(), 1).unwrap();
         let report = StepReport::plain(1);
-        let mut o = (METRICS.iter().find(|d| d.name == "map_gospa_time").unwrap().observer)(
-            &m,
-            &RunStart { dataset: ds, particles: 1 },
-        );
+        let ds: &rfslam_data::Dataset = ds;
+        let scoring = Scoring::of(ds, crate::run::PLANAR);
+        let mut o = GospaTimeMetric::new(&m, &scoring);
         let estimate = |map: &[(f64, f64)]| Estimate {
             pose: ds.models().initial_pose,
             map: map.iter().map(|&(x, y)| MapPoint { position: Point2::new(x, y), mark: 0, weight: 1.0 }).collect(),
@@ -1427,7 +1558,10 @@ mod tests {
             o.observe(&rec);
         }
         let mut values = Values::default();
-        o.finish(&RunEnd { dataset: ds, estimate: &estimate(maps.last().unwrap()), steps: maps.len() }, &mut values);
+        o.finish(
+            &RunEnd { scoring: &scoring, estimate: &estimate(maps.last().unwrap()), steps: maps.len() },
+            &mut values,
+        );
         values
     }
 
@@ -1489,7 +1623,7 @@ mod tests {
         let v = gospa_time(&mut ds, 3, &labels, &bad);
         assert!(GOSPA_DECILES.iter().all(|n| v.get(n).unwrap().is_nan()));
         assert!(v.get("gospa_rise_m").unwrap().is_nan() && v.get("gospa_time_mean_m").unwrap().is_nan());
-        let outcome = crate::JobOutcome { values: v, final_estimate: Estimate::default() };
+        let outcome: crate::JobOutcome = crate::JobOutcome { values: v, final_estimate: Estimate::default() };
         let m = MetricsConfig { gospa_every: Some(3), ..Default::default() };
         assert_eq!(outcome.not_finite(&m).as_deref(), Some("gospa_t10_m is NaN over 6 checkpoints"));
         // Without true landmarks every column is empty, and the run does not fail.
@@ -1498,7 +1632,7 @@ mod tests {
         for c in COLUMNS.iter().filter(|c| c.metric == "map_gospa_time") {
             assert!(v.get(c.name).unwrap().is_nan(), "{}", c.name);
         }
-        let outcome = crate::JobOutcome { values: v, final_estimate: Estimate::default() };
+        let outcome: crate::JobOutcome = crate::JobOutcome { values: v, final_estimate: Estimate::default() };
         assert_eq!(outcome.not_finite(&m), None);
     }
 

@@ -3,49 +3,89 @@
 
 use std::time::Instant;
 
+use rfslam_core::model::StateComponent;
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{ControlSegment, Estimate, Scan, SlamFilter, StepReport};
-use rfslam_data::{Dataset, TruthPose};
+use rfslam_data::{Dataset, DatasetModels, Landmark, TruthPose};
 
 use crate::config::MetricsConfig;
 use crate::metric::{Values, observers};
 
-/// What an observer sees after each recursion.
-pub struct StepRecord<'a> {
+/// What an observer sees after each recursion (a world of `X`-component states,
+/// `M`-coordinate landmarks and `Z`-component measurements; the planar default).
+pub struct StepRecord<'a, const X: usize = 3, const M: usize = 2, const Z: usize = 2> {
     /// Scan index.
     pub k: usize,
     /// Scan time (s).
     pub t: f64,
     /// The scan the filter was updated with.
-    pub scan: &'a Scan,
-    /// The ground-truth pose the step is scored against (the row nearest in time within
+    pub scan: &'a Scan<Z>,
+    /// The ground-truth state the step is scored against (the row nearest in time within
     /// `truth_tolerance_s`), when there is one.
-    pub truth: Option<&'a TruthPose>,
+    pub truth: Option<&'a TruthPose<X>>,
     /// Wall time of the recursion (s).
     pub time_s: f64,
     /// The filter's estimate after the step.
-    pub estimate: &'a Estimate,
+    pub estimate: &'a Estimate<X, M>,
     /// The filter's report.
-    pub report: &'a StepReport,
+    pub report: &'a StepReport<M>,
     /// The filter after the step, for observers that read more than the estimate (e.g.
     /// [`crate::trace::ParticlesWriter`] through `SlamFilter::particle_poses`).
-    pub filter: &'a dyn SlamFilter,
+    pub filter: &'a dyn SlamFilter<X, M, Z>,
 }
 
+/// What the metrics know of a run's data and world: what each state component is (from the
+/// vehicle model), the scans, the true landmarks and the known ones (anchors), and the
+/// number of landmark types.
+pub struct Scoring<'a, const X: usize = 3, const M: usize = 2, const Z: usize = 2> {
+    /// The state components, in the vehicle model's order.
+    pub components: [StateComponent; X],
+    /// Every scan of the data set.
+    pub scans: &'a [Scan<Z>],
+    /// The true landmarks, when known.
+    pub landmarks: Option<&'a [Landmark<M>]>,
+    /// The landmarks the world knows (they are never in a filter's map).
+    pub anchors: &'a [Landmark<M>],
+    /// The number of landmark types (marks `0..marks`).
+    pub marks: usize,
+}
+
+impl<'a, const X: usize, const M: usize, const Z: usize> Scoring<'a, X, M, Z> {
+    /// The scoring of `dataset` in a world whose state components are `components`.
+    pub fn of<C>(dataset: &'a Dataset<C, X, M, Z>, components: [StateComponent; X]) -> Self {
+        Scoring {
+            components,
+            scans: &dataset.scans,
+            landmarks: dataset.landmarks.as_deref(),
+            anchors: &dataset.anchors,
+            marks: dataset.meta.landmarks.types.len(),
+        }
+    }
+
+    /// The index of the state component along world axis `axis` (0 = x, 1 = y), if any.
+    pub fn axis(&self, axis: u8) -> Option<usize> {
+        self.components.iter().position(|c| *c == StateComponent::Position(axis))
+    }
+}
+
+/// The planar state components `[x, y, heading]`.
+pub const PLANAR: [StateComponent; 3] =
+    [StateComponent::Position(0), StateComponent::Position(1), StateComponent::Heading];
+
 /// What the metrics know at the start of a run.
-pub struct RunStart<'a> {
-    /// The data set.
-    pub dataset: &'a Dataset,
+pub struct RunStart<'a, const X: usize = 3, const M: usize = 2, const Z: usize = 2> {
+    /// The run's data and world.
+    pub scoring: &'a Scoring<'a, X, M, Z>,
     /// The filter's particle count before its first step.
     pub particles: usize,
 }
 
 /// What the metrics see at the end of a run.
-pub struct RunEnd<'a> {
-    /// The data set.
-    pub dataset: &'a Dataset,
+pub struct RunEnd<'a, const X: usize = 3, const M: usize = 2, const Z: usize = 2> {
+    /// The run's data and world.
+    pub scoring: &'a Scoring<'a, X, M, Z>,
     /// The final estimate.
-    pub estimate: &'a Estimate,
+    pub estimate: &'a Estimate<X, M>,
     /// Recursions run.
     pub steps: usize,
 }
@@ -54,14 +94,14 @@ pub struct RunEnd<'a> {
 /// ([`crate::metric::COLUMNS`]; NaN where the column's metric is off) and the final
 /// estimate. `outcome["pos_rmse_m"]` reads a column.
 #[derive(Debug, Clone, PartialEq)]
-pub struct JobOutcome {
+pub struct JobOutcome<const X: usize = 3, const M: usize = 2> {
     /// The value of every column.
     pub values: Values,
     /// Final estimate.
-    pub final_estimate: Estimate,
+    pub final_estimate: Estimate<X, M>,
 }
 
-impl std::ops::Index<&str> for JobOutcome {
+impl<const X: usize, const M: usize> std::ops::Index<&str> for JobOutcome<X, M> {
     type Output = f64;
     /// The value of column `name`. Panics for a name that is not a column of
     /// [`crate::metric::COLUMNS`] (a programming error, never user input).
@@ -70,8 +110,9 @@ impl std::ops::Index<&str> for JobOutcome {
     }
 }
 
-/// Runs `filter` over every scan of `dataset` with the filter stream of `run_seed`, scoring
-/// it with the metrics `metrics` turns on and calling `observer` after each step.
+/// Runs `filter` over every scan of the planar `dataset` with the filter stream of
+/// `run_seed`, scoring it with the metrics `metrics` turns on and calling `observer` after
+/// each step ([`run_filter_in`] with the planar state `[x, y, heading]`).
 pub fn run_filter(
     dataset: &Dataset,
     filter: &mut dyn SlamFilter,
@@ -79,9 +120,25 @@ pub fn run_filter(
     metrics: &MetricsConfig,
     observer: &mut dyn FnMut(&StepRecord),
 ) -> JobOutcome {
+    run_filter_in(dataset, PLANAR, filter, run_seed, metrics, observer)
+}
+
+/// Runs `filter` over every scan of `dataset` (a world whose vehicle state has the
+/// `components`) with the filter stream of `run_seed`, scoring it with the metrics `metrics`
+/// turns on and calling `observer` after each step: the inner loop of every sweep job and
+/// of `rfslam run`, in every world.
+pub fn run_filter_in<C: DatasetModels, const X: usize, const M: usize, const Z: usize>(
+    dataset: &Dataset<C, X, M, Z>,
+    components: [StateComponent; X],
+    filter: &mut dyn SlamFilter<X, M, Z>,
+    run_seed: u64,
+    metrics: &MetricsConfig,
+    observer: &mut dyn FnMut(&StepRecord<X, M, Z>),
+) -> JobOutcome<X, M> {
     let mut rng = stream(&[run_seed, purpose::FILTER, filter.particles() as u64]);
     let mut segments: Vec<ControlSegment> = Vec::new();
-    let mut scorers = observers(metrics, &RunStart { dataset, particles: filter.particles() });
+    let scoring = Scoring::of(dataset, components);
+    let mut scorers = observers(metrics, &RunStart { scoring: &scoring, particles: filter.particles() });
     let mut estimate = Estimate::default();
     for (k, scan) in dataset.scans.iter().enumerate() {
         dataset.segments_for_scan(k, &mut segments);
@@ -104,7 +161,7 @@ pub fn run_filter(
         }
         observer(&rec);
     }
-    let end = RunEnd { dataset, estimate: &estimate, steps: dataset.scans.len() };
+    let end = RunEnd { scoring: &scoring, estimate: &estimate, steps: dataset.scans.len() };
     let mut values = Values::default();
     for s in scorers.iter_mut() {
         s.finish(&end, &mut values);
@@ -112,11 +169,11 @@ pub fn run_filter(
     JobOutcome { values, final_estimate: estimate }
 }
 
-impl JobOutcome {
+impl<const X: usize, const M: usize> JobOutcome<X, M> {
     /// A warning when `ds` has ground truth but no step of the run was scored against it:
     /// its times never fall within the tolerance of a scan's (shifted clocks, milliseconds
     /// against seconds), so every pose score is empty.
-    pub fn unscored_truth(&self, ds: &Dataset, m: &MetricsConfig) -> Option<String> {
+    pub fn unscored_truth<C, const Z: usize>(&self, ds: &Dataset<C, X, M, Z>, m: &MetricsConfig) -> Option<String> {
         let truth = ds.groundtruth.as_ref().filter(|g| !g.is_empty())?;
         if self.values.get("scored_steps").unwrap_or(0.0) > 0.0 {
             return None;
@@ -179,7 +236,7 @@ mod tests {
     fn scores_that_are_not_finite_numbers_are_named() {
         let m = MetricsConfig::default();
         let outcome = |set: &[(&str, f64)]| {
-            let mut o = JobOutcome { values: Values::default(), final_estimate: Estimate::default() };
+            let mut o: JobOutcome = JobOutcome { values: Values::default(), final_estimate: Estimate::default() };
             for &(k, v) in [("scored_steps", 200.0), ("pos_rmse_m", 1.5), ("gospa_m", 3.0)].iter().chain(set) {
                 o.values.set(k, v);
             }

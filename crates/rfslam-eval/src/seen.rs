@@ -7,35 +7,37 @@
 //! A landmark counts as detected from the first scan whose truth labels name it; on data
 //! without truth labels every landmark counts as detected from the start.
 
-use rfslam_core::{Estimate, Point2};
-use rfslam_data::Dataset;
+use nalgebra::SVector;
+use rfslam_core::Estimate;
+
+use crate::run::Scoring;
 
 /// The true landmarks of a run, which of them have been detected so far, and the GOSPA of a
 /// map estimate against those.
-pub struct SeenGospa {
+pub struct SeenGospa<const M: usize = 2> {
     /// GOSPA cut-off `c` (m) and order `p`.
     c: f64,
     p: f64,
     /// True landmarks sorted by id, and whether each has been detected so far.
-    landmarks: Vec<(i64, Point2)>,
+    landmarks: Vec<(i64, SVector<f64, M>)>,
     seen: Vec<bool>,
     /// How many are detected so far.
     count: usize,
     /// Whether any scan carries truth labels (else every landmark counts as detected).
     labelled: bool,
     /// Scratch: the detected landmarks' and the estimate's positions.
-    truth_pts: Vec<Point2>,
-    est_pts: Vec<Point2>,
+    truth_pts: Vec<SVector<f64, M>>,
+    est_pts: Vec<SVector<f64, M>>,
 }
 
-impl SeenGospa {
-    /// The landmarks of `dataset` (none detected yet on labelled data, all on unlabelled
+impl<const M: usize> SeenGospa<M> {
+    /// The landmarks of a run's data (none detected yet on labelled data, all on unlabelled
     /// data), scored with GOSPA cut-off `c` and order `p`.
-    pub fn new(dataset: &Dataset, c: f64, p: f64) -> Self {
-        let mut landmarks: Vec<(i64, Point2)> =
-            dataset.landmarks.iter().flatten().map(|l| (l.id, l.position)).collect();
+    pub fn new<const X: usize, const Z: usize>(data: &Scoring<X, M, Z>, c: f64, p: f64) -> Self {
+        let mut landmarks: Vec<(i64, SVector<f64, M>)> =
+            data.landmarks.iter().flat_map(|l| l.iter()).map(|l| (l.id, l.position)).collect();
         landmarks.sort_by_key(|l| l.0);
-        let labelled = dataset.scans.iter().any(|s| s.truth.is_some());
+        let labelled = data.scans.iter().any(|s| s.truth.is_some());
         SeenGospa {
             c,
             p,
@@ -76,7 +78,7 @@ impl SeenGospa {
 
     /// GOSPA (alpha = 2) of `estimate`'s map against the landmarks detected so far; NaN
     /// without true landmarks or when the estimate has a non-finite position.
-    pub fn gospa(&mut self, estimate: &Estimate) -> f64 {
+    pub fn gospa<const X: usize>(&mut self, estimate: &Estimate<X, M>) -> f64 {
         if self.landmarks.is_empty() {
             return f64::NAN;
         }

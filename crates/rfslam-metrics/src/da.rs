@@ -1,7 +1,8 @@
 //! Data-association accuracy: true-positive and true-negative ratios (\[Kaltiokallio2024\] Section
 //! VI-A-1).
 
-use rfslam_core::{Point2, TRUTH_UNKNOWN};
+use nalgebra::SVector;
+use rfslam_core::TRUTH_UNKNOWN;
 
 use crate::MetricError;
 
@@ -58,10 +59,10 @@ impl DaCounts {
 ///
 /// `landmarks` lists the true landmarks as `(id, position)`. Errors if `truth` and
 /// `assigned` differ in length or a label is below -1 other than `TRUTH_UNKNOWN`.
-pub fn score_associations(
+pub fn score_associations<const D: usize>(
     truth: &[i64],
-    assigned: &[Option<Point2>],
-    landmarks: &[(i64, Point2)],
+    assigned: &[Option<SVector<f64, D>>],
+    landmarks: &[(i64, SVector<f64, D>)],
 ) -> Result<DaCounts, MetricError> {
     if assigned.len() != truth.len() {
         return Err(MetricError::LengthMismatch { what: "assigned", expected: truth.len(), got: assigned.len() });
@@ -90,7 +91,7 @@ pub fn score_associations(
 
 /// Id of the landmark nearest to `pos` (first on ties), `None` if there is none or the
 /// distances are not comparable (non-finite `pos`).
-fn nearest_id(pos: &Point2, landmarks: &[(i64, Point2)]) -> Option<i64> {
+fn nearest_id<const D: usize>(pos: &SVector<f64, D>, landmarks: &[(i64, SVector<f64, D>)]) -> Option<i64> {
     let mut best: Option<(f64, i64)> = None;
     for (id, l) in landmarks {
         let d2 = (l - pos).norm_squared();
@@ -104,6 +105,7 @@ fn nearest_id(pos: &Point2, landmarks: &[(i64, Point2)]) -> Option<i64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rfslam_core::Point2;
 
     #[test]
     fn hand_case() {
@@ -130,20 +132,20 @@ mod tests {
 
     #[test]
     fn empty_and_invalid() {
-        let c = score_associations(&[], &[], &[]).unwrap();
+        let c = score_associations::<2>(&[], &[], &[]).unwrap();
         assert_eq!((c.tpr(), c.tnr()), (None, None));
         // No landmarks: a positive can never be a true positive.
-        let c = score_associations(&[3], &[Some(Point2::new(0.0, 0.0))], &[]).unwrap();
+        let c = score_associations::<2>(&[3], &[Some(Point2::new(0.0, 0.0))], &[]).unwrap();
         assert_eq!(c.tpr(), Some(0.0));
-        assert!(matches!(score_associations(&[1, 2], &[None], &[]), Err(MetricError::LengthMismatch { .. })));
+        assert!(matches!(score_associations::<2>(&[1, 2], &[None], &[]), Err(MetricError::LengthMismatch { .. })));
         assert_eq!(
-            score_associations(&[0, -3], &[None, None], &[]),
+            score_associations::<2>(&[0, -3], &[None, None], &[]),
             Err(MetricError::InvalidLabel { index: 1, label: -3 })
         );
         // Unknown origin: counted neither as a positive nor as a negative.
-        let c = score_associations(&[TRUTH_UNKNOWN, -1], &[Some(Point2::zeros()), None], &[]).unwrap();
+        let c = score_associations::<2>(&[TRUTH_UNKNOWN, -1], &[Some(Point2::zeros()), None], &[]).unwrap();
         assert_eq!(c, DaCounts { true_pos: 0, positives: 0, true_neg: 1, negatives: 1 });
-        let nan = score_associations(&[0], &[Some(Point2::new(f64::NAN, 0.0))], &[(0, Point2::zeros())]);
+        let nan = score_associations::<2>(&[0], &[Some(Point2::new(f64::NAN, 0.0))], &[(0, Point2::zeros())]);
         assert_eq!(nan.unwrap().true_pos, 0);
     }
 }

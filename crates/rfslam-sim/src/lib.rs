@@ -27,7 +27,10 @@ pub mod simulate;
 pub mod victoria_park;
 pub mod world;
 
-pub use radio5g::{RadioWorld, radio_run, radio_sensor, radio_vehicle};
+pub use radio5g::{
+    RadioDataset, RadioWorld, RadioWorldModels, radio_dataset, radio_run, radio_sensor, radio_sensor_of, radio_vehicle,
+    radio_world_models,
+};
 pub use scenario::ScenarioData;
 pub use simulate::{SimulatedRun, draw_scan, simulate, simulate_run};
 pub use victoria_park::VictoriaPark;

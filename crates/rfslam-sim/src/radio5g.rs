@@ -5,9 +5,12 @@
 //! 0.5 s, simulated with [`simulate_run`].
 
 use nalgebra::{SVector, Vector3};
-use rfslam_core::model::{LandmarkType, RadioSensor, RadioVehicle};
-use rfslam_core::{Control, Rng};
-use rfslam_data::{DataError, RadioScenario};
+use rfslam_core::model::{LandmarkMark, LandmarkType, RadioSensor, RadioVehicle, Vehicle};
+use rfslam_core::{Control, Rng, WorldModels};
+use rfslam_data::{
+    DataError, Dataset, DatasetMeta, Landmark, LandmarkTypes, OdometryRow, RADIO_LANDMARK_TYPES, RadioModels,
+    RadioScenario, TruthPose,
+};
 
 use crate::simulate::{SimulatedRun, simulate_run};
 
@@ -91,19 +94,86 @@ pub fn radio_vehicle(sc: &RadioScenario) -> RadioVehicle {
 /// landmark type by `filter_noise_scale`). The clutter intensity is the rate over the
 /// clutter box's volume in both.
 pub fn radio_sensor(sc: &RadioScenario, filters: bool) -> RadioSensor {
-    let s = &sc.sensor;
+    radio_sensor_of(&sc.models(), RadioSensor::published().base_station, filters)
+}
+
+/// [`radio_sensor`] of the model tables `models` with the base station at `base_station`.
+pub fn radio_sensor_of(models: &RadioModels, base_station: Vector3<f64>, filters: bool) -> RadioSensor {
+    let s = &models.sensor;
     let mut out = RadioSensor {
+        base_station,
         sigma: s.sigma,
         noise_scale: if filters { s.filter_noise_scale } else { [1.0; 3] },
         pd: if filters { s.filter_pd } else { s.pd },
         pd_true: s.pd,
-        clutter_rate: sc.clutter.rate,
-        toa_max: sc.clutter.toa_max,
+        clutter_rate: models.clutter.rate,
+        toa_max: models.clutter.toa_max,
         ..RadioSensor::published()
     };
     out.visibility[LandmarkType::ScatteringPoint.mark() as usize] = s.sp_visibility;
     out.kappa = out.clutter_rate / out.clutter_volume();
     out
+}
+
+/// A data set of the radio world: measurements in the radio sensor's components, the
+/// vehicle's five-component state, landmarks in three coordinates of three types.
+pub type RadioDataset = Dataset<RadioModels, 5, 3, 5>;
+
+/// The models of the radio world as the filters assume them.
+pub type RadioWorldModels = WorldModels<RadioVehicle, RadioSensor, 5, 3, 5>;
+
+/// The data set of run `seed` of a radio scenario ([`radio_run`]): one scan per step (the
+/// first at the start), the known control of each transition as an odometry row at its
+/// start, the true states, the mapped landmarks (`landmarks.csv`) and the base station
+/// (`anchors.csv`).
+pub fn radio_dataset(sc: &RadioScenario, seed: u64) -> Result<RadioDataset, DataError> {
+    let (world, run) = radio_run(sc, seed)?;
+    let odometry = run.truth.iter().zip(&run.odometry).map(|((t, _), seg)| OdometryRow { t: *t, u: seg.u }).collect();
+    let groundtruth = run.truth.iter().map(|(t, x)| TruthPose { t: *t, state: x.data.0[0].map(Some) }).collect();
+    let landmark = |&(id, position, t): &(i64, Vector3<f64>, LandmarkType)| Landmark { id, position, mark: t.mark() };
+    let (anchors, mapped): (Vec<_>, Vec<_>) = world.landmarks.iter().partition(|l| l.2 == LandmarkType::BaseStation);
+    Ok(Dataset {
+        meta: DatasetMeta {
+            name: sc.name.clone(),
+            description: Some(format!(
+                "the radio5g world of scenario `{}`, run seed {seed} (rfslam simulate)",
+                sc.name
+            )),
+            initial_t: 0.0,
+            initial_pose: world.x0,
+            models: sc.models(),
+            landmarks: LandmarkTypes { types: RADIO_LANDMARK_TYPES.map(String::from).to_vec() },
+        },
+        scans: run.scans,
+        odometry,
+        groundtruth: Some(groundtruth),
+        landmarks: Some(mapped.into_iter().map(landmark).collect()),
+        anchors: anchors.into_iter().map(landmark).collect(),
+    })
+}
+
+/// The models the filters assume on a radio data set: the vehicle of its `[vehicle]` table
+/// from its initial state (the control known, so no control noise), the sensor of its
+/// `[sensor]` and `[clutter]` tables with the base station of its `anchors.csv`, and the
+/// landmark types by id of its landmarks and anchors (for the oracle).
+pub fn radio_world_models(ds: &RadioDataset) -> Result<RadioWorldModels, DataError> {
+    let bs = LandmarkType::BaseStation.mark();
+    let base_station = ds.anchors.iter().find(|a| a.mark == bs).ok_or_else(|| {
+        DataError::Mismatch(format!(
+            "data set `{}`: the radio5g world needs its base station, a row of type base_station in anchors.csv",
+            ds.meta.name
+        ))
+    })?;
+    let types = ds.landmarks.iter().flatten().chain(&ds.anchors).map(|l| (l.id, LandmarkType::from_index(l.mark)));
+    Ok(WorldModels {
+        vehicle: Vehicle {
+            model: RadioVehicle { sigma: ds.meta.models.vehicle.sigma },
+            control_noise: nalgebra::Matrix3::zeros(),
+            initial_state: ds.meta.initial_pose,
+        },
+        sensor: radio_sensor_of(&ds.meta.models, base_station.position, true),
+        landmark_types: types.collect(),
+    })
 }
 
 /// One run of a radio scenario with run seed `seed` (the data stream
@@ -143,6 +213,43 @@ mod tests {
                 assert_eq!(labels.contains(&id), near, "step {k}: scattering point {id}");
             }
         }
+    }
+
+    /// A run's data set: written and read back bit for bit in the radio world's columns,
+    /// its odometry cut into the run's segments, its models those of the scenario.
+    #[test]
+    fn a_radio_data_set_round_trips_and_replays_the_run() {
+        let sc =
+            RadioScenario::from_toml_str("name = \"r\"\n[world]\nkind = \"radio5g\"\nsteps = 6\n", "r.toml").unwrap();
+        let ds = radio_dataset(&sc, 4).unwrap();
+        let (_, run) = radio_run(&sc, 4).unwrap();
+        assert_eq!(ds.scans, run.scans);
+        let mut segments = Vec::new();
+        for k in 0..ds.scans.len() {
+            ds.segments_for_scan(k, &mut segments);
+            let expect = if k == 0 { &[][..] } else { &run.odometry[k - 1..k] };
+            assert_eq!(segments, expect, "scan {k}");
+        }
+        assert_eq!(ds.anchors.len(), 1);
+        assert_eq!(ds.landmarks.as_ref().unwrap().len(), 8);
+        let tmp = rfslam_data::testutil::TempDir::new("radio-ds");
+        ds.write(tmp.path()).unwrap();
+        let text = std::fs::read_to_string(tmp.path().join("measurements.csv")).unwrap();
+        assert!(text.starts_with("scan,toa,dod_az,dod_el,doa_az,doa_el,truth\n"), "{}", &text[..60]);
+        let gt = std::fs::read_to_string(tmp.path().join("groundtruth.csv")).unwrap();
+        assert!(gt.starts_with("t,x,y,z,heading,clock_bias\n"), "{}", &gt[..40]);
+        assert_eq!(rfslam_data::world_of(tmp.path()).unwrap(), "radio5g");
+        let back = RadioDataset::read(tmp.path()).unwrap();
+        assert_eq!(back, ds);
+        let models = radio_world_models(&back).unwrap();
+        assert_eq!(models.sensor, radio_sensor(&sc, true));
+        assert_eq!(models.vehicle.initial_state, RadioWorld::from_scenario(&sc).x0);
+        assert_eq!(models.landmark_types.len(), 9);
+        // Without its base station the data set gives no models.
+        let mut no_bs = back;
+        no_bs.anchors.clear();
+        let e = radio_world_models(&no_bs).unwrap_err().to_string();
+        assert!(e.contains("anchors.csv") && e.contains("base_station"), "{e}");
     }
 
     /// A scenario's world: its lap and heights within the range, one draw per scenario
