@@ -4,8 +4,9 @@
 //! clock bias) and the GOSPA per landmark type ([`gospa_per_mark`]) against every true
 //! landmark of the type at every step (the PMBM-SLAM paper's Fig. 3 and 4 scoring).
 //!
-//! The planar data sets run through [`crate::run_filter`]; this is the in-memory loop of the
-//! worlds that the data sets and the sweeps do not carry yet (the 5G radio world).
+//! Every sweep job and `rfslam run` go through [`crate::run::run_filter_in`] on a data set;
+//! this in-memory loop is the filter crates' radio-world tests' ([`RadioCase`]), which step
+//! an engine directly and read every step's scores.
 
 use std::time::Instant;
 
@@ -85,53 +86,6 @@ pub fn run_world<const X: usize, const M: usize, const Z: usize>(
         out.push(WorldStep { pose, gospa, estimate, finite: report.ess.is_finite(), report, time_s });
     }
     Ok(out)
-}
-
-/// The columns of the metric table a run in a typed world scores ([`crate::metric::COLUMNS`]):
-/// the pose errors and the clock bias over every step, the final GOSPA of the mapped types
-/// together (`gospa_m` and its parts) and per type (the radio world's virtual anchors,
-/// mark 1, and scattering points, mark 2: final and mean over the steps), the filter's
-/// effective sample size, resampling and Cholesky failures for `particles` particles, the
-/// mean wall time of a recursion; with `[metrics] landmarks`, the final map's size.
-pub fn world_values<const X: usize, const M: usize>(
-    steps: &[WorldStep<X, M>],
-    scoring: &WorldScoring<M>,
-    particles: usize,
-    metrics: &crate::config::MetricsConfig,
-) -> Result<crate::metric::Values, MetricError> {
-    let mut v = crate::metric::Values::default();
-    let mut pose = PoseErrors::new();
-    steps.iter().for_each(|s| pose.merge(&s.pose));
-    let n = steps.len() as f64;
-    let nan = f64::NAN;
-    v.set("pos_rmse_m", pose.pos_rmse().unwrap_or(nan));
-    v.set("head_rmse_deg", pose.head_rmse_deg().unwrap_or(nan));
-    v.set("clock_rmse_m", pose.clock_rmse().unwrap_or(nan));
-    v.set("steps", n);
-    v.set("scored_steps", pose.steps() as f64);
-    v.set("ess_pct", steps.iter().map(|s| s.report.ess).sum::<f64>() / n / particles as f64 * 100.0);
-    v.set("resampling_pct", steps.iter().filter(|s| s.report.resampled).count() as f64 / n * 100.0);
-    v.set("cholesky_failures", steps.iter().map(|s| f64::from(s.report.cholesky_failures)).sum());
-    v.set("time_ms_per_step", steps.iter().map(|s| s.time_s).sum::<f64>() / n * 1e3);
-    if let Some(last) = steps.last() {
-        let truth: Vec<SVector<f64, M>> = scoring.truth.iter().map(|t| t.1).collect();
-        let est: Vec<SVector<f64, M>> = last.estimate.map.iter().map(|p| p.position).collect();
-        let g = rfslam_metrics::gospa(&truth, &est, metrics.gospa_c, metrics.gospa_p)?;
-        v.set("gospa_m", g.total);
-        v.set("gospa_loc_m", g.loc_term.powf(1.0 / metrics.gospa_p));
-        v.set("gospa_missed", g.missed as f64);
-        v.set("gospa_false", g.false_count as f64);
-        if metrics.landmarks {
-            v.set("landmarks", last.estimate.map.len() as f64);
-        }
-    }
-    for (mark, final_col, mean_col) in [(1, "va_gospa_m", "va_gospa_mean_m"), (2, "sp_gospa_m", "sp_gospa_mean_m")] {
-        if mark < scoring.marks {
-            v.set(final_col, steps.last().map_or(nan, |s| s.gospa[mark].total));
-            v.set(mean_col, steps.iter().map(|s| s.gospa[mark].total).sum::<f64>() / n);
-        }
-    }
-    Ok(v)
 }
 
 /// The 5G radio world as the families' radio-world tests set it up: the published world

@@ -27,12 +27,10 @@ use crate::runs::JobKey;
 use crate::runs::{RunRow, RunsAppender, read_job_rows, read_rows, write_rows};
 use crate::shard::{Shard, ShardRecord};
 use crate::summary::{summarise, write_summary};
-use rfslam_core::SensorModel;
 use rfslam_core::model::{LandmarkType, VehicleModel};
 use rfslam_data::RadioScenario;
 use rfslam_eval::metric::Values;
 use rfslam_eval::run_filter;
-use rfslam_eval::world::{WorldScoring, run_world, world_values};
 use rfslam_sim::ScenarioData;
 
 /// Options of one sweep invocation.
@@ -130,32 +128,36 @@ pub fn steps_file(label: &str, particles: usize, point: usize, run: usize) -> St
 /// The header of a per-step file.
 pub const STEPS_HEADER: &str = "step,t_s,pos_err_m,head_err_deg,clock_err_m,va_gospa_m,sp_gospa_m,landmarks";
 
+/// The scores of one step of a typed world's job (a row of its per-step file).
+struct StepRow {
+    t: f64,
+    pose: rfslam_metrics::PoseErrors,
+    gospa: Vec<f64>,
+    landmarks: usize,
+}
+
 /// Writes the scores of every step of a job into `dir` ([`steps_file`], [`STEPS_HEADER`]):
 /// to a temporary file renamed into place, so that a file is whole or absent; written
 /// before the job's row, so that every job in `runs.csv` has its steps (a job killed in
 /// between is run again and writes the same file).
-fn write_steps(
-    dir: &Path,
-    plan: &Plan,
-    job: &Job,
-    times: &[f64],
-    steps: &[rfslam_eval::world::WorldStep<5, 3>],
-) -> Result<(), HarnessError> {
+fn write_steps(dir: &Path, plan: &Plan, job: &Job, steps: &[StepRow]) -> Result<(), HarnessError> {
     use std::fmt::Write as _;
     let f = &plan.points[job.point].filters[job.filter];
     std::fs::create_dir_all(dir).map_err(|e| HarnessError::io(dir, e))?;
     let mut text = format!("{STEPS_HEADER}\n");
-    for (k, (s, t)) in steps.iter().zip(times).enumerate() {
+    for (k, s) in steps.iter().enumerate() {
         let opt = |v: Option<f64>| v.map(|v| v.to_string()).unwrap_or_default();
+        let gospa = |t: LandmarkType| s.gospa.get(usize::from(t.mark())).map(|g| g.to_string()).unwrap_or_default();
         let _ = writeln!(
             text,
-            "{k},{t},{},{},{},{},{},{}",
+            "{k},{},{},{},{},{},{},{}",
+            s.t,
             opt(s.pose.pos_rmse()),
             opt(s.pose.head_rmse_deg()),
             opt(s.pose.clock_rmse()),
-            s.gospa[LandmarkType::VirtualAnchor.mark() as usize].total,
-            s.gospa[LandmarkType::ScatteringPoint.mark() as usize].total,
-            s.estimate.map.len()
+            gospa(LandmarkType::VirtualAnchor),
+            gospa(LandmarkType::ScatteringPoint),
+            s.landmarks
         );
     }
     let path = dir.join(steps_file(&f.label, job.particles, job.point, job.run));
@@ -164,31 +166,44 @@ fn write_steps(
     std::fs::rename(&tmp, &path).map_err(|e| HarnessError::io(&path, e))
 }
 
-/// Runs one job of the 5G radio world: simulates the run of the job's seed, builds the
-/// filter for the world's models, runs it (the filter stream of the seed) and scores every
-/// step ([`rfslam_eval::world::world_values`]); with `steps_dir`, writes the per-step scores
+/// Runs one job of the 5G radio world: the data set of the job's seed
+/// ([`rfslam_sim::radio_dataset`]), the filter built on its models
+/// ([`rfslam_sim::radio_world_models`]), run and scored by the same loop as every world
+/// ([`rfslam_eval::run::run_filter_in`]); with `steps_dir`, the per-step scores are written
 /// there ([`STEPS_DIR`]).
 fn run_radio_job(plan: &Plan, job: &Job, sc: &RadioScenario, steps_dir: Option<&Path>) -> Result<RunRow, HarnessError> {
     let f = &plan.points[job.point].filters[job.filter];
     let entry = registry::find(&f.name).ok_or_else(|| HarnessError::Run(format!("unknown filter {}", f.name)))?;
     let build =
         entry.radio.ok_or_else(|| HarnessError::Run(format!("filter {} does not run in the radio5g world", f.name)))?;
-    let (world, run) = rfslam_sim::radio_run(sc, job.seed).map_err(HarnessError::Data)?;
-    let models = crate::experiment::radio_models(sc);
+    let ds = rfslam_sim::radio_dataset(sc, job.seed).map_err(HarnessError::Data)?;
+    let models = rfslam_sim::radio_world_models(&ds).map_err(HarnessError::Data)?;
     let mut filter = build(&f.params, &models, job.particles)
         .map_err(|source| HarnessError::Parameter { filter: f.label.clone(), source })?;
     let metrics = &plan.config.metrics;
-    let truth = world.landmarks.iter().filter(|l| models.sensor.mapped(l.2)).map(|l| (l.2.mark(), l.1)).collect();
-    let scoring = WorldScoring { truth, marks: LandmarkType::ALL.len(), c: metrics.gospa_c, p: metrics.gospa_p };
     let comps = models.vehicle.model.components();
-    let steps = run_world(&run, &comps, &scoring, job.seed, |u, z, rng| (filter.step(u, z, rng), filter.estimate()))
-        .map_err(|e| HarnessError::Run(format!("run {} of {}: {e}", job.run, f.label)))?;
-    let values = world_values(&steps, &scoring, job.particles, metrics)
-        .map_err(|e| HarnessError::Run(format!("run {} of {}: {e}", job.run, f.label)))?;
-    let row = finite_row(plan, job, rfslam_eval::run::not_finite(&values, metrics), values)?;
+    let truth: Vec<_> = ds.landmarks.iter().flatten().map(|l| (l.mark, l.position)).collect();
+    let marks = ds.meta.landmarks.types.len();
+    let mut steps: Vec<StepRow> = Vec::new();
+    let mut scratch = (Vec::new(), Vec::new());
+    let mut est = Vec::new();
+    let o = rfslam_eval::run::run_filter_in(&ds, comps, filter.as_mut(), job.seed, metrics, &mut |rec| {
+        if steps_dir.is_none() {
+            return;
+        }
+        let mut pose = rfslam_metrics::PoseErrors::new();
+        if let Some(t) = rec.truth {
+            pose.push_state(&comps, &rec.estimate.pose, &t.state);
+        }
+        est.clear();
+        est.extend(rec.estimate.map.iter().map(|p| (p.mark, p.position)));
+        let gospa = rfslam_metrics::gospa_per_mark(&truth, &est, marks, metrics.gospa_c, metrics.gospa_p, &mut scratch)
+            .map_or_else(|_| vec![f64::NAN; marks], |g| g.iter().map(|g| g.total).collect());
+        steps.push(StepRow { t: rec.t, pose, gospa, landmarks: rec.estimate.map.len() });
+    });
+    let row = finite_row(plan, job, o.not_finite(metrics), o.values)?;
     if let Some(dir) = steps_dir {
-        let times: Vec<f64> = run.truth.iter().map(|t| t.0).collect();
-        write_steps(dir, plan, job, &times, &steps)?;
+        write_steps(dir, plan, job, &steps)?;
     }
     Ok(row)
 }
