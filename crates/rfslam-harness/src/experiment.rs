@@ -15,6 +15,7 @@ use crate::error::HarnessError;
 use crate::memory::JobMemory;
 use crate::registry;
 use crate::runs::{JobKey, RunsLayout};
+use crate::world::WorldScenario;
 use rfslam_data::locate::locate;
 
 pub use rfslam_eval::MetricsConfig;
@@ -155,44 +156,16 @@ pub struct ResolvedFilter {
     pub particles: Vec<usize>,
 }
 
-/// A scenario at one grid point: a planar world, or the 5G radio world
-/// (`[world] kind = "radio5g"`), whose runs are simulated per job and run by the filters
-/// built for it ([`registry::FilterEntry::radio`]).
-#[derive(Debug, Clone)]
-pub enum Scenario {
-    /// A planar world or data set.
-    Planar(ScenarioConfig),
-    /// The 5G radio world.
-    Radio(RadioScenario),
-}
-
-/// The models the filters of a radio scenario assume: the vehicle (its noise, the known
-/// initial state and control), the sensor with the filters' `p_D` and `R`, and the landmark
-/// types by id (for the oracle).
-pub fn radio_models(sc: &RadioScenario) -> registry::RadioModels {
-    let world = rfslam_sim::RadioWorld::from_scenario(sc);
-    rfslam_core::WorldModels {
-        vehicle: rfslam_core::model::Vehicle {
-            model: rfslam_sim::radio_vehicle(sc),
-            control_noise: nalgebra::Matrix3::zeros(),
-            initial_state: world.x0,
-        },
-        sensor: rfslam_sim::radio_sensor(sc, true),
-        landmark_types: world.landmarks.iter().map(|l| (l.0, l.2)).collect(),
-    }
-}
-
 /// One point of the grid (the only point when there is no grid).
 #[derive(Debug, Clone)]
 pub struct GridPoint {
     /// Value of each grid key, in [`Plan::grid_keys`] order.
     pub values: Vec<toml::Value>,
-    /// The scenario with the overrides applied.
-    pub scenario: Scenario,
+    /// The scenario with the overrides applied, of its world (with what it loads once and
+    /// shares between grid points).
+    pub scenario: WorldScenario,
     /// The filters with the overrides applied.
     pub filters: Vec<ResolvedFilter>,
-    /// The world, loaded once and shared (None for data-set scenarios).
-    pub world: Option<Arc<World>>,
 }
 
 /// One Monte Carlo job: a filter entry with a particle count on one run at one grid point.
@@ -680,7 +653,7 @@ impl Plan {
             }
             if radio {
                 let sc = from_table(&sc_table, &origin, RadioScenario::validate, |e| e.message().to_string())?;
-                let models = radio_models(&sc);
+                let models = <crate::world::Radio5g as crate::world::World<5, 3, 5>>::scenario_models(&sc)?;
                 for (i, f) in filters.iter().enumerate() {
                     let entry = registry::find(&f.name).expect("checked above");
                     let Some(build) = entry.radio else {
@@ -699,7 +672,7 @@ impl Plan {
                         build(&f.params, &models, n).map_err(|e| filter_error(i, f, n, e))?;
                     }
                 }
-                points.push(GridPoint { values, scenario: Scenario::Radio(sc), filters, world: None });
+                points.push(GridPoint { values, scenario: WorldScenario::radio(sc), filters });
                 continue;
             }
             let scenario = scenario_from_table(&sc_table, &origin)?;
@@ -742,7 +715,7 @@ impl Plan {
                     }
                 }
             }
-            points.push(GridPoint { values, scenario: Scenario::Planar(scenario), filters, world });
+            points.push(GridPoint { values, scenario: WorldScenario::planar(scenario, world), filters });
         }
         let plan = Plan {
             path: path.to_path_buf(),

@@ -6,6 +6,7 @@
 //! - [`shard`]: `sweep --shard I/N` (disjoint parts of a sweep) and `merge`;
 //! - [`invocations`]: what each sweep invocation in a directory cost, killed ones included;
 //! - [`memory`]: the least memory a job needs, against what the machine has;
+//! - [`world`]: the list of worlds, and the visit that runs code generic over the world in each;
 //! - [`compare`]: paired per-run differences between filters and sweeps (`rfslam compare`);
 //! - [`summary`], [`report`]: `summary.csv` with the columns of
 //!   \[Kaltiokallio2024\] Table II and `report.md` beside the published figures.
@@ -23,6 +24,7 @@ pub mod runs;
 pub mod shard;
 pub mod summary;
 pub mod sweep;
+pub mod world;
 
 /// A fresh, empty scratch directory for one unit test: `<temp>/rfslam-<module>-<name>-<pid>`.
 #[cfg(test)]

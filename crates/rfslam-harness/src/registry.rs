@@ -212,7 +212,10 @@ pub fn find(name: &str) -> Option<&'static FilterEntry> {
 /// is not an association it could be told: [`rfslam_core::TRUTH_UNKNOWN`] (an unknown origin,
 /// such as the real tree detections of the Victoria Park import beside its labelled
 /// artificial clutter) or anything else below `-1`. The error names the first such scan.
-pub fn check_dataset(entry: &FilterEntry, dataset: &rfslam_data::Dataset) -> Result<(), String> {
+pub fn check_dataset<C, const X: usize, const M: usize, const Z: usize>(
+    entry: &FilterEntry,
+    dataset: &rfslam_data::Dataset<C, X, M, Z>,
+) -> Result<(), String> {
     if !entry.requires_truth {
         return Ok(());
     }

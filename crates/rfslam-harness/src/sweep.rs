@@ -17,7 +17,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::error::HarnessError;
-use crate::experiment::{ExperimentConfig, Job, JobFilter, Plan, Scenario};
+use crate::experiment::{ExperimentConfig, Job, JobFilter, Plan};
 use crate::invocations::{self, Invocation, Tracker};
 use crate::lock::DirLock;
 use crate::registry;
@@ -27,11 +27,9 @@ use crate::runs::JobKey;
 use crate::runs::{RunRow, RunsAppender, read_job_rows, read_rows, write_rows};
 use crate::shard::{Shard, ShardRecord};
 use crate::summary::{summarise, write_summary};
-use rfslam_core::model::{LandmarkType, VehicleModel};
-use rfslam_data::RadioScenario;
+use crate::world::{Visitor, World};
+use rfslam_core::model::LandmarkType;
 use rfslam_eval::metric::Values;
-use rfslam_eval::run_filter;
-use rfslam_sim::ScenarioData;
 
 /// Options of one sweep invocation.
 #[derive(Debug, Clone, Default)]
@@ -68,30 +66,75 @@ pub struct SweepOutcome {
     pub table: String,
 }
 
-/// Runs one job: builds its data set and filter, runs, scores.
+/// Runs one job: builds its data set and filter, runs, scores, in the job's world (one loop
+/// for every world).
 pub fn run_job(plan: &Plan, job: &Job, steps_dir: Option<&Path>) -> Result<RunRow, HarnessError> {
-    let point = &plan.points[job.point];
-    let f = &point.filters[job.filter];
-    let scenario = match &point.scenario {
-        Scenario::Planar(sc) => sc,
-        Scenario::Radio(sc) => return run_radio_job(plan, job, sc, steps_dir),
-    };
-    let dataset = scenario.build_dataset(point.world.as_deref(), job.seed).map_err(HarnessError::Data)?;
-    let models = dataset.models();
-    let entry = registry::find(&f.name).ok_or_else(|| HarnessError::Run(format!("unknown filter {}", f.name)))?;
-    registry::check_dataset(entry, &dataset)
-        .map_err(|reason| HarnessError::UnsuitedData { filter: f.label.clone(), reason })?;
-    let mut filter = (entry.build)(&f.params, &models, job.particles)
-        .map_err(|source| HarnessError::Parameter { filter: f.label.clone(), source })?;
-    let o = run_filter(&dataset, filter.as_mut(), job.seed, &plan.config.metrics, &mut |_| {});
-    // Truth that scores no step is a misconfiguration worth one warning per sweep.
-    static WARNED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-    if let Some(w) = o.unscored_truth(&dataset, &plan.config.metrics)
-        && !WARNED.swap(true, std::sync::atomic::Ordering::Relaxed)
-    {
-        eprintln!("warning: run {} of {} N={}: {w} (said once)", job.run, f.label, job.particles);
+    plan.points[job.point].scenario.kind.visit(JobRun { plan, job, steps_dir })
+}
+
+/// One job, generic over its world: the data set of the job's seed, the filter built on the
+/// data set's models, run and scored by [`rfslam_eval::run::run_filter_in`]; in a world of
+/// several landmark types, with `steps_dir`, the per-step scores written there
+/// ([`STEPS_DIR`]).
+struct JobRun<'a> {
+    plan: &'a Plan,
+    job: &'a Job,
+    steps_dir: Option<&'a Path>,
+}
+
+impl Visitor for JobRun<'_> {
+    type Output = Result<RunRow, HarnessError>;
+
+    fn visit<W: World<X, M, Z>, const X: usize, const M: usize, const Z: usize>(self) -> Self::Output {
+        let JobRun { plan, job, steps_dir } = self;
+        let point = &plan.points[job.point];
+        let f = &point.filters[job.filter];
+        let sc = point.scenario.get::<W, X, M, Z>().ok_or_else(|| {
+            HarnessError::Run(format!("grid point {} holds no scenario of the world {}", job.point, W::NAME))
+        })?;
+        let dataset = W::dataset(sc, job.seed).map_err(HarnessError::Data)?;
+        let entry = registry::find(&f.name).ok_or_else(|| HarnessError::Run(format!("unknown filter {}", f.name)))?;
+        registry::check_dataset(entry, &dataset)
+            .map_err(|reason| HarnessError::UnsuitedData { filter: f.label.clone(), reason })?;
+        let models = W::models(&dataset).map_err(HarnessError::Data)?;
+        let mut filter = registry::build_in(&f.params, &models, job.particles, &f.name)
+            .map_err(|source| HarnessError::Parameter { filter: f.label.clone(), source })?;
+        let metrics = &plan.config.metrics;
+        let comps = W::components(&models);
+        // The per-step scores of a world of several landmark types (the radio world's).
+        let typed = dataset.meta.landmarks.types.len() > 1;
+        let truth: Vec<_> = dataset.landmarks.iter().flatten().map(|l| (l.mark, l.position)).collect();
+        let marks = dataset.meta.landmarks.types.len();
+        let mut steps: Vec<StepRow> = Vec::new();
+        let (mut scratch, mut est) = ((Vec::new(), Vec::new()), Vec::new());
+        let o = rfslam_eval::run::run_filter_in(&dataset, comps, filter.as_mut(), job.seed, metrics, &mut |rec| {
+            if steps_dir.is_none() || !typed {
+                return;
+            }
+            let mut pose = rfslam_metrics::PoseErrors::new();
+            if let Some(t) = rec.truth {
+                pose.push_state(&comps, &rec.estimate.pose, &t.state);
+            }
+            est.clear();
+            est.extend(rec.estimate.map.iter().map(|p| (p.mark, p.position)));
+            let gospa =
+                rfslam_metrics::gospa_per_mark(&truth, &est, marks, metrics.gospa_c, metrics.gospa_p, &mut scratch)
+                    .map_or_else(|_| vec![f64::NAN; marks], |g| g.iter().map(|g| g.total).collect());
+            steps.push(StepRow { t: rec.t, pose, gospa, landmarks: rec.estimate.map.len() });
+        });
+        // Truth that scores no step is a misconfiguration worth one warning per sweep.
+        static WARNED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+        if let Some(w) = o.unscored_truth(&dataset, metrics)
+            && !WARNED.swap(true, std::sync::atomic::Ordering::Relaxed)
+        {
+            eprintln!("warning: run {} of {} N={}: {w} (said once)", job.run, f.label, job.particles);
+        }
+        let row = finite_row(plan, job, o.not_finite(metrics), o.values)?;
+        if let (Some(dir), true) = (steps_dir, typed) {
+            write_steps(dir, plan, job, &steps)?;
+        }
+        Ok(row)
     }
-    finite_row(plan, job, o.not_finite(&plan.config.metrics), o.values)
 }
 
 /// The row of a finished job; a result that is not a finite number (`not_finite` names it)
@@ -164,48 +207,6 @@ fn write_steps(dir: &Path, plan: &Plan, job: &Job, steps: &[StepRow]) -> Result<
     let tmp = path.with_extension("csv.tmp");
     std::fs::write(&tmp, text).map_err(|e| HarnessError::io(&tmp, e))?;
     std::fs::rename(&tmp, &path).map_err(|e| HarnessError::io(&path, e))
-}
-
-/// Runs one job of the 5G radio world: the data set of the job's seed
-/// ([`rfslam_sim::radio_dataset`]), the filter built on its models
-/// ([`rfslam_sim::radio_world_models`]), run and scored by the same loop as every world
-/// ([`rfslam_eval::run::run_filter_in`]); with `steps_dir`, the per-step scores are written
-/// there ([`STEPS_DIR`]).
-fn run_radio_job(plan: &Plan, job: &Job, sc: &RadioScenario, steps_dir: Option<&Path>) -> Result<RunRow, HarnessError> {
-    let f = &plan.points[job.point].filters[job.filter];
-    let entry = registry::find(&f.name).ok_or_else(|| HarnessError::Run(format!("unknown filter {}", f.name)))?;
-    let build =
-        entry.radio.ok_or_else(|| HarnessError::Run(format!("filter {} does not run in the radio5g world", f.name)))?;
-    let ds = rfslam_sim::radio_dataset(sc, job.seed).map_err(HarnessError::Data)?;
-    let models = rfslam_sim::radio_world_models(&ds).map_err(HarnessError::Data)?;
-    let mut filter = build(&f.params, &models, job.particles)
-        .map_err(|source| HarnessError::Parameter { filter: f.label.clone(), source })?;
-    let metrics = &plan.config.metrics;
-    let comps = models.vehicle.model.components();
-    let truth: Vec<_> = ds.landmarks.iter().flatten().map(|l| (l.mark, l.position)).collect();
-    let marks = ds.meta.landmarks.types.len();
-    let mut steps: Vec<StepRow> = Vec::new();
-    let mut scratch = (Vec::new(), Vec::new());
-    let mut est = Vec::new();
-    let o = rfslam_eval::run::run_filter_in(&ds, comps, filter.as_mut(), job.seed, metrics, &mut |rec| {
-        if steps_dir.is_none() {
-            return;
-        }
-        let mut pose = rfslam_metrics::PoseErrors::new();
-        if let Some(t) = rec.truth {
-            pose.push_state(&comps, &rec.estimate.pose, &t.state);
-        }
-        est.clear();
-        est.extend(rec.estimate.map.iter().map(|p| (p.mark, p.position)));
-        let gospa = rfslam_metrics::gospa_per_mark(&truth, &est, marks, metrics.gospa_c, metrics.gospa_p, &mut scratch)
-            .map_or_else(|_| vec![f64::NAN; marks], |g| g.iter().map(|g| g.total).collect());
-        steps.push(StepRow { t: rec.t, pose, gospa, landmarks: rec.estimate.map.len() });
-    });
-    let row = finite_row(plan, job, o.not_finite(metrics), o.values)?;
-    if let Some(dir) = steps_dir {
-        write_steps(dir, plan, job, &steps)?;
-    }
-    Ok(row)
 }
 
 enum Progress {

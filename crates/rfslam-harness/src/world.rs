@@ -1,0 +1,240 @@
+//! The list of worlds: every world is declared once, in one line of the `worlds!` list, and every
+//! layer that runs a filter (the job runner of a sweep, `rfslam run`, `rfslam simulate`)
+//! goes through it: a world brings its vehicle and sensor models, its data set's model
+//! tables, its scenario, the data set of a run and the filters' models of a data set.
+//!
+//! A world is a type implementing [`World`]; [`WorldKind`] names the worlds, and
+//! [`WorldKind::visit`] calls a [`Visitor`] with the world's type, so that code written once,
+//! generic over the world, serves every world.
+//!
+//! Adding a world (or a planar sensor model): its model file, then one line in `worlds!`.
+
+use std::any::Any;
+use std::marker::PhantomData;
+use std::sync::Arc;
+
+use rfslam_core::model::{
+    RadioSensor, RadioVehicle, RangeBearingModel, RelativePositionModel, StateComponent, VehicleModel, WorldVehicle,
+};
+use rfslam_core::{InvertibleSensorModel, Motion, PlanarSensorModel, WorldModels};
+use rfslam_data::{DataError, Dataset, DatasetModels, ModelConfig, RadioModels, RadioScenario, ScenarioConfig};
+use rfslam_sim::ScenarioData;
+
+/// A world: the vehicle and sensor models its filters run on (states of `X` components,
+/// landmarks of `M` coordinates, measurements of `Z` components), the model tables its data
+/// sets carry, its scenario, and how a scenario becomes the data set of a run and a data set
+/// the filters' models.
+pub trait World<const X: usize, const M: usize, const Z: usize>: 'static {
+    /// The world's name, as data sets (`dataset.toml`'s `world`) and outputs name it.
+    const NAME: &'static str;
+    /// The vehicle model.
+    type Vehicle: WorldVehicle<X>;
+    /// The sensor model.
+    type Sensor: InvertibleSensorModel<X, M, Z>;
+    /// The model tables of its data sets (`dataset.toml`).
+    type Models: DatasetModels + Send + Sync;
+    /// A scenario of the world, validated, with what it loads once (a generated world's
+    /// landmarks and trajectory).
+    type Scenario: Any + Send + Sync;
+
+    /// The data set of run `seed` of the scenario `sc`.
+    fn dataset(sc: &Self::Scenario, seed: u64) -> Result<Dataset<Self::Models, X, M, Z>, DataError>;
+
+    /// The models the filters assume on the scenario `sc` (those of its every data set),
+    /// built from the scenario alone: what an experiment's filters are checked against.
+    #[allow(clippy::type_complexity)]
+    fn scenario_models(sc: &Self::Scenario) -> Result<WorldModels<Self::Vehicle, Self::Sensor, X, M, Z>, DataError>;
+
+    /// The models the filters assume on the data set `ds`.
+    #[allow(clippy::type_complexity)]
+    fn models(
+        ds: &Dataset<Self::Models, X, M, Z>,
+    ) -> Result<WorldModels<Self::Vehicle, Self::Sensor, X, M, Z>, DataError>;
+
+    /// What each state component is (the vehicle model's).
+    fn components(models: &WorldModels<Self::Vehicle, Self::Sensor, X, M, Z>) -> [StateComponent; X] {
+        models.vehicle.model.components()
+    }
+}
+
+/// A planar world: the planar vehicle (the odometry's motion model) and the planar sensor
+/// model `S`, the planar scenarios and data sets (`[motion]`, `[sensor]`, `[detection]`,
+/// `[clutter]`).
+pub struct PlanarWorld<S>(PhantomData<S>);
+
+/// A planar scenario with its world, loaded once (none for a recorded data set or Victoria
+/// Park).
+#[derive(Debug, Clone)]
+pub struct PlanarScenario {
+    /// The scenario file, validated.
+    pub config: ScenarioConfig,
+    /// Its world.
+    pub world: Option<Arc<rfslam_sim::World>>,
+}
+
+impl<S: PlanarSensorModel> World<3, 2, 2> for PlanarWorld<S> {
+    const NAME: &'static str = <S as rfslam_core::SensorModel<3, 2, 2>>::NAME;
+    type Vehicle = Motion;
+    type Sensor = S;
+    type Models = ModelConfig;
+    type Scenario = PlanarScenario;
+
+    fn dataset(sc: &PlanarScenario, seed: u64) -> Result<Dataset, DataError> {
+        sc.config.build_dataset(sc.world.as_deref(), seed)
+    }
+
+    fn scenario_models(sc: &PlanarScenario) -> Result<WorldModels<Motion, S, 3, 2, 2>, DataError> {
+        Ok(sc.config.models_for(sc.world.as_deref())?.world::<S>())
+    }
+
+    fn models(ds: &Dataset) -> Result<WorldModels<Motion, S, 3, 2, 2>, DataError> {
+        Ok(ds.models().world::<S>())
+    }
+}
+
+/// The 5G mmWave world of the PMBM-SLAM paper (\[Kim2022\] Section VI-A): the radio vehicle
+/// (`[x, y, z, heading, clock bias]`) and the TOA/DOD/DOA sensor, landmarks of three types
+/// in 3-D, the base station known.
+pub struct Radio5g;
+
+impl World<5, 3, 5> for Radio5g {
+    const NAME: &'static str = "radio5g";
+    type Vehicle = RadioVehicle;
+    type Sensor = RadioSensor;
+    type Models = RadioModels;
+    type Scenario = RadioScenario;
+
+    fn dataset(sc: &RadioScenario, seed: u64) -> Result<rfslam_sim::RadioDataset, DataError> {
+        rfslam_sim::radio_dataset(sc, seed)
+    }
+
+    fn scenario_models(sc: &RadioScenario) -> Result<rfslam_sim::RadioWorldModels, DataError> {
+        let world = rfslam_sim::RadioWorld::from_scenario(sc);
+        Ok(WorldModels {
+            vehicle: rfslam_core::model::Vehicle {
+                model: rfslam_sim::radio_vehicle(sc),
+                control_noise: nalgebra::Matrix3::zeros(),
+                initial_state: world.x0,
+            },
+            sensor: rfslam_sim::radio_sensor(sc, true),
+            landmark_types: world.landmarks.iter().map(|l| (l.0, l.2)).collect(),
+        })
+    }
+
+    fn models(ds: &rfslam_sim::RadioDataset) -> Result<rfslam_sim::RadioWorldModels, DataError> {
+        rfslam_sim::radio_world_models(ds)
+    }
+}
+
+/// Code generic over the world, called with a world's type by [`WorldKind::visit`].
+pub trait Visitor {
+    /// What the visit gives.
+    type Output;
+
+    /// The visit of the world `W`.
+    fn visit<W: World<X, M, Z>, const X: usize, const M: usize, const Z: usize>(self) -> Self::Output;
+}
+
+/// Declares the list of worlds: each line is a variant of [`WorldKind`], the world's type
+/// and its dimensions `[X, M, Z]`.
+macro_rules! worlds {
+    ($($(#[$doc:meta])* $variant:ident => $world:ty, [$x:literal, $m:literal, $z:literal];)*) => {
+        /// Every world, by name ([`World::NAME`]).
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+        pub enum WorldKind {
+            $($(#[$doc])* $variant,)*
+        }
+
+        impl WorldKind {
+            /// Every world, in the order of the list.
+            pub const ALL: &'static [WorldKind] = &[$(WorldKind::$variant,)*];
+
+            /// The world's name.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(WorldKind::$variant => <$world as World<$x, $m, $z>>::NAME,)*
+                }
+            }
+
+            /// Calls `v` with this world's type.
+            pub fn visit<V: Visitor>(self, v: V) -> V::Output {
+                match self {
+                    $(WorldKind::$variant => v.visit::<$world, $x, $m, $z>(),)*
+                }
+            }
+        }
+    };
+}
+
+worlds! {
+    /// The planar range-bearing sensor (\[Kaltiokallio2024\] eq. 50): the papers' 2-D worlds
+    /// and Victoria Park.
+    RangeBearing => PlanarWorld<RangeBearingModel>, [3, 2, 2];
+    /// The planar relative-position sensor.
+    RelativePosition => PlanarWorld<RelativePositionModel>, [3, 2, 2];
+    /// The 5G mmWave radio world of \[Kim2022\].
+    Radio5g => Radio5g, [5, 3, 5];
+}
+
+impl WorldKind {
+    /// The world of the name `name`.
+    pub fn from_name(name: &str) -> Option<WorldKind> {
+        WorldKind::ALL.iter().copied().find(|w| w.name() == name)
+    }
+
+    /// The names of every world, comma separated (for error messages).
+    pub fn names() -> String {
+        WorldKind::ALL.iter().map(|w| w.name()).collect::<Vec<_>>().join(", ")
+    }
+
+    /// The world of a planar scenario or data set's `[sensor] model`.
+    pub fn planar(sensor: rfslam_core::SensorKind) -> WorldKind {
+        match sensor {
+            rfslam_core::SensorKind::RangeBearing => WorldKind::RangeBearing,
+            rfslam_core::SensorKind::RelativePosition => WorldKind::RelativePosition,
+        }
+    }
+}
+
+/// A scenario of some world, parsed and validated: its world and the world's
+/// [`World::Scenario`].
+#[derive(Clone)]
+pub struct WorldScenario {
+    /// The world.
+    pub kind: WorldKind,
+    scenario: Arc<dyn Any + Send + Sync>,
+}
+
+impl std::fmt::Debug for WorldScenario {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("WorldScenario").field("kind", &self.kind).finish_non_exhaustive()
+    }
+}
+
+impl WorldScenario {
+    /// A planar scenario with its loaded world.
+    pub fn planar(config: ScenarioConfig, world: Option<Arc<rfslam_sim::World>>) -> WorldScenario {
+        let kind = WorldKind::planar(config.sensor.model);
+        WorldScenario { kind, scenario: Arc::new(PlanarScenario { config, world }) }
+    }
+
+    /// A radio scenario.
+    pub fn radio(sc: RadioScenario) -> WorldScenario {
+        WorldScenario { kind: WorldKind::Radio5g, scenario: Arc::new(sc) }
+    }
+
+    /// The world `W`'s scenario; `None` when this is a scenario of another world.
+    pub fn get<W: World<X, M, Z>, const X: usize, const M: usize, const Z: usize>(&self) -> Option<&W::Scenario> {
+        self.scenario.downcast_ref::<W::Scenario>()
+    }
+
+    /// The planar scenario, when this is one.
+    pub fn planar_config(&self) -> Option<&ScenarioConfig> {
+        self.scenario.downcast_ref::<PlanarScenario>().map(|p| &p.config)
+    }
+
+    /// The radio scenario, when this is one.
+    pub fn radio_config(&self) -> Option<&RadioScenario> {
+        self.scenario.downcast_ref::<RadioScenario>()
+    }
+}
