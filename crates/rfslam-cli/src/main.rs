@@ -226,23 +226,13 @@ pub(crate) fn split_set(s: &str) -> Result<(&str, toml::Value), Failure> {
     Ok((k.trim(), parse_cli_value(v.trim())))
 }
 
-/// Loads a scenario with `--set` overrides applied (errors name the file or the option).
+/// Loads a scenario of any world with `--set` overrides applied (errors name the file or the
+/// option), with its world loaded.
 pub(crate) fn scenario_with_overrides(
     path: &Path,
     sets: &[(String, toml::Value)],
-) -> Result<rfslam_data::ScenarioConfig, Failure> {
+) -> Result<rfslam_harness::world::WorldScenario, Failure> {
     let (text, mut table) = load_scenario_table(path)?;
-    if rfslam_data::is_radio(&table) {
-        return Err(HarnessError::Config {
-            file: path.to_path_buf(),
-            line: rfslam_data::locate::locate(&text, "world.kind"),
-            key: "world.kind".into(),
-            message: "the radio5g world runs through `rfslam sweep` (an experiment naming this scenario); \
-                      `rfslam run` and `rfslam simulate` work on the planar worlds and data sets"
-                .into(),
-        }
-        .into());
-    }
     for (k, v) in sets {
         set_dotted(&mut table, k, v.clone()).map_err(|m| usage(format!("--set scenario.{k}: {m}")))?;
     }
@@ -260,22 +250,54 @@ pub(crate) fn scenario_with_overrides(
             },
         }
     };
-    Ok(scenario_from_table(&table, &origin)?)
+    if rfslam_data::is_radio(&table) {
+        let sc = rfslam_harness::experiment::radio_scenario_from_table(&table, &origin)?;
+        return Ok(rfslam_harness::world::WorldScenario::radio(sc));
+    }
+    let sc = scenario_from_table(&table, &origin)?;
+    let world = sc.load_world().map_err(HarnessError::Data)?;
+    Ok(rfslam_harness::world::WorldScenario::planar(sc, world.map(std::sync::Arc::new)))
 }
 
+/// `rfslam simulate`: the data set of run `seed` of a scenario of any world, written to `out`.
 fn simulate(scenario: &Path, seed: u64, set: &[String], out: &Path) -> Result<(), Failure> {
     let sets: Vec<(String, toml::Value)> = set
         .iter()
         .map(|s| split_set(s).map(|(k, v)| (k.trim_start_matches("scenario.").to_string(), v)))
         .collect::<Result<_, _>>()?;
     let sc = scenario_with_overrides(scenario, &sets)?;
-    let world = sc.load_world().map_err(HarnessError::Data)?;
-    let ds = sc.build_dataset(world.as_ref(), seed).map_err(HarnessError::Data)?;
-    // Writing the data set is a failure while running (exit 1), not bad input.
-    ds.write(out).map_err(|e| anyhow!("{e}"))?;
-    let n_z: usize = ds.scans.iter().map(|s| s.z.len()).sum();
-    outln!("wrote {} ({} scans, {} measurements) to {}", ds.meta.name, ds.scans.len(), n_z, out.display());
-    Ok(())
+    sc.kind.visit(Simulate { sc: &sc, seed, out })
+}
+
+/// The visit of `rfslam simulate` in a scenario's world.
+struct Simulate<'a> {
+    sc: &'a rfslam_harness::world::WorldScenario,
+    seed: u64,
+    out: &'a Path,
+}
+
+impl rfslam_harness::world::Visitor for Simulate<'_> {
+    type Output = Result<(), Failure>;
+
+    fn visit<W: rfslam_harness::world::World<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
+        self,
+    ) -> Self::Output {
+        let sc =
+            self.sc.get::<W, X, M, Z>().ok_or_else(|| usage(format!("not a scenario of the world {}", W::NAME)))?;
+        let ds = W::dataset(sc, self.seed).map_err(HarnessError::Data)?;
+        // Writing the data set is a failure while running (exit 1), not bad input.
+        ds.write(self.out).map_err(|e| anyhow!("{e}"))?;
+        let n_z: usize = ds.scans.iter().map(|s| s.z.len()).sum();
+        outln!(
+            "wrote {} ({} world, {} scans, {} measurements) to {}",
+            ds.meta.name,
+            W::NAME,
+            ds.scans.len(),
+            n_z,
+            self.out.display()
+        );
+        Ok(())
+    }
 }
 
 /// This invocation as a shell command (`rfslam` and its arguments, quoted where needed), for
@@ -297,9 +319,12 @@ fn main() -> ExitCode {
         Command::InitDataset { dir } => init_dataset::init_dataset(&dir),
         Command::Filters => {
             for e in registry::REGISTRY {
-                let radio = if e.radio.is_some() { " [also the radio5g world]" } else { "" };
-                outln!("{:<22} {}{radio}", e.name, e.summary);
+                outln!("{:<22} {}", e.name, e.summary);
             }
+            outln!(
+                "\nEvery filter runs in every world ({}), or is refused with the reason when an experiment is checked.",
+                rfslam_harness::world::WorldKind::names()
+            );
             Ok(())
         }
         Command::Simulate { scenario, seed, set, out } => simulate(&scenario, seed, &set, &out),

@@ -14,11 +14,14 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, anyhow};
 use clap::Args;
-use rfslam_data::Dataset;
+use rfslam_core::model::StateComponent;
+use rfslam_data::{Dataset, DatasetModels};
+use rfslam_eval::run::Scoring;
 use rfslam_eval::trace::{self, ParticlesWriter, StepsWriter};
 use rfslam_eval::{JobOutcome, MetricsConfig};
 use rfslam_harness::experiment::set_dotted;
 use rfslam_harness::memory::{JobMemory, machine_memory};
+use rfslam_harness::world::{PlanarScenario, Visitor, World, WorldKind, WorldScenario};
 use rfslam_harness::{HarnessError, registry};
 use rfslam_sim::ScenarioData;
 
@@ -100,22 +103,37 @@ fn overrides(set: &[String]) -> Result<Overrides, Failure> {
     Ok(Overrides { params, scenario, metrics })
 }
 
-fn load_dataset(args: &RunArgs, scen_sets: &[(String, toml::Value)]) -> Result<Dataset, Failure> {
+/// Where a run's data come from: a data set directory, or a scenario (of any world) with
+/// its overrides applied.
+enum Source {
+    Dataset(PathBuf),
+    Scenario(WorldScenario),
+}
+
+/// The world of a run's data: the data set's (`dataset.toml`'s `world`), or the scenario's.
+fn source(args: &RunArgs, scen_sets: &[(String, toml::Value)]) -> Result<(WorldKind, Source), Failure> {
     match (&args.dataset, &args.scenario) {
         (Some(dir), _) => {
             if !scen_sets.is_empty() {
                 return Err(usage("--set scenario.* needs --scenario, not --dataset".into()));
             }
-            let ds = <Dataset>::read(dir).map_err(HarnessError::Data)?;
-            fits(args, &JobMemory::estimate(None, &ds.models(), args.particles))?;
-            Ok(ds)
+            let name = rfslam_data::world_of(dir).map_err(HarnessError::Data)?;
+            let kind = WorldKind::from_name(&name).ok_or_else(|| {
+                let file = dir.join(rfslam_data::dataset::files::META);
+                let text = std::fs::read_to_string(&file).unwrap_or_default();
+                let key = if text.contains("world") { "world" } else { "sensor.model" };
+                HarnessError::Config {
+                    line: rfslam_data::locate::locate(&text, key),
+                    file,
+                    key: key.into(),
+                    message: format!("\"{name}\" is not a world of rfslam (worlds: {})", WorldKind::names()),
+                }
+            })?;
+            Ok((kind, Source::Dataset(dir.clone())))
         }
         (None, Some(path)) => {
             let sc = scenario_with_overrides(path, scen_sets)?;
-            let world = sc.load_world().map_err(HarnessError::Data)?;
-            let models = sc.models_for(world.as_ref()).map_err(HarnessError::Data)?;
-            fits(args, &JobMemory::estimate(world.as_ref(), &models, args.particles))?;
-            Ok(sc.build_dataset(world.as_ref(), args.seed).map_err(HarnessError::Data)?)
+            Ok((sc.kind, Source::Scenario(sc)))
         }
         (None, None) => Err(usage("give --dataset DIR or --scenario FILE".into())),
     }
@@ -130,84 +148,125 @@ fn fits(args: &RunArgs, need: &JobMemory) -> Result<(), Failure> {
     }
 }
 
-/// Runs `rfslam run`.
+/// Runs `rfslam run`, in the world of its data.
 pub fn run(args: &RunArgs) -> Result<(), Failure> {
     let filter = args.filter.as_str();
-    let entry = registry::find(filter)
+    registry::find(filter)
         .ok_or_else(|| usage(format!("unknown filter `{filter}`; registered filters: {}", registry::names())))?;
     let ov = overrides(&args.set)?;
-    let ds = load_dataset(args, &ov.scenario)?;
-    registry::check_dataset(entry, &ds)
-        .map_err(|reason| HarnessError::UnsuitedData { filter: filter.to_string(), reason })?;
-    let models = ds.models();
-    let mut f =
-        (entry.build)(&ov.params, &models, args.particles).map_err(|e| usage(format!("filter `{filter}`: {e}")))?;
-    if args.save_particles && !f.particle_poses(&mut Vec::new()) {
-        return Err(usage(format!(
-            "--save-particles: filter `{filter}` has no particles to save (every particle filter has; dead-reckoning and mpmb-slam have none)"
-        )));
-    }
-
-    let out = args.out.as_path();
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let o = run_with_outputs(args, &ds, f.as_mut(), &ov.metrics)?;
-    if let Some(w) = o.unscored_truth(&ds, &ov.metrics) {
-        eprintln!("warning: {w}");
-    }
-    // A score that is not a finite number is a failed run (exit 1), not a result.
-    if let Some(what) = o.not_finite(&ov.metrics) {
-        trace::remove_stale(&out.join("metrics.json"))?;
-        return Err(anyhow!(
-            "{filter} N={} seed={} failed: {what}, not a finite number (trajectory.csv in {} shows the estimate; no metrics.json is written)",
-            args.particles,
-            args.seed,
-            out.display()
-        )
-        .into());
-    }
-    write_map(out, &o)?;
-    trace::write_run_context(&ds, &ds.models().motion, &rfslam_eval::run::PLANAR, out)?;
-    write_metrics(args, &ds, &o, &ov.metrics)?;
-    outln!(
-        "{filter} N={} seed={}: {} steps, pos RMSE {} m, heading RMSE {} deg, GOSPA {} m, {} ms/step -> {}",
-        args.particles,
-        args.seed,
-        o["steps"],
-        shown(o["pos_rmse_m"], 3),
-        shown(o["head_rmse_deg"], 3),
-        shown(o["gospa_m"], 2),
-        shown(o["time_ms_per_step"], 4),
-        out.display()
-    );
-    Ok(())
+    let (kind, source) = source(args, &ov.scenario)?;
+    kind.visit(Run { args, ov: &ov, source: &source })
 }
 
-/// Runs the filter, writing `trajectory.csv` and the optional per-step files as it goes.
-fn run_with_outputs(
+/// The visit of `rfslam run` in its data's world.
+struct Run<'a> {
+    args: &'a RunArgs,
+    ov: &'a Overrides,
+    source: &'a Source,
+}
+
+impl Visitor for Run<'_> {
+    type Output = Result<(), Failure>;
+
+    fn visit<W: World<X, M, Z>, const X: usize, const M: usize, const Z: usize>(self) -> Self::Output {
+        let Run { args, ov, source } = self;
+        let filter = args.filter.as_str();
+        let entry = registry::find(filter)
+            .ok_or_else(|| usage(format!("unknown filter `{filter}`; registered filters: {}", registry::names())))?;
+        let ds: Dataset<W::Models, X, M, Z> = match source {
+            Source::Dataset(dir) => {
+                let ds = Dataset::<W::Models, X, M, Z>::read(dir).map_err(HarnessError::Data)?;
+                if let Some(planar) = (&ds as &dyn std::any::Any).downcast_ref::<Dataset>() {
+                    fits(args, &JobMemory::estimate(None, &planar.models(), args.particles))?;
+                }
+                ds
+            }
+            Source::Scenario(sc) => {
+                let typed = sc.get::<W, X, M, Z>().ok_or_else(|| usage(format!("not a scenario of {}", W::NAME)))?;
+                if let Some(planar) = (typed as &dyn std::any::Any).downcast_ref::<PlanarScenario>() {
+                    let world = planar.world.as_deref();
+                    let models = planar.config.models_for(world).map_err(HarnessError::Data)?;
+                    fits(args, &JobMemory::estimate(world, &models, args.particles))?;
+                }
+                W::dataset(typed, args.seed).map_err(HarnessError::Data)?
+            }
+        };
+        registry::check_dataset(entry, &ds)
+            .map_err(|reason| HarnessError::UnsuitedData { filter: filter.to_string(), reason })?;
+        let models = W::models(&ds).map_err(HarnessError::Data)?;
+        let mut f = registry::build_in(&ov.params, &models, args.particles, filter)
+            .map_err(|e| usage(format!("filter `{filter}`: {e}")))?;
+        if args.save_particles && !f.particle_poses(&mut Vec::new()) {
+            return Err(usage(format!(
+                "--save-particles: filter `{filter}` has no particles to save (every particle filter has; dead-reckoning and mpmb-slam have none)"
+            )));
+        }
+        let components = W::components(&models);
+        let out = args.out.as_path();
+        std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+        // A world of several landmark types is scored per type, and with the clock bias, as
+        // its sweeps are.
+        let metrics = &MetricsConfig { typed_world: ds.meta.landmarks.types.len() > 1, ..ov.metrics.clone() };
+        let o = run_with_outputs(args, &ds, components, f.as_mut(), metrics)?;
+        if let Some(w) = o.unscored_truth(&ds, metrics) {
+            eprintln!("warning: {w}");
+        }
+        // A score that is not a finite number is a failed run (exit 1), not a result.
+        if let Some(what) = o.not_finite(metrics) {
+            trace::remove_stale(&out.join("metrics.json"))?;
+            return Err(anyhow!(
+                "{filter} N={} seed={} failed: {what}, not a finite number (trajectory.csv in {} shows the estimate; no metrics.json is written)",
+                args.particles,
+                args.seed,
+                out.display()
+            )
+            .into());
+        }
+        write_map(out, &ds, &o)?;
+        trace::write_run_context(&ds, &models.vehicle.model, &components, out)?;
+        write_metrics(args, W::NAME, &ds.meta.name, &o, metrics)?;
+        outln!(
+            "{filter} N={} seed={}: {} steps, pos RMSE {} m, heading RMSE {} deg, GOSPA {} m, {} ms/step -> {}",
+            args.particles,
+            args.seed,
+            o["steps"],
+            shown(o["pos_rmse_m"], 3),
+            shown(o["head_rmse_deg"], 3),
+            shown(o["gospa_m"], 2),
+            shown(o["time_ms_per_step"], 4),
+            out.display()
+        );
+        Ok(())
+    }
+}
+
+/// Runs the filter, writing `trajectory.csv` (the estimate's state after every scan, a
+/// column per component) and the optional per-step files as it goes.
+fn run_with_outputs<C: DatasetModels, const X: usize, const M: usize, const Z: usize>(
     args: &RunArgs,
-    ds: &Dataset,
-    f: &mut dyn rfslam_core::SlamFilter,
+    ds: &Dataset<C, X, M, Z>,
+    components: [StateComponent; X],
+    f: &mut dyn rfslam_core::SlamFilter<X, M, Z>,
     metrics: &MetricsConfig,
-) -> Result<JobOutcome, Failure> {
+) -> Result<JobOutcome<X, M>, Failure> {
     let out = args.out.as_path();
     let traj_path = out.join("trajectory.csv");
     let mut traj = csv::Writer::from_path(&traj_path).with_context(|| format!("writing {}", traj_path.display()))?;
-    traj.write_record(["t", "x", "y", "heading"]).context("trajectory.csv")?;
+    let mut header = vec!["t"];
+    header.extend(trace::component_names(&components));
+    traj.write_record(&header).context("trajectory.csv")?;
     let steps_path = out.join(trace::files::STEPS);
     let parts_path = out.join(trace::files::PARTICLES);
+    let scoring = Scoring::of(ds, components);
     let mut steps = match args.save_steps {
-        true => Some(StepsWriter::create(
-            &steps_path,
-            &rfslam_eval::run::Scoring::of(ds, rfslam_eval::run::PLANAR),
-            metrics,
-        )?),
+        true => Some(StepsWriter::create(&steps_path, &scoring, metrics)?),
         false => {
             trace::remove_stale(&steps_path)?;
             None
         }
     };
     let mut parts = match args.save_particles {
-        true => Some(ParticlesWriter::create(&parts_path, &rfslam_eval::run::PLANAR)?),
+        true => Some(ParticlesWriter::create(&parts_path, &components)?),
         false => {
             trace::remove_stale(&parts_path)?;
             None
@@ -215,13 +274,16 @@ fn run_with_outputs(
     };
     // The first write error of each file (the run goes on; the error is reported after it).
     let mut write_err: Option<(PathBuf, csv::Error)> = None;
-    let o = rfslam_eval::run_filter(ds, f, args.seed, metrics, &mut |rec| {
+    let mut row: Vec<String> = Vec::with_capacity(X + 1);
+    let o = rfslam_eval::run::run_filter_in(ds, components, f, args.seed, metrics, &mut |rec| {
         if write_err.is_some() {
             return;
         }
-        let p = rec.estimate.pose;
+        row.clear();
+        row.push(rec.t.to_string());
+        row.extend(rec.estimate.pose.iter().map(|v| v.to_string()));
         let res = traj
-            .write_record(&[rec.t.to_string(), p[0].to_string(), p[1].to_string(), p[2].to_string()])
+            .write_record(&row)
             .map_err(|e| (traj_path.clone(), e))
             .and_then(|_| steps.as_mut().map_or(Ok(()), |w| w.record(rec)).map_err(|e| (steps_path.clone(), e)))
             .and_then(|_| parts.as_mut().map_or(Ok(true), |w| w.record(rec)).map_err(|e| (parts_path.clone(), e)));
@@ -242,13 +304,30 @@ fn run_with_outputs(
     Ok(o)
 }
 
-fn write_map(out: &Path, o: &JobOutcome) -> Result<(), Failure> {
+/// `map.csv`: the final map estimate, a column per landmark coordinate, the landmark type in
+/// a world of several, and the filter's weight.
+fn write_map<C: DatasetModels, const X: usize, const M: usize, const Z: usize>(
+    out: &Path,
+    ds: &Dataset<C, X, M, Z>,
+    o: &JobOutcome<X, M>,
+) -> Result<(), Failure> {
     let map_path = out.join("map.csv");
     let mut map = csv::Writer::from_path(&map_path).with_context(|| map_path.display().to_string())?;
-    map.write_record(["x", "y", "weight"]).context("map.csv")?;
+    let types = &ds.meta.landmarks.types;
+    let typed = types.len() > 1;
+    let mut header: Vec<&str> = ds.meta.models.columns().landmark.to_vec();
+    if typed {
+        header.push("type");
+    }
+    header.push("weight");
+    map.write_record(&header).context("map.csv")?;
     for m in &o.final_estimate.map {
-        map.write_record(&[m.position.x.to_string(), m.position.y.to_string(), m.weight.to_string()])
-            .context("map.csv")?;
+        let mut row: Vec<String> = m.position.iter().map(|v| v.to_string()).collect();
+        if typed {
+            row.push(types.get(usize::from(m.mark)).cloned().unwrap_or_default());
+        }
+        row.push(m.weight.to_string());
+        map.write_record(&row).context("map.csv")?;
     }
     map.flush().context("map.csv")?;
     Ok(())
@@ -259,14 +338,22 @@ fn shown(x: f64, decimals: usize) -> String {
     if x.is_finite() { format!("{x:.decimals$}") } else { "n/a".to_string() }
 }
 
-/// `metrics.json`: the run's identity and the value of every column its metrics give
-/// (counts as integers, a value that is not available as null).
-fn write_metrics(args: &RunArgs, ds: &Dataset, o: &JobOutcome, metrics: &MetricsConfig) -> Result<(), Failure> {
+/// `metrics.json`: the run's identity (filter, particles, seed, data set and world) and the
+/// value of every column its metrics give (counts as integers, a value that is not available
+/// as null).
+fn write_metrics<const X: usize, const M: usize>(
+    args: &RunArgs,
+    world: &str,
+    dataset: &str,
+    o: &JobOutcome<X, M>,
+    metrics: &MetricsConfig,
+) -> Result<(), Failure> {
     let mut metrics_json = serde_json::json!({
         "filter": args.filter,
         "particles": args.particles,
         "seed": args.seed,
-        "dataset": ds.meta.name,
+        "dataset": dataset,
+        "world": world,
     });
     for c in rfslam_eval::metric::columns(metrics) {
         let x = o[c.name];

@@ -24,11 +24,15 @@ fn radio(c: &mut Criterion) {
     group.sample_size(10).warm_up_time(std::time::Duration::from_millis(500));
     group.throughput(Throughput::Elements(ds.scans.len() as u64));
     for f in &point.filters {
-        let build = registry::find(&f.name).and_then(|e| e.radio).expect("a radio filter");
         let n = *f.particles.iter().max().expect("a particle count");
         group.bench_function(format!("{} N={n} lap", f.label), |b| {
             b.iter_batched(
-                || (build(&f.params, &models, n).expect("builds"), stream(&[1, purpose::FILTER, n as u64])),
+                || {
+                    (
+                        registry::build_in(&f.params, &models, n, &f.name).expect("builds"),
+                        stream(&[1, purpose::FILTER, n as u64]),
+                    )
+                },
                 |(mut filter, mut rng)| {
                     let mut odometry = Vec::new();
                     for (k, scan) in ds.scans.iter().enumerate() {

@@ -356,6 +356,15 @@ pub fn scenario_from_table(
     from_table(table, origin, ScenarioConfig::validate, ConfigError::to_string)
 }
 
+/// Deserializes and validates a radio scenario table; `origin` says where an error should
+/// point.
+pub fn radio_scenario_from_table(
+    table: &toml::Table,
+    origin: &dyn Fn(&str, String) -> HarnessError,
+) -> Result<RadioScenario, HarnessError> {
+    from_table(table, origin, RadioScenario::validate, |e| e.message().to_string())
+}
+
 /// Deserializes `table` as a `T` and checks it with `validate`; `origin` says where an error
 /// should point: a serde error at the key its message names, a validation error at its key,
 /// with the text `text` gives it.
@@ -655,21 +664,8 @@ impl Plan {
                 let sc = from_table(&sc_table, &origin, RadioScenario::validate, |e| e.message().to_string())?;
                 let models = <crate::world::Radio5g as crate::world::World<5, 3, 5>>::scenario_models(&sc)?;
                 for (i, f) in filters.iter().enumerate() {
-                    let entry = registry::find(&f.name).expect("checked above");
-                    let Some(build) = entry.radio else {
-                        let can: Vec<&str> =
-                            registry::REGISTRY.iter().filter(|e| e.radio.is_some()).map(|e| e.name).collect();
-                        return Err(err(
-                            &format!("filters[{i}].name"),
-                            format!(
-                                "filter `{}` does not run in the radio5g world (it is built for the planar worlds only); the filters that do: {}",
-                                f.label,
-                                can.join(", ")
-                            ),
-                        ));
-                    };
                     for &n in &f.particles {
-                        build(&f.params, &models, n).map_err(|e| filter_error(i, f, n, e))?;
+                        registry::check_in(&f.params, &models, n, &f.name).map_err(|e| filter_error(i, f, n, e))?;
                     }
                 }
                 points.push(GridPoint { values, scenario: WorldScenario::radio(sc), filters });

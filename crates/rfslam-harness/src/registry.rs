@@ -1,20 +1,13 @@
 //! The filter registry: name -> typed parameters -> filter. Adding a filter is one line in
 //! [`REGISTRY`] (and one dependency in this crate's Cargo.toml).
 
-use rfslam_core::model::{RadioSensor, RadioVehicle, RangeBearingModel, RelativePositionModel, WorldVehicle};
+use rfslam_core::model::{RangeBearingModel, RelativePositionModel, WorldVehicle};
 use rfslam_core::{
     FilterBuild, InvertibleSensorModel, ParamError, SensorKind, SlamFilter, SlamModels, WorldBuild, WorldModels,
 };
 
 /// Builds a boxed filter from a parameter table, the scenario's models and a particle count.
 pub type BuildFn = fn(&toml::Table, &SlamModels, usize) -> Result<Box<dyn SlamFilter>, ParamError>;
-
-/// The models of the 5G radio world (\[Kim2022\]) as the filters assume them.
-pub type RadioModels = WorldModels<RadioVehicle, RadioSensor, 5, 3, 5>;
-
-/// Builds a boxed filter of the 5G radio world from a parameter table, the world's models
-/// and a particle count.
-pub type RadioBuildFn = fn(&toml::Table, &RadioModels, usize) -> Result<Box<dyn SlamFilter<5, 3, 5>>, ParamError>;
 
 /// One registered filter.
 pub struct FilterEntry {
@@ -33,8 +26,6 @@ pub struct FilterEntry {
     pub build: BuildFn,
     /// The default parameters, as a table (written into resolved configurations).
     pub defaults: fn() -> toml::Table,
-    /// Builds the filter in the 5G radio world.
-    pub radio: Option<RadioBuildFn>,
 }
 
 /// Parses a parameter table into `P`. An unknown key, a missing key or a value of the wrong
@@ -119,7 +110,6 @@ macro_rules! registry {
                     SensorKind::RelativePosition => build_in(t, &m.world::<RelativePositionModel>(), n, $name),
                 },
                 defaults: defaults_with::<$ty>,
-                radio: Some(|t, m, n| build_in(t, m, n, $name)),
             },
         )*];
 
