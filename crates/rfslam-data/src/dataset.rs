@@ -1158,15 +1158,25 @@ mod tests {
         let doc = std::fs::read_to_string(&doc_path).unwrap();
         let blocks: Vec<&str> =
             doc.split("```toml\n").skip(1).map(|b| b.split("```").next().unwrap_or_default()).collect();
-        assert!(blocks.len() >= 3, "{}", doc_path.display());
-        let meta = DatasetMeta::<ModelConfig>::from_toml_str(blocks[0], Path::new("docs/datasets.md")).unwrap();
+        assert!(blocks.len() >= 4, "{}", doc_path.display());
+        let doc_file = Path::new("docs/datasets.md");
+        let meta = DatasetMeta::<ModelConfig>::from_toml_str(blocks[0], doc_file).unwrap();
         assert_eq!(meta.initial_pose, Pose::new(300.0, 400.0, -0.0873));
         assert_eq!(meta.models, ModelConfig::phd_slam_synthetic());
         assert!(meta.landmarks.is_default());
-        let typed = format!("{}\n{}", blocks[0], blocks[1]);
-        let meta = DatasetMeta::<ModelConfig>::from_toml_str(&typed, Path::new("docs/datasets.md")).unwrap();
+        // The radio world's dataset.toml, with its defaults spelled out.
+        let radio = DatasetMeta::<crate::RadioModels, 5>::from_toml_str(blocks[1], doc_file).unwrap();
+        let defaults = crate::RadioModels {
+            sensor: crate::radio::RadioSensorConfig { filter_noise_scale: [4.0; 3], ..Default::default() },
+            ..Default::default()
+        };
+        assert_eq!(radio.models, defaults);
+        assert_eq!(radio.initial_pose[4], 300.0);
+        assert_eq!(radio.landmarks.mark("base_station"), Some(0));
+        let typed = format!("{}\n{}", blocks[0], blocks[2]);
+        let meta = DatasetMeta::<ModelConfig>::from_toml_str(&typed, doc_file).unwrap();
         assert_eq!(meta.landmarks.mark("scattering_point"), Some(2));
-        let sc = crate::ScenarioConfig::from_toml_str(blocks[2], "docs/datasets.md").unwrap();
+        let sc = crate::ScenarioConfig::from_toml_str(blocks[3], "docs/datasets.md").unwrap();
         assert_eq!(sc.models(), ModelConfig::phd_slam_synthetic());
     }
 
