@@ -320,6 +320,10 @@ macro_rules! variant_filter {
                 let model = assumed_sensor(&params, &models.sensor)?;
                 PmbmFilter::new($variant, params, models.vehicle.clone(), model, particles)
             },
+            particle_bytes: |params, models| match assumed_sensor(params, &models.sensor) {
+                Ok(model) => crate::params::undetected_grid_bytes(params.undetected, params.undetected_cell, &model),
+                Err(_) => 0.0,
+            },
         );
     };
 }

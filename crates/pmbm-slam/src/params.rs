@@ -61,8 +61,21 @@ pub(crate) fn check_undetected<const X: usize, const M: usize, const Z: usize, S
     cell: Option<f64>,
     model: &S,
 ) -> Result<(), ParamError> {
+    undetected_cells_per_scan(undetected, cell, model).map(|_| ())
+}
+
+/// The most cells of the thinned intensity's grid one scan thins in a mapped type's detection
+/// region (0 with the constant intensity, or where a type is detected everywhere), after the
+/// checks of [`check_undetected`]. Each particle's grid holds at least these cells, as `f32`:
+/// [`undetected_grid_bytes`].
+pub(crate) fn undetected_cells_per_scan<const X: usize, const M: usize, const Z: usize, S: SensorModel<X, M, Z>>(
+    undetected: UndetectedModel,
+    cell: Option<f64>,
+    model: &S,
+) -> Result<f64, ParamError> {
+    let mut most = 0.0f64;
     if undetected == UndetectedModel::Constant {
-        return Ok(());
+        return Ok(most);
     }
     if M < 2 {
         return Err(ParamError::new("undetected", "the thinned intensity needs landmarks in two or more dimensions"));
@@ -99,8 +112,20 @@ pub(crate) fn check_undetected<const X: usize, const M: usize, const Z: usize, S
                 ),
             ));
         }
+        most = most.max(cells);
     }
-    Ok(())
+    Ok(most)
+}
+
+/// The bytes a particle's grid of the undetected intensity holds at least: the cells one scan
+/// thins ([`undetected_cells_per_scan`]), four bytes each (0 when the settings are refused,
+/// which validation reports).
+pub(crate) fn undetected_grid_bytes<const X: usize, const M: usize, const Z: usize, S: SensorModel<X, M, Z>>(
+    undetected: UndetectedModel,
+    cell: Option<f64>,
+    model: &S,
+) -> f64 {
+    undetected_cells_per_scan(undetected, cell, model).map_or(0.0, |cells| 4.0 * cells)
 }
 
 /// `pmb-slam`'s particle weight.

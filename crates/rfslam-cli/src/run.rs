@@ -20,10 +20,9 @@ use rfslam_eval::run::Scoring;
 use rfslam_eval::trace::{self, ParticlesWriter, StepsWriter};
 use rfslam_eval::{JobOutcome, MetricsConfig};
 use rfslam_harness::experiment::set_dotted;
-use rfslam_harness::memory::{JobMemory, machine_memory};
-use rfslam_harness::world::{PlanarScenario, Visitor, World, WorldKind, WorldScenario};
+use rfslam_harness::memory::{JobMemory, JobSize, machine_memory};
+use rfslam_harness::world::{Visitor, World, WorldKind, WorldScenario};
 use rfslam_harness::{HarnessError, registry};
-use rfslam_sim::ScenarioData;
 
 use crate::{Failure, scenario_with_overrides, split_set, usage};
 
@@ -176,18 +175,17 @@ impl Visitor for Run<'_> {
         let ds: Dataset<W::Models, X, M, Z> = match source {
             Source::Dataset(dir) => {
                 let ds = Dataset::<W::Models, X, M, Z>::read(dir).map_err(HarnessError::Data)?;
-                if let Some(planar) = (&ds as &dyn std::any::Any).downcast_ref::<Dataset>() {
-                    fits(args, &JobMemory::estimate(None, &planar.models(), args.particles))?;
-                }
+                let bytes =
+                    registry::particle_bytes_in(&ov.params, &W::models(&ds).map_err(HarnessError::Data)?, filter);
+                fits(args, &JobMemory::of::<X, M, Z>(&JobSize::RECORDED, args.particles, bytes))?;
                 ds
             }
             Source::Scenario(sc) => {
                 let typed = sc.get::<W, X, M, Z>().ok_or_else(|| usage(format!("not a scenario of {}", W::NAME)))?;
-                if let Some(planar) = (typed as &dyn std::any::Any).downcast_ref::<PlanarScenario>() {
-                    let world = planar.world.as_deref();
-                    let models = planar.config.models_for(world).map_err(HarnessError::Data)?;
-                    fits(args, &JobMemory::estimate(world, &models, args.particles))?;
-                }
+                let size = W::job_size(typed).map_err(HarnessError::Data)?;
+                let models = W::scenario_models(typed).map_err(HarnessError::Data)?;
+                let bytes = registry::particle_bytes_in(&ov.params, &models, filter);
+                fits(args, &JobMemory::of::<X, M, Z>(&size, args.particles, bytes))?;
                 W::dataset(typed, args.seed).map_err(HarnessError::Data)?
             }
         };

@@ -125,3 +125,36 @@ fn a_malformed_memory_size_is_refused() {
         assert!(o.stderr.contains("RFSLAM_MEMORY=`24 gigabytes` is not a size"), "{}", o.stderr);
     }
 }
+
+/// Every world's job is estimated in its own dimensions: on the radio world (states of 5
+/// components, landmarks of 3 coordinates, 9 landmarks) 10^6 particles of phd-1.0 need at least
+/// 2 x 10^6 x (72 + 9 x 104) bytes (1.9 GiB), and pmbm-slam's particles hold in addition the
+/// cells of the undetected intensity's grid one scan thins (a 50 m ball of 5 m cubes, 4188.8
+/// cells of four bytes: 33.1 GiB in all); each is refused naming the key and the estimate, where
+/// the radio world had no estimate before and a million particles aborted on allocation.
+#[test]
+fn radio_particles_that_cannot_fit_are_refused_with_the_estimate() {
+    let scen = include_str!("../../../scenarios/radio5g.toml");
+    let exp = "name = \"r\"\nscenario = \"scen.toml\"\nruns = 1\nseed = 1\n\n[[filters]]\nname = \"pmbm-slam\"\nparticles = [10, 1000000]\n";
+    let tmp = setup("memory-radio", scen, exp);
+    let o = with_memory(&tmp, "20G", &["sweep", "exp.toml", "--out", "out"]);
+    assert_eq!(o.code, 2, "{}", o.stderr);
+    let line = line_of(exp, "particles = [10, 1000000]");
+    for needle in [format!("exp.toml:{line}:"), "filters[0].particles".into(), "33.1 GiB".into()] {
+        assert!(o.stderr.contains(&needle), "stderr lacks {needle:?}:\n{}", o.stderr);
+    }
+    assert!(!tmp.join("out").exists());
+    let run = |filter: &str, memory: &str| {
+        with_memory(
+            &tmp,
+            memory,
+            &["run", "--scenario", "scen.toml", "--filter", filter, "--particles", "1000000", "--out", "o"],
+        )
+    };
+    let o = run("phd-1.0", "1G");
+    assert_eq!(o.code, 2, "{}", o.stderr);
+    assert!(o.stderr.contains("--particles 1000000") && o.stderr.contains("1.9 GiB"), "{}", o.stderr);
+    let o = run("pmbm-slam", "20G");
+    assert_eq!(o.code, 2, "{}", o.stderr);
+    assert!(o.stderr.contains("33.1 GiB"), "{}", o.stderr);
+}

@@ -149,3 +149,57 @@ fn radio_world_refusals_say_why() {
     let exp = dir.write("bad-exp.toml", &entries("").replace("radio5g.toml", "bad.toml"));
     fails(dir.path(), &["sweep", exp.to_str().unwrap(), "--out", "o"], 2, &["bad.toml:", "sensor.pd"]);
 }
+
+/// A scenario's world is named by `[world] kind`, checked before the world's tables are read:
+/// a missing `[world]`, a kind that is no world's (the list of kinds includes radio5g), a
+/// radio scenario with a planar world's tables and a planar one naming the radio world are
+/// each reported as such, at the key's line; an array key of the wrong length names the key
+/// and its line, in a scenario, in `--set` and in a data set's `dataset.toml`.
+#[test]
+fn world_kind_and_array_errors_name_the_key() {
+    let dir = TempDir::new("radio-kinds");
+    let run = |scenario: &str, extra: &[&str]| {
+        let mut args = vec!["run", "--scenario", scenario, "--filter", "dead-reckoning", "--out", "o"];
+        args.extend_from_slice(extra);
+        args.into_iter().map(String::from).collect::<Vec<_>>()
+    };
+    let fails_run = |file: &str, text: &str, extra: &[&str], needles: &[&str]| {
+        dir.write(file, text);
+        let args = run(file, extra);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        fails(dir.path(), &args, 2, needles)
+    };
+    let no_world = SCENARIO.replace("[world]\nkind = \"radio5g\"\n", "[plain]\n");
+    fails_run("no-world.toml", &no_world, &[], &["no-world.toml", "missing table `[world]`", "radio5g"]);
+    let radio6g = SCENARIO.replace("kind = \"radio5g\"", "kind = \"radio6g\"");
+    let line = line_of(&radio6g, "kind = \"radio6g\"");
+    fails_run(
+        "radio6g.toml",
+        &radio6g,
+        &[],
+        &[&format!("radio6g.toml:{line}:"), "\"radio6g\" is not a world kind", "radio5g", "procedural"],
+    );
+    let planar_tables = format!("{SCENARIO}\n[detection]\nmodel = \"constant\"\npd = 0.9\n");
+    fails_run("tables.toml", &planar_tables, &[], &["`[detection]` is a table of the planar worlds", "radio5g"]);
+    let rp = include_str!("../../../scenarios/relative-position.toml")
+        .replace("kind = \"procedural\"", "kind = \"radio5g\"");
+    fails_run("rp.toml", &rp, &[], &["is a table of the planar worlds"]);
+    // Arrays of the wrong length: in the file, in --set, in a data set.
+    let short = SCENARIO.replace("sigma = [0.2, 0.2, 0.0, 0.001, 0.2]", "sigma = [0.2, 0.2]");
+    let line = line_of(&short, "sigma = [0.2, 0.2]");
+    fails_run("short.toml", &short, &[], &[&format!("short.toml:{line}:"), "vehicle.sigma"]);
+    fails_run("ok.toml", SCENARIO, &["--set", "scenario.vehicle.sigma=[0.2, 0.2]"], &["vehicle.sigma"]);
+    ok(dir.path(), &["simulate", "--scenario", "ok.toml", "--out", "ds"]);
+    let toml = dir.read("ds/dataset.toml");
+    let (start, _) = toml.match_indices("sigma = [").next().expect("the data set writes a sigma array");
+    let end = start + toml[start..].find(']').unwrap() + 1;
+    let bad = format!("{}sigma = [0.1]{}", &toml[..start], &toml[end..]);
+    dir.write("ds/dataset.toml", &bad);
+    let line = line_of(&bad, "sigma = [0.1]");
+    fails(
+        dir.path(),
+        &["run", "--dataset", "ds", "--filter", "dead-reckoning", "--out", "o"],
+        2,
+        &[&format!("dataset.toml:{line}:"), "sigma"],
+    );
+}

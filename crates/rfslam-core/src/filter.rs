@@ -123,7 +123,8 @@ macro_rules! filter_variant {
         params: $params:ty,
         $(requires_truth: $truth:expr,)?
         check: |$cp:ident, $cm:ident, $cn:ident| $check:expr,
-        build: |$bp:ident, $bm:ident, $bn:ident| $build:expr $(,)?
+        build: |$bp:ident, $bm:ident, $bn:ident| $build:expr
+        $(, particle_bytes: |$zp:ident, $zm:ident| $bytes:expr)? $(,)?
     ) => {
         $crate::filter_variant!($(#[$doc])* $ty<S>($engine<$crate::Motion, S, 3, 2, 2>), $name);
 
@@ -157,6 +158,12 @@ macro_rules! filter_variant {
                 let engine = $build;
                 Ok($crate::Named { name: $name, engine })
             }
+
+            $(
+                fn particle_bytes($zp: &$params, $zm: &$crate::WorldModels<V, S, X, M, Z>) -> f64 {
+                    $bytes
+                }
+            )?
         }
     };
     ($(#[$doc:meta])* $ty:ident<S>($engine:ty), $name:literal) => {
@@ -308,6 +315,14 @@ where
         models: &WorldModels<V, S, X, M, Z>,
         particles: usize,
     ) -> Result<Self::Filter, ParamError>;
+
+    /// The bytes each particle holds at least beyond its state, its weight and one Gaussian
+    /// per landmark of the world in its map (a lower bound, for the memory estimate a job is
+    /// refused by before it starts): 0 unless the filter keeps more per particle (the PMBM
+    /// family's grid of the undetected intensity).
+    fn particle_bytes(_params: &Self::Params, _models: &WorldModels<V, S, X, M, Z>) -> f64 {
+        0.0
+    }
 }
 
 /// A family's engine under a registered name: the [`SlamFilter`] of a filter built by

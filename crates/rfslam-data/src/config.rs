@@ -19,6 +19,11 @@ pub mod limits {
     /// Largest distance (m): the sensor's `max_range`, the procedural world's `extent`, the
     /// initial position of a Victoria Park run.
     pub const MAX_DISTANCE: f64 = 1e7;
+    /// Smallest sensor `max_range` (m): one millimetre, so that the field of view's area
+    /// (`half_angle (max_range^2 - min_range^2)`) and the clutter intensity it divides stay
+    /// finite and positive (a `max_range` of 1e-170 squared to zero and the clutter sampler
+    /// was handed an empty range).
+    pub const MIN_DISTANCE: f64 = 1e-3;
     /// Largest length on the vehicle (m): the Ackermann `l`, `h`, `a`, `b` and the sensor
     /// `offset`, in magnitude.
     pub const MAX_VEHICLE_LENGTH: f64 = 1e3;
@@ -400,7 +405,7 @@ impl SensorConfig {
     }
 
     fn validate(&self) -> Result<(), ConfigError> {
-        in_range("max_range", Interval::POSITIVE.up_to(limits::MAX_DISTANCE), self.max_range)?;
+        in_range("max_range", Interval::closed(limits::MIN_DISTANCE, limits::MAX_DISTANCE), self.max_range)?;
         // Half of the FOV width.
         in_range("half_angle_deg", Interval::POSITIVE.up_to(180.0), self.half_angle_deg)?;
         let sigma = Interval::POSITIVE.up_to(limits::MAX_SIGMA);
@@ -428,6 +433,18 @@ impl SensorConfig {
         if !(self.min_range >= 0.0 && self.min_range < self.max_range) {
             let got = rfslam_core::params::short(self.min_range);
             return Err(ConfigError::new("min_range", format!("must be in [0, max_range) (got {got})")));
+        }
+        // What the range keys derive: the sector's area, which the clutter sampler draws
+        // over and the clutter intensity divides by.
+        let area = self.fov().area();
+        if !(area.is_normal() && area > 0.0) {
+            return Err(ConfigError::new(
+                "max_range",
+                format!(
+                    "with min_range and half_angle_deg leaves the field of view no area (half_angle (max_range^2 - min_range^2) = {})",
+                    rfslam_core::params::short(area)
+                ),
+            ));
         }
         // The bands are read by the taper and the hold only, but may be given with any edge,
         // so that a grid over `scenario.sensor.edge` can switch between the treatments.
@@ -634,6 +651,40 @@ mod tests {
         let mut c = ModelConfig::phd_slam_synthetic();
         c.clutter.rate = -1.0;
         assert_eq!(c.validate().unwrap_err().key(), Some("clutter.rate"));
+    }
+
+    /// A range key whose field of view has no area is refused at validation, naming it (a
+    /// relative-position `max_range = 1e-170` with clutter panicked in the clutter sampler).
+    #[test]
+    fn range_keys_leaving_the_field_of_view_no_area_are_refused() {
+        for model in ["range_bearing", "relative_position"] {
+            let sensor = |max_range: &str, half_angle: &str| {
+                let t = tables().replace("max_range = 150.0", &format!("max_range = {max_range}"));
+                let t = t.replace("half_angle_deg = 90.0", &format!("half_angle_deg = {half_angle}"));
+                match model {
+                    "range_bearing" => t,
+                    _ => t.replace(
+                        "sigma_range = 0.8\nsigma_bearing_deg = 0.3",
+                        "model = \"relative_position\"\nsigma_x = 1.0\nsigma_y = 1.0",
+                    ),
+                }
+            };
+            let e = |max_range: &str, half_angle: &str| {
+                let c: ModelConfig = toml::from_str(&sensor(max_range, half_angle)).unwrap();
+                c.validate().unwrap_err().to_string()
+            };
+            assert_eq!(e("1e-170", "90.0"), "sensor.max_range must be in [0.001, 10000000] (got 1e-170)", "{model}");
+            let e = e("0.001", "1e-300");
+            assert!(
+                e.starts_with("sensor.max_range with min_range and half_angle_deg leaves the field of view no area"),
+                "{model}: {e}"
+            );
+            let c: ModelConfig = toml::from_str(&sensor("0.001", "90.0")).unwrap();
+            c.validate().unwrap();
+            // The smallest field of view allowed samples its clutter.
+            let fov = c.sensor.fov();
+            assert!(fov.area() > 0.0 && (c.clutter.rate / fov.area()).is_finite());
+        }
     }
 
     #[test]

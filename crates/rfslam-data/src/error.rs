@@ -181,7 +181,17 @@ impl DataError {
             }
             None => (None, None, String::new()),
         };
-        DataError::Toml { path: path.to_path_buf(), line, column, message: format!("{}{snippet}", e.message().trim()) }
+        // A message that names no key (a value of the wrong type or length) gets the key at the span.
+        let msg = e.message().trim();
+        let key = match msg.contains('`') {
+            true => None,
+            false => e.span().and_then(|span| crate::locate::key_at(text, span)),
+        };
+        let message = match key {
+            Some(k) if !msg.contains(k.rsplit('.').next().unwrap_or(&k)) => format!("key `{k}`: {msg}{snippet}"),
+            _ => format!("{msg}{snippet}"),
+        };
+        DataError::Toml { path: path.to_path_buf(), line, column, message }
     }
 
     /// A validation error of values that did not come from a file.

@@ -45,6 +45,6 @@ pub use find::{DATA_ENV, data_dirs, find_data};
 pub use mat::{MatArray, MatError, MatFile};
 pub use radio::{RADIO_LANDMARK_TYPES, RadioModels, RadioScenario, is_radio};
 pub use scenario::{
-    GLMB_SIM_LAP_LENGTH, GLMB_SIM_LAP_LENGTH_RANGE, GLMB_SIM_LAPS_DRIVEN, LoopParams, ProceduralParams, ScenarioConfig,
-    WorldSpec,
+    GLMB_SIM_LAP_LENGTH, GLMB_SIM_LAP_LENGTH_RANGE, GLMB_SIM_LAPS_DRIVEN, LoopParams, PLANAR_WORLD_KINDS,
+    ProceduralParams, ScenarioConfig, WorldSpec,
 };

@@ -270,6 +270,10 @@ struct RawWorld {
     lap_length: Option<f64>,
 }
 
+/// The `[world] kind`s of the planar scenarios, as written.
+pub const PLANAR_WORLD_KINDS: &[&str] =
+    &["environment", "mat", "procedural", "dataset", "victoria-park", "glmb-sim", "loop"];
+
 #[derive(Deserialize, Clone, Copy)]
 #[serde(rename_all = "lowercase")]
 enum WorldKind {
@@ -592,7 +596,7 @@ mod tests {
         let e = err(&SMALL_SCENARIO.replace("sigma_v = 0.8", "sigma_v = 1e200"));
         assert!(e.contains("motion.sigma_v must be in [0, 1000000] (got 1e200)"), "{e}");
         let e = err(&SMALL_SCENARIO.replace("max_range = 150.0", "max_range = 1e300"));
-        assert!(e.contains("sensor.max_range must be in (0, 10000000] (got 1e300)"), "{e}");
+        assert!(e.contains("sensor.max_range must be in [0.001, 10000000] (got 1e300)"), "{e}");
         let e = err(&SMALL_SCENARIO.replace("landmarks = 25", "landmarks = 25\nlandmark_count = 3"));
         let next = format!("scen.toml:{}:", line("landmarks") + 1);
         assert!(e.starts_with(&next) && e.contains("unknown field `landmark_count`"), "{e}");

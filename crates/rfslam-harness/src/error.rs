@@ -11,7 +11,7 @@ use rfslam_data::DataError;
 #[derive(Debug, thiserror::Error)]
 pub enum HarnessError {
     /// A bad configuration value (detected before any job runs).
-    #[error("{}{}: {}{message}", file.display(), line.map(|l| format!(":{l}")).unwrap_or_default(), if key.is_empty() { String::new() } else { format!("key `{key}`: ") })]
+    #[error("{}{}: {}{message}", file.display(), line.map(|l| format!(":{l}")).unwrap_or_default(), if key.is_empty() || message.starts_with(key.as_str()) { String::new() } else { format!("key `{key}`: ") })]
     Config {
         /// The file.
         file: PathBuf,

@@ -340,12 +340,57 @@ pub fn parse_cli_value(s: &str) -> toml::Value {
 pub fn load_scenario_table(path: &Path) -> Result<(String, toml::Table), HarnessError> {
     let text = read(path)?;
     let table: toml::Table = toml::from_str(&text).map_err(|e| toml_error(path, &text, &e))?;
+    check_world_kind(&table).map_err(|(key, message)| config_error(path, &text, key, message))?;
     if is_radio(&table) {
         let _: RadioScenario = toml::from_str(&text).map_err(|e| toml_error(path, &text, &e))?;
     } else {
         let _: ScenarioConfig = toml::from_str(&text).map_err(|e| toml_error(path, &text, &e))?;
     }
     Ok((text, table))
+}
+
+/// Every `[world] kind` a scenario may name: the planar scenarios' and the radio world.
+pub fn world_kinds() -> String {
+    let mut kinds: Vec<&str> = rfslam_data::PLANAR_WORLD_KINDS.to_vec();
+    kinds.push("radio5g");
+    kinds.join(", ")
+}
+
+/// Checks a scenario table's `[world] kind` before its tables are read by the world's
+/// parser: a missing table or key, a kind that is no world's, and a radio scenario holding the
+/// planar worlds' tables are each reported as such, with the kinds there are (the key and
+/// the message of the error).
+pub fn check_world_kind(table: &toml::Table) -> Result<(), (&'static str, String)> {
+    let kinds = world_kinds();
+    let Some(world) = table.get("world") else {
+        return Err((
+            "world",
+            format!("missing table `[world]`: a scenario names its world with `[world] kind` (the kinds: {kinds})"),
+        ));
+    };
+    let Some(kind) = world.get("kind") else {
+        return Err((
+            "world",
+            format!("missing key `kind`: a scenario names its world with `[world] kind` (the kinds: {kinds})"),
+        ));
+    };
+    let Some(kind) = kind.as_str() else {
+        return Err(("world.kind", format!("must be a string, one of the kinds: {kinds} (got {kind})")));
+    };
+    if kind == "radio5g" {
+        if let Some(t) = ["motion", "detection"].into_iter().find(|t| table.contains_key(*t)) {
+            return Err((
+                if t == "motion" { "motion" } else { "detection" },
+                format!(
+                    "`[{t}]` is a table of the planar worlds, but world.kind is \"radio5g\", whose tables are world, vehicle, sensor and clutter (a planar scenario names one of the kinds: {})",
+                    rfslam_data::PLANAR_WORLD_KINDS.join(", ")
+                ),
+            ));
+        }
+    } else if !rfslam_data::PLANAR_WORLD_KINDS.contains(&kind) {
+        return Err(("world.kind", format!("\"{kind}\" is not a world kind; the kinds: {kinds}")));
+    }
+    Ok(())
 }
 
 /// Deserializes and validates a scenario table; `origin` says where an error should point.
@@ -376,7 +421,18 @@ fn from_table<T: serde::de::DeserializeOwned>(
 ) -> Result<T, HarnessError> {
     let sc: T = toml::Value::Table(table.clone()).try_into().map_err(|e: toml::de::Error| {
         let msg = e.message().trim().to_string();
-        let key = msg.split('`').nth(1).unwrap_or("").to_string();
+        // The key the message names; else (a value of the wrong type or length) the key at
+        // the error's span in the table written out as a document and read again.
+        let key = match msg.split('`').nth(1) {
+            Some(k) => k.to_string(),
+            None => toml::to_string(table)
+                .ok()
+                .and_then(|text| {
+                    let e = toml::from_str::<T>(&text).err()?;
+                    rfslam_data::locate::key_at(&text, e.span()?)
+                })
+                .unwrap_or_default(),
+        };
         origin(&key, msg)
     })?;
     validate(&sc).map_err(|e| origin(e.key().unwrap_or_default(), text(&e)))?;
@@ -657,15 +713,36 @@ impl Plan {
                     }
                 }
             };
+            // Whether one job of filter `i` with `n` particles, needing `need`, fits in the
+            // machine: its bytes, or the error at the key that makes most of them.
+            let fits = |i: usize, f: &ResolvedFilter, n: usize, need: JobMemory| -> Result<f64, HarnessError> {
+                if let Some(have) = machine
+                    && let Err(why) = need.check(have)
+                {
+                    let key = if need.particles_dominate() {
+                        format!("filters[{i}].particles")
+                    } else {
+                        match grid_keys.iter().find(|g| g.as_str() == "scenario.clutter.rate") {
+                            Some(g) => format!("grid.\"{g}\""),
+                            None => "scenario.clutter.rate".into(),
+                        }
+                    };
+                    return Err(err(&key, format!("filter `{}` with {n} particles: {why}{point}", f.label)));
+                }
+                Ok(need.total())
+            };
             if is_radio(&sc_table) != radio {
                 return Err(origin("world.kind", "a grid may not change whether the world is the radio world".into()));
             }
             if radio {
                 let sc = from_table(&sc_table, &origin, RadioScenario::validate, |e| e.message().to_string())?;
                 let models = <crate::world::Radio5g as crate::world::World<5, 3, 5>>::scenario_models(&sc)?;
+                let size = <crate::world::Radio5g as crate::world::World<5, 3, 5>>::job_size(&sc)?;
                 for (i, f) in filters.iter().enumerate() {
                     for &n in &f.particles {
                         registry::check_in(&f.params, &models, n, &f.name).map_err(|e| filter_error(i, f, n, e))?;
+                        let bytes = registry::particle_bytes_in(&f.params, &models, &f.name);
+                        peak_job_bytes = peak_job_bytes.max(fits(i, f, n, JobMemory::of::<5, 3, 5>(&size, n, bytes))?);
                     }
                 }
                 points.push(GridPoint { values, scenario: WorldScenario::radio(sc), filters });
@@ -692,23 +769,11 @@ impl Plan {
                 }
             }
             // What one job needs at least, against what the machine has.
+            let size = crate::memory::JobSize::planar(world.as_deref(), &models);
             for (i, f) in filters.iter().enumerate() {
                 for &n in &f.particles {
-                    let need = JobMemory::estimate(world.as_deref(), &models, n);
-                    peak_job_bytes = peak_job_bytes.max(need.total());
-                    if let Some(have) = machine
-                        && let Err(why) = need.check(have)
-                    {
-                        let key = if need.particles_dominate() {
-                            format!("filters[{i}].particles")
-                        } else {
-                            match grid_keys.iter().find(|g| g.as_str() == "scenario.clutter.rate") {
-                                Some(g) => format!("grid.\"{g}\""),
-                                None => "scenario.clutter.rate".into(),
-                            }
-                        };
-                        return Err(err(&key, format!("filter `{}` with {n} particles: {why}{point}", f.label)));
-                    }
+                    let bytes = (registry::find(&f.name).expect("checked above").particle_bytes)(&f.params, &models);
+                    peak_job_bytes = peak_job_bytes.max(fits(i, f, n, JobMemory::of::<3, 2, 2>(&size, n, bytes))?);
                 }
             }
             points.push(GridPoint { values, scenario: WorldScenario::planar(scenario, world), filters });

@@ -21,18 +21,57 @@
 use rfslam_core::SlamModels;
 use rfslam_sim::World;
 
-/// One range-bearing measurement (two `f64`).
-pub const BYTES_PER_MEASUREMENT: f64 = 16.0;
-/// A particle without its map: pose (three `f64`), log weight, and the map's vector header.
-pub const BYTES_PER_PARTICLE: f64 = 56.0;
-/// One Gaussian landmark of a particle's map: mean (two `f64`), covariance (four) and a
-/// weight or existence.
-pub const BYTES_PER_MAP_LANDMARK: f64 = 56.0;
+/// One range-bearing measurement (two `f64`): [`bytes_per_measurement`] of a planar sensor.
+pub const BYTES_PER_MEASUREMENT: f64 = bytes_per_measurement(2);
+/// A planar particle without its map: [`bytes_per_particle`] of a pose of three components.
+pub const BYTES_PER_PARTICLE: f64 = bytes_per_particle(3);
+/// One Gaussian landmark of a planar map: [`bytes_per_map_landmark`] of two coordinates.
+pub const BYTES_PER_MAP_LANDMARK: f64 = bytes_per_map_landmark(2);
 /// The particle set and its resampled (or branched) copy.
 pub const PARTICLE_COPIES: f64 = 2.0;
 
+/// One measurement of `z` components (`f64` each).
+pub const fn bytes_per_measurement(z: usize) -> f64 {
+    8.0 * z as f64
+}
+
+/// A particle without its map: its state of `x` components, its log weight, and the map's
+/// vector header (three words).
+pub const fn bytes_per_particle(x: usize) -> f64 {
+    8.0 * (x as f64 + 1.0) + 24.0
+}
+
+/// One Gaussian landmark of `m` coordinates in a particle's map: mean, covariance and a
+/// weight or existence.
+pub const fn bytes_per_map_landmark(m: usize) -> f64 {
+    8.0 * (m as f64 + (m * m) as f64 + 1.0)
+}
+
 /// The environment variable that overrides the machine's memory.
 pub const MEMORY_ENV: &str = "RFSLAM_MEMORY";
+
+/// The sizes a job's memory is estimated from, as a world's scenario declares them.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct JobSize {
+    /// Scans to generate (0 for a recorded data set, already in memory).
+    pub scans: f64,
+    /// Landmarks of the world (0 where they are unknown: a recorded data set).
+    pub landmarks: f64,
+    /// Mean clutter returns per scan.
+    pub clutter_rate: f64,
+}
+
+impl JobSize {
+    /// A recorded data set: already in memory, its map counted as empty.
+    pub const RECORDED: JobSize = JobSize { scans: 0.0, landmarks: 0.0, clutter_rate: 0.0 };
+
+    /// A planar scenario of the generated world `world` (None: a recorded data set or
+    /// Victoria Park) with the clutter of `models`.
+    pub fn planar(world: Option<&World>, models: &SlamModels) -> JobSize {
+        let (scans, landmarks) = world.map_or((0.0, 0.0), |w| (w.poses.len() as f64, w.landmarks.len() as f64));
+        JobSize { scans, landmarks, clutter_rate: models.clutter.rate.max(0.0) }
+    }
+}
 
 /// The lower bound of one job's memory, in bytes, by what it is spent on.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -44,15 +83,28 @@ pub struct JobMemory {
 }
 
 impl JobMemory {
-    /// The estimate for `particles` particles on `world` (None: a recorded data set) with the
-    /// clutter of `models`. Computed in `f64`, so that absurd sizes give a huge number rather
-    /// than an overflow.
-    pub fn estimate(world: Option<&World>, models: &SlamModels, particles: usize) -> JobMemory {
-        let (steps, landmarks) = world.map_or((0.0, 0.0), |w| (w.poses.len() as f64, w.landmarks.len() as f64));
+    /// The estimate for `particles` particles in a world of states of `X` components,
+    /// landmarks of `M` coordinates and measurements of `Z` components, of the sizes `size`,
+    /// each particle holding `filter_bytes` more (what the filter keeps beyond its state and
+    /// map: `rfslam_core::WorldBuild::particle_bytes`). Computed in `f64`, so that absurd
+    /// sizes give a huge number rather than an overflow.
+    pub fn of<const X: usize, const M: usize, const Z: usize>(
+        size: &JobSize,
+        particles: usize,
+        filter_bytes: f64,
+    ) -> JobMemory {
         JobMemory {
-            data: steps * models.clutter.rate.max(0.0) * BYTES_PER_MEASUREMENT,
-            particles: PARTICLE_COPIES * particles as f64 * (BYTES_PER_PARTICLE + landmarks * BYTES_PER_MAP_LANDMARK),
+            data: size.scans * size.clutter_rate * bytes_per_measurement(Z),
+            particles: PARTICLE_COPIES
+                * particles as f64
+                * (bytes_per_particle(X) + size.landmarks * bytes_per_map_landmark(M) + filter_bytes.max(0.0)),
         }
+    }
+
+    /// The estimate for `particles` particles on the planar `world` (None: a recorded data
+    /// set) with the clutter of `models`.
+    pub fn estimate(world: Option<&World>, models: &SlamModels, particles: usize) -> JobMemory {
+        JobMemory::of::<3, 2, 2>(&JobSize::planar(world, models), particles, 0.0)
     }
 
     /// Both parts.

@@ -24,6 +24,9 @@ pub struct FilterEntry {
     pub validate: fn(&toml::Table, &SlamModels, usize) -> Result<(), ParamError>,
     /// Parses, validates and builds (a planar world).
     pub build: BuildFn,
+    /// The bytes each particle holds at least beyond its state and map, with a parameter
+    /// table, in a planar world ([`particle_bytes_in`]).
+    pub particle_bytes: fn(&toml::Table, &SlamModels) -> f64,
     /// The default parameters, as a table (written into resolved configurations).
     pub defaults: fn() -> toml::Table,
 }
@@ -109,6 +112,10 @@ macro_rules! registry {
                     SensorKind::RangeBearing => build_in(t, &m.world::<RangeBearingModel>(), n, $name),
                     SensorKind::RelativePosition => build_in(t, &m.world::<RelativePositionModel>(), n, $name),
                 },
+                particle_bytes: |t, m| match m.sensor_kind {
+                    SensorKind::RangeBearing => particle_bytes_in(t, &m.world::<RangeBearingModel>(), $name),
+                    SensorKind::RelativePosition => particle_bytes_in(t, &m.world::<RelativePositionModel>(), $name),
+                },
                 defaults: defaults_with::<$ty>,
             },
         )*];
@@ -129,6 +136,24 @@ macro_rules! registry {
             match name {
                 $($name => <$ty as WorldBuild<V, S, X, M, Z>>::check_world(&filter_params::<$ty>(t)?, models, particles),)*
                 _ => Err(ParamError::new("name", format!("unknown filter `{name}`; registered filters: {}", names()))),
+            }
+        }
+
+        /// The bytes each particle of the registered filter `name` holds at least beyond its
+        /// state and map ([`WorldBuild::particle_bytes`]), with the parameter table `t` on the
+        /// world's `models`; 0 for a table that does not parse (which the checks report).
+        pub fn particle_bytes_in<V, S, const X: usize, const M: usize, const Z: usize>(
+            t: &toml::Table,
+            models: &WorldModels<V, S, X, M, Z>,
+            name: &str,
+        ) -> f64
+        where
+            V: WorldVehicle<X>,
+            S: InvertibleSensorModel<X, M, Z>,
+        {
+            match name {
+                $($name => filter_params::<$ty>(t).map_or(0.0, |p| <$ty as WorldBuild<V, S, X, M, Z>>::particle_bytes(&p, models)),)*
+                _ => 0.0,
             }
         }
 

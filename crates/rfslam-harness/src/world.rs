@@ -20,6 +20,8 @@ use rfslam_core::{InvertibleSensorModel, Motion, PlanarSensorModel, WorldModels}
 use rfslam_data::{DataError, Dataset, DatasetModels, ModelConfig, RadioModels, RadioScenario, ScenarioConfig};
 use rfslam_sim::ScenarioData;
 
+use crate::memory::JobSize;
+
 /// A world: the vehicle and sensor models its filters run on (states of `X` components,
 /// landmarks of `M` coordinates, measurements of `Z` components), the model tables its data
 /// sets carry, its scenario, and how a scenario becomes the data set of a run and a data set
@@ -50,6 +52,10 @@ pub trait World<const X: usize, const M: usize, const Z: usize>: 'static {
     fn models(
         ds: &Dataset<Self::Models, X, M, Z>,
     ) -> Result<WorldModels<Self::Vehicle, Self::Sensor, X, M, Z>, DataError>;
+
+    /// The sizes of a job on the scenario `sc` (its scans, landmarks and clutter), from
+    /// which its memory is estimated before it starts ([`crate::memory::JobMemory::of`]).
+    fn job_size(sc: &Self::Scenario) -> Result<JobSize, DataError>;
 
     /// What each state component is (the vehicle model's).
     fn components(models: &WorldModels<Self::Vehicle, Self::Sensor, X, M, Z>) -> [StateComponent; X] {
@@ -90,6 +96,11 @@ impl<S: PlanarSensorModel> World<3, 2, 2> for PlanarWorld<S> {
     fn models(ds: &Dataset) -> Result<WorldModels<Motion, S, 3, 2, 2>, DataError> {
         Ok(ds.models().world::<S>())
     }
+
+    fn job_size(sc: &PlanarScenario) -> Result<JobSize, DataError> {
+        let world = sc.world.as_deref();
+        Ok(JobSize::planar(world, &sc.config.models_for(world)?))
+    }
 }
 
 /// The 5G mmWave world of the PMBM-SLAM paper (\[Kim2022\] Section VI-A): the radio vehicle
@@ -123,6 +134,15 @@ impl World<5, 3, 5> for Radio5g {
 
     fn models(ds: &rfslam_sim::RadioDataset) -> Result<rfslam_sim::RadioWorldModels, DataError> {
         rfslam_sim::radio_world_models(ds)
+    }
+
+    fn job_size(sc: &RadioScenario) -> Result<JobSize, DataError> {
+        let world = rfslam_sim::RadioWorld::from_scenario(sc);
+        Ok(JobSize {
+            scans: (world.steps + 1) as f64,
+            landmarks: world.landmarks.len() as f64,
+            clutter_rate: sc.clutter.rate.max(0.0),
+        })
     }
 }
 
