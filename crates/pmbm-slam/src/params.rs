@@ -53,9 +53,11 @@ pub(crate) fn check_cell(cell: Option<f64>) -> Result<(), ParamError> {
     Interval::closed(1e-3, 1e4).check_opt("undetected_cell", cell)
 }
 
-/// Refuses the thinned intensity for a model with a mapped landmark type that has no
-/// detection region, or with cells so small that one scan would thin more than
-/// [`MAX_CELLS_PER_SCAN`] in a type's region.
+/// Refuses a sensor whose measurement does not fix its landmark (fewer measurement
+/// components than landmark coordinates: the new-track weight's integral is infinite), and
+/// the thinned intensity for a model with a mapped landmark type that has no detection region,
+/// or with cells so small that one scan would thin more than [`MAX_CELLS_PER_SCAN`] in a
+/// type's region.
 pub(crate) fn check_undetected<const X: usize, const M: usize, const Z: usize, S: SensorModel<X, M, Z>>(
     undetected: UndetectedModel,
     cell: Option<f64>,
@@ -74,6 +76,18 @@ pub(crate) fn undetected_cells_per_scan<const X: usize, const M: usize, const Z:
     model: &S,
 ) -> Result<f64, ParamError> {
     let mut most = 0.0f64;
+    if Z < M {
+        return Err(ParamError::new(
+            "sensor",
+            format!(
+                "a new track's weight e = p_D int lambda_u(m) N(z; h(x, m), R) dm (Kim et al. 2022, Appendix A step ii) \
+                 is infinite for a sensor whose measurement does not fix its landmark ({Z} measurement \
+                 component(s), landmarks of {M} coordinates: `{}`), and PMBM-SLAM defines no birth density to \
+                 bound it",
+                S::NAME
+            ),
+        ));
+    }
     if undetected == UndetectedModel::Constant {
         return Ok(most);
     }

@@ -265,16 +265,39 @@ impl<S: InvertibleSensorModel<X, M, Z>, const X: usize, const M: usize, const Z:
         let &At { model, ref x, ref m, mark } = self;
         let z = model.predict(x, m, mark);
         let inv = model.inverse(x, &z, mark);
-        if !close(&inv.m, m, 1e-9) {
-            return Err(format!("inverse(predict(m)) = {:?}, not m = {m:?}", inv.m));
-        }
         let sub = |a: &SVector<f64, M>, b: &SVector<f64, M>| a - b;
+        if Z >= M {
+            if !close(&inv.m, m, 1e-9) {
+                return Err(format!("inverse(predict(m)) = {:?}, not m = {m:?}", inv.m));
+            }
+        } else {
+            // A measurement that does not fix its landmark: the inverse is some landmark
+            // that gives the measurement (the model's prior fills the rest).
+            let back = model.residual(&model.predict(x, &inv.m, mark), &z);
+            if back.norm() > 1e-9 * (1.0 + z.norm()) {
+                return Err(format!("predict(inverse(z)) differs from z = {z:?} by {back:?}"));
+            }
+        }
         central_differences("J_z", &inv.jz, &z, |z| model.inverse(x, z, mark).m, sub)?;
         central_differences("J_x", &inv.jx, x, |x| model.inverse(x, &z, mark).m, sub)?;
         let (mean, cov) = model.birth(x, &z, mark);
         let expected = inv.jz * model.noise(mark) * inv.jz.transpose();
-        if mean != inv.m || !close(&cov, &expected, 1e-12) || cov != cov.transpose() {
-            return Err(format!("birth covariance {cov:?} is not the symmetric J_z R J_z^T {expected:?}"));
+        if Z >= M {
+            if mean != inv.m || !close(&cov, &expected, 1e-12) || cov != cov.transpose() {
+                return Err(format!("birth covariance {cov:?} is not the symmetric J_z R J_z^T {expected:?}"));
+            }
+        } else {
+            // The birth of a landmark its measurement does not fix: at the inverse, with a
+            // covariance of full rank that holds the measurement's own part J_z R J_z^T.
+            let scale = 1e-12 * (1.0 + cov.norm());
+            let holds = (cov - expected + SMatrix::<f64, M, M>::identity() * scale).cholesky().is_some();
+            if mean != inv.m || cov != cov.transpose() || cov.cholesky().is_none() || !holds {
+                return Err(format!(
+                    "birth N({mean:?}, {cov:?}) is not at the inverse {:?} with a positive definite covariance \
+                     above J_z R J_z^T {expected:?}",
+                    inv.m
+                ));
+            }
         }
         if M == Z {
             let hm = model.linearise(x, m, mark).hm;

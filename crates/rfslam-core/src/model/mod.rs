@@ -25,19 +25,13 @@
 //! type: a filter generic over a model allocates nothing and dispatches nothing dynamically
 //! inside its per-landmark and per-measurement loops.
 
-/// The [`SensorModel`] methods every planar sensor of a scenario shares, over its fields
-/// `r` (the noise), `fov`, `detection` and `kappa` (the uniform clutter intensity): the
-/// noise, the field of view, the detection probabilities with the scenario's
-/// [`crate::FovEdge`] (`p_D` at the mean for the hard edge and the taper, its expectation
-/// under `N(m, P)` for `expected`; the simulator's at the hard edge), the clutter intensity
-/// and the detection sector.
-macro_rules! planar_sector_methods {
+/// The [`SensorModel`] methods every planar sector sensor shares, over its fields `fov`,
+/// `detection`, `kappa` (the uniform clutter intensity) and `clutter`: the field of view, the
+/// detection probabilities with the scenario's [`crate::FovEdge`] (`p_D` at the mean for the
+/// hard edge and the taper, its expectation under `N(m, P)` for `expected`; the simulator's at
+/// the hard edge), the clutter intensity and rate, and the detection sector.
+macro_rules! sector_methods {
     ($z:ty) => {
-        #[inline]
-        fn noise(&self, _: ()) -> Matrix2<f64> {
-            self.r
-        }
-
         #[inline]
         fn in_fov(&self, x: &Pose, m: &Point2, _: ()) -> bool {
             self.fov.contains(x, m)
@@ -66,6 +60,19 @@ macro_rules! planar_sector_methods {
         fn clutter_rate(&self) -> f64 {
             self.clutter.rate
         }
+    };
+}
+
+/// The [`SensorModel`] methods every planar sensor of a scenario shares: [`sector_methods!`],
+/// the noise `r`, and the filters' own detection probability and clutter.
+macro_rules! planar_sector_methods {
+    ($z:ty) => {
+        #[inline]
+        fn noise(&self, _: ()) -> Matrix2<f64> {
+            self.r
+        }
+
+        sector_methods!($z);
 
         /// A filter's own detection probability (`p_D`, or `p_D0` of the range-linear model)
         /// and clutter (rate, the units of `kappa`) on the scenario's sector: `kappa` is then
@@ -86,6 +93,7 @@ macro_rules! planar_sector_methods {
     };
 }
 
+mod bearing_only;
 pub mod conformance;
 mod radio_sensor;
 mod radio_vehicle;
@@ -99,6 +107,7 @@ use crate::detection::{DetectionModel, Fov};
 use crate::gaussian::symmetrise;
 
 pub use crate::detection::SensorKind;
+pub use bearing_only::{Bearing, BearingOnlyModel};
 pub use radio_sensor::{LandmarkType, RadioSensor};
 pub use radio_vehicle::RadioVehicle;
 pub use range_bearing::RangeBearingModel;
@@ -583,8 +592,102 @@ mod tests {
             for (half, all) in [(FRAC_PI_2, false), (PI, true)] {
                 check_invertible_sensor_model(&range_bearing(half, edge), &cases(all)).unwrap();
                 check_invertible_sensor_model(&relative_position(half, edge), &cases(all)).unwrap();
+                check_invertible_sensor_model(&bearing_only(half, edge), &cases(all)).unwrap();
             }
         }
+    }
+
+    fn bearing_only(half_angle: f64, edge: FovEdge) -> BearingOnlyModel {
+        let clutter = ClutterModel { rate: 5.0, intensity: ClutterIntensity::Measurement };
+        let detection = DetectionModel::Constant { pd: 0.9 };
+        BearingOnlyModel::new(
+            RangeBearingSensor { offset: [0.4, -0.2] },
+            0.01,
+            fov(half_angle, edge),
+            detection,
+            clutter,
+        )
+    }
+
+    /// A bearing-only birth is the range prior along the measured bearing: its mean at the
+    /// prior range, its spread along the bearing the prior's and across it the bearing
+    /// noise's at that range; and the checks for a sensor whose measurement does not fix the
+    /// landmark fail on the rank-one `J_z R J_z^T` the default birth would give.
+    #[test]
+    fn a_bearing_only_birth_is_the_range_prior_along_the_bearing() {
+        let model = bearing_only(FRAC_PI_2, FovEdge::Hard);
+        let x = Pose::new(1.0, 2.0, 0.5);
+        let z = nalgebra::Vector1::new(0.3);
+        let (m, cov) = model.birth(&x, &z, ());
+        let s =
+            Point2::new(1.0 + 0.5f64.cos() * 0.4 + 0.5f64.sin() * 0.2, 2.0 + 0.5f64.sin() * 0.4 - 0.5f64.cos() * 0.2);
+        let along = Vector2::new(0.8f64.cos(), 0.8f64.sin());
+        let across = Vector2::new(-along.y, along.x);
+        assert!((m - (s + 30.0 * along)).norm() < 1e-12, "{m}");
+        assert!(((along.transpose() * cov * along)[0] - 15.0f64.powi(2)).abs() < 1e-9);
+        assert!(((across.transpose() * cov * across)[0] - (30.0f64 * 0.01).powi(2)).abs() < 1e-12);
+        assert_eq!(model.birth_integral(&x, &z, ()), f64::INFINITY);
+
+        #[derive(Debug, Clone)]
+        struct RankOne(BearingOnlyModel);
+        impl SensorModel<3, 2, 1> for RankOne {
+            type Mark = ();
+            const NAME: &'static str = "rank-one";
+            fn components(&self) -> [MeasurementComponent; 1] {
+                self.0.components()
+            }
+            fn predict(&self, x: &Pose, m: &Point2, _: ()) -> nalgebra::Vector1<f64> {
+                self.0.predict(x, m, ())
+            }
+            fn linearise(&self, x: &Pose, m: &Point2, _: ()) -> Linearised<3, 2, 1> {
+                self.0.linearise(x, m, ())
+            }
+            fn noise(&self, _: ()) -> nalgebra::Matrix1<f64> {
+                self.0.noise(())
+            }
+            fn in_fov(&self, x: &Pose, m: &Point2, _: ()) -> bool {
+                self.0.in_fov(x, m, ())
+            }
+            fn detection_probability(&self, x: &Pose, m: &Point2, c: &Matrix2<f64>, _: ()) -> f64 {
+                self.0.detection_probability(x, m, c, ())
+            }
+            fn clutter_intensity(&self, z: &nalgebra::Vector1<f64>) -> f64 {
+                self.0.clutter_intensity(z)
+            }
+            fn clutter_rate(&self) -> f64 {
+                self.0.clutter_rate()
+            }
+            fn pd_true(&self, x: &Pose, m: &Point2, _: ()) -> f64 {
+                self.0.pd_true(x, m, ())
+            }
+            fn sample<R: rand::Rng + ?Sized>(
+                &self,
+                x: &Pose,
+                m: &Point2,
+                _: (),
+                rng: &mut R,
+            ) -> nalgebra::Vector1<f64> {
+                self.0.sample(x, m, (), rng)
+            }
+            fn sample_clutter<R: rand::Rng + ?Sized>(
+                &self,
+                x: &Pose,
+                rng: &mut R,
+                out: &mut Vec<nalgebra::Vector1<f64>>,
+            ) {
+                self.0.sample_clutter(x, rng, out)
+            }
+        }
+        impl InvertibleSensorModel<3, 2, 1> for RankOne {
+            fn inverse(&self, x: &Pose, z: &nalgebra::Vector1<f64>, _: ()) -> Inverse<3, 2, 1> {
+                self.0.inverse(x, z, ())
+            }
+            fn birth_integral(&self, x: &Pose, z: &nalgebra::Vector1<f64>, _: ()) -> f64 {
+                self.0.birth_integral(x, z, ())
+            }
+        }
+        let e = check_invertible_sensor_model(&RankOne(model), &cases(false)).unwrap_err();
+        assert!(e.contains("positive definite"), "{e}");
     }
 
     /// The checks fail where a model is wrong: a sign error in a Jacobian column, an
