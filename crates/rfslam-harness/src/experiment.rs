@@ -505,48 +505,7 @@ impl Plan {
         let dir = path.parent().unwrap_or(Path::new("."));
         let err = |key: &str, msg: String| config_error(path, &text, key, msg);
 
-        if let Err(why) = check_runs(config.runs) {
-            return Err(err("runs", why));
-        }
-        if config.filters.is_empty() {
-            return Err(err("filters", "at least one [[filters]] entry is needed".into()));
-        }
-        config.metrics.validate().map_err(|e| err(&format!("metrics.{}", e.key), e.message))?;
-        if let Some(why) = bad_name(&config.name) {
-            return Err(err("name", format!("the experiment name `{}` {why}", config.name.escape_debug())));
-        }
-        let mut labels = std::collections::HashSet::new();
-        for (i, f) in config.filters.iter().enumerate() {
-            if registry::find(&f.name).is_none() {
-                return Err(err(
-                    &format!("filters[{i}].name"),
-                    format!("unknown filter `{}`; registered filters: {}", f.name, registry::names()),
-                ));
-            }
-            if f.particles.is_empty() || f.particles.contains(&0) {
-                return Err(err(&format!("filters[{i}].particles"), "needs one or more particle counts >= 1".into()));
-            }
-            if let Some(n) = f.particles.iter().enumerate().find_map(|(k, n)| f.particles[..k].contains(n).then_some(n))
-            {
-                return Err(err(
-                    &format!("filters[{i}].particles"),
-                    format!("particle count {n} is listed twice: its jobs would run twice and pool as separate runs"),
-                ));
-            }
-            if let Some(why) = bad_label(f.label()) {
-                let key = if f.label.is_some() { "label" } else { "name" };
-                return Err(err(
-                    &format!("filters[{i}].{key}"),
-                    format!("the label `{}` {why}", f.label().escape_debug()),
-                ));
-            }
-            if !labels.insert(f.label().to_string()) {
-                return Err(err(
-                    &format!("filters[{i}].label"),
-                    format!("label `{}` is used twice: give each entry its own label", f.label()),
-                ));
-            }
-        }
+        check_entries(&config, &err)?;
 
         let scenario_path = dir.join(&config.scenario);
         if !scenario_path.is_file() {
@@ -564,48 +523,7 @@ impl Plan {
 
         // Grid keys and values.
         let grid_keys: Vec<String> = config.grid.keys().cloned().collect();
-        for k in &grid_keys {
-            let gkey = format!("grid.\"{k}\"");
-            if config.grid[k].is_empty() {
-                return Err(err(&gkey, "needs at least one value".into()));
-            }
-            let values = &config.grid[k];
-            if let Some(v) = values.iter().enumerate().find_map(|(j, v)| values[..j].contains(v).then_some(v)) {
-                return Err(err(
-                    &gkey,
-                    format!("the value {v} is listed twice: its jobs would run twice and pool as separate runs"),
-                ));
-            }
-            let ok = if let Some(rest) = k.strip_prefix("scenario.") {
-                !rest.is_empty()
-            } else if let Some(rest) = k.strip_prefix("filter.") {
-                let names: Vec<&str> = config.filters.iter().flat_map(|f| [f.label(), f.name.as_str()]).collect();
-                match split_filter_key(rest, &names) {
-                    Some((who, key)) if !key.is_empty() => {
-                        if !config.filters.iter().any(|f| f.label() == who || f.name == who) {
-                            // `who` is only a guess at where the label ends (labels contain
-                            // dots): name the whole key and the entries there are.
-                            let mut known: Vec<&str> = names.clone();
-                            known.dedup();
-                            return Err(err(
-                                &gkey,
-                                format!(
-                                    "`filter.{rest}` starts with no filter entry's label or name followed by `.<key>`; the entries are: {}",
-                                    known.join(", ")
-                                ),
-                            ));
-                        }
-                        true
-                    }
-                    _ => false,
-                }
-            } else {
-                false
-            };
-            if !ok {
-                return Err(err(&gkey, "grid keys are `scenario.<key>` or `filter.<label or name>.<key>`".into()));
-            }
-        }
+        check_grid(&config, &grid_keys, &err)?;
 
         // The scenario file deserialized (load_scenario_table); whether its values are valid too.
         let base_valid = toml::Value::Table(scenario_table.clone())
@@ -734,49 +652,11 @@ impl Plan {
             if is_radio(&sc_table) != radio {
                 return Err(origin("world.kind", "a grid may not change whether the world is the radio world".into()));
             }
-            if radio {
-                let sc = from_table(&sc_table, &origin, RadioScenario::validate, |e| e.message().to_string())?;
-                let models = <crate::world::Radio5g as crate::world::World<5, 3, 5>>::scenario_models(&sc)?;
-                let size = <crate::world::Radio5g as crate::world::World<5, 3, 5>>::job_size(&sc)?;
-                for (i, f) in filters.iter().enumerate() {
-                    for &n in &f.particles {
-                        registry::check_in(&f.params, &models, n, &f.name).map_err(|e| filter_error(i, f, n, e))?;
-                        let bytes = registry::particle_bytes_in(&f.params, &models, &f.name);
-                        peak_job_bytes = peak_job_bytes.max(fits(i, f, n, JobMemory::of::<5, 3, 5>(&size, n, bytes))?);
-                    }
-                }
-                points.push(GridPoint { values, scenario: WorldScenario::radio(sc), filters });
-                continue;
-            }
-            let scenario = scenario_from_table(&sc_table, &origin)?;
-            let world_key = toml::to_string(&sc_table.get("world")).unwrap_or_default();
-            let world = match worlds.iter().find(|(k, _)| *k == world_key) {
-                Some((_, w)) => Some(w.clone()),
-                None => match scenario.load_world()? {
-                    Some(w) => {
-                        let w = Arc::new(w);
-                        worlds.push((world_key, w.clone()));
-                        Some(w)
-                    }
-                    None => None,
-                },
-            };
-            let models = scenario.models_for(world.as_deref())?;
-            for (i, f) in filters.iter().enumerate() {
-                let entry = registry::find(&f.name).expect("checked above");
-                for &n in &f.particles {
-                    (entry.validate)(&f.params, &models, n).map_err(|e| filter_error(i, f, n, e))?;
-                }
-            }
-            // What one job needs at least, against what the machine has.
-            let size = crate::memory::JobSize::planar(world.as_deref(), &models);
-            for (i, f) in filters.iter().enumerate() {
-                for &n in &f.particles {
-                    let bytes = (registry::find(&f.name).expect("checked above").particle_bytes)(&f.params, &models);
-                    peak_job_bytes = peak_job_bytes.max(fits(i, f, n, JobMemory::of::<3, 2, 2>(&size, n, bytes))?);
-                }
-            }
-            points.push(GridPoint { values, scenario: WorldScenario::planar(scenario, world), filters });
+            let scenario = point_scenario(&sc_table, radio, &origin, &mut worlds)?;
+            let checks =
+                FilterChecks { scenario: &scenario, filters: &filters, param_error: &filter_error, fits: &fits };
+            peak_job_bytes = peak_job_bytes.max(scenario.kind.visit(checks)?);
+            points.push(GridPoint { values, scenario, filters });
         }
         let plan = Plan {
             path: path.to_path_buf(),
@@ -807,6 +687,170 @@ impl Plan {
     /// The identity of `job` as written in `runs.csv` (see [`ExperimentConfig::job_key`]).
     pub fn job_key(&self, job: &Job) -> JobKey {
         self.config.job_key(job)
+    }
+}
+
+/// The experiment's own checks, before its scenario is read: the run count, at least one
+/// filter entry, the metrics, the name, and each entry's filter name, particle counts and
+/// label.
+fn check_entries(config: &ExperimentConfig, err: &dyn Fn(&str, String) -> HarnessError) -> Result<(), HarnessError> {
+    if let Err(why) = check_runs(config.runs) {
+        return Err(err("runs", why));
+    }
+    if config.filters.is_empty() {
+        return Err(err("filters", "at least one [[filters]] entry is needed".into()));
+    }
+    config.metrics.validate().map_err(|e| err(&format!("metrics.{}", e.key), e.message))?;
+    if let Some(why) = bad_name(&config.name) {
+        return Err(err("name", format!("the experiment name `{}` {why}", config.name.escape_debug())));
+    }
+    let mut labels = std::collections::HashSet::new();
+    for (i, f) in config.filters.iter().enumerate() {
+        if registry::find(&f.name).is_none() {
+            return Err(err(
+                &format!("filters[{i}].name"),
+                format!("unknown filter `{}`; registered filters: {}", f.name, registry::names()),
+            ));
+        }
+        if f.particles.is_empty() || f.particles.contains(&0) {
+            return Err(err(&format!("filters[{i}].particles"), "needs one or more particle counts >= 1".into()));
+        }
+        if let Some(n) = f.particles.iter().enumerate().find_map(|(k, n)| f.particles[..k].contains(n).then_some(n)) {
+            return Err(err(
+                &format!("filters[{i}].particles"),
+                format!("particle count {n} is listed twice: its jobs would run twice and pool as separate runs"),
+            ));
+        }
+        if let Some(why) = bad_label(f.label()) {
+            let key = if f.label.is_some() { "label" } else { "name" };
+            return Err(err(&format!("filters[{i}].{key}"), format!("the label `{}` {why}", f.label().escape_debug())));
+        }
+        if !labels.insert(f.label().to_string()) {
+            return Err(err(
+                &format!("filters[{i}].label"),
+                format!("label `{}` is used twice: give each entry its own label", f.label()),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The `[grid]`'s checks: each key has distinct values and is `scenario.<key>` or
+/// `filter.<label or name>.<key>` naming one of the entries.
+fn check_grid(
+    config: &ExperimentConfig,
+    grid_keys: &[String],
+    err: &dyn Fn(&str, String) -> HarnessError,
+) -> Result<(), HarnessError> {
+    for k in grid_keys {
+        let gkey = format!("grid.\"{k}\"");
+        if config.grid[k].is_empty() {
+            return Err(err(&gkey, "needs at least one value".into()));
+        }
+        let values = &config.grid[k];
+        if let Some(v) = values.iter().enumerate().find_map(|(j, v)| values[..j].contains(v).then_some(v)) {
+            return Err(err(
+                &gkey,
+                format!("the value {v} is listed twice: its jobs would run twice and pool as separate runs"),
+            ));
+        }
+        let ok = if let Some(rest) = k.strip_prefix("scenario.") {
+            !rest.is_empty()
+        } else if let Some(rest) = k.strip_prefix("filter.") {
+            let names: Vec<&str> = config.filters.iter().flat_map(|f| [f.label(), f.name.as_str()]).collect();
+            match split_filter_key(rest, &names) {
+                Some((who, key)) if !key.is_empty() => {
+                    if !config.filters.iter().any(|f| f.label() == who || f.name == who) {
+                        // `who` is only a guess at where the label ends (labels contain
+                        // dots): name the whole key and the entries there are.
+                        let mut known: Vec<&str> = names.clone();
+                        known.dedup();
+                        return Err(err(
+                            &gkey,
+                            format!(
+                                "`filter.{rest}` starts with no filter entry's label or name followed by `.<key>`; the entries are: {}",
+                                known.join(", ")
+                            ),
+                        ));
+                    }
+                    true
+                }
+                _ => false,
+            }
+        } else {
+            false
+        };
+        if !ok {
+            return Err(err(&gkey, "grid keys are `scenario.<key>` or `filter.<label or name>.<key>`".into()));
+        }
+    }
+    Ok(())
+}
+
+/// The scenario of one grid point in its world, from the scenario table with the point's
+/// values set: a radio scenario, or a planar one with its world, loaded once for every point
+/// of the same `[world]` table (`worlds`). `origin` says where an error should point.
+fn point_scenario(
+    sc_table: &toml::Table,
+    radio: bool,
+    origin: &dyn Fn(&str, String) -> HarnessError,
+    worlds: &mut Vec<(String, Arc<World>)>,
+) -> Result<WorldScenario, HarnessError> {
+    if radio {
+        return Ok(WorldScenario::radio(radio_scenario_from_table(sc_table, origin)?));
+    }
+    let scenario = scenario_from_table(sc_table, origin)?;
+    let world_key = toml::to_string(&sc_table.get("world")).unwrap_or_default();
+    let world = match worlds.iter().find(|(k, _)| *k == world_key) {
+        Some((_, w)) => Some(w.clone()),
+        None => match scenario.load_world()? {
+            Some(w) => {
+                let w = Arc::new(w);
+                worlds.push((world_key, w.clone()));
+                Some(w)
+            }
+            None => None,
+        },
+    };
+    Ok(WorldScenario::planar(scenario, world))
+}
+
+/// The per-filter checks of one grid point, in its world: every filter entry and particle
+/// count against the models the world's filters assume on the scenario
+/// (`WorldBuild::check_world`, through the registry), then each job's memory against the
+/// machine's. Gives the largest job's bytes; an error at the key `param_error` or `fits`
+/// names.
+struct FilterChecks<'a> {
+    scenario: &'a WorldScenario,
+    filters: &'a [ResolvedFilter],
+    param_error: &'a dyn Fn(usize, &ResolvedFilter, usize, rfslam_core::ParamError) -> HarnessError,
+    fits: &'a JobFits<'a>,
+}
+
+/// Whether the job of filter entry `i` with `n` particles, needing the given memory, fits in
+/// the machine: its bytes, or the error at the key that makes most of them.
+type JobFits<'a> = dyn Fn(usize, &ResolvedFilter, usize, JobMemory) -> Result<f64, HarnessError> + 'a;
+
+impl crate::world::Visitor for FilterChecks<'_> {
+    type Output = Result<f64, HarnessError>;
+
+    fn visit<W: crate::world::World<X, M, Z>, const X: usize, const M: usize, const Z: usize>(self) -> Self::Output {
+        let sc = self.scenario.get::<W, X, M, Z>().expect("a grid point's scenario is of its world");
+        let models = W::scenario_models(sc)?;
+        let size = W::job_size(sc)?;
+        for (i, f) in self.filters.iter().enumerate() {
+            for &n in &f.particles {
+                registry::check_in(&f.params, &models, n, &f.name).map_err(|e| (self.param_error)(i, f, n, e))?;
+            }
+        }
+        let mut peak = 0.0f64;
+        for (i, f) in self.filters.iter().enumerate() {
+            let bytes = registry::particle_bytes_in(&f.params, &models, &f.name);
+            for &n in &f.particles {
+                peak = peak.max((self.fits)(i, f, n, JobMemory::of::<X, M, Z>(&size, n, bytes))?);
+            }
+        }
+        Ok(peak)
     }
 }
 

@@ -24,9 +24,6 @@ pub struct FilterEntry {
     pub validate: fn(&toml::Table, &SlamModels, usize) -> Result<(), ParamError>,
     /// Parses, validates and builds (a planar world).
     pub build: BuildFn,
-    /// The bytes each particle holds at least beyond its state and map, with a parameter
-    /// table, in a planar world ([`particle_bytes_in`]).
-    pub particle_bytes: fn(&toml::Table, &SlamModels) -> f64,
     /// The default parameters, as a table (written into resolved configurations).
     pub defaults: fn() -> toml::Table,
 }
@@ -111,10 +108,6 @@ macro_rules! registry {
                 build: |t, m, n| match m.sensor_kind {
                     SensorKind::RangeBearing => build_in(t, &m.world::<RangeBearingModel>(), n, $name),
                     SensorKind::RelativePosition => build_in(t, &m.world::<RelativePositionModel>(), n, $name),
-                },
-                particle_bytes: |t, m| match m.sensor_kind {
-                    SensorKind::RangeBearing => particle_bytes_in(t, &m.world::<RangeBearingModel>(), $name),
-                    SensorKind::RelativePosition => particle_bytes_in(t, &m.world::<RelativePositionModel>(), $name),
                 },
                 defaults: defaults_with::<$ty>,
             },
