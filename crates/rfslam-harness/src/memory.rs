@@ -68,8 +68,14 @@ impl JobSize {
     /// A planar scenario of the generated world `world` (None: a recorded data set or
     /// Victoria Park) with the clutter of `models`.
     pub fn planar(world: Option<&World>, models: &SlamModels) -> JobSize {
+        JobSize::generated(world, models.clutter.rate)
+    }
+
+    /// A planar scenario of the generated world `world` (None: nothing generated) with
+    /// `clutter_rate` returns per scan.
+    pub fn generated(world: Option<&World>, clutter_rate: f64) -> JobSize {
         let (scans, landmarks) = world.map_or((0.0, 0.0), |w| (w.poses.len() as f64, w.landmarks.len() as f64));
-        JobSize { scans, landmarks, clutter_rate: models.clutter.rate.max(0.0) }
+        JobSize { scans, landmarks, clutter_rate: clutter_rate.max(0.0) }
     }
 }
 

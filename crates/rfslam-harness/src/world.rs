@@ -97,9 +97,10 @@ impl<S: PlanarSensorModel> World<3, 2, 2> for PlanarWorld<S> {
         Ok(ds.models().world::<S>())
     }
 
+    /// From the loaded world and the scenario's clutter rate, without building the models
+    /// (which may read a data set's files again).
     fn job_size(sc: &PlanarScenario) -> Result<JobSize, DataError> {
-        let world = sc.world.as_deref();
-        Ok(JobSize::planar(world, &sc.config.models_for(world)?))
+        Ok(JobSize::generated(sc.world.as_deref(), sc.config.clutter.rate))
     }
 }
 
