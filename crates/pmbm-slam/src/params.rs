@@ -294,7 +294,7 @@ impl Params {
     pub fn clutter_intensity(&self, models: &SlamModels) -> f64 {
         let clutter =
             ClutterModel { rate: self.clutter_rate.unwrap_or(models.clutter.rate), intensity: self.clutter_intensity };
-        clutter.intensity(&models.fov, models.sensor_kind)
+        clutter.intensity(&models.fov, &models.sensor_model)
     }
 
     /// The detection model the filter assumes: the scenario's with `detection_pd` applied.

@@ -237,7 +237,7 @@ mod tests {
         SlamModels {
             motion: Motion::Velocity,
             control_noise: Matrix3::identity(),
-            sensor_kind: rfslam_core::SensorKind::RangeBearing,
+            sensor_model: rfslam_core::PlanarSensor::default(),
             sensor: RangeBearingSensor::default(),
             measurement_noise: Matrix2::identity(),
             fov: Fov::new(50.0, 1.0),

@@ -256,7 +256,7 @@ pub(crate) fn scenario_with_overrides(
     }
     let sc = scenario_from_table(&table, &origin)?;
     let world = sc.load_world().map_err(HarnessError::Data)?;
-    Ok(rfslam_harness::world::WorldScenario::planar(sc, world.map(std::sync::Arc::new)))
+    Ok(rfslam_harness::world::WorldScenario::planar(sc, world.map(std::sync::Arc::new)).map_err(HarnessError::Data)?)
 }
 
 /// `rfslam simulate`: the data set of run `seed` of a scenario of any world, written to `out`.

@@ -399,7 +399,9 @@ impl DetectionModel {
 /// uniform in range and bearing, so as a density in measurement space it is
 /// `lambda_c / (max_range * 2 half_angle)`; the two choices change every `pD eta N / c` ratio,
 /// the births and the association ranking. For the relative-position sensor, whose
-/// measurement space is Cartesian, both are `lambda_c / area of the FOV`.
+/// measurement space is Cartesian, both are `lambda_c / area of the FOV`; for the
+/// bearing-only sensor, whose measurement space is the bearing alone, both are
+/// `lambda_c / (2 half_angle)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum ClutterIntensity {
@@ -408,7 +410,7 @@ pub enum ClutterIntensity {
     #[default]
     Cartesian,
     /// `lambda_c` over the volume of the measurement space the FOV covers
-    /// ([`SensorKind::measurement_volume`]): `lambda_c / (max_range * 2 half_angle)`
+    /// (the sensor's [`crate::planar::PlanarSensor::clutter_volume`]): `lambda_c / (max_range * 2 half_angle)`
     /// ((m rad)^-1) for range and bearing, the Cartesian density for a relative position.
     Measurement,
 }
@@ -428,13 +430,11 @@ impl ClutterModel {
     /// measurements a simulated scan can hold.
     pub const MAX_RATE: f64 = 1e3;
 
-    /// The clutter intensity `c(z)` the filters use (uniform over the FOV) for a sensor of
-    /// kind `sensor`.
-    pub fn intensity(&self, fov: &Fov, sensor: SensorKind) -> f64 {
-        match self.intensity {
-            ClutterIntensity::Cartesian => self.rate / fov.area(),
-            ClutterIntensity::Measurement => self.rate / sensor.measurement_volume(fov),
-        }
+    /// The clutter intensity `c(z)` the filters use (uniform over the FOV) for the planar
+    /// sensor `sensor`: the rate over its clutter volume in this model's units
+    /// ([`crate::planar::PlanarSensor::clutter_volume`]).
+    pub fn intensity(&self, fov: &Fov, sensor: &crate::planar::PlanarSensor) -> f64 {
+        self.rate / (sensor.clutter_volume)(fov, self.intensity)
     }
 
     /// Draws one scan's clutter: a Poisson count, then range `U[min_range, max_range]` and bearing
@@ -448,50 +448,6 @@ impl ClutterModel {
             let r = rng.random_range(fov.min_range..fov.max_range);
             let b = if fov.half_angle > 0.0 { rng.random_range(-fov.half_angle..fov.half_angle) } else { 0.0 };
             out.push(RangeBearing::new(r, wrap(b)));
-        }
-    }
-}
-
-/// Which sensor a planar world declares (`[sensor] model` of a scenario or data set).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SensorKind {
-    /// [`crate::model::RangeBearingModel`]: `z = [range, bearing]`.
-    #[default]
-    RangeBearing,
-    /// [`crate::model::RelativePositionModel`]: `z = [x, y]` in the sensor frame.
-    RelativePosition,
-}
-
-impl SensorKind {
-    /// Whether this is the range-bearing sensor (the default, not written in files).
-    pub fn is_range_bearing(&self) -> bool {
-        *self == SensorKind::RangeBearing
-    }
-
-    /// The name as files write it.
-    pub fn name(&self) -> &'static str {
-        match self {
-            SensorKind::RangeBearing => "range_bearing",
-            SensorKind::RelativePosition => "relative_position",
-        }
-    }
-
-    /// The volume of the measurement space the field of view covers: `(max_range -
-    /// min_range) 2 half_angle` (m rad) for range and bearing, the sector's area (m^2) for a
-    /// relative position.
-    pub fn measurement_volume(&self, fov: &Fov) -> f64 {
-        match self {
-            SensorKind::RangeBearing => fov.measurement_volume(),
-            SensorKind::RelativePosition => fov.area(),
-        }
-    }
-
-    /// The measurement columns of `measurements.csv` after `scan`.
-    pub fn columns(&self) -> [&'static str; 2] {
-        match self {
-            SensorKind::RangeBearing => ["range", "bearing"],
-            SensorKind::RelativePosition => ["x", "y"],
         }
     }
 }

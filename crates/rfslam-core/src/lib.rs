@@ -39,12 +39,12 @@ pub mod sensor;
 pub mod state;
 pub mod types;
 
-pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov, FovEdge, PlacedFov, SensorKind};
+pub use detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov, FovEdge, PlacedFov};
 pub use filter::{FilterBuild, FilterEngine, Named, SlamFilter, WorldBuild, WorldModels};
 pub use model::{InvertibleSensorModel, SensorChange, SensorModel, VehicleModel};
 pub use motion::{AckermannModel, Motion, MotionModel, OdometryModel, VelocityModel};
 pub use params::{ParamError, RbpfParams};
-pub use planar::{PlanarSensorModel, SlamModels};
+pub use planar::{NoiseKey, PlanarSensor, PlanarSensorModel, SlamModels};
 pub use rng::Rng;
 pub use sensor::RangeBearingSensor;
 pub use types::{

@@ -2,10 +2,10 @@
 //! `[motion]`, `[sensor]`, `[detection]` and `[clutter]`, in the units people write
 //! (degrees for angles), converted to the SI [`SlamModels`] the filters use.
 
-use nalgebra::{Matrix2, Matrix3};
+use nalgebra::{Matrix3, SMatrix};
 use rfslam_core::params::Interval;
 use rfslam_core::{AckermannModel, ClutterIntensity, ClutterModel, DetectionModel, Fov, FovEdge, Motion, Pose};
-use rfslam_core::{RangeBearingSensor, SensorKind, SlamModels};
+use rfslam_core::{PlanarSensor, RangeBearingSensor, SlamModels};
 use serde::{Deserialize, Serialize};
 
 use crate::error::ConfigError;
@@ -275,25 +275,27 @@ impl MotionConfig {
 
 /// The `[sensor]` table: the sensor model, its field of view and measurement noise.
 ///
-/// `model = "range_bearing"` (the default, not written): `z = [range, bearing]`, noise
-/// `sigma_range` (m) and `sigma_bearing_deg`. `model = "relative_position"`: `z = [x, y]`,
-/// the landmark in the sensor frame (forward, left), noise `sigma_x` and `sigma_y` (m). The
-/// field of view (`max_range`, `half_angle_deg`, `min_range`, the edge keys) is the same
-/// sector around the pose for both.
+/// `model` names a planar sensor ([`rfslam_core::model::PLANAR_SENSORS`]), whose noise keys
+/// are required and the other sensors' refused: `"range_bearing"` (the default, not
+/// written): `z = [range, bearing]`, noise `sigma_range` (m) and `sigma_bearing_deg`;
+/// `"relative_position"`: `z = [x, y]`, the landmark in the sensor frame (forward, left),
+/// noise `sigma_x` and `sigma_y` (m); `"bearing_only"`: `z = [bearing]`, noise
+/// `sigma_bearing_deg`. The field of view (`max_range`, `half_angle_deg`, `min_range`, the
+/// edge keys) is the same sector around the pose for every sensor.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SensorConfig {
-    /// The sensor model (`range_bearing` or `relative_position`).
-    #[serde(default, skip_serializing_if = "SensorKind::is_range_bearing")]
-    pub model: SensorKind,
+    /// The sensor model (`range_bearing`, `relative_position`, `bearing_only`).
+    #[serde(default, skip_serializing_if = "PlanarSensor::is_default")]
+    pub model: PlanarSensor,
     /// Maximum range (m).
     pub max_range: f64,
     /// Half of the FOV width (deg); 180 means all around.
     pub half_angle_deg: f64,
-    /// Range noise `sigma_r` (m); range-bearing only.
+    /// Range noise `sigma_r` (m); range-bearing.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sigma_range: Option<f64>,
-    /// Bearing noise `sigma_phi` (deg); range-bearing only.
+    /// Bearing noise `sigma_phi` (deg); range-bearing and bearing-only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sigma_bearing_deg: Option<f64>,
     /// Forward noise (m) in the sensor frame; relative-position only.
@@ -352,7 +354,7 @@ impl SensorConfig {
     /// `half_angle_deg`, `sigma_range` (m) and `sigma_bearing_deg`.
     pub fn range_bearing(max_range: f64, half_angle_deg: f64, sigma_range: f64, sigma_bearing_deg: f64) -> Self {
         SensorConfig {
-            model: SensorKind::RangeBearing,
+            model: PlanarSensor::default(),
             max_range,
             half_angle_deg,
             sigma_range: Some(sigma_range),
@@ -385,23 +387,37 @@ impl SensorConfig {
         Fov { max_range: self.max_range, half_angle: self.half_angle_deg.to_radians(), min_range: self.min_range, edge }
     }
 
-    /// The measurement noise standard deviations in SI units, in the order of the
-    /// measurement components: `[sigma_r (m), sigma_phi (rad)]` or `[sigma_x, sigma_y]` (m).
-    /// A missing key (refused by validation) reads as 0.
-    pub fn sigmas(&self) -> [f64; 2] {
-        match self.model {
-            SensorKind::RangeBearing => {
-                [self.sigma_range.unwrap_or(0.0), self.sigma_bearing_deg.unwrap_or(0.0).to_radians()]
-            }
-            SensorKind::RelativePosition => [self.sigma_x.unwrap_or(0.0), self.sigma_y.unwrap_or(0.0)],
+    /// The value of the noise key `key` (`None` when not written, or not a noise key).
+    fn noise_value(&self, key: &str) -> Option<f64> {
+        match key {
+            "sigma_range" => self.sigma_range,
+            "sigma_bearing_deg" => self.sigma_bearing_deg,
+            "sigma_x" => self.sigma_x,
+            "sigma_y" => self.sigma_y,
+            _ => None,
         }
     }
 
-    /// `R = diag(sigma_1^2, sigma_2^2)`: `diag(sigma_r^2, sigma_phi^2)` (m^2, rad^2) or
-    /// `diag(sigma_x^2, sigma_y^2)` (m^2).
-    pub fn measurement_noise(&self) -> Matrix2<f64> {
-        let [a, b] = self.sigmas();
-        Matrix2::new(a * a, 0.0, 0.0, b * b)
+    /// Every noise key of the planar sensors, as this table holds them.
+    const NOISE_KEYS: [&'static str; 4] = ["sigma_range", "sigma_bearing_deg", "sigma_x", "sigma_y"];
+
+    /// The measurement noise standard deviations in SI units, in the order of the sensor's
+    /// measurement components (its noise keys, degrees converted to radians): `[sigma_r (m),
+    /// sigma_phi (rad)]` or `[sigma_x, sigma_y]` (m) or `[sigma_phi]`. A missing key (refused by
+    /// validation) reads as 0.
+    pub fn sigmas(&self) -> Vec<f64> {
+        let sigma = |k: &rfslam_core::NoiseKey| {
+            let v = self.noise_value(k.key).unwrap_or(0.0);
+            if k.degrees { v.to_radians() } else { v }
+        };
+        self.model.noise.iter().map(sigma).collect()
+    }
+
+    /// `R = diag(sigma_1^2, ..., sigma_Z^2)` in the order of the measurement components
+    /// ([`SensorConfig::sigmas`]); a component beyond the sensor's reads as 0.
+    pub fn measurement_noise<const Z: usize>(&self) -> SMatrix<f64, Z, Z> {
+        let s = self.sigmas();
+        SMatrix::from_fn(|i, j| if i == j { s.get(i).map_or(0.0, |v| v * v) } else { 0.0 })
     }
 
     fn validate(&self) -> Result<(), ConfigError> {
@@ -409,23 +425,16 @@ impl SensorConfig {
         // Half of the FOV width.
         in_range("half_angle_deg", Interval::POSITIVE.up_to(180.0), self.half_angle_deg)?;
         let sigma = Interval::POSITIVE.up_to(limits::MAX_SIGMA);
-        let (own, other) = match self.model {
-            SensorKind::RangeBearing => (
-                [("sigma_range", self.sigma_range), ("sigma_bearing_deg", self.sigma_bearing_deg)],
-                [("sigma_x", self.sigma_x), ("sigma_y", self.sigma_y)],
-            ),
-            SensorKind::RelativePosition => (
-                [("sigma_x", self.sigma_x), ("sigma_y", self.sigma_y)],
-                [("sigma_range", self.sigma_range), ("sigma_bearing_deg", self.sigma_bearing_deg)],
-            ),
-        };
-        for (key, v) in own {
-            let v =
-                v.ok_or_else(|| ConfigError::new(key, format!("is required with model = \"{}\"", self.model.name())))?;
-            in_range(key, sigma, v)?;
+        let name = self.model.name;
+        for k in self.model.noise {
+            let v = self
+                .noise_value(k.key)
+                .ok_or_else(|| ConfigError::new(k.key, format!("is required with model = \"{name}\"")))?;
+            in_range(k.key, sigma, v)?;
         }
-        if let Some((key, _)) = other.iter().find(|(_, v)| v.is_some()) {
-            return Err(ConfigError::new(*key, format!("is not a key of model = \"{}\"", self.model.name())));
+        let own = |key: &&str| self.model.noise.iter().any(|k| k.key == *key);
+        if let Some(key) = Self::NOISE_KEYS.iter().find(|k| !own(k) && self.noise_value(k).is_some()) {
+            return Err(ConfigError::new(*key, format!("is not a key of model = \"{name}\"")));
         }
         let length = Interval::magnitude(limits::MAX_VEHICLE_LENGTH);
         in_range("offset[0]", length, self.offset[0])?;
@@ -549,12 +558,19 @@ impl ModelConfig {
         in_range("clutter.rate", Interval::NON_NEGATIVE.up_to(ClutterModel::MAX_RATE), self.clutter.rate)
     }
 
-    /// The models in SI units, for a robot starting at `initial_pose`.
+    /// [`ModelConfig::to_models_in`] a sensor of two components (the range-bearing and the
+    /// relative-position sensor).
     pub fn to_models(&self, initial_pose: Pose) -> SlamModels {
+        self.to_models_in::<2>(initial_pose)
+    }
+
+    /// The models in SI units, for a robot starting at `initial_pose`, with measurements of
+    /// `Z` components (the sensor's: [`PlanarSensor::dim`]).
+    pub fn to_models_in<const Z: usize>(&self, initial_pose: Pose) -> SlamModels<Z> {
         SlamModels {
             motion: self.motion.motion(),
             control_noise: self.motion.control_noise(),
-            sensor_kind: self.sensor.model,
+            sensor_model: self.sensor.model,
             sensor: RangeBearingSensor { offset: self.sensor.offset },
             measurement_noise: self.sensor.measurement_noise(),
             fov: self.sensor.fov(),
@@ -616,7 +632,7 @@ mod tests {
         assert!((m.fov.half_angle - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
         // Cartesian intensity by default: rate over the half-disc area.
         let expect = 5.0 / (0.5 * std::f64::consts::PI * 150.0 * 150.0);
-        assert!((m.clutter.intensity(&m.fov, m.sensor_kind) - expect).abs() < 1e-15);
+        assert!((m.clutter.intensity(&m.fov, &m.sensor_model) - expect).abs() < 1e-15);
     }
 
     #[test]
@@ -749,10 +765,13 @@ mod tests {
         );
         let c: ModelConfig = toml::from_str(&rp).unwrap();
         c.validate().unwrap();
-        assert_eq!(c.sensor.model, SensorKind::RelativePosition);
-        assert_eq!(c.sensor.measurement_noise(), Matrix2::new(0.25, 0.0, 0.0, 0.2 * 0.2));
+        assert_eq!(
+            c.sensor.model,
+            <rfslam_core::model::RelativePositionModel as rfslam_core::PlanarSensorModel>::PLANAR
+        );
+        assert_eq!(c.sensor.measurement_noise::<2>(), nalgebra::Matrix2::new(0.25, 0.0, 0.0, 0.2 * 0.2));
         let m = c.to_models(Pose::zeros());
-        assert_eq!(m.sensor_kind, SensorKind::RelativePosition);
+        assert_eq!(m.sensor_model.name, "relative_position");
         assert!(toml::to_string(&c).unwrap().contains("model = \"relative_position\""));
         let err = |text: &str| toml::from_str::<ModelConfig>(text).unwrap().validate().unwrap_err().to_string();
         assert_eq!(
@@ -773,6 +792,33 @@ mod tests {
         );
         let c: ModelConfig = toml::from_str(tables()).unwrap();
         assert!(!toml::to_string(&c).unwrap().contains("model = \"range_bearing\""));
+    }
+
+    /// `model = "bearing_only"`: one noise key, `sigma_bearing_deg` (shared with the
+    /// range-bearing sensor), `R` of one component; the range noise is refused; the clutter
+    /// volume is the bearing span in either units; an unknown model names every planar sensor.
+    #[test]
+    fn bearing_only_sensor_keys() {
+        let bo = tables().replace("sigma_range = 0.8\n", "model = \"bearing_only\"\n");
+        let c: ModelConfig = toml::from_str(&bo).unwrap();
+        c.validate().unwrap();
+        assert_eq!(c.sensor.model.name, "bearing_only");
+        assert_eq!(c.sensor.sigmas(), vec![0.3f64.to_radians()]);
+        let m = c.to_models_in::<1>(Pose::zeros());
+        assert_eq!(m.measurement_noise[(0, 0)], 0.3f64.to_radians().powi(2));
+        let span = 2.0 * c.sensor.half_angle_deg.to_radians();
+        for units in [ClutterIntensity::Cartesian, ClutterIntensity::Measurement] {
+            let clutter = ClutterModel { rate: 3.0, intensity: units };
+            assert_eq!(clutter.intensity(&m.fov, &m.sensor_model), 3.0 / span);
+        }
+        let err = |text: &str| toml::from_str::<ModelConfig>(text).unwrap().validate().unwrap_err().to_string();
+        assert_eq!(
+            err(&bo.replace("model = \"bearing_only\"", "model = \"bearing_only\"\nsigma_range = 0.8")),
+            "sensor.sigma_range is not a key of model = \"bearing_only\""
+        );
+        let e = toml::from_str::<ModelConfig>(&bo.replace("\"bearing_only\"", "\"bearing\"")).unwrap_err();
+        let msg = e.message();
+        assert!(msg.contains("`bearing`") && msg.contains("range_bearing, relative_position, bearing_only"), "{msg}");
     }
 
     #[test]

@@ -440,8 +440,8 @@ impl<const Z: usize> Dataset<ModelConfig, 3, 2, Z> {
     }
 
     /// The nominal models in SI units, starting at the initial pose.
-    pub fn models(&self) -> SlamModels {
-        self.meta.models.to_models(self.meta.initial_pose)
+    pub fn models(&self) -> SlamModels<Z> {
+        self.meta.models.to_models_in(self.meta.initial_pose)
     }
 }
 
@@ -883,7 +883,7 @@ fn read_groundtruth<const X: usize>(path: &Path, state: &[StateColumn]) -> Resul
 /// The planar worlds' model tables (`[motion]`, `[sensor]`, `[detection]`, `[clutter]`).
 impl DatasetModels for ModelConfig {
     fn world(&self) -> &'static str {
-        self.sensor.model.name()
+        self.sensor.model.name
     }
 
     fn read_models(text: &str, path: &Path) -> Result<Self, DataError> {
@@ -918,12 +918,10 @@ impl DatasetModels for ModelConfig {
     }
 
     fn columns(&self) -> Columns {
-        let [a, b] = self.sensor.model.columns();
-        let angle = self.sensor.model == rfslam_core::SensorKind::RangeBearing;
         Columns {
             state: Columns::planar_state(),
             control: self.motion.motion().control_columns(),
-            measurement: vec![MeasurementComponent { name: a, angle: false }, MeasurementComponent { name: b, angle }],
+            measurement: self.sensor.model.components.to_vec(),
             landmark: PLANAR_LANDMARK,
         }
     }

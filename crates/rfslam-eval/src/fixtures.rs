@@ -9,7 +9,7 @@ use rfslam_core::motion::propagate;
 use rfslam_core::rng::{purpose, stream};
 use rfslam_core::{
     ClutterIntensity, ClutterModel, ControlSegment, DetectionModel, Fov, Motion, ParamError, Pose, RangeBearingSensor,
-    Rng, SensorKind, SlamFilter, SlamModels, WorldBuild,
+    Rng, SlamFilter, SlamModels, WorldBuild,
 };
 use rfslam_data::{Dataset, ModelConfig, ScenarioConfig};
 
@@ -32,7 +32,7 @@ pub fn unit_test_models(measurement_noise: Matrix2<f64>, max_range: f64) -> Slam
     SlamModels {
         motion: Motion::Velocity,
         control_noise: Matrix3::zeros(),
-        sensor_kind: SensorKind::RangeBearing,
+        sensor_model: rfslam_core::PlanarSensor::default(),
         sensor: RangeBearingSensor::default(),
         measurement_noise,
         fov: Fov::new(max_range, std::f64::consts::FRAC_PI_2),

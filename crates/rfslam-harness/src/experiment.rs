@@ -812,7 +812,7 @@ fn point_scenario(
             None => None,
         },
     };
-    Ok(WorldScenario::planar(scenario, world))
+    Ok(WorldScenario::planar(scenario, world)?)
 }
 
 /// The per-filter checks of one grid point, in its world: every filter entry and particle

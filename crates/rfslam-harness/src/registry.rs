@@ -3,7 +3,7 @@
 
 use rfslam_core::model::{RangeBearingModel, RelativePositionModel, WorldVehicle};
 use rfslam_core::{
-    FilterBuild, InvertibleSensorModel, ParamError, SensorKind, SlamFilter, SlamModels, WorldBuild, WorldModels,
+    FilterBuild, InvertibleSensorModel, ParamError, PlanarSensorModel, SlamFilter, SlamModels, WorldBuild, WorldModels,
 };
 
 /// Builds a boxed filter from a parameter table, the scenario's models and a particle count.
@@ -20,9 +20,11 @@ pub struct FilterEntry {
     pub baseline: bool,
     /// The filter needs truth labels on every scan (oracle baselines).
     pub requires_truth: bool,
-    /// Parses and validates parameters without building (a planar world).
+    /// Parses and validates parameters without building, in the planar world of a sensor of
+    /// two components ([`check_in`] is every world's).
     pub validate: fn(&toml::Table, &SlamModels, usize) -> Result<(), ParamError>,
-    /// Parses, validates and builds (a planar world).
+    /// Parses, validates and builds, in the planar world of a sensor of two components
+    /// ([`build_in`] is every world's).
     pub build: BuildFn,
     /// The default parameters, as a table (written into resolved configurations).
     pub defaults: fn() -> toml::Table,
@@ -101,13 +103,19 @@ macro_rules! registry {
                 summary: $summary,
                 baseline: registry!(@baseline $($baseline)?),
                 requires_truth: <$ty as FilterBuild>::REQUIRES_TRUTH,
-                validate: |t, m, n| match m.sensor_kind {
-                    SensorKind::RangeBearing => check_in(t, &m.world::<RangeBearingModel>(), n, $name),
-                    SensorKind::RelativePosition => check_in(t, &m.world::<RelativePositionModel>(), n, $name),
+                validate: |t, m, n| {
+                    if m.sensor_model == RelativePositionModel::PLANAR {
+                        check_in(t, &m.world::<RelativePositionModel>(), n, $name)
+                    } else {
+                        check_in(t, &m.world::<RangeBearingModel>(), n, $name)
+                    }
                 },
-                build: |t, m, n| match m.sensor_kind {
-                    SensorKind::RangeBearing => build_in(t, &m.world::<RangeBearingModel>(), n, $name),
-                    SensorKind::RelativePosition => build_in(t, &m.world::<RelativePositionModel>(), n, $name),
+                build: |t, m, n| {
+                    if m.sensor_model == RelativePositionModel::PLANAR {
+                        build_in(t, &m.world::<RelativePositionModel>(), n, $name)
+                    } else {
+                        build_in(t, &m.world::<RangeBearingModel>(), n, $name)
+                    }
                 },
                 defaults: defaults_with::<$ty>,
             },

@@ -14,9 +14,10 @@ use std::marker::PhantomData;
 use std::sync::Arc;
 
 use rfslam_core::model::{
-    RadioSensor, RadioVehicle, RangeBearingModel, RelativePositionModel, StateComponent, VehicleModel, WorldVehicle,
+    BearingOnlyModel, RadioSensor, RadioVehicle, RangeBearingModel, RelativePositionModel, StateComponent,
+    VehicleModel, WorldVehicle,
 };
-use rfslam_core::{InvertibleSensorModel, Motion, PlanarSensorModel, WorldModels};
+use rfslam_core::{InvertibleSensorModel, Motion, PlanarSensor, PlanarSensorModel, WorldModels};
 use rfslam_data::{DataError, Dataset, DatasetModels, ModelConfig, RadioModels, RadioScenario, ScenarioConfig};
 use rfslam_sim::ScenarioData;
 
@@ -64,8 +65,8 @@ pub trait World<const X: usize, const M: usize, const Z: usize>: 'static {
 }
 
 /// A planar world: the planar vehicle (the odometry's motion model) and the planar sensor
-/// model `S`, the planar scenarios and data sets (`[motion]`, `[sensor]`, `[detection]`,
-/// `[clutter]`).
+/// model `S` (measurements of `Z` components), the planar scenarios and data sets
+/// (`[motion]`, `[sensor]`, `[detection]`, `[clutter]`).
 pub struct PlanarWorld<S>(PhantomData<S>);
 
 /// A planar scenario with its world, loaded once (none for a recorded data set or Victoria
@@ -78,22 +79,22 @@ pub struct PlanarScenario {
     pub world: Option<Arc<rfslam_sim::World>>,
 }
 
-impl<S: PlanarSensorModel> World<3, 2, 2> for PlanarWorld<S> {
-    const NAME: &'static str = <S as rfslam_core::SensorModel<3, 2, 2>>::NAME;
+impl<S: PlanarSensorModel<Z>, const Z: usize> World<3, 2, Z> for PlanarWorld<S> {
+    const NAME: &'static str = S::PLANAR.name;
     type Vehicle = Motion;
     type Sensor = S;
     type Models = ModelConfig;
     type Scenario = PlanarScenario;
 
-    fn dataset(sc: &PlanarScenario, seed: u64) -> Result<Dataset, DataError> {
-        sc.config.build_dataset(sc.world.as_deref(), seed)
+    fn dataset(sc: &PlanarScenario, seed: u64) -> Result<Dataset<ModelConfig, 3, 2, Z>, DataError> {
+        sc.config.dataset_of::<S, Z>(sc.world.as_deref(), seed)
     }
 
-    fn scenario_models(sc: &PlanarScenario) -> Result<WorldModels<Motion, S, 3, 2, 2>, DataError> {
-        Ok(sc.config.models_for(sc.world.as_deref())?.world::<S>())
+    fn scenario_models(sc: &PlanarScenario) -> Result<WorldModels<Motion, S, 3, 2, Z>, DataError> {
+        Ok(sc.config.models_in::<Z>(sc.world.as_deref())?.world::<S>())
     }
 
-    fn models(ds: &Dataset) -> Result<WorldModels<Motion, S, 3, 2, 2>, DataError> {
+    fn models(ds: &Dataset<ModelConfig, 3, 2, Z>) -> Result<WorldModels<Motion, S, 3, 2, Z>, DataError> {
         Ok(ds.models().world::<S>())
     }
 
@@ -193,6 +194,8 @@ worlds! {
     RangeBearing => PlanarWorld<RangeBearingModel>, [3, 2, 2];
     /// The planar relative-position sensor.
     RelativePosition => PlanarWorld<RelativePositionModel>, [3, 2, 2];
+    /// The planar bearing-only sensor.
+    BearingOnly => PlanarWorld<BearingOnlyModel>, [3, 2, 1];
     /// The 5G mmWave radio world of \[Kim2022\].
     Radio5g => Radio5g, [5, 3, 5];
 }
@@ -208,12 +211,10 @@ impl WorldKind {
         WorldKind::ALL.iter().map(|w| w.name()).collect::<Vec<_>>().join(", ")
     }
 
-    /// The world of a planar scenario or data set's `[sensor] model`.
-    pub fn planar(sensor: rfslam_core::SensorKind) -> WorldKind {
-        match sensor {
-            rfslam_core::SensorKind::RangeBearing => WorldKind::RangeBearing,
-            rfslam_core::SensorKind::RelativePosition => WorldKind::RelativePosition,
-        }
+    /// The world of a planar scenario or data set's `[sensor] model` (every planar sensor has
+    /// one: a test checks the list against [`rfslam_core::model::PLANAR_SENSORS`]).
+    pub fn planar(sensor: PlanarSensor) -> Option<WorldKind> {
+        WorldKind::from_name(sensor.name)
     }
 }
 
@@ -234,9 +235,11 @@ impl std::fmt::Debug for WorldScenario {
 
 impl WorldScenario {
     /// A planar scenario with its loaded world.
-    pub fn planar(config: ScenarioConfig, world: Option<Arc<rfslam_sim::World>>) -> WorldScenario {
-        let kind = WorldKind::planar(config.sensor.model);
-        WorldScenario { kind, scenario: Arc::new(PlanarScenario { config, world }) }
+    pub fn planar(config: ScenarioConfig, world: Option<Arc<rfslam_sim::World>>) -> Result<WorldScenario, DataError> {
+        let sensor = config.sensor.model;
+        let kind = WorldKind::planar(sensor)
+            .ok_or_else(|| DataError::Mismatch(format!("the planar sensor `{}` has no world", sensor.name)))?;
+        Ok(WorldScenario { kind, scenario: Arc::new(PlanarScenario { config, world }) })
     }
 
     /// A radio scenario.
@@ -257,5 +260,29 @@ impl WorldScenario {
     /// The radio scenario, when this is one.
     pub fn radio_config(&self) -> Option<&RadioScenario> {
         self.scenario.downcast_ref::<RadioScenario>()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every planar sensor of `rfslam_core::model::PLANAR_SENSORS` has its world in the list,
+    /// of its name and of as many measurement components.
+    #[test]
+    fn every_planar_sensor_has_a_world() {
+        struct Dims;
+        impl Visitor for Dims {
+            type Output = usize;
+            fn visit<W: World<X, M, Z>, const X: usize, const M: usize, const Z: usize>(self) -> usize {
+                Z
+            }
+        }
+        for sensor in rfslam_core::model::PLANAR_SENSORS {
+            let kind = WorldKind::planar(*sensor).unwrap_or_else(|| panic!("{} has no world", sensor.name));
+            assert_eq!(kind.name(), sensor.name);
+            assert_eq!(kind.visit(Dims), sensor.dim(), "{}", sensor.name);
+            assert_eq!(sensor.noise.len(), sensor.dim(), "{}: one noise key per component", sensor.name);
+        }
     }
 }

@@ -18,8 +18,9 @@
 //! passes.
 
 use rfslam_core::angle::wrap;
+use rfslam_core::model::{RangeBearingModel, RelativePositionModel};
 use rfslam_core::motion::propagate;
-use rfslam_core::{ControlSegment, Estimate, Pose, SensorKind, SlamModels};
+use rfslam_core::{ControlSegment, Estimate, PlanarSensor, PlanarSensorModel, Pose, SlamModels};
 use rfslam_data::testutil::small_scenario;
 use rfslam_data::{Dataset, ScenarioConfig};
 use rfslam_eval::MetricsConfig;
@@ -28,7 +29,7 @@ use rfslam_harness::registry::{FilterEntry, REGISTRY};
 use rfslam_sim::ScenarioData;
 
 /// Both planar sensor models.
-const SENSORS: [SensorKind; 2] = [SensorKind::RangeBearing, SensorKind::RelativePosition];
+const SENSORS: [PlanarSensor; 2] = [RangeBearingModel::PLANAR, RelativePositionModel::PLANAR];
 
 /// The filters not yet generic over the sensor model: they run on the range-bearing sensor
 /// only and refuse any other when validated.
@@ -36,10 +37,10 @@ const RANGE_BEARING_ONLY: &[&str] = &[];
 
 /// A procedural scenario in a 300 m square with the given control noise, detection
 /// probability and clutter rate (the PHD-SLAM 3.0 synthetic sensor otherwise: 150 m,
-/// +-90 deg, 0.8 m and 0.3 deg; or, with `SensorKind::RelativePosition`, the same field of
+/// +-90 deg, 0.8 m and 0.3 deg; or, with the relative-position sensor, the same field of
 /// view with a relative-position sensor of 0.8 m forward and 0.4 m leftward noise).
 fn scenario(
-    sensor: SensorKind,
+    sensor: PlanarSensor,
     steps: usize,
     landmarks: usize,
     sigma_v: f64,
@@ -57,7 +58,7 @@ fn scenario(
         ("clutter.rate", clutter.into()),
     ]);
     let mut doc: toml::Table = text.parse().expect("scenario text");
-    if sensor == SensorKind::RelativePosition {
+    if sensor == RelativePositionModel::PLANAR {
         let t = doc.get_mut("sensor").and_then(toml::Value::as_table_mut).expect("[sensor]");
         t.remove("sigma_range");
         t.remove("sigma_bearing_deg");
@@ -80,7 +81,7 @@ fn serving(models: &SlamModels) -> impl Iterator<Item = &'static FilterEntry> + 
 
 /// The models of a short scenario on `sensor` (50 steps, 10 landmarks, control noise
 /// 0.8 m/s and 0.5 deg/s, pD 0.95, 5 clutter per scan): enough to validate and build on.
-fn short_models(sensor: SensorKind) -> SlamModels {
+fn short_models(sensor: PlanarSensor) -> SlamModels {
     scenario(sensor, 50, 10, 0.8, 0.5, 0.95, 5.0).models_for(None).unwrap()
 }
 
@@ -97,7 +98,11 @@ fn each_served(mut check: impl FnMut(&FilterEntry, &SlamModels)) {
 
 /// The data of run `seed` of `sc`.
 fn dataset(sc: &ScenarioConfig, seed: u64) -> Dataset {
-    sc.build_dataset(None, seed).expect("dataset")
+    if sc.sensor.model == RelativePositionModel::PLANAR {
+        sc.dataset_of::<RelativePositionModel, 2>(None, seed).expect("dataset")
+    } else {
+        sc.build_dataset(None, seed).expect("dataset")
+    }
 }
 
 /// The particle counts among `candidates` that `entry` accepts with its default parameters.
@@ -157,12 +162,12 @@ fn every_filter_serves_or_refuses_each_sensor() {
     for sensor in SENSORS {
         let models = short_models(sensor);
         for entry in REGISTRY {
-            let listed = sensor != SensorKind::RangeBearing && RANGE_BEARING_ONLY.contains(&entry.name);
-            assert_eq!(refuses(entry, &models), listed, "{} on the {} sensor", entry.name, sensor.name());
+            let listed = sensor != RangeBearingModel::PLANAR && RANGE_BEARING_ONLY.contains(&entry.name);
+            assert_eq!(refuses(entry, &models), listed, "{} on the {} sensor", entry.name, sensor.name);
             if listed {
                 let e = (entry.build)(&toml::Table::new(), &models, 3).err().expect("refused at build");
                 assert_eq!(e.key, "sensor", "{}: {e}", entry.name);
-                assert!(e.message.contains(sensor.name()), "{}: {e}", entry.name);
+                assert!(e.message.contains(sensor.name), "{}: {e}", entry.name);
             }
         }
     }
@@ -406,6 +411,6 @@ fn particle_filters_report_poses_and_parents() {
             checked += 1;
         }
         let least = 12;
-        assert!(checked >= least, "only {checked} particle filters checked on the {} sensor", sensor.name());
+        assert!(checked >= least, "only {checked} particle filters checked on the {} sensor", sensor.name);
     }
 }

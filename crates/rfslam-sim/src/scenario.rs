@@ -2,8 +2,9 @@
 //! and the data set of each run ([`ScenarioData`], implemented for
 //! [`rfslam_data::ScenarioConfig`]).
 
-use rfslam_core::{Pose, SlamModels};
-use rfslam_data::{DataError, Dataset, DatasetMeta, MotionConfig, ScenarioConfig, WorldSpec, find_data};
+use rfslam_core::model::RangeBearingModel;
+use rfslam_core::{PlanarSensorModel, Pose, SlamModels};
+use rfslam_data::{DataError, Dataset, DatasetMeta, ModelConfig, MotionConfig, ScenarioConfig, WorldSpec, find_data};
 
 use crate::glmb_sim::glmb_sim_world;
 use crate::loop_world::loop_world;
@@ -22,16 +23,33 @@ pub trait ScenarioData {
 
     /// The models the filters are built with: the scenario's tables, starting at the
     /// world's first pose (or the data set's initial pose, or Victoria Park's
-    /// `world.initial_*`). `world` is the loaded world (loaded here when `None` and the
-    /// scenario has one).
-    fn models_for(&self, world: Option<&World>) -> Result<SlamModels, DataError>;
+    /// `world.initial_*`), with measurements of `Z` components (the scenario's sensor's).
+    /// `world` is the loaded world (loaded here when `None` and the scenario has one).
+    fn models_in<const Z: usize>(&self, world: Option<&World>) -> Result<SlamModels<Z>, DataError>;
 
-    /// The data set of Monte Carlo run `run_seed`: [`simulate()`] on the world (loaded here
-    /// when `world` is `None`); for `kind = "dataset"`, the recorded data set with the
-    /// scenario's model tables as its models (its measurements as they are); for
-    /// `kind = "victoria-park"`, the recording imported with the run's clutter
-    /// ([`VictoriaPark::import`]; the files are read on every call).
-    fn build_dataset(&self, world: Option<&World>, run_seed: u64) -> Result<Dataset, DataError>;
+    /// [`ScenarioData::models_in`] a sensor of two components (the range-bearing and the
+    /// relative-position sensor).
+    fn models_for(&self, world: Option<&World>) -> Result<SlamModels, DataError> {
+        self.models_in::<2>(world)
+    }
+
+    /// The data set of Monte Carlo run `run_seed` for the planar sensor `S` (the scenario's
+    /// `[sensor] model`): [`simulate()`] on the world (loaded here when `world` is `None`); for
+    /// `kind = "dataset"`, the recorded data set with the scenario's model tables as its
+    /// models (its measurements as they are); for `kind = "victoria-park"` (range-bearing
+    /// only), the recording imported with the run's clutter ([`VictoriaPark::import`]; the
+    /// files are read on every call).
+    fn dataset_of<S: PlanarSensorModel<Z>, const Z: usize>(
+        &self,
+        world: Option<&World>,
+        run_seed: u64,
+    ) -> Result<Dataset<ModelConfig, 3, 2, Z>, DataError>;
+
+    /// [`ScenarioData::dataset_of`] the range-bearing sensor (the papers' worlds and
+    /// Victoria Park); an error for a scenario of another sensor.
+    fn build_dataset(&self, world: Option<&World>, run_seed: u64) -> Result<Dataset, DataError> {
+        self.dataset_of::<RangeBearingModel, 2>(world, run_seed)
+    }
 }
 
 impl ScenarioData for ScenarioConfig {
@@ -46,16 +64,24 @@ impl ScenarioData for ScenarioConfig {
         }
     }
 
-    fn models_for(&self, world: Option<&World>) -> Result<SlamModels, DataError> {
+    fn models_in<const Z: usize>(&self, world: Option<&World>) -> Result<SlamModels<Z>, DataError> {
         let models = self.models();
         models.validate().map_err(DataError::config)?;
+        let sensor = models.sensor.model;
+        if sensor.dim() != Z {
+            return Err(DataError::Mismatch(format!(
+                "sensor.model `{}` measures {} components, not {Z}",
+                sensor.name,
+                sensor.dim()
+            )));
+        }
         if let Some(x0) = self.world.victoria_park_initial_pose() {
-            return Ok(models.to_models(x0));
+            return Ok(models.to_models_in(x0));
         }
         if let Some(dir) = self.dataset_dir() {
             let meta = <DatasetMeta>::read(&dir?)?;
             check_same_motion(&self.motion, &meta.models.motion, &meta.name)?;
-            return Ok(models.to_models(meta.initial_pose));
+            return Ok(models.to_models_in(meta.initial_pose));
         }
         let loaded;
         let world = match world {
@@ -67,27 +93,67 @@ impl ScenarioData for ScenarioConfig {
         };
         let x0 =
             world.poses.first().map(|p| p.1).ok_or_else(|| DataError::Mismatch("the world has no poses".into()))?;
-        Ok(models.to_models(x0))
+        Ok(models.to_models_in(x0))
     }
 
-    fn build_dataset(&self, world: Option<&World>, run_seed: u64) -> Result<Dataset, DataError> {
+    fn dataset_of<S: PlanarSensorModel<Z>, const Z: usize>(
+        &self,
+        world: Option<&World>,
+        run_seed: u64,
+    ) -> Result<Dataset<ModelConfig, 3, 2, Z>, DataError> {
+        if self.sensor.model != S::PLANAR {
+            return Err(DataError::Mismatch(format!(
+                "sensor.model is `{}`, not `{}`",
+                self.sensor.model.name,
+                S::PLANAR.name
+            )));
+        }
         if let WorldSpec::VictoriaPark { path, gps_frame, .. } = &self.world {
+            if S::PLANAR != RangeBearingModel::PLANAR {
+                return Err(DataError::Mismatch(format!(
+                    "Victoria Park is a range-bearing recording: sensor.model `{}` cannot read it",
+                    S::PLANAR.name
+                )));
+            }
             let x0 = self.world.victoria_park_initial_pose().unwrap_or_else(Pose::zeros);
-            return VictoriaPark::read(&find_data(path)?)?.import_in(&self.models(), x0, *gps_frame, run_seed);
+            let d = VictoriaPark::read(&find_data(path)?)?.import_in(&self.models(), x0, *gps_frame, run_seed)?;
+            return Ok(with_components(d));
         }
         if let Some(dir) = self.dataset_dir() {
-            let mut d = <Dataset>::read(&dir?)?;
+            let mut d = Dataset::<ModelConfig, 3, 2, Z>::read(&dir?)?;
             check_same_motion(&self.motion, &d.meta.models.motion, &d.meta.name)?;
             d.meta.models = self.models();
             return Ok(d);
         }
         match world {
-            Some(w) => simulate(w, &self.models(), run_seed),
+            Some(w) => simulate::<S, Z>(w, &self.models(), run_seed),
             None => {
                 let w = self.load_world()?.ok_or_else(|| DataError::Mismatch("the scenario has no world".into()))?;
-                simulate(&w, &self.models(), run_seed)
+                simulate::<S, Z>(&w, &self.models(), run_seed)
             }
         }
+    }
+}
+
+/// A range-bearing data set as one of `Z` components, `Z = 2` (checked by the caller: the
+/// sensor is range-bearing).
+fn with_components<const Z: usize>(d: Dataset) -> Dataset<ModelConfig, 3, 2, Z> {
+    let scans = d
+        .scans
+        .into_iter()
+        .map(|s| rfslam_core::Scan {
+            t: s.t,
+            z: s.z.iter().map(|z| nalgebra::SVector::<f64, Z>::from_fn(|i, _| z[i])).collect(),
+            truth: s.truth,
+        })
+        .collect();
+    Dataset {
+        meta: d.meta,
+        scans,
+        odometry: d.odometry,
+        groundtruth: d.groundtruth,
+        landmarks: d.landmarks,
+        anchors: d.anchors,
     }
 }
 
@@ -142,7 +208,7 @@ mod tests {
     fn dataset_scenario_uses_recorded_measurements_with_the_scenario_models() {
         let tmp = TempDir::new("scenario-ds");
         let w = World::procedural(&ProceduralParams { steps: 50, landmarks: 10, ..Default::default() }, 2).unwrap();
-        let recorded = simulate(&w, &ModelConfig::phd_slam_synthetic(), 9).unwrap();
+        let recorded = simulate::<RangeBearingModel, 2>(&w, &ModelConfig::phd_slam_synthetic(), 9).unwrap();
         let dir = tmp.path().join("rec");
         recorded.write(&dir).unwrap();
         let text = with_world(&format!("kind = \"dataset\"\npath = {:?}\n", dir.display().to_string()))

@@ -5,17 +5,17 @@
 use nalgebra::SVector;
 use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
-use rfslam_core::model::{RangeBearingModel, RelativePositionModel};
 use rfslam_core::model::{SensorModel, VehicleModel};
 use rfslam_core::rbpf::draw_state;
 use rfslam_core::rng::{purpose, stream};
-use rfslam_core::{Control, ControlSegment, PlanarSensorModel, Rng, Scan, SensorKind};
+use rfslam_core::{Control, ControlSegment, PlanarSensorModel, Rng, Scan};
 
 use rfslam_data::{DataError, Dataset, DatasetMeta, ModelConfig, OdometryRow, TruthPose};
 
 use crate::world::World;
 
-/// Generates one Monte Carlo data set from `world` with the sensor and noise of `models`.
+/// Generates one Monte Carlo data set from `world` with the planar sensor `S` (measurements of
+/// `Z` components) and the noise of `models`, whose `[sensor] model` must be `S`'s.
 ///
 /// - True poses: the world's poses (its true controls propagated from the first pose).
 /// - Odometry: one row per used control, at the control's time: the true control plus
@@ -25,8 +25,9 @@ use crate::world::World;
 ///   the filter's first recursion has no odometry and anchors the map. Each landmark with
 ///   `p_D(m | x) > 0` (inside the FOV: range `<= max_range`, `|bearing| <= half angle`)
 ///   is detected with probability `p_D` and measured as `g(m, x) + N(0, R)`, bearing
-///   wrapped (eq. 50, with the sensor offset); then Poisson clutter uniform in range
-///   `[0, max_range]` and bearing over the FOV ([`rfslam_core::ClutterModel::sample`]).
+///   wrapped (eq. 50, with the sensor offset; [`SensorModel::sample`]); then Poisson clutter
+///   over the FOV ([`SensorModel::sample_clutter`]: for the range-bearing sensor uniform in
+///   range `[0, max_range]` and bearing).
 ///   The scan's measurements are shuffled, so their order carries no information; truth
 ///   labels are kept (landmark id, `-1` for clutter).
 /// - Ground truth: the true poses at `t_0` and at every scan; landmarks: the world's.
@@ -37,9 +38,21 @@ use crate::world::World;
 /// noise of control `k-1` (for `k >= 1`), then per landmark (in world order) the detection draw and the
 /// measurement noise, then the clutter, then the shuffle.
 ///
-/// Errors: invalid `models`, or a motion model different from the world's.
-pub fn simulate(world: &World, models: &ModelConfig, run_seed: u64) -> Result<Dataset, DataError> {
+/// Errors: invalid `models`, a sensor other than `S`, or a motion model different from the
+/// world's.
+pub fn simulate<S: PlanarSensorModel<Z>, const Z: usize>(
+    world: &World,
+    models: &ModelConfig,
+    run_seed: u64,
+) -> Result<Dataset<ModelConfig, 3, 2, Z>, DataError> {
     models.validate().map_err(DataError::config)?;
+    if models.sensor.model != S::PLANAR {
+        return Err(DataError::Mismatch(format!(
+            "sensor.model is `{}`, not the simulated sensor `{}`",
+            models.sensor.model.name,
+            S::PLANAR.name
+        )));
+    }
     let motion = models.motion.motion();
     if motion.name() != world.motion.name() {
         return Err(DataError::Mismatch(format!(
@@ -62,15 +75,8 @@ pub fn simulate(world: &World, models: &ModelConfig, run_seed: u64) -> Result<Da
     }
     // The sensor as it is: the hard edge whatever the filters' `[sensor] edge` (a model of
     // the filters'); the minimum range applies (`pd_true`, `sample_clutter`).
-    let slam = models.to_models(x0);
-    let kappa = slam.clutter_intensity();
-    let scans_odometry = match models.sensor.model {
-        SensorKind::RangeBearing => draw(world, models, &RangeBearingModel::new(&slam, kappa), run_seed),
-        SensorKind::RelativePosition => {
-            draw(world, models, &RelativePositionModel::from_models(&slam, kappa), run_seed)
-        }
-    };
-    let (scans, odometry) = scans_odometry;
+    let slam = models.to_models_in::<Z>(x0);
+    let (scans, odometry) = draw(world, models, &S::from_models(&slam, slam.clutter_intensity()), run_seed);
     let groundtruth = world.poses.iter().map(|&(t, x)| TruthPose::planar(t, x.xy(), Some(x.z))).collect::<Vec<_>>();
     Ok(Dataset {
         meta: DatasetMeta {
@@ -94,12 +100,12 @@ pub fn simulate(world: &World, models: &ModelConfig, run_seed: u64) -> Result<Da
 
 /// The odometry and the scans of [`simulate`], drawn with `sensor` (the draws in the order
 /// [`simulate`] documents).
-fn draw<S: PlanarSensorModel>(
+fn draw<S: PlanarSensorModel<Z>, const Z: usize>(
     world: &World,
     models: &ModelConfig,
     sensor: &S,
     run_seed: u64,
-) -> (Vec<Scan>, Vec<OdometryRow>) {
+) -> (Vec<Scan<Z>>, Vec<OdometryRow>) {
     let motion = models.motion.motion();
     let mut rng = stream(&[run_seed, purpose::SCENARIO]);
     let sigma = models.motion.sigmas();
@@ -237,6 +243,7 @@ pub(crate) fn shuffle_scan<T>(z: &mut [T], labels: &mut [i64], rng: &mut Rng) {
 mod tests {
     use super::*;
     use nalgebra::Vector2;
+    use rfslam_core::model::{RangeBearingModel, RelativePositionModel};
     use rfslam_data::testutil::TempDir;
     use rfslam_data::{MotionConfig, ProceduralParams};
     use std::f64::consts::FRAC_PI_2;
@@ -249,10 +256,10 @@ mod tests {
     fn same_seed_same_dataset_and_different_seed_differs() {
         let w = small_world();
         let m = ModelConfig::phd_slam_synthetic();
-        let a = simulate(&w, &m, 11).unwrap();
-        let b = simulate(&w, &m, 11).unwrap();
+        let a = simulate::<RangeBearingModel, 2>(&w, &m, 11).unwrap();
+        let b = simulate::<RangeBearingModel, 2>(&w, &m, 11).unwrap();
         assert_eq!(a, b);
-        let c = simulate(&w, &m, 12).unwrap();
+        let c = simulate::<RangeBearingModel, 2>(&w, &m, 12).unwrap();
         assert_ne!(a.scans, c.scans);
         assert_ne!(a.odometry, c.odometry);
         // Shape.
@@ -280,7 +287,7 @@ mod tests {
         m.sensor.edge = rfslam_data::EdgeKind::Taper;
         m.sensor.edge_band_range = Some(50.0);
         m.sensor.edge_band_deg = Some(45.0);
-        let d = simulate(&w, &m, 5).unwrap();
+        let d = simulate::<RangeBearingModel, 2>(&w, &m, 5).unwrap();
         let (fov, full) = (m.sensor.fov().hard(), rfslam_core::Fov::new(m.sensor.max_range, FRAC_PI_2));
         let mut near = 0;
         for (k, s) in d.scans.iter().enumerate() {
@@ -304,7 +311,7 @@ mod tests {
         m.sensor.sigma_bearing_deg = Some(1e-300);
         m.detection = rfslam_core::DetectionModel::Constant { pd: 1.0 };
         m.clutter.rate = 0.0;
-        let d = simulate(&w, &m, 5).unwrap();
+        let d = simulate::<RangeBearingModel, 2>(&w, &m, 5).unwrap();
         let sensor = rfslam_core::RangeBearingSensor::default();
         let fov = m.sensor.fov();
         let mut out_of_order = 0;
@@ -342,11 +349,11 @@ mod tests {
     fn relative_position_sensor_draws_and_round_trips() {
         let w = small_world();
         let mut m = ModelConfig::phd_slam_synthetic();
-        m.sensor.model = SensorKind::RelativePosition;
+        m.sensor.model = RelativePositionModel::PLANAR;
         (m.sensor.sigma_range, m.sensor.sigma_bearing_deg) = (None, None);
         (m.sensor.sigma_x, m.sensor.sigma_y) = (Some(0.5), Some(0.2));
         m.sensor.offset = [0.3, 0.1];
-        let d = simulate(&w, &m, 5).unwrap();
+        let d = simulate::<RelativePositionModel, 2>(&w, &m, 5).unwrap();
         let sensor = rfslam_core::model::RelativePositionSensor { offset: [0.3, 0.1] };
         let (mut n, mut sum, mut sq) = (0.0, Vector2::zeros(), Vector2::<f64>::zeros());
         let (mut clutter, mut clutter_in_view) = (0, 0);
@@ -385,11 +392,11 @@ mod tests {
         let w = small_world();
         let mut m = ModelConfig::phd_slam_synthetic();
         m.motion = MotionConfig::Odometry2d { sigma_dx: 0.1, sigma_dy: 0.1, sigma_dtheta_deg: 1.0 };
-        let e = simulate(&w, &m, 1).unwrap_err().to_string();
+        let e = simulate::<RangeBearingModel, 2>(&w, &m, 1).unwrap_err().to_string();
         assert!(e.contains("odometry2d") && e.contains("velocity"), "{e}");
         let mut m = ModelConfig::phd_slam_synthetic();
         m.sensor.max_range = 0.0;
-        let e = simulate(&w, &m, 1).unwrap_err();
+        let e = simulate::<RangeBearingModel, 2>(&w, &m, 1).unwrap_err();
         assert_eq!(e.key(), Some("sensor.max_range"));
     }
 }

@@ -24,7 +24,7 @@ fn generator_statistics_match_the_settings() {
     let world = World::procedural(&ProceduralParams { steps: 4000, ..Default::default() }, 1).unwrap();
     let models = ModelConfig::phd_slam_synthetic();
     let t0 = Instant::now();
-    let d = simulate(&world, &models, 2024).unwrap();
+    let d = simulate::<rfslam_core::model::RangeBearingModel, 2>(&world, &models, 2024).unwrap();
     let gen_ms = t0.elapsed().as_secs_f64() * 1e3;
     assert_eq!(d.scans.len(), 4000);
 
@@ -108,7 +108,8 @@ fn generator_statistics_match_the_settings() {
 #[test]
 fn a_4000_scan_dataset_reads_in_milliseconds() {
     let world = World::procedural(&ProceduralParams { steps: 4001, ..Default::default() }, 1).unwrap();
-    let d = simulate(&world, &ModelConfig::phd_slam_synthetic(), 7).unwrap();
+    let d =
+        simulate::<rfslam_core::model::RangeBearingModel, 2>(&world, &ModelConfig::phd_slam_synthetic(), 7).unwrap();
     let dir = std::env::temp_dir().join(format!("rfslam-data-read-timing-{}", std::process::id()));
     let t0 = Instant::now();
     d.write(&dir).unwrap();

@@ -11,6 +11,7 @@ use super::{Inverse, InvertibleSensorModel, Linearised, MeasurementComponent, Se
 use crate::angle::wrap;
 use crate::detection::{ClutterModel, DetectionModel, Fov};
 use crate::gaussian::symmetrise;
+use crate::planar::{NoiseKey, PlanarSensor, PlanarSensorModel, SlamModels};
 use crate::sensor::RangeBearingSensor;
 use crate::types::{Point2, Pose, RangeBearing};
 
@@ -83,7 +84,7 @@ impl SensorModel<3, 2, 1> for BearingOnlyModel {
     const NAME: &'static str = "bearing_only";
 
     fn components(&self) -> [MeasurementComponent; 1] {
-        [MeasurementComponent { name: "bearing", angle: true }]
+        COMPONENTS
     }
 
     #[inline]
@@ -150,6 +151,34 @@ impl SensorModel<3, 2, 1> for BearingOnlyModel {
             s.kappa = rate / (2.0 * s.fov.half_angle);
         }
         Ok(s)
+    }
+}
+
+/// `z = [bearing]`.
+const COMPONENTS: [MeasurementComponent; 1] = [MeasurementComponent { name: "bearing", angle: true }];
+
+impl PlanarSensorModel<1> for BearingOnlyModel {
+    /// `[sensor]` key `sigma_bearing_deg`; the clutter volume is the bearing span
+    /// `2 half_angle` in either units (the measurement space is the bearing alone).
+    const PLANAR: PlanarSensor = PlanarSensor {
+        name: "bearing_only",
+        components: &COMPONENTS,
+        noise: &[NoiseKey { key: "sigma_bearing_deg", degrees: true }],
+        clutter_volume: |fov, _| 2.0 * fov.half_angle,
+    };
+
+    /// The model of `models` with the birth prior of [`BearingOnlyModel::new`] and the
+    /// filters' clutter intensity `kappa`.
+    fn from_models(models: &SlamModels<1>, kappa: f64) -> Self {
+        let mut s = BearingOnlyModel::new(
+            models.sensor,
+            models.measurement_noise[(0, 0)].sqrt(),
+            models.fov,
+            models.detection,
+            models.clutter,
+        );
+        s.kappa = kappa;
+        s
     }
 }
 

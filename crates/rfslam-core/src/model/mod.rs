@@ -86,7 +86,7 @@ macro_rules! planar_sector_methods {
             if change.clutter_rate.is_some() || change.clutter_intensity.is_some() {
                 s.clutter.rate = change.clutter_rate.unwrap_or(s.clutter.rate);
                 s.clutter.intensity = change.clutter_intensity.unwrap_or(s.clutter.intensity);
-                s.kappa = s.clutter.intensity(&s.fov, <Self as crate::PlanarSensorModel>::KIND);
+                s.kappa = s.clutter.intensity(&s.fov, &<Self as crate::PlanarSensorModel>::PLANAR);
             }
             Ok(s)
         }
@@ -106,12 +106,19 @@ use crate::angle::wrap;
 use crate::detection::{DetectionModel, Fov};
 use crate::gaussian::symmetrise;
 
-pub use crate::detection::SensorKind;
 pub use bearing_only::{Bearing, BearingOnlyModel};
 pub use radio_sensor::{LandmarkType, RadioSensor};
 pub use radio_vehicle::RadioVehicle;
 pub use range_bearing::RangeBearingModel;
 pub use relative_position::{RelativePositionModel, RelativePositionSensor};
+
+/// Every planar sensor, by name: a new planar sensor is one model file and one line here
+/// (and one in the harness's list of worlds).
+pub const PLANAR_SENSORS: &[crate::planar::PlanarSensor] = &[
+    <RangeBearingModel as crate::PlanarSensorModel>::PLANAR,
+    <RelativePositionModel as crate::PlanarSensorModel>::PLANAR,
+    <BearingOnlyModel as crate::PlanarSensorModel<1>>::PLANAR,
+];
 
 /// One component of a vehicle state: what it means, so that metrics report an error per
 /// component and angles are wrapped where they are subtracted.

@@ -3,10 +3,11 @@
 use nalgebra::{Matrix2, SVector, Vector2};
 use rand_distr::{Distribution, StandardNormal};
 
-use super::{Inverse, InvertibleSensorModel, Linearised, MeasurementComponent, SensorKind, SensorModel};
+use super::{Inverse, InvertibleSensorModel, Linearised, MeasurementComponent, SensorModel};
 use crate::angle::wrap;
+use crate::detection::ClutterIntensity;
 use crate::detection::{ClutterModel, DetectionModel, Fov};
-use crate::planar::{PlanarSensorModel, SlamModels};
+use crate::planar::{NoiseKey, PlanarSensor, PlanarSensorModel, SlamModels};
 use crate::sensor::RangeBearingSensor;
 use crate::types::{Point2, Pose, RangeBearing};
 
@@ -53,7 +54,7 @@ impl SensorModel<3, 2, 2> for RangeBearingModel {
     const NAME: &'static str = "range_bearing";
 
     fn components(&self) -> [MeasurementComponent; 2] {
-        [MeasurementComponent { name: "range", angle: false }, MeasurementComponent { name: "bearing", angle: true }]
+        COMPONENTS
     }
 
     #[inline]
@@ -104,8 +105,23 @@ impl InvertibleSensorModel<3, 2, 2> for RangeBearingModel {
     }
 }
 
+/// `z = [range, bearing]`.
+const COMPONENTS: [MeasurementComponent; 2] =
+    [MeasurementComponent { name: "range", angle: false }, MeasurementComponent { name: "bearing", angle: true }];
+
 impl PlanarSensorModel for RangeBearingModel {
-    const KIND: SensorKind = SensorKind::RangeBearing;
+    /// `[sensor]` keys `sigma_range` (m) and `sigma_bearing_deg`; the clutter volume is the
+    /// sector's area (`"cartesian"`, what the public PHD-SLAM 3.0 code used) or its extent
+    /// in range and bearing, `(max_range - min_range) 2 half_angle` (`"measurement"`).
+    const PLANAR: PlanarSensor = PlanarSensor {
+        name: "range_bearing",
+        components: &COMPONENTS,
+        noise: &[NoiseKey { key: "sigma_range", degrees: false }, NoiseKey { key: "sigma_bearing_deg", degrees: true }],
+        clutter_volume: |fov, units| match units {
+            ClutterIntensity::Cartesian => fov.area(),
+            ClutterIntensity::Measurement => fov.measurement_volume(),
+        },
+    };
 
     fn from_models(models: &SlamModels, kappa: f64) -> Self {
         RangeBearingModel::new(models, kappa)

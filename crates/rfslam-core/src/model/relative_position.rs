@@ -6,9 +6,9 @@ use rand::RngExt;
 use rand_distr::{Distribution, Poisson, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use super::{Inverse, InvertibleSensorModel, Linearised, MeasurementComponent, SensorKind, SensorModel};
+use super::{Inverse, InvertibleSensorModel, Linearised, MeasurementComponent, SensorModel};
 use crate::detection::{ClutterModel, DetectionModel, Fov};
-use crate::planar::{PlanarSensorModel, SlamModels};
+use crate::planar::{NoiseKey, PlanarSensor, PlanarSensorModel, SlamModels};
 use crate::types::{Point2, Pose};
 
 /// `h(x, m) = R(theta)^T (m - p) - o`: the landmark in the sensor frame (forward, left), the
@@ -82,7 +82,7 @@ impl SensorModel<3, 2, 2> for RelativePositionModel {
     const NAME: &'static str = "relative_position";
 
     fn components(&self) -> [MeasurementComponent; 2] {
-        [MeasurementComponent { name: "x", angle: false }, MeasurementComponent { name: "y", angle: false }]
+        COMPONENTS
     }
 
     #[inline]
@@ -143,8 +143,19 @@ impl InvertibleSensorModel<3, 2, 2> for RelativePositionModel {
     }
 }
 
+/// `z = [x, y]` in the sensor frame.
+const COMPONENTS: [MeasurementComponent; 2] =
+    [MeasurementComponent { name: "x", angle: false }, MeasurementComponent { name: "y", angle: false }];
+
 impl PlanarSensorModel for RelativePositionModel {
-    const KIND: SensorKind = SensorKind::RelativePosition;
+    /// `[sensor]` keys `sigma_x` and `sigma_y` (m); the clutter volume is the sector's area
+    /// in either units (the measurement space is Cartesian).
+    const PLANAR: PlanarSensor = PlanarSensor {
+        name: "relative_position",
+        components: &COMPONENTS,
+        noise: &[NoiseKey { key: "sigma_x", degrees: false }, NoiseKey { key: "sigma_y", degrees: false }],
+        clutter_volume: |fov, _| fov.area(),
+    };
 
     fn from_models(models: &SlamModels, kappa: f64) -> Self {
         RelativePositionModel {
