@@ -1029,7 +1029,10 @@ mod typed {
         type Mark = Kind;
         const NAME: &'static str = "typed";
         fn components(&self) -> [MeasurementComponent; 2] {
-            [MeasurementComponent { name: "u", angle: false }, MeasurementComponent { name: "v", angle: false }]
+            [
+                MeasurementComponent { name: "u", angle: false, unit: "m" },
+                MeasurementComponent { name: "v", angle: false, unit: "m" },
+            ]
         }
         fn predict(&self, x: &Pose, m: &Point2, _: Kind) -> Vector2<f64> {
             m - x.xy()

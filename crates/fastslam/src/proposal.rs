@@ -254,7 +254,10 @@ mod tests {
         type Mark = ();
         const NAME: &'static str = "linear";
         fn components(&self) -> [MeasurementComponent; 2] {
-            [MeasurementComponent { name: "u", angle: false }, MeasurementComponent { name: "v", angle: false }]
+            [
+                MeasurementComponent { name: "u", angle: false, unit: "m" },
+                MeasurementComponent { name: "v", angle: false, unit: "m" },
+            ]
         }
         fn predict(&self, x: &Pose, m: &Point2, _: ()) -> Vector2<f64> {
             self.a * x + self.b * m

@@ -22,7 +22,10 @@ impl SensorModel<3, 2, 2> for Linear {
     type Mark = ();
     const NAME: &'static str = "linear";
     fn components(&self) -> [MeasurementComponent; 2] {
-        [MeasurementComponent { name: "x", angle: false }, MeasurementComponent { name: "y", angle: false }]
+        [
+            MeasurementComponent { name: "x", angle: false, unit: "m" },
+            MeasurementComponent { name: "y", angle: false, unit: "m" },
+        ]
     }
     fn predict(&self, x: &Pose, m: &Vector2<f64>, _: ()) -> Vector2<f64> {
         m - x.xy()

@@ -73,13 +73,16 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
-    /// Write a template dataset directory for your own recorded log: a small simulated run in
+    /// Write a template dataset directory for your own recorded log in any world (`--world`): a small simulated run in
     /// the dataset format (valid as it is) and a README.md saying what each file holds, with
     /// units (format: docs/datasets.md).
     InitDataset {
         /// Directory to create (must not hold a data set).
         #[arg(value_name = "DIR")]
         dir: PathBuf,
+        /// The world of the data set (`rfslam filters` lists the worlds): its files' columns.
+        #[arg(long, default_value = "range_bearing")]
+        world: String,
     },
     /// Run one filter on a data set or on one run of a scenario; write trajectory.csv, map.csv,
     /// metrics.json, the truth and dead-reckoning files a plot needs, and on request steps.csv
@@ -316,7 +319,7 @@ fn command_line() -> String {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let res: Result<(), Failure> = match cli.command {
-        Command::InitDataset { dir } => init_dataset::init_dataset(&dir),
+        Command::InitDataset { dir, world } => init_dataset::init_dataset(&dir, &world),
         Command::Filters => {
             for e in registry::REGISTRY {
                 outln!("{:<22} {}", e.name, e.summary);

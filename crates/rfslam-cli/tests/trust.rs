@@ -249,6 +249,40 @@ fn init_dataset_writes_a_template_that_runs_and_is_never_overwritten() {
     assert_eq!(tmp.read("mine/measurements.csv"), before);
 }
 
+/// `--world NAME`: every world's template is its data set format, with a README naming every
+/// column of its files with the unit; the template runs as it is; an unknown world is
+/// refused with the list of worlds.
+#[test]
+fn init_dataset_writes_every_worlds_template_with_its_columns() {
+    let tmp = TempDir::new("init-dataset-worlds");
+    let worlds: [(&str, &str, &[&str]); 4] = [
+        ("range_bearing", "scan,range,bearing,truth", &["`range` (m)", "`bearing` (rad)"]),
+        ("relative_position", "scan,x,y,truth", &["`x` (m)", "`y` (m)"]),
+        ("bearing_only", "scan,bearing,truth", &["`bearing` (rad)"]),
+        ("radio5g", "scan,toa,dod_az,dod_el,doa_az,doa_el,truth", &["`toa` (m)", "`dod_el` (rad)", "`clock_bias` (m)"]),
+    ];
+    for (world, header, units) in worlds {
+        ok(tmp.path(), &["init-dataset", world, "--world", world]);
+        let meas = tmp.read(&format!("{world}/measurements.csv"));
+        assert_eq!(meas.lines().next(), Some(header), "{world}");
+        assert!(tmp.read(&format!("{world}/dataset.toml")).contains(&format!("world = \"{world}\"")), "{world}");
+        let readme = tmp.read(&format!("{world}/README.md"));
+        assert!(readme.contains(&format!("--world {world}")), "{world}");
+        for u in units {
+            assert!(readme.contains(u), "{world}: README.md lacks {u}:\n{readme}");
+        }
+        assert_eq!(readme.contains("`anchors.csv`"), world == "radio5g", "{world}");
+        let out = format!("run-{world}");
+        ok(tmp.path(), &["run", "--dataset", world, "--filter", "phd-1.0", "--particles", "2", "--out", &out]);
+    }
+    fails(
+        tmp.path(),
+        &["init-dataset", "x", "--world", "radio6g"],
+        2,
+        &["radio6g", "range_bearing, relative_position, bearing_only, radio5g"],
+    );
+}
+
 #[test]
 fn absurd_run_and_thread_counts_are_refused_before_any_job() {
     // `runs = 10^12` built the job list eagerly (9 GB in 15 s); `--jobs 100000` started one

@@ -58,6 +58,10 @@ pub trait World<const X: usize, const M: usize, const Z: usize>: 'static {
     /// which its memory is estimated before it starts ([`crate::memory::JobMemory::of`]).
     fn job_size(sc: &Self::Scenario) -> Result<JobSize, DataError>;
 
+    /// A small scenario of the world, valid as it is, whose run 1 is the template data set of
+    /// `rfslam init-dataset --world NAME` (every file with its columns and real values).
+    fn template() -> Result<Self::Scenario, DataError>;
+
     /// What each state component is (the vehicle model's).
     fn components(models: &WorldModels<Self::Vehicle, Self::Sensor, X, M, Z>) -> [StateComponent; X] {
         models.vehicle.model.components()
@@ -103,7 +107,57 @@ impl<S: PlanarSensorModel<Z>, const Z: usize> World<3, 2, Z> for PlanarWorld<S> 
     fn job_size(sc: &PlanarScenario) -> Result<JobSize, DataError> {
         Ok(JobSize::generated(sc.world.as_deref(), sc.config.clutter.rate))
     }
+
+    /// A procedural world of 6 landmarks and 30 scans with the embedded default's noise and
+    /// clutter, the sensor `S` and its noise keys (0.3 for a key in degrees, 0.8 otherwise:
+    /// the published range-bearing sensor's values).
+    fn template() -> Result<PlanarScenario, DataError> {
+        let mut sensor = String::new();
+        if !S::PLANAR.is_default() {
+            sensor.push_str(&format!("model = \"{}\"\n", S::PLANAR.name));
+        }
+        for k in S::PLANAR.noise {
+            sensor.push_str(&format!("{} = {}\n", k.key, if k.degrees { "0.3" } else { "0.8" }));
+        }
+        let config =
+            ScenarioConfig::from_toml_str(&PLANAR_TEMPLATE.replace("{sensor}", &sensor), "init-dataset template")?;
+        let world = rfslam_sim::ScenarioData::load_world(&config)?.map(Arc::new);
+        Ok(PlanarScenario { config, world })
+    }
 }
+
+/// The planar worlds' template scenario: the embedded default's noise and clutter on a small
+/// procedural world (6 landmarks, 30 scans), so that the files stay short enough to read;
+/// `{sensor}` is the sensor's model and noise keys.
+const PLANAR_TEMPLATE: &str = r#"name = "my-dataset"
+
+[world]
+kind = "procedural"
+seed = 1
+steps = 30
+dt = 1.0
+speed = 1.0
+max_turn_rate_deg = 1.0
+extent = 60.0
+landmarks = 6
+
+[motion]
+model = "velocity"
+sigma_v = 0.8
+sigma_omega_deg = 0.5
+
+[sensor]
+max_range = 40.0
+half_angle_deg = 90.0
+{sensor}
+[detection]
+model = "constant"
+pd = 0.95
+
+[clutter]
+rate = 1.0
+intensity = "cartesian"
+"#;
 
 /// The 5G mmWave world of the PMBM-SLAM paper (\[Kim2022\] Section VI-A): the radio vehicle
 /// (`[x, y, z, heading, clock bias]`) and the TOA/DOD/DOA sensor, landmarks of three types
@@ -145,6 +199,11 @@ impl World<5, 3, 5> for Radio5g {
             landmarks: world.landmarks.len() as f64,
             clutter_rate: sc.clutter.rate.max(0.0),
         })
+    }
+
+    /// The published world (every key at its default).
+    fn template() -> Result<RadioScenario, DataError> {
+        RadioScenario::from_toml_str("name = \"my-dataset\"\n\n[world]\nkind = \"radio5g\"\n", "init-dataset template")
     }
 }
 

@@ -155,7 +155,7 @@ impl SensorModel<3, 2, 1> for BearingOnlyModel {
 }
 
 /// `z = [bearing]`.
-const COMPONENTS: [MeasurementComponent; 1] = [MeasurementComponent { name: "bearing", angle: true }];
+const COMPONENTS: [MeasurementComponent; 1] = [MeasurementComponent { name: "bearing", angle: true, unit: "rad" }];
 
 impl PlanarSensorModel<1> for BearingOnlyModel {
     /// `[sensor]` key `sigma_bearing_deg`; the clutter volume is the bearing span

@@ -303,8 +303,10 @@ impl LandmarkMark for () {
 pub struct MeasurementComponent {
     /// Column name (`range`, `bearing`, `x`, ...).
     pub name: &'static str,
-    /// Whether it is an angle, rad.
+    /// Whether it is an angle that wraps (rad, wrapped to `[-pi, pi)` at every subtraction).
     pub angle: bool,
+    /// SI unit of the component as data sets hold it (`m`, `rad`).
+    pub unit: &'static str,
 }
 
 /// The prediction `h(x, m, mark)` with its Jacobians `H_x = dh/dx` and `H_m = dh/dm`.

@@ -240,11 +240,11 @@ impl SensorModel<5, 3, 5> for RadioSensor {
 
     fn components(&self) -> [MeasurementComponent; 5] {
         [
-            MeasurementComponent { name: "toa", angle: false },
-            MeasurementComponent { name: "dod_az", angle: true },
-            MeasurementComponent { name: "dod_el", angle: false },
-            MeasurementComponent { name: "doa_az", angle: true },
-            MeasurementComponent { name: "doa_el", angle: false },
+            MeasurementComponent { name: "toa", angle: false, unit: "m" },
+            MeasurementComponent { name: "dod_az", angle: true, unit: "rad" },
+            MeasurementComponent { name: "dod_el", angle: false, unit: "rad" },
+            MeasurementComponent { name: "doa_az", angle: true, unit: "rad" },
+            MeasurementComponent { name: "doa_el", angle: false, unit: "rad" },
         ]
     }
 

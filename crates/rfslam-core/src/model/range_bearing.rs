@@ -106,8 +106,10 @@ impl InvertibleSensorModel<3, 2, 2> for RangeBearingModel {
 }
 
 /// `z = [range, bearing]`.
-const COMPONENTS: [MeasurementComponent; 2] =
-    [MeasurementComponent { name: "range", angle: false }, MeasurementComponent { name: "bearing", angle: true }];
+const COMPONENTS: [MeasurementComponent; 2] = [
+    MeasurementComponent { name: "range", angle: false, unit: "m" },
+    MeasurementComponent { name: "bearing", angle: true, unit: "rad" },
+];
 
 impl PlanarSensorModel for RangeBearingModel {
     /// `[sensor]` keys `sigma_range` (m) and `sigma_bearing_deg`; the clutter volume is the

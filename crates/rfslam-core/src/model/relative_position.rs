@@ -144,8 +144,10 @@ impl InvertibleSensorModel<3, 2, 2> for RelativePositionModel {
 }
 
 /// `z = [x, y]` in the sensor frame.
-const COMPONENTS: [MeasurementComponent; 2] =
-    [MeasurementComponent { name: "x", angle: false }, MeasurementComponent { name: "y", angle: false }];
+const COMPONENTS: [MeasurementComponent; 2] = [
+    MeasurementComponent { name: "x", angle: false, unit: "m" },
+    MeasurementComponent { name: "y", angle: false, unit: "m" },
+];
 
 impl PlanarSensorModel for RelativePositionModel {
     /// `[sensor]` keys `sigma_x` and `sigma_y` (m); the clutter volume is the sector's area
