@@ -124,6 +124,33 @@ fn radio_runs_replay_a_simulated_data_set_bit_for_bit() {
     }
 }
 
+/// A geometry of one's own (`scenarios/radio5g-street.toml`: another base station, two walls,
+/// six scattering points, a straight drive) is simulated with its landmarks and base station
+/// in the data set, and `run --dataset` replays `run --scenario` bit for bit.
+#[test]
+fn a_radio_geometry_of_ones_own_replays_bit_for_bit() {
+    let dir = TempDir::new("radio-street");
+    dir.write("street.toml", include_str!("../../../scenarios/radio5g-street.toml"));
+    ok(dir.path(), &["simulate", "--scenario", "street.toml", "--seed", "3", "--out", "ds"]);
+    let anchors = Csv::read(&dir.join("ds/anchors.csv"));
+    assert_eq!(anchors.rows.len(), 1);
+    assert_eq!((anchors.num(0, "x"), anchors.num(0, "y"), anchors.num(0, "z")), (150.0, 5.0, 10.0));
+    let landmarks = Csv::read(&dir.join("ds/landmarks.csv"));
+    let count = |t: &str| (0..landmarks.rows.len()).filter(|&i| landmarks.get(i, "type") == t).count();
+    assert_eq!((count("virtual_anchor"), count("scattering_point")), (2, 6));
+    for filter in ["phd-3.0", "glmb-2.0"] {
+        let common = ["--filter", filter, "--particles", "5", "--seed", "3"];
+        let (a, b) = (format!("a-{filter}"), format!("b-{filter}"));
+        ok(dir.path(), &[&["run", "--dataset", "ds"][..], &common, &["--out", &a]].concat());
+        ok(dir.path(), &[&["run", "--scenario", "street.toml"][..], &common, &["--out", &b]].concat());
+        for f in ["trajectory.csv", "map.csv"] {
+            assert_eq!(dir.read(&format!("{a}/{f}")), dir.read(&format!("{b}/{f}")), "{filter}: {f}");
+        }
+        let m = metrics(&dir.join(&a).join("metrics.json"));
+        assert!(m["pos_rmse_m"].as_f64().is_some_and(|v| v < 5.0), "{filter}: {m:?}");
+    }
+}
+
 /// A key of the planar models and a thinned undetected intensity with too many cells per
 /// scan are refused with exit 2, each saying why. (Every registered
 /// filter runs in the radio world, so the refusal of one that does not, which names the

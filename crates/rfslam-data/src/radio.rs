@@ -22,8 +22,35 @@ use crate::config::{in_range, limits};
 use crate::dataset::{Columns, DatasetModels, StateColumn};
 use crate::error::{ConfigError, DataError};
 
-/// The `[world]` table of a radio scenario: the lap, the scattering points' heights.
+/// A wall of the radio world: a vertical plane through `point` (x, y) with the horizontal
+/// normal `normal`; the base station mirrored in it is a virtual anchor.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Wall {
+    /// A point of the wall (m, x and y).
+    pub point: [f64; 2],
+    /// Its normal (x, y; any length but zero).
+    pub normal: [f64; 2],
+}
+
+impl Wall {
+    /// The mirror image of `p` in the wall (its height kept).
+    pub fn mirror(&self, p: [f64; 3]) -> [f64; 3] {
+        let [nx, ny] = self.normal;
+        let n2 = nx * nx + ny * ny;
+        let d = ((p[0] - self.point[0]) * nx + (p[1] - self.point[1]) * ny) / n2;
+        [p[0] - 2.0 * d * nx, p[1] - 2.0 * d * ny, p[2]]
+    }
+}
+
+/// Most walls of a radio world.
+pub const MAX_WALLS: usize = 64;
+/// Most scattering points of a radio world.
+pub const MAX_SCATTERING_POINTS: usize = 1000;
+
+/// The `[world]` table of a radio scenario: the geometry (base station, walls, scattering
+/// points), the trajectory (a circle by speed, turn rate and start) and the lap.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RadioWorldConfig {
     /// Always `"radio5g"`.
@@ -40,6 +67,24 @@ pub struct RadioWorldConfig {
     pub sp_height_max: f64,
     /// Seed of the height draw.
     pub seed: u64,
+    /// The base station's position (m), known to the filters.
+    pub base_station: [f64; 3],
+    /// The walls: each mirrors the base station into a virtual anchor.
+    pub walls: Vec<Wall>,
+    /// The scattering points' horizontal positions (m); their heights are drawn.
+    pub scattering_points: Vec<[f64; 2]>,
+    /// The vehicle's speed (m/s), known to the filters.
+    pub speed: f64,
+    /// Its turn rate (deg/s), known to the filters; 0 is a straight line.
+    pub turn_rate_deg: f64,
+    /// Its start position (m); by default `(speed / turn rate, 0, 0)`, on the circle around
+    /// the origin that it then drives. Required with a zero turn rate.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub start: Option<[f64; 3]>,
+    /// Its start heading (deg).
+    pub start_heading_deg: f64,
+    /// Its clock bias at the start (m).
+    pub clock_bias: f64,
 }
 
 /// The one kind of radio world (a tag, so that `[world] kind` reads as in planar scenarios).
@@ -53,6 +98,7 @@ pub enum RadioKind {
 
 impl Default for RadioWorldConfig {
     fn default() -> Self {
+        let wall = |point, normal| Wall { point, normal };
         RadioWorldConfig {
             kind: RadioKind::Radio5g,
             steps: 40,
@@ -60,6 +106,19 @@ impl Default for RadioWorldConfig {
             sp_height_min: 0.0,
             sp_height_max: 40.0,
             seed: 1,
+            base_station: [0.0, 0.0, 40.0],
+            walls: vec![
+                wall([100.0, 0.0], [1.0, 0.0]),
+                wall([0.0, 100.0], [0.0, 1.0]),
+                wall([-100.0, 0.0], [1.0, 0.0]),
+                wall([0.0, -100.0], [0.0, 1.0]),
+            ],
+            scattering_points: vec![[65.0, 65.0], [65.0, -65.0], [-65.0, -65.0], [-65.0, 65.0]],
+            speed: 22.22,
+            turn_rate_deg: 18.0,
+            start: None,
+            start_heading_deg: 90.0,
+            clock_bias: 300.0,
         }
     }
 }
@@ -278,6 +337,60 @@ impl RadioScenario {
         if w.sp_height_max < w.sp_height_min {
             return Err(ConfigError::new("world.sp_height_max", "must not be below world.sp_height_min"));
         }
+        let coordinate = Interval::magnitude(limits::MAX_DISTANCE);
+        for (i, c) in w.base_station.iter().enumerate() {
+            in_range(&format!("world.base_station[{i}]"), coordinate, *c)?;
+        }
+        if w.walls.len() > MAX_WALLS {
+            return Err(ConfigError::new("world.walls", format!("at most {MAX_WALLS} walls, not {}", w.walls.len())));
+        }
+        for (i, wall) in w.walls.iter().enumerate() {
+            for (j, c) in wall.point.iter().chain(&wall.normal).enumerate() {
+                let key = if j < 2 {
+                    format!("world.walls[{i}].point[{j}]")
+                } else {
+                    format!("world.walls[{i}].normal[{}]", j - 2)
+                };
+                in_range(&key, coordinate, *c)?;
+            }
+            let n = wall.normal[0].hypot(wall.normal[1]);
+            if !(n.is_normal() && n > 0.0) {
+                return Err(ConfigError::new(format!("world.walls[{i}].normal"), "must not be zero"));
+            }
+            let va = wall.mirror(w.base_station);
+            if (va[0] - w.base_station[0]).hypot(va[1] - w.base_station[1]) < limits::MIN_DISTANCE {
+                return Err(ConfigError::new(
+                    format!("world.walls[{i}]"),
+                    "passes through the base station: its virtual anchor would be the base station",
+                ));
+            }
+        }
+        if w.scattering_points.len() > MAX_SCATTERING_POINTS {
+            return Err(ConfigError::new(
+                "world.scattering_points",
+                format!("at most {MAX_SCATTERING_POINTS}, not {}", w.scattering_points.len()),
+            ));
+        }
+        for (i, p) in w.scattering_points.iter().enumerate() {
+            for (j, c) in p.iter().enumerate() {
+                in_range(&format!("world.scattering_points[{i}][{j}]"), coordinate, *c)?;
+            }
+        }
+        in_range("world.speed", Interval::NON_NEGATIVE.up_to(limits::MAX_SPEED), w.speed)?;
+        in_range("world.turn_rate_deg", Interval::magnitude(limits::MAX_TURN_RATE_DEG), w.turn_rate_deg)?;
+        in_range("world.start_heading_deg", Interval::magnitude(360.0), w.start_heading_deg)?;
+        in_range("world.clock_bias", coordinate, w.clock_bias)?;
+        match w.start {
+            Some(p) => {
+                for (i, c) in p.iter().enumerate() {
+                    in_range(&format!("world.start[{i}]"), coordinate, *c)?;
+                }
+            }
+            None if w.turn_rate_deg == 0.0 => {
+                return Err(ConfigError::new("world.start", "is required with world.turn_rate_deg = 0"));
+            }
+            None => {}
+        }
         self.models().validate()
     }
 }
@@ -300,6 +413,28 @@ pub fn is_radio(table: &toml::Table) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The geometry keys are checked: a wall through the base station, a zero normal, too many
+    /// scattering points, a straight drive without a start; each names its key.
+    #[test]
+    fn geometry_keys_are_checked() {
+        let err = |world: &str| {
+            let text = format!("name = \"r\"\n[world]\nkind = \"radio5g\"\n{world}\n");
+            RadioScenario::from_toml_str(&text, "r.toml").unwrap_err().to_string()
+        };
+        let e = err("walls = [{ point = [0.0, 0.0], normal = [1.0, 0.0] }]");
+        assert!(e.contains("world.walls[0]") && e.contains("passes through the base station"), "{e}");
+        let e = err("walls = [{ point = [5.0, 0.0], normal = [0.0, 0.0] }]");
+        assert!(e.contains("world.walls[0].normal") && e.contains("zero"), "{e}");
+        let e = err(&format!("scattering_points = [{}]", vec!["[1.0, 2.0]"; 1001].join(", ")));
+        assert!(e.contains("world.scattering_points") && e.contains("1000"), "{e}");
+        let e = err("turn_rate_deg = 0.0");
+        assert!(e.contains("world.start") && e.contains("required"), "{e}");
+        let e = err("base_station = [0.0, 1e300, 40.0]");
+        assert!(e.contains("world.base_station[1]"), "{e}");
+        let e = err("walls = [{ point = [5.0, 0.0] }]");
+        assert!(e.contains("normal"), "{e}");
+    }
 
     #[test]
     fn the_smallest_scenario_is_the_published_world() {

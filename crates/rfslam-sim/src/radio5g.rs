@@ -56,19 +56,38 @@ impl RadioWorld {
         }
     }
 
-    /// The world of a radio scenario: the published geometry with the scenario's lap
-    /// (`world.steps`, `world.dt`) and the scattering points' heights drawn from
-    /// `U[world.sp_height_min, world.sp_height_max]` with `world.seed` (one draw per
-    /// scenario, shared by every run).
+    /// The world of a radio scenario (its `[world]` keys, the published world by default):
+    /// the base station (id 0), a virtual anchor per wall (the base station mirrored in it;
+    /// ids 1, 2, ... in the order of `world.walls`), the scattering points (the next ids, in
+    /// the order of `world.scattering_points`) at heights drawn from
+    /// `U[world.sp_height_min, world.sp_height_max]` with `world.seed` (one draw per point,
+    /// once per scenario, shared by every run), and the vehicle's start and known control:
+    /// `world.speed` and `world.turn_rate_deg` from `world.start` (by default on the circle
+    /// around the origin, `(speed / turn rate, 0, 0)`) at `world.start_heading_deg` with
+    /// `world.clock_bias`.
     pub fn from_scenario(sc: &RadioScenario) -> RadioWorld {
         use rand::RngExt;
         let w = &sc.world;
         let mut rng = rfslam_core::rng::stream(&[w.seed, rfslam_core::rng::purpose::WORLD]);
-        let heights = std::array::from_fn(|_| {
+        let bs = w.base_station;
+        let mut landmarks = vec![(0, Vector3::from(bs), LandmarkType::BaseStation)];
+        for wall in &w.walls {
+            landmarks.push((landmarks.len() as i64, Vector3::from(wall.mirror(bs)), LandmarkType::VirtualAnchor));
+        }
+        for &[x, y] in &w.scattering_points {
             let u: f64 = rng.random();
-            w.sp_height_min + u * (w.sp_height_max - w.sp_height_min)
-        });
-        RadioWorld { dt: w.dt, steps: w.steps, ..RadioWorld::published(heights) }
+            let h = w.sp_height_min + u * (w.sp_height_max - w.sp_height_min);
+            landmarks.push((landmarks.len() as i64, Vector3::new(x, y, h), LandmarkType::ScatteringPoint));
+        }
+        let turn = w.turn_rate_deg.to_radians();
+        let start = w.start.unwrap_or([w.speed / turn, 0.0, 0.0]);
+        RadioWorld {
+            landmarks,
+            x0: SVector::from([start[0], start[1], start[2], w.start_heading_deg.to_radians(), w.clock_bias]),
+            u: Control::new(w.speed, turn, 0.0),
+            dt: w.dt,
+            steps: w.steps,
+        }
     }
 
     /// One run: the vehicle moves by `vehicle` (its process noise on the truth), the
@@ -94,7 +113,7 @@ pub fn radio_vehicle(sc: &RadioScenario) -> RadioVehicle {
 /// landmark type by `filter_noise_scale`). The clutter intensity is the rate over the
 /// clutter box's volume in both.
 pub fn radio_sensor(sc: &RadioScenario, filters: bool) -> RadioSensor {
-    radio_sensor_of(&sc.models(), RadioSensor::published().base_station, filters)
+    radio_sensor_of(&sc.models(), Vector3::from(sc.world.base_station), filters)
 }
 
 /// [`radio_sensor`] of the model tables `models` with the base station at `base_station`.
@@ -213,6 +232,40 @@ mod tests {
                 assert_eq!(labels.contains(&id), near, "step {k}: scattering point {id}");
             }
         }
+    }
+
+    /// The default `[world]` keys are the published world (its ids, positions, start and
+    /// control, bit for bit); other keys give their geometry: a virtual anchor per wall (the
+    /// base station mirrored in it), the scattering points at drawn heights, a straight drive
+    /// from the given start, and the filters' base station where the scenario puts it.
+    #[test]
+    fn the_world_keys_give_the_published_world_by_default_and_any_geometry_otherwise() {
+        let sc = RadioScenario::from_toml_str("name = \"r\"\n[world]\nkind = \"radio5g\"\n", "r.toml").unwrap();
+        let w = RadioWorld::from_scenario(&sc);
+        let heights: Vec<f64> = w.landmarks[5..].iter().map(|l| l.1.z).collect();
+        assert_eq!(w, RadioWorld::published([heights[0], heights[1], heights[2], heights[3]]));
+
+        let text = "name = \"s\"\n[world]\nkind = \"radio5g\"\nbase_station = [150.0, 5.0, 10.0]\n\
+            walls = [{ point = [0.0, 15.0], normal = [0.0, 2.0] }, { point = [3.0, 4.0], normal = [1.0, 1.0] }]\n\
+            scattering_points = [[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]]\nsp_height_min = 1.0\nsp_height_max = 4.0\n\
+            speed = 10.0\nturn_rate_deg = 0.0\nstart = [-100.0, 0.0, 0.5]\nstart_heading_deg = 0.0\nclock_bias = 50.0\n";
+        let sc = RadioScenario::from_toml_str(text, "s.toml").unwrap();
+        let w = RadioWorld::from_scenario(&sc);
+        let types: Vec<LandmarkType> = w.landmarks.iter().map(|l| l.2).collect();
+        assert_eq!(types[0], LandmarkType::BaseStation);
+        assert!(types[1..3].iter().all(|t| *t == LandmarkType::VirtualAnchor));
+        assert!(types[3..].iter().all(|t| *t == LandmarkType::ScatteringPoint) && types.len() == 6);
+        assert_eq!(w.landmarks.iter().map(|l| l.0).collect::<Vec<_>>(), (0..6).collect::<Vec<i64>>());
+        assert_eq!(w.landmarks[1].1, Vector3::new(150.0, 25.0, 10.0));
+        // The wall x + y = 7 mirrors (150, 5) to (7 - 5, 7 - 150) = (2, -143).
+        assert!((w.landmarks[2].1 - Vector3::new(2.0, -143.0, 10.0)).norm() < 1e-9, "{}", w.landmarks[2].1);
+        assert!(w.landmarks[3..].iter().all(|l| (1.0..=4.0).contains(&l.1.z)));
+        assert_eq!(w.x0, SVector::from([-100.0, 0.0, 0.5, 0.0, 50.0]));
+        let still = RadioVehicle { sigma: [0.0; 5] };
+        let run = w.simulate(&still, &radio_sensor(&sc, false), &mut Rng::seed_from_u64(1)).unwrap();
+        let end = run.truth[40].1;
+        assert!((end - SVector::from([100.0, 0.0, 0.5, 0.0, 50.0])).norm() < 1e-9, "{end}");
+        assert_eq!(radio_sensor(&sc, true).base_station, Vector3::new(150.0, 5.0, 10.0));
     }
 
     /// A run's data set: written and read back bit for bit in the radio world's columns,
