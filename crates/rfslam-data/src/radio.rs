@@ -337,22 +337,13 @@ impl RadioScenario {
         if w.sp_height_max < w.sp_height_min {
             return Err(ConfigError::new("world.sp_height_max", "must not be below world.sp_height_min"));
         }
-        let coordinate = Interval::magnitude(limits::MAX_DISTANCE);
-        for (i, c) in w.base_station.iter().enumerate() {
-            in_range(&format!("world.base_station[{i}]"), coordinate, *c)?;
-        }
+        coordinates("world.base_station", &w.base_station)?;
         if w.walls.len() > MAX_WALLS {
             return Err(ConfigError::new("world.walls", format!("at most {MAX_WALLS} walls, not {}", w.walls.len())));
         }
         for (i, wall) in w.walls.iter().enumerate() {
-            for (j, c) in wall.point.iter().chain(&wall.normal).enumerate() {
-                let key = if j < 2 {
-                    format!("world.walls[{i}].point[{j}]")
-                } else {
-                    format!("world.walls[{i}].normal[{}]", j - 2)
-                };
-                in_range(&key, coordinate, *c)?;
-            }
+            coordinates(&format!("world.walls[{i}].point"), &wall.point)?;
+            coordinates(&format!("world.walls[{i}].normal"), &wall.normal)?;
             let n = wall.normal[0].hypot(wall.normal[1]);
             if !(n.is_normal() && n > 0.0) {
                 return Err(ConfigError::new(format!("world.walls[{i}].normal"), "must not be zero"));
@@ -372,20 +363,14 @@ impl RadioScenario {
             ));
         }
         for (i, p) in w.scattering_points.iter().enumerate() {
-            for (j, c) in p.iter().enumerate() {
-                in_range(&format!("world.scattering_points[{i}][{j}]"), coordinate, *c)?;
-            }
+            coordinates(&format!("world.scattering_points[{i}]"), p)?;
         }
         in_range("world.speed", Interval::NON_NEGATIVE.up_to(limits::MAX_SPEED), w.speed)?;
         in_range("world.turn_rate_deg", Interval::magnitude(limits::MAX_TURN_RATE_DEG), w.turn_rate_deg)?;
         in_range("world.start_heading_deg", Interval::magnitude(360.0), w.start_heading_deg)?;
-        in_range("world.clock_bias", coordinate, w.clock_bias)?;
+        in_range("world.clock_bias", Interval::magnitude(limits::MAX_DISTANCE), w.clock_bias)?;
         match w.start {
-            Some(p) => {
-                for (i, c) in p.iter().enumerate() {
-                    in_range(&format!("world.start[{i}]"), coordinate, *c)?;
-                }
-            }
+            Some(p) => coordinates("world.start", &p)?,
             None if w.turn_rate_deg == 0.0 => {
                 return Err(ConfigError::new("world.start", "is required with world.turn_rate_deg = 0"));
             }
@@ -405,6 +390,12 @@ impl RadioScenario {
     }
 }
 
+/// Each coordinate of the array `key` within the plausible distances (`key[i]` names a bad one).
+fn coordinates(key: &str, values: &[f64]) -> Result<(), ConfigError> {
+    let range = Interval::magnitude(limits::MAX_DISTANCE);
+    values.iter().enumerate().try_for_each(|(i, c)| in_range(&format!("{key}[{i}]"), range, *c))
+}
+
 /// Whether a scenario table is of the radio world (`[world] kind = "radio5g"`).
 pub fn is_radio(table: &toml::Table) -> bool {
     table.get("world").and_then(|w| w.get("kind")).and_then(|k| k.as_str()) == Some("radio5g")
@@ -414,14 +405,17 @@ pub fn is_radio(table: &toml::Table) -> bool {
 mod tests {
     use super::*;
 
+    /// The error of the smallest radio scenario with the lines `extra` after `[world] kind`.
+    fn error_of(extra: &str) -> String {
+        let text = format!("name = \"r\"\n[world]\nkind = \"radio5g\"\n{extra}\n");
+        RadioScenario::from_toml_str(&text, "r.toml").unwrap_err().to_string()
+    }
+
     /// The geometry keys are checked: a wall through the base station, a zero normal, too many
     /// scattering points, a straight drive without a start; each names its key.
     #[test]
     fn geometry_keys_are_checked() {
-        let err = |world: &str| {
-            let text = format!("name = \"r\"\n[world]\nkind = \"radio5g\"\n{world}\n");
-            RadioScenario::from_toml_str(&text, "r.toml").unwrap_err().to_string()
-        };
+        let err = error_of;
         let e = err("walls = [{ point = [0.0, 0.0], normal = [1.0, 0.0] }]");
         assert!(e.contains("world.walls[0]") && e.contains("passes through the base station"), "{e}");
         let e = err("walls = [{ point = [5.0, 0.0], normal = [0.0, 0.0] }]");
@@ -448,10 +442,7 @@ mod tests {
 
     #[test]
     fn bad_values_name_their_key_and_line() {
-        let bad = |extra: &str| {
-            let text = format!("name = \"r\"\n[world]\nkind = \"radio5g\"\n{extra}\n");
-            RadioScenario::from_toml_str(&text, "r.toml").unwrap_err().to_string()
-        };
+        let bad = error_of;
         let e = bad("steps = 0");
         assert!(e.contains("world.steps") && e.contains("r.toml"), "{e}");
         let e = bad("sp_height_min = 30.0\nsp_height_max = 10.0");
