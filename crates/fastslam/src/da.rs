@@ -662,6 +662,7 @@ where
 
     /// One recursion (see the module docs).
     pub fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
+        self.set.draw_initial(&self.vehicle, rng, |p| &mut p.pose);
         let mut failures = 0u32;
         self.child_parent.clear();
         for parent in 0..self.set.len() {
@@ -1098,8 +1099,7 @@ mod typed {
     }
 
     fn filter(hypotheses: usize) -> DaFastSlam<Motion, Typed, 3, 2, 2> {
-        let vehicle =
-            Vehicle { model: Motion::Velocity, control_noise: Matrix3::zeros(), initial_state: Pose::zeros() };
+        let vehicle = Vehicle::known_start(Motion::Velocity, Matrix3::zeros(), Pose::zeros());
         DaFastSlam::try_new("typed", settings(hypotheses), vehicle, Typed::default(), 1).unwrap()
     }
 
@@ -1157,8 +1157,7 @@ mod typed {
     /// A sensor that maps no type cannot start landmarks: refused when built.
     #[test]
     fn a_sensor_that_maps_nothing_is_refused() {
-        let vehicle =
-            Vehicle { model: Motion::Velocity, control_noise: Matrix3::zeros(), initial_state: Pose::zeros() };
+        let vehicle = Vehicle::known_start(Motion::Velocity, Matrix3::zeros(), Pose::zeros());
         let e = DaFastSlam::try_new("nothing", settings(1), vehicle, Typed { maps_nothing: true }, 1).unwrap_err();
         assert_eq!(e.key, "sensor");
         assert!(e.message.contains("maps no landmark type"), "{}", e.message);

@@ -170,6 +170,7 @@ where
 
     /// One recursion (see the crate documentation).
     pub fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
+        self.set.draw_initial(&self.vehicle, rng, |p| &mut p.pose);
         let labelled = self.collect_labelled(scan);
         let importance = self.params.weight == WeightMode::Importance;
         let mut chol = 0u32;

@@ -190,6 +190,7 @@ where
 
     /// One recursion (what `SlamFilter::step` of the three variants calls).
     pub fn step_impl(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
+        self.set.draw_initial(&self.vehicle, rng, |p| &mut p.pose);
         self.step += 1;
         let (sensor, space) = (&self.sensor, self.space);
         let p = &self.params;

@@ -200,6 +200,7 @@ where
         rng: &mut Rng,
         mut propose: impl FnMut(&DrawContext<'_, V, S, X, M, Z>, &mut Rng) -> PoseDraw<X>,
     ) -> StepReport<M> {
+        self.set.draw_initial(&self.vehicle, rng, |p| &mut p.pose);
         self.z.clear();
         self.z.extend(z);
         let mut chol = 0u32;

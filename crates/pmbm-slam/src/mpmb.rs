@@ -290,7 +290,7 @@ where
             n_s: space.estimated_count(),
             dither: vehicle.model.planar_diagonal(params.dithering),
             mean: vehicle.initial_state,
-            cov: SMatrix::zeros(),
+            cov: vehicle.initial_covariance(),
             bernoullis,
             types,
             undetected: Undetected::for_sensor(

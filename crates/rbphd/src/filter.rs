@@ -307,6 +307,7 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
 
     /// One recursion of \[Kaltiokallio2024\] Algorithm 3.
     pub fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
+        self.set.draw_initial(&self.vehicle, rng, |p| &mut p.pose);
         let (vehicle, sensor, sector) = (&self.vehicle, &self.sensor, self.sector.as_ref());
         let ln_birth = self.params.birth_weight.ln();
         let upd_settings = UpdateSettings {

@@ -244,6 +244,7 @@ mod tests {
             detection,
             clutter: ClutterModel { rate: 5.0, intensity: ClutterIntensity::Cartesian },
             initial_pose: Pose::zeros(),
+            initial_sigma: nalgebra::Vector3::zeros(),
         }
     }
 

@@ -83,7 +83,7 @@ fn readme_text(world: &str, c: &Columns, anchors: bool, types: bool) -> String {
     }
     let mut rows = vec![
         format!(
-            "| `{}` | yes | `name`, `world = \"{world}\"`; `[initial_pose]` `t` (s) and {state}: the known start; the model tables as written (`[motion]`, `[sensor]`, ... with their keys, units in degrees for keys ending in `_deg`): your vehicle's and sensor's models and noise |",
+            "| `{}` | yes | `name`, `world = \"{world}\"`; `[initial_pose]` `t` (s) and {state}: the known start (or, with an optional `[initial_sigma]` of the same keys but `t`, the filters' prior mean); the model tables as written (`[motion]`, `[sensor]`, ... with their keys, units in degrees for keys ending in `_deg`): your vehicle's and sensor's models and noise |",
             files::META
         ),
         format!(

@@ -151,6 +151,55 @@ fn a_radio_geometry_of_ones_own_replays_bit_for_bit() {
     }
 }
 
+/// A radio scenario with a prior on the initial state (`[prior]`): the data set carries it
+/// (`[initial_pose]` the prior mean, off the true start in `groundtruth.csv`, and
+/// `[initial_sigma]`), `run --dataset` replays `run --scenario` bit for bit, and the filters'
+/// first poses are not the true start.
+#[test]
+fn a_radio_prior_travels_with_the_data_set() {
+    let dir = TempDir::new("radio-prior");
+    let prior = "[prior]\nsigma = [0.3, 0.3, 0.0, 0.005, 0.3]\noffset = [0.3, -0.3, 0.0, 0.005, -0.3]\n";
+    dir.write("prior.toml", &format!("{}\n{prior}", SCENARIO.replace("steps = 40", "steps = 6")));
+    ok(dir.path(), &["simulate", "--scenario", "prior.toml", "--seed", "4", "--out", "ds"]);
+    let meta = dir.read("ds/dataset.toml");
+    assert!(meta.contains("[initial_sigma]") && meta.contains("clock_bias = 0.3"), "{meta}");
+    let truth = Csv::read(&dir.join("ds/groundtruth.csv"));
+    let start: toml::Table = toml::from_str(&meta).unwrap();
+    let x = start["initial_pose"]["x"].as_float().unwrap();
+    assert!((x - truth.num(0, "x") - 0.3).abs() < 1e-9, "prior mean x {x}, true {}", truth.num(0, "x"));
+    for filter in ["pmbm-slam", "mpmb-slam", "phd-1.0"] {
+        let n = if filter == "mpmb-slam" { "1" } else { "20" };
+        let common = ["--filter", filter, "--particles", n, "--seed", "4"];
+        let (a, b) = (format!("a-{filter}"), format!("b-{filter}"));
+        ok(dir.path(), &[&["run", "--dataset", "ds"][..], &common, &["--out", &a]].concat());
+        ok(dir.path(), &[&["run", "--scenario", "prior.toml"][..], &common, &["--out", &b]].concat());
+        for f in ["trajectory.csv", "map.csv"] {
+            assert_eq!(dir.read(&format!("{a}/{f}")), dir.read(&format!("{b}/{f}")), "{filter}: {f}");
+        }
+        let est = Csv::read(&dir.join(&a).join("trajectory.csv"));
+        assert_ne!(est.num(0, "x"), truth.num(0, "x"), "{filter} starts off the truth");
+    }
+}
+
+/// The prior is the filters' belief about the start, not the start: sweeps that differ only
+/// in `[prior]` are paired run by run (the same data), the treatment named.
+#[test]
+fn sweeps_differing_only_in_the_prior_are_paired() {
+    let dir = TempDir::new("radio-prior-compare");
+    dir.write("radio5g.toml", &SCENARIO.replace("steps = 40", "steps = 6"));
+    let known = dir.write("known.toml", &entries(""));
+    let grid = "\n[grid]\n\"scenario.prior\" = [{ sigma = [0.3, 0.3, 0.0, 0.005, 0.3] }]\n";
+    let spread = dir.write("spread.toml", &entries(grid));
+    ok(dir.path(), &["sweep", known.to_str().unwrap(), "--out", "a", "--quiet"]);
+    ok(dir.path(), &["sweep", spread.to_str().unwrap(), "--out", "b", "--quiet"]);
+    let o = ok(dir.path(), &["compare", "a:pmbm-slam", "b:pmbm-slam", "--out", "cmp"]);
+    assert!(o.stdout.contains("- B1 differs from A in `scenario.prior` ((absent) vs { sigma ="), "{}", o.stdout);
+    let c = Csv::read(&dir.join("cmp/compare.csv"));
+    let i = (0..c.rows.len()).find(|&i| c.get(i, "metric") == "pos_rmse_m").unwrap();
+    assert_eq!(c.get(i, "n"), "2");
+    assert_ne!(c.num(i, "mean_diff"), 0.0, "the prior's spread changes pmbm-slam's estimates");
+}
+
 /// A key of the planar models and a thinned undetected intensity with too many cells per
 /// scan are refused with exit 2, each saying why. (Every registered
 /// filter runs in the radio world, so the refusal of one that does not, which names the

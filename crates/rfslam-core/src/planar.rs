@@ -9,7 +9,7 @@
 //! [`PlanarSensorModel`], one line in [`crate::model::PLANAR_SENSORS`], and one line in the
 //! harness's list of worlds.
 
-use nalgebra::{Matrix3, SMatrix};
+use nalgebra::{Matrix3, SMatrix, Vector3};
 
 use crate::detection::{ClutterIntensity, ClutterModel, DetectionModel, Fov};
 use crate::filter::WorldModels;
@@ -126,8 +126,10 @@ pub struct SlamModels<const Z: usize = 2> {
     pub detection: DetectionModel,
     /// Clutter model (rate and the intensity units the filters use).
     pub clutter: ClutterModel,
-    /// Known initial pose `x_0`.
+    /// The initial pose `x_0`: known, or the filters' prior mean.
     pub initial_pose: Pose,
+    /// The filters' prior standard deviation of `x_0` (`[x, y, heading]`; zero: known).
+    pub initial_sigma: Vector3<f64>,
 }
 
 impl<const Z: usize> SlamModels<Z> {
@@ -139,9 +141,14 @@ impl<const Z: usize> SlamModels<Z> {
     }
 
     /// The vehicle as the filters assume it: the odometry's motion model, its noise and the
-    /// initial pose.
+    /// prior on the initial pose.
     pub fn vehicle(&self) -> Vehicle<Motion, 3> {
-        Vehicle { model: self.motion, control_noise: self.control_noise, initial_state: self.initial_pose }
+        Vehicle {
+            model: self.motion,
+            control_noise: self.control_noise,
+            initial_state: self.initial_pose,
+            initial_sigma: self.initial_sigma,
+        }
     }
 
     /// The models a filter is built on ([`crate::WorldBuild`]): the vehicle and the planar

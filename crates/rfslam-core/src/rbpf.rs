@@ -6,7 +6,7 @@ use rand::RngExt;
 
 use crate::angle::wrap;
 use crate::gaussian::sample;
-use crate::model::VehicleModel;
+use crate::model::{Vehicle, VehicleModel};
 use crate::state::StateSpace;
 use crate::types::Pose;
 use nalgebra::{SMatrix, SVector};
@@ -165,6 +165,9 @@ pub struct ParticleSet<P> {
     family: Vec<usize>,
     next: Vec<P>,
     pool: Vec<P>,
+    /// Whether the particles still wait for their draw from the initial prior
+    /// ([`ParticleSet::draw_initial`]).
+    prior_pending: bool,
 }
 
 /// What [`ParticleSet::normalise_and_resample`] did.
@@ -202,7 +205,29 @@ impl<P: LogWeighted + Clone + Default> ParticleSet<P> {
             family: vec![0; n],
             next: Vec::new(),
             pool: Vec::new(),
+            prior_pending: true,
         }
+    }
+
+    /// Draws every particle's state (reached by `state`) from the vehicle's prior on `x_0`
+    /// ([`Vehicle::draw_initial`]), once: the first call of a filter's first step, before
+    /// its prediction; later calls do nothing. With a known start nothing is drawn (the
+    /// particles stay identical copies of `x_0`, one family, and `rng` is untouched);
+    /// otherwise every particle becomes its own family.
+    pub fn draw_initial<V: VehicleModel<X, 3>, R: rand::Rng + ?Sized, const X: usize>(
+        &mut self,
+        vehicle: &Vehicle<V, X>,
+        rng: &mut R,
+        mut state: impl FnMut(&mut P) -> &mut SVector<f64, X>,
+    ) {
+        if !std::mem::take(&mut self.prior_pending) || vehicle.start_known() {
+            return;
+        }
+        for p in &mut self.particles {
+            *state(p) = vehicle.draw_initial(rng);
+        }
+        self.family.clear();
+        self.family.extend(0..self.particles.len());
     }
 
     /// The particles.
@@ -498,6 +523,7 @@ mod tests {
     struct P {
         log_w: f64,
         id: usize,
+        pose: Pose,
     }
 
     impl LogWeighted for P {
@@ -522,7 +548,7 @@ mod tests {
         assert_eq!(set.families_mut().map(|f| f.len()).collect::<Vec<_>>(), [4]);
         let w = [0.5f64, 0.25, 0.125, 0.125];
         for (i, p) in set.particles_mut().iter_mut().enumerate() {
-            *p = P { log_w: w[i].ln() + 3.0, id: i };
+            *p = P { log_w: w[i].ln() + 3.0, id: i, ..P::default() };
         }
         let mut seen = None;
         let out = set.normalise_and_resample(rule(4.0, 8), &mut rng, |ps, best| seen = Some((ps[best].id, ps.len())));
@@ -548,5 +574,31 @@ mod tests {
         // One particle is never resampled to one.
         let mut one = ParticleSet::new(P::default(), 1);
         assert!(!one.normalise_and_resample(rule(1.0, 1), &mut rng, |_, _| {}).resampled);
+    }
+
+    /// The prior on `x_0` is drawn once (the heading wrapped, a component without spread
+    /// kept), every particle then its own family; a later call draws nothing, and a known
+    /// start leaves the particles and the random numbers alone.
+    #[test]
+    fn the_initial_prior_is_drawn_once() {
+        let mut vehicle =
+            Vehicle::known_start(crate::Motion::Velocity, nalgebra::Matrix3::zeros(), Pose::new(1.0, 2.0, 3.1));
+        let mut rng = crate::Rng::seed_from_u64(3);
+        let mut known = ParticleSet::new(P::default(), 3);
+        known.draw_initial(&vehicle, &mut rng, |p| &mut p.pose);
+        assert!(known.particles().iter().all(|p| p.pose == Pose::zeros()));
+        assert_eq!(rng, crate::Rng::seed_from_u64(3), "a known start takes no random number");
+        vehicle.initial_sigma = Pose::new(0.5, 0.0, 0.2);
+        let mut set = ParticleSet::new(P::default(), 200);
+        assert_eq!(set.families_mut().count(), 1);
+        set.draw_initial(&vehicle, &mut rng, |p| &mut p.pose);
+        let first: Vec<Pose> = set.particles().iter().map(|p| p.pose).collect();
+        assert_eq!(set.families_mut().count(), 200);
+        assert!(first.iter().all(|x| x.y == 2.0 && (-std::f64::consts::PI..std::f64::consts::PI).contains(&x.z)));
+        assert!(first.iter().any(|x| x.z < 0.0), "3.1 + 0.2 e wraps past pi for some draws");
+        let sd = (first.iter().map(|x| (x.x - 1.0).powi(2)).sum::<f64>() / 200.0).sqrt();
+        assert!((sd / 0.5 - 1.0).abs() < 0.2, "x spread {sd}");
+        set.draw_initial(&vehicle, &mut rng, |p| &mut p.pose);
+        assert_eq!(set.particles().iter().map(|p| p.pose).collect::<Vec<_>>(), first, "drawn once");
     }
 }

@@ -577,6 +577,7 @@ impl ModelConfig {
             detection: self.detection,
             clutter: self.clutter.model(),
             initial_pose,
+            initial_sigma: nalgebra::Vector3::zeros(),
         }
     }
 }

@@ -245,8 +245,12 @@ pub struct DatasetMeta<C = ModelConfig, const X: usize = 3> {
     pub description: Option<String>,
     /// Time of the initial state (s); scan 0's odometry starts here.
     pub initial_t: f64,
-    /// Known initial state `x_0` (the planar default: the pose `[x, y, heading]`).
+    /// The initial state `x_0` (the planar default: the pose `[x, y, heading]`): known, or
+    /// the filters' prior mean when `initial_sigma` is not zero.
     pub initial_pose: SVector<f64, X>,
+    /// The filters' prior standard deviation of each component of `x_0`
+    /// (`[initial_sigma]`, the state components' keys; absent keys 0: known).
+    pub initial_sigma: SVector<f64, X>,
     /// Nominal models (a filter run on the data set uses them).
     pub models: C,
     /// The landmark types (`[landmarks]`; one type when absent).
@@ -262,6 +266,8 @@ struct OwnKeys {
     #[serde(default)]
     world: Option<String>,
     initial_pose: toml::Table,
+    #[serde(default)]
+    initial_sigma: toml::Table,
     #[serde(default)]
     landmarks: LandmarkTypes,
 }
@@ -292,6 +298,11 @@ impl Serialize for InitialPose<'_> {
 #[derive(Serialize)]
 struct InitialPoseTable<'a> {
     initial_pose: InitialPose<'a>,
+}
+
+#[derive(Serialize)]
+struct InitialSigmaTable<'a> {
+    initial_sigma: InitialPose<'a>,
 }
 
 #[derive(Serialize)]
@@ -330,12 +341,24 @@ impl<C: DatasetModels, const X: usize> DatasetMeta<C, X> {
             )));
         }
         let names: Vec<&str> = std::iter::once("t").chain(state.iter().map(|c| c.name)).collect();
-        if let Some(k) = own.initial_pose.keys().find(|k| !names.contains(&k.as_str())) {
-            return Err(bad(ConfigError::new(
-                format!("initial_pose.{k}"),
-                format!("unknown field `{k}`: the initial pose has {}", names.join(", ")),
-            )));
+        for (table, keys, allowed) in
+            [("initial_pose", &own.initial_pose, &names[..]), ("initial_sigma", &own.initial_sigma, &names[1..])]
+        {
+            if let Some(k) = keys.keys().find(|k| !allowed.contains(&k.as_str())) {
+                return Err(bad(ConfigError::new(
+                    format!("{table}.{k}"),
+                    format!("unknown field `{k}`: the {} has {}", table.replace('_', " "), allowed.join(", ")),
+                )));
+            }
         }
+        let number = |key: String, v: &toml::Value, range: Interval| -> Result<f64, DataError> {
+            let v = v
+                .as_float()
+                .or_else(|| v.as_integer().map(|i| i as f64))
+                .ok_or_else(|| bad(ConfigError::new(key.clone(), format!("must be a number (got {v})"))))?;
+            in_range(&key, range, v).map_err(bad)?;
+            Ok(v)
+        };
         let value = |name: &str, bound: f64| -> Result<f64, DataError> {
             let key = format!("initial_pose.{name}");
             let v = own.initial_pose.get(name).ok_or_else(|| {
@@ -344,18 +367,18 @@ impl<C: DatasetModels, const X: usize> DatasetMeta<C, X> {
                     format!("missing field `{name}` (the initial pose has {})", names.join(", ")),
                 ))
             })?;
-            let v = v
-                .as_float()
-                .or_else(|| v.as_integer().map(|i| i as f64))
-                .ok_or_else(|| bad(ConfigError::new(key.clone(), format!("must be a number (got {v})"))))?;
-            in_range(&key, Interval::magnitude(bound), v).map_err(bad)?;
-            Ok(v)
+            number(key, v, Interval::magnitude(bound))
         };
         let initial_t = value("t", limits::MAX_TIME)?;
         let mut initial_pose = SVector::<f64, X>::zeros();
+        let mut initial_sigma = SVector::<f64, X>::zeros();
         for (i, c) in state.iter().enumerate() {
-            let v = value(c.name, if c.angle { limits::MAX_ANGLE } else { limits::MAX_COORDINATE })?;
+            let bound = if c.angle { limits::MAX_ANGLE } else { limits::MAX_COORDINATE };
+            let v = value(c.name, bound)?;
             initial_pose[i] = if c.angle { wrap(v) } else { v };
+            if let Some(s) = own.initial_sigma.get(c.name) {
+                initial_sigma[i] = number(format!("initial_sigma.{}", c.name), s, Interval::closed(0.0, bound))?;
+            }
         }
         own.landmarks.validate().map_err(bad)?;
         Ok(DatasetMeta {
@@ -363,6 +386,7 @@ impl<C: DatasetModels, const X: usize> DatasetMeta<C, X> {
             description: own.description,
             initial_t,
             initial_pose,
+            initial_sigma,
             models,
             landmarks: own.landmarks,
         })
@@ -378,6 +402,11 @@ impl<C: DatasetModels, const X: usize> DatasetMeta<C, X> {
         keys.extend(state.iter().zip(self.initial_pose.iter()).map(|(c, v)| (c.name, *v)));
         text.push('\n');
         text.push_str(&toml::to_string(&InitialPoseTable { initial_pose: InitialPose(keys) }).map_err(ser)?);
+        if self.initial_sigma.iter().any(|s| *s != 0.0) {
+            let keys = state.iter().zip(self.initial_sigma.iter()).map(|(c, v)| (c.name, *v)).collect();
+            text.push('\n');
+            text.push_str(&toml::to_string(&InitialSigmaTable { initial_sigma: InitialPose(keys) }).map_err(ser)?);
+        }
         text.push('\n');
         text.push_str(&self.models.write_models()?);
         if !self.landmarks.is_default() {
@@ -441,7 +470,7 @@ impl<const Z: usize> Dataset<ModelConfig, 3, 2, Z> {
 
     /// The nominal models in SI units, starting at the initial pose.
     pub fn models(&self) -> SlamModels<Z> {
-        self.meta.models.to_models_in(self.meta.initial_pose)
+        SlamModels { initial_sigma: self.meta.initial_sigma, ..self.meta.models.to_models_in(self.meta.initial_pose) }
     }
 }
 
@@ -900,6 +929,8 @@ impl DatasetModels for ModelConfig {
             world: Option<serde::de::IgnoredAny>,
             initial_pose: serde::de::IgnoredAny,
             #[serde(default)]
+            initial_sigma: Option<serde::de::IgnoredAny>,
+            #[serde(default)]
             landmarks: Option<serde::de::IgnoredAny>,
             motion: crate::config::MotionConfig,
             sensor: crate::config::SensorConfig,
@@ -946,6 +977,7 @@ mod tests {
             description: Some("a hand-made data set".into()),
             initial_t: 0.0,
             initial_pose: Pose::new(1.0, 2.0, 0.5),
+            initial_sigma: nalgebra::Vector3::zeros(),
             models,
             landmarks: Default::default(),
         }
@@ -1462,5 +1494,29 @@ mod tests {
         assert!(e.contains("unknown field `z`"), "{e}");
         let e = broken(files::META, |t| t.replace("sigma_v = 0.1", "sigma_v = \"slow\""));
         assert!(e.contains("dataset.toml:") && e.contains("sigma_v"), "{e}");
+        let e = broken(files::META, |t| format!("{t}\n[initial_sigma]\nz = 1.0\n"));
+        assert!(e.contains("initial_sigma.z") && e.contains("x, y, heading"), "{e}");
+        let e = broken(files::META, |t| format!("{t}\n[initial_sigma]\nx = -1.0\n"));
+        assert!(e.contains("initial_sigma.x must be in [0, 1e9] (got -1)"), "{e}");
+    }
+
+    /// The filters' prior spread `[initial_sigma]` is written only when not zero, and read
+    /// back bit for bit; an absent key is 0 (known), and the vehicle the filters take from
+    /// the data set carries it.
+    #[test]
+    fn initial_sigma_round_trips() {
+        let mut d = example();
+        assert!(!d.meta.to_toml_string().unwrap().contains("initial_sigma"));
+        d.meta.initial_sigma = nalgebra::Vector3::new(0.25, 0.0, 0.01);
+        let text = d.meta.to_toml_string().unwrap();
+        assert!(text.contains("[initial_sigma]\nx = 0.25\ny = 0.0\nheading = 0.01\n"), "{text}");
+        let tmp = TempDir::new("sigma");
+        d.write(tmp.path()).unwrap();
+        let back = <Dataset>::read(tmp.path()).unwrap();
+        assert_eq!(back, d);
+        assert_eq!(back.models().vehicle().initial_sigma, d.meta.initial_sigma);
+        let partial = text.replace("y = 0.0\nheading = 0.01\n", "");
+        let meta = DatasetMeta::<ModelConfig, 3>::from_toml_str(&partial, Path::new("dataset.toml")).unwrap();
+        assert_eq!(meta.initial_sigma, nalgebra::Vector3::new(0.25, 0.0, 0.0));
     }
 }

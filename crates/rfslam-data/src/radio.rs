@@ -140,6 +140,32 @@ impl Default for RadioVehicleConfig {
     }
 }
 
+/// The `[prior]` table: the filters' prior on the initial state, `x_0 ~ N(s_0 + offset,
+/// diag(sigma^2))` with `s_0` the true start (\[Kim2022\] Section V-1 uses a Gaussian prior
+/// and gives no values), in the order `[x, y, z, heading, clock bias]` (m, m, m, rad, m).
+/// The default (zero) starts every filter at the true state, known; the code of the paper's
+/// reference \[4\] uses `sigma = [0.3, 0.3, 0, 0.3 deg, 0.3]` with the one-sigma offset
+/// `[0.3, -0.3, 0, 0.3 deg, -0.3]`. A component the vehicle holds (zero `[vehicle] sigma`,
+/// not estimated) takes neither.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RadioPriorConfig {
+    /// The prior mean's offset from the true start.
+    pub offset: [f64; 5],
+    /// The prior standard deviations.
+    pub sigma: [f64; 5],
+}
+
+impl RadioPriorConfig {
+    /// The filters' prior mean and standard deviations for the true start `x0` (the heading
+    /// wrapped).
+    pub fn of(&self, x0: &[f64; 5]) -> ([f64; 5], [f64; 5]) {
+        let mut mean = std::array::from_fn(|i| x0[i] + self.offset[i]);
+        mean[3] = rfslam_core::angle::wrap(mean[3]);
+        (mean, self.sigma)
+    }
+}
+
 /// The `[sensor]` table: measurement noise, visibility and detection.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -210,6 +236,9 @@ pub struct RadioScenario {
     /// `[clutter]`.
     #[serde(default)]
     pub clutter: RadioClutterConfig,
+    /// `[prior]`.
+    #[serde(default)]
+    pub prior: RadioPriorConfig,
 }
 
 /// Most transitions of a radio world (a hundred laps).
@@ -279,6 +308,8 @@ impl DatasetModels for RadioModels {
             #[serde(default)]
             world: Option<serde::de::IgnoredAny>,
             initial_pose: serde::de::IgnoredAny,
+            #[serde(default)]
+            initial_sigma: Option<serde::de::IgnoredAny>,
             #[serde(default)]
             landmarks: Option<serde::de::IgnoredAny>,
             #[serde(default)]
@@ -376,7 +407,21 @@ impl RadioScenario {
             }
             None => {}
         }
-        self.models().validate()
+        self.models().validate()?;
+        for (i, (o, s)) in self.prior.offset.iter().zip(&self.prior.sigma).enumerate() {
+            let bound = if i == 3 { std::f64::consts::PI } else { limits::MAX_DISTANCE };
+            in_range(&format!("prior.offset[{i}]"), Interval::magnitude(bound), *o)?;
+            in_range(&format!("prior.sigma[{i}]"), Interval::closed(0.0, bound), *s)?;
+            if self.vehicle.sigma[i] == 0.0 && (*o != 0.0 || *s != 0.0) {
+                return Err(ConfigError::new(
+                    format!("prior.{}[{i}]", if *o != 0.0 { "offset" } else { "sigma" }),
+                    format!(
+                        "must be 0: vehicle.sigma[{i}] = 0 holds this component at its true value (the filters do not estimate it)"
+                    ),
+                ));
+            }
+        }
+        Ok(())
     }
 }
 

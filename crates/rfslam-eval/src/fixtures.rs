@@ -39,6 +39,7 @@ pub fn unit_test_models(measurement_noise: Matrix2<f64>, max_range: f64) -> Slam
         detection: DetectionModel::Constant { pd: 0.95 },
         clutter: ClutterModel { rate: 1.0, intensity: ClutterIntensity::Measurement },
         initial_pose: Pose::zeros(),
+        initial_sigma: nalgebra::Vector3::zeros(),
     }
 }
 

@@ -117,11 +117,11 @@ impl RadioCase {
 
     /// The vehicle, from the world's start.
     pub fn vehicle(&self) -> rfslam_core::model::Vehicle<rfslam_core::model::RadioVehicle, 5> {
-        rfslam_core::model::Vehicle {
-            model: rfslam_core::model::RadioVehicle { sigma: [0.2, 0.2, 0.0, 1e-3, 0.2] },
-            control_noise: nalgebra::Matrix3::zeros(),
-            initial_state: self.world.x0,
-        }
+        rfslam_core::model::Vehicle::known_start(
+            rfslam_core::model::RadioVehicle { sigma: [0.2, 0.2, 0.0, 1e-3, 0.2] },
+            nalgebra::Matrix3::zeros(),
+            self.world.x0,
+        )
     }
 
     /// The mapped landmarks (the base station left out), GOSPA p = 2, c = 20 m.

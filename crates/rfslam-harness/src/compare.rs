@@ -382,11 +382,12 @@ impl Sweep {
 
 /// Scenario keys that only the filters' models read: the data a run seed generates do not
 /// depend on them (clutter is drawn uniform in range and bearing whatever the intensity the
-/// filters assume; the generator's sensor has the hard FOV edge whatever `sensor.edge`), so
+/// filters assume; the generator's sensor has the hard FOV edge whatever `sensor.edge`; the
+/// radio world's `[prior]` is the filters' belief about the start, not the start), so
 /// two sweeps that differ only there are paired, and the difference is the treatment
 /// compared.
 pub const FILTER_ONLY_SCENARIO_KEYS: &[&str] =
-    &["clutter.intensity", "sensor.edge", "sensor.edge_band_range", "sensor.edge_band_deg"];
+    &["clutter.intensity", "sensor.edge", "sensor.edge_band_range", "sensor.edge_band_deg", "prior"];
 
 /// Removes [`FILTER_ONLY_SCENARIO_KEYS`] from both scenarios; returns those that differed, as
 /// "`scenario.key` (A's value vs B's)".

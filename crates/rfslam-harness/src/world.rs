@@ -178,11 +178,7 @@ impl World<5, 3, 5> for Radio5g {
     fn scenario_models(sc: &RadioScenario) -> Result<rfslam_sim::RadioWorldModels, DataError> {
         let world = rfslam_sim::RadioWorld::from_scenario(sc);
         Ok(WorldModels {
-            vehicle: rfslam_core::model::Vehicle {
-                model: rfslam_sim::radio_vehicle(sc),
-                control_noise: nalgebra::Matrix3::zeros(),
-                initial_state: world.x0,
-            },
+            vehicle: rfslam_sim::radio_filters_vehicle(sc, &world.x0),
             sensor: rfslam_sim::radio_sensor(sc, true),
             landmark_types: world.landmarks.iter().map(|l| (l.0, l.2)).collect(),
         })

@@ -28,11 +28,11 @@ fn world() -> (Models, rfslam_sim::SimulatedRun<3, 1>) {
         ClutterModel { rate: 1.0, intensity: ClutterIntensity::Measurement },
     );
     let sigma = [0.1, 0.5f64.to_radians(), 0.0];
-    let vehicle = Vehicle {
-        model: Motion::Velocity,
-        control_noise: Matrix3::from_diagonal(&Vector3::new(sigma[0] * sigma[0], sigma[1] * sigma[1], 0.0)),
-        initial_state: x0,
-    };
+    let vehicle = Vehicle::known_start(
+        Motion::Velocity,
+        Matrix3::from_diagonal(&Vector3::new(sigma[0] * sigma[0], sigma[1] * sigma[1], 0.0)),
+        x0,
+    );
     let landmarks: Vec<(i64, SVector<f64, 2>, ())> = (0..24)
         .map(|i| {
             let a = i as f64 * std::f64::consts::TAU / 12.0;

@@ -101,11 +101,11 @@ fn every_experiment_and_scenario_key_is_documented() {
     gaps.extend(missing(&doc, "clutter intensity", &intensities, tag));
 
     // The radio scenario's own tables.
-    let radio = "name = \"r\"\n[world]\nkind = \"radio5g\"\n[vehicle]\n[sensor]\n[clutter]\n";
+    let radio = "name = \"r\"\n[world]\nkind = \"radio5g\"\n[vehicle]\n[sensor]\n[clutter]\n[prior]\n";
     let top = listed::<rfslam_data::RadioScenario>(&format!("{PROBE} = 1\n{radio}"));
     assert!(top.contains("vehicle"), "{top:?}");
     gaps.extend(missing(&doc, "radio scenario key", &top, key));
-    for table in ["[world]", "[vehicle]", "[sensor]", "[clutter]"] {
+    for table in ["[world]", "[vehicle]", "[sensor]", "[clutter]", "[prior]"] {
         let keys = listed::<rfslam_data::RadioScenario>(&with(radio, table, &format!("{PROBE} = 1")));
         assert!(!keys.is_empty(), "{table}: {keys:?}");
         gaps.extend(missing(&doc, &format!("radio {table} key"), &keys, key));

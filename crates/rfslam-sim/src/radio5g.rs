@@ -108,6 +108,19 @@ pub fn radio_vehicle(sc: &RadioScenario) -> RadioVehicle {
     RadioVehicle { sigma: sc.vehicle.sigma }
 }
 
+/// The radio vehicle as the filters of a scenario assume it: its model, no control noise
+/// (the control is known), and the prior on `x_0` of `[prior]` around the world's true
+/// start `x0`.
+pub fn radio_filters_vehicle(sc: &RadioScenario, x0: &SVector<f64, 5>) -> Vehicle<RadioVehicle, 5> {
+    let (mean, sigma) = sc.prior.of(&x0.data.0[0]);
+    Vehicle {
+        model: radio_vehicle(sc),
+        control_noise: nalgebra::Matrix3::zeros(),
+        initial_state: SVector::from(mean),
+        initial_sigma: SVector::from(sigma),
+    }
+}
+
 /// The radio sensor of a scenario: as it is (`filters = false`: the simulator's `p_D`, `R`
 /// unscaled) or as the filters assume it (`filters = true`: `filter_pd`, `R` scaled per
 /// landmark type by `filter_noise_scale`). The clutter intensity is the rate over the
@@ -147,6 +160,7 @@ pub type RadioWorldModels = WorldModels<RadioVehicle, RadioSensor, 5, 3, 5>;
 /// (`anchors.csv`).
 pub fn radio_dataset(sc: &RadioScenario, seed: u64) -> Result<RadioDataset, DataError> {
     let (world, run) = radio_run(sc, seed)?;
+    let filters = radio_filters_vehicle(sc, &world.x0);
     let odometry = run.truth.iter().zip(&run.odometry).map(|((t, _), seg)| OdometryRow { t: *t, u: seg.u }).collect();
     let groundtruth = run.truth.iter().map(|(t, x)| TruthPose { t: *t, state: x.data.0[0].map(Some) }).collect();
     let landmark = |&(id, position, t): &(i64, Vector3<f64>, LandmarkType)| Landmark { id, position, mark: t.mark() };
@@ -159,7 +173,8 @@ pub fn radio_dataset(sc: &RadioScenario, seed: u64) -> Result<RadioDataset, Data
                 sc.name
             )),
             initial_t: 0.0,
-            initial_pose: world.x0,
+            initial_pose: filters.initial_state,
+            initial_sigma: filters.initial_sigma,
             models: sc.models(),
             landmarks: LandmarkTypes { types: RADIO_LANDMARK_TYPES.map(String::from).to_vec() },
         },
@@ -172,7 +187,8 @@ pub fn radio_dataset(sc: &RadioScenario, seed: u64) -> Result<RadioDataset, Data
 }
 
 /// The models the filters assume on a radio data set: the vehicle of its `[vehicle]` table
-/// from its initial state (the control known, so no control noise), the sensor of its
+/// with the prior of its `[initial_pose]` and `[initial_sigma]` (the control known, so no
+/// control noise), the sensor of its
 /// `[sensor]` and `[clutter]` tables with the base station of its `anchors.csv`, and the
 /// landmark types by id of its landmarks and anchors (for the oracle).
 pub fn radio_world_models(ds: &RadioDataset) -> Result<RadioWorldModels, DataError> {
@@ -189,6 +205,7 @@ pub fn radio_world_models(ds: &RadioDataset) -> Result<RadioWorldModels, DataErr
             model: RadioVehicle { sigma: ds.meta.models.vehicle.sigma },
             control_noise: nalgebra::Matrix3::zeros(),
             initial_state: ds.meta.initial_pose,
+            initial_sigma: ds.meta.initial_sigma,
         },
         sensor: radio_sensor_of(&ds.meta.models, base_station.position, true),
         landmark_types: types.collect(),

@@ -87,6 +87,7 @@ pub fn simulate<S: PlanarSensorModel<Z>, const Z: usize>(
             )),
             initial_t: t0,
             initial_pose: x0,
+            initial_sigma: nalgebra::Vector3::zeros(),
             models: *models,
             landmarks: Default::default(),
         },

@@ -271,6 +271,7 @@ impl VictoriaPark {
                 description: Some(description),
                 initial_t: self.scan_times[0],
                 initial_pose: Pose::new(initial_pose[0], initial_pose[1], wrap(initial_pose[2])),
+                initial_sigma: nalgebra::Vector3::zeros(),
                 models: *models,
                 landmarks: Default::default(),
             },

@@ -260,15 +260,54 @@ impl<V, const X: usize> WorldVehicle<X> for V where
 
 /// The vehicle as a filter assumes it: its model, the covariance `Q_u` of the control noise
 /// (zero rows and columns for unused inputs; all zero for a model whose control is known and
-/// whose noise is additive, [`VehicleModel::process_noise`]) and the known initial state.
+/// whose noise is additive, [`VehicleModel::process_noise`]) and the prior on the initial
+/// state, `x_0 ~ N(initial_state, diag(initial_sigma^2))` (\[Kim2022\] Section V-1:
+/// `f(s_0) = N(s; s_0, U_0)`; all zero, the papers' planar worlds' known start).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Vehicle<V, const X: usize> {
     /// The motion model.
     pub model: V,
     /// `Q_u`.
     pub control_noise: SMatrix<f64, 3, 3>,
-    /// `x_0`.
+    /// The prior mean of `x_0` (the known initial state when `initial_sigma` is zero).
     pub initial_state: SVector<f64, X>,
+    /// The prior standard deviation of each component of `x_0` (0: known).
+    pub initial_sigma: SVector<f64, X>,
+}
+
+impl<V: VehicleModel<X, 3>, const X: usize> Vehicle<V, X> {
+    /// A vehicle whose initial state is known exactly.
+    pub fn known_start(model: V, control_noise: SMatrix<f64, 3, 3>, initial_state: SVector<f64, X>) -> Self {
+        Vehicle { model, control_noise, initial_state, initial_sigma: SVector::zeros() }
+    }
+
+    /// Whether the initial state is known (no component has a prior spread).
+    pub fn start_known(&self) -> bool {
+        self.initial_sigma.iter().all(|s| *s == 0.0)
+    }
+
+    /// The prior covariance of `x_0`, `diag(initial_sigma^2)`.
+    pub fn initial_covariance(&self) -> SMatrix<f64, X, X> {
+        SMatrix::from_diagonal(&self.initial_sigma.component_mul(&self.initial_sigma))
+    }
+
+    /// One draw of `x_0` from its prior (angles wrapped); a component with zero spread keeps
+    /// its mean and takes no draw from `rng`.
+    pub fn draw_initial<R: rand::Rng + ?Sized>(&self, rng: &mut R) -> SVector<f64, X> {
+        use rand_distr::{Distribution, StandardNormal};
+        let components = self.model.components();
+        let mut x = self.initial_state;
+        for i in 0..X {
+            if self.initial_sigma[i] != 0.0 {
+                let e: f64 = StandardNormal.sample(rng);
+                x[i] += self.initial_sigma[i] * e;
+                if components[i].is_angle() {
+                    x[i] = crate::angle::wrap(x[i]);
+                }
+            }
+        }
+        x
+    }
 }
 
 /// A landmark type as the filters carry it: every type of the world in the order of its data
