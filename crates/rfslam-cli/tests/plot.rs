@@ -284,3 +284,27 @@ fn bars_without_a_drawable_value_are_marked_and_output_errors_give_the_reason() 
     let o = fails(tmp.path(), &["plot", "s", "--metric", "pos_rmse_m", "--out", "dir.png"], 1, &["dir.png"]);
     assert!(o.stderr.contains("Is a directory") && !o.stderr.contains("Os {"), "{}", o.stderr);
 }
+
+/// A run of every world draws: the bearing-only sensor (one measurement component) and a
+/// radio geometry of one's own (3-D landmarks of three types, the clock bias), each as the
+/// map, steps and particles figures.
+#[test]
+fn runs_of_the_other_worlds_draw() {
+    let tmp = TempDir::new("plot-worlds");
+    tmp.write(
+        "bearing.toml",
+        &include_str!("../../../scenarios/bearing-only.toml").replace("steps = 500", "steps = 40"),
+    );
+    tmp.write("street.toml", include_str!("../../../scenarios/radio5g-street.toml"));
+    for (scenario, filter) in [("bearing.toml", "phd-1.0"), ("street.toml", "pmbm-slam")] {
+        let out = format!("run-{filter}");
+        let args = ["run", "--scenario", scenario, "--filter", filter, "--particles", "5", "--seed", "2"];
+        ok(tmp.path(), &[&args[..], &["--save-steps", "--save-particles", "--out", &out]].concat());
+        for kind in ["map", "steps", "particles"] {
+            let fig = format!("figs/{filter}-{kind}.svg");
+            let o = ok(tmp.path(), &["plot", &out, "--kind", kind, "--out", &fig]);
+            assert!(o.stdout.contains(kind), "{scenario}: {}", o.stdout);
+            assert_image(&tmp.join(&fig));
+        }
+    }
+}
