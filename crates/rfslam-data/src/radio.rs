@@ -47,9 +47,11 @@ impl Wall {
 pub const MAX_WALLS: usize = 64;
 /// Most scattering points of a radio world.
 pub const MAX_SCATTERING_POINTS: usize = 1000;
+/// Most waypoints of a radio world's drive.
+pub const MAX_WAYPOINTS: usize = 1000;
 
 /// The `[world]` table of a radio scenario: the geometry (base station, walls, scattering
-/// points), the trajectory (a circle by speed, turn rate and start) and the lap.
+/// points), the trajectory (a circle by speed, turn rate and start, or waypoints) and the lap.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RadioWorldConfig {
@@ -81,6 +83,12 @@ pub struct RadioWorldConfig {
     /// the origin that it then drives. Required with a zero turn rate.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub start: Option<[f64; 3]>,
+    /// Waypoints (m, x and y) the vehicle drives through in turn at `speed`, back to the first
+    /// after the last, for `steps` steps, each step turning towards the next waypoint by at
+    /// most `turn_rate_deg`; none (the default) drives the circle of `speed` and
+    /// `turn_rate_deg`. With waypoints `start` is required.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub waypoints: Vec<[f64; 2]>,
     /// Its start heading (deg).
     pub start_heading_deg: f64,
     /// Its clock bias at the start (m).
@@ -117,6 +125,7 @@ impl Default for RadioWorldConfig {
             speed: 22.22,
             turn_rate_deg: 18.0,
             start: None,
+            waypoints: Vec::new(),
             start_heading_deg: 90.0,
             clock_bias: 300.0,
         }
@@ -405,7 +414,43 @@ impl RadioScenario {
             None if w.turn_rate_deg == 0.0 => {
                 return Err(ConfigError::new("world.start", "is required with world.turn_rate_deg = 0"));
             }
+            None if !w.waypoints.is_empty() => {
+                return Err(ConfigError::new("world.start", "is required with world.waypoints"));
+            }
             None => {}
+        }
+        if !w.waypoints.is_empty() {
+            if !(2..=MAX_WAYPOINTS).contains(&w.waypoints.len()) {
+                return Err(ConfigError::new(
+                    "world.waypoints",
+                    format!("must hold 2 to {MAX_WAYPOINTS} waypoints, not {}", w.waypoints.len()),
+                ));
+            }
+            if w.turn_rate_deg == 0.0 {
+                return Err(ConfigError::new(
+                    "world.turn_rate_deg",
+                    "must not be 0 with world.waypoints: it is the largest turn rate of the drive through them",
+                ));
+            }
+            if w.speed == 0.0 {
+                return Err(ConfigError::new("world.speed", "must be above 0 to drive through world.waypoints"));
+            }
+            let start = w.start.map(|s| [s[0], s[1]]).unwrap_or_default();
+            for (i, p) in w.waypoints.iter().enumerate() {
+                coordinates(&format!("world.waypoints[{i}]"), p)?;
+                let prev = if i == 0 { start } else { w.waypoints[i - 1] };
+                if (p[0] - prev[0]).hypot(p[1] - prev[1]) < limits::MIN_DISTANCE {
+                    let from = if i == 0 { "world.start".to_string() } else { format!("world.waypoints[{}]", i - 1) };
+                    return Err(ConfigError::new(format!("world.waypoints[{i}]"), format!("is where {from} is")));
+                }
+            }
+            let (first, last) = (w.waypoints[0], w.waypoints[w.waypoints.len() - 1]);
+            if (first[0] - last[0]).hypot(first[1] - last[1]) < limits::MIN_DISTANCE {
+                return Err(ConfigError::new(
+                    "world.waypoints",
+                    "ends where it starts: the drive returns to the first waypoint after the last by itself",
+                ));
+            }
         }
         self.models().validate()?;
         for (i, (o, s)) in self.prior.offset.iter().zip(&self.prior.sigma).enumerate() {
@@ -461,6 +506,21 @@ mod tests {
     #[test]
     fn geometry_keys_are_checked() {
         let err = error_of;
+        let way = |extra: &str| err(&format!("start = [0.0, 0.0, 0.0]\n{extra}"));
+        let e = way("waypoints = [[10.0, 0.0]]");
+        assert!(e.contains("world.waypoints") && e.contains("2 to 1000"), "{e}");
+        let e = way("waypoints = [[10.0, 0.0], [10.0, 0.0]]");
+        assert!(e.contains("world.waypoints[1]") && e.contains("world.waypoints[0]"), "{e}");
+        let e = way("waypoints = [[0.0, 0.0], [10.0, 0.0]]");
+        assert!(e.contains("world.waypoints[0]") && e.contains("world.start"), "{e}");
+        let e = way("waypoints = [[10.0, 0.0], [10.0, 5.0], [10.0, 0.0]]");
+        assert!(e.contains("ends where it starts"), "{e}");
+        let e = way("waypoints = [[10.0, 0.0], [10.0, 5.0]]\nturn_rate_deg = 0.0");
+        assert!(e.contains("world.turn_rate_deg") && e.contains("waypoints"), "{e}");
+        let e = way("waypoints = [[10.0, 0.0], [10.0, 5.0]]\nspeed = 0.0");
+        assert!(e.contains("world.speed"), "{e}");
+        let e = err("waypoints = [[10.0, 0.0], [10.0, 5.0]]");
+        assert!(e.contains("world.start") && e.contains("waypoints"), "{e}");
         let e = err("walls = [{ point = [0.0, 0.0], normal = [1.0, 0.0] }]");
         assert!(e.contains("world.walls[0]") && e.contains("passes through the base station"), "{e}");
         let e = err("walls = [{ point = [5.0, 0.0], normal = [0.0, 0.0] }]");

@@ -191,7 +191,7 @@ impl World<5, 3, 5> for Radio5g {
     fn job_size(sc: &RadioScenario) -> Result<JobSize, DataError> {
         let world = rfslam_sim::RadioWorld::from_scenario(sc);
         Ok(JobSize {
-            scans: (world.steps + 1) as f64,
+            scans: (world.steps() + 1) as f64,
             landmarks: world.landmarks.len() as f64,
             clutter_rate: sc.clutter.rate.max(0.0),
         })

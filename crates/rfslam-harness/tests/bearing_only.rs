@@ -42,7 +42,7 @@ fn world() -> (Models, rfslam_sim::SimulatedRun<3, 1>) {
         .collect();
     let mut rng = rfslam_core::rng::stream(&[11]);
     let run =
-        simulate_run(&Motion::Velocity, &sensor, x0, Vector3::new(v, w, 0.0), sigma, 0.5, 150, &landmarks, &mut rng)
+        simulate_run(&Motion::Velocity, &sensor, x0, &[Vector3::new(v, w, 0.0); 150], sigma, 0.5, &landmarks, &mut rng)
             .unwrap();
     (Models { vehicle, sensor, landmark_types: Vec::new() }, run)
 }

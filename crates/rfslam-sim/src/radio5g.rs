@@ -23,12 +23,11 @@ pub struct RadioWorld {
     pub landmarks: Vec<(i64, Vector3<f64>, LandmarkType)>,
     /// The initial state `[x, y, z, heading, clock bias]`.
     pub x0: SVector<f64, 5>,
-    /// The known control `[speed, turn rate, 0]` (m/s, rad/s).
-    pub u: Control,
+    /// The known control `[speed, turn rate, 0]` (m/s, rad/s) of each transition (one scan
+    /// more than transitions).
+    pub controls: Vec<Control>,
     /// Step length (s).
     pub dt: f64,
-    /// Number of transitions (one scan more).
-    pub steps: usize,
 }
 
 impl RadioWorld {
@@ -50,9 +49,8 @@ impl RadioWorld {
         RadioWorld {
             landmarks,
             x0: SVector::from([speed / turn, 0.0, 0.0, std::f64::consts::FRAC_PI_2, 300.0]),
-            u: Control::new(speed, turn, 0.0),
+            controls: vec![Control::new(speed, turn, 0.0); 40],
             dt: 0.5,
-            steps: 40,
         }
     }
 
@@ -64,7 +62,7 @@ impl RadioWorld {
     /// once per scenario, shared by every run), and the vehicle's start and known control:
     /// `world.speed` and `world.turn_rate_deg` from `world.start` (by default on the circle
     /// around the origin, `(speed / turn rate, 0, 0)`) at `world.start_heading_deg` with
-    /// `world.clock_bias`.
+    /// `world.clock_bias`; or, with `world.waypoints`, the controls of [`waypoint_controls`].
     pub fn from_scenario(sc: &RadioScenario) -> RadioWorld {
         use rand::RngExt;
         let w = &sc.world;
@@ -81,13 +79,23 @@ impl RadioWorld {
         }
         let turn = w.turn_rate_deg.to_radians();
         let start = w.start.unwrap_or([w.speed / turn, 0.0, 0.0]);
+        let heading = w.start_heading_deg.to_radians();
+        let controls = if w.waypoints.is_empty() {
+            vec![Control::new(w.speed, turn, 0.0); w.steps]
+        } else {
+            waypoint_controls([start[0], start[1], heading], &w.waypoints, w.speed, turn, w.dt, w.steps)
+        };
         RadioWorld {
             landmarks,
-            x0: SVector::from([start[0], start[1], start[2], w.start_heading_deg.to_radians(), w.clock_bias]),
-            u: Control::new(w.speed, turn, 0.0),
+            x0: SVector::from([start[0], start[1], start[2], heading, w.clock_bias]),
+            controls,
             dt: w.dt,
-            steps: w.steps,
         }
+    }
+
+    /// The number of transitions (one scan more).
+    pub fn steps(&self) -> usize {
+        self.controls.len()
     }
 
     /// One run: the vehicle moves by `vehicle` (its process noise on the truth), the
@@ -98,8 +106,42 @@ impl RadioWorld {
         sensor: &RadioSensor,
         rng: &mut Rng,
     ) -> Result<SimulatedRun<5, 5>, DataError> {
-        simulate_run(vehicle, sensor, self.x0, self.u, [0.0; 3], self.dt, self.steps, &self.landmarks, rng)
+        simulate_run(vehicle, sensor, self.x0, &self.controls, [0.0; 3], self.dt, &self.landmarks, rng)
     }
+}
+
+/// The known controls of `steps` transitions of `dt` driving from the pose `start`
+/// (`[x, y, heading]`) at `speed` through `waypoints` in turn, back to the first after the
+/// last: each step turns towards the current waypoint, by at most `max_turn` (rad/s, its
+/// magnitude), and a waypoint counts as passed once the vehicle is within one step's travel
+/// of it (the next becomes the target). The noise-free drive of the velocity model; a
+/// waypoint inside the turning circle is circled, never passed.
+pub fn waypoint_controls(
+    start: [f64; 3],
+    waypoints: &[[f64; 2]],
+    speed: f64,
+    max_turn: f64,
+    dt: f64,
+    steps: usize,
+) -> Vec<Control> {
+    use rfslam_core::MotionModel;
+    let mut controls = Vec::with_capacity(steps);
+    let mut pose = rfslam_core::Pose::from(start);
+    let (reach, max_turn) = (speed * dt, max_turn.abs());
+    let mut target = 0;
+    while controls.len() < steps {
+        let w = waypoints[target % waypoints.len()];
+        let (dx, dy) = (w[0] - pose.x, w[1] - pose.y);
+        if dx.hypot(dy) <= reach && target < waypoints.len() * (steps + 1) {
+            target += 1;
+            continue;
+        }
+        let turn = rfslam_core::angle::wrap(dy.atan2(dx) - pose.z) / dt;
+        let u = Control::new(speed, turn.clamp(-max_turn, max_turn), 0.0);
+        pose = rfslam_core::VelocityModel.predict(&pose, &u, dt);
+        controls.push(u);
+    }
+    controls
 }
 
 /// The radio vehicle of a scenario (`[vehicle] sigma`), as it moves and as the filters
@@ -285,6 +327,33 @@ mod tests {
         assert_eq!(radio_sensor(&sc, true).base_station, Vector3::new(150.0, 5.0, 10.0));
     }
 
+    /// With waypoints the noise-free vehicle passes within one step's travel of each
+    /// waypoint in turn, looping back to the first after the last, at the scenario's speed,
+    /// turning at most at its turn rate, for the scenario's steps.
+    #[test]
+    fn waypoints_are_driven_through_in_turn() {
+        let text = "name = \"w\"\n[world]\nkind = \"radio5g\"\nsteps = 200\nspeed = 10.0\nturn_rate_deg = 30.0\n\
+            start = [0.0, 0.0, 0.0]\nstart_heading_deg = 0.0\nwaypoints = [[60.0, 0.0], [60.0, 50.0], [-20.0, 40.0]]\n";
+        let sc = RadioScenario::from_toml_str(text, "w.toml").unwrap();
+        let w = RadioWorld::from_scenario(&sc);
+        assert_eq!(w.steps(), 200);
+        assert!(w.controls.iter().all(|u| u[0] == 10.0 && u[1].abs() <= 30f64.to_radians() + 1e-12));
+        let still = RadioVehicle { sigma: [0.0; 5] };
+        let sensor = RadioSensor { clutter_rate: 0.0, ..radio_sensor(&sc, false) };
+        let run = w.simulate(&still, &sensor, &mut Rng::seed_from_u64(1)).unwrap();
+        // The waypoints in the order the drive passes within 5 m (one step) of them.
+        let wp = [[60.0, 0.0], [60.0, 50.0], [-20.0, 40.0]];
+        let mut passed: Vec<usize> = Vec::new();
+        for (_, x) in &run.truth {
+            if let Some(i) = wp.iter().position(|p| (x.xy() - nalgebra::Vector2::from(*p)).norm() <= 5.0 + 1e-9)
+                && passed.last() != Some(&i)
+            {
+                passed.push(i);
+            }
+        }
+        assert!(passed.len() >= 5 && passed.iter().enumerate().all(|(k, i)| *i == k % 3), "{passed:?}");
+    }
+
     /// A run's data set: written and read back bit for bit in the radio world's columns,
     /// its odometry cut into the run's segments, its models those of the scenario.
     #[test]
@@ -329,7 +398,7 @@ mod tests {
         let text = "name = \"r\"\n[world]\nkind = \"radio5g\"\nsteps = 80\nsp_height_min = 5.0\nsp_height_max = 10.0\n[sensor]\nfilter_noise_scale = [4.0, 4.0, 4.0]\n";
         let sc = RadioScenario::from_toml_str(text, "r.toml").unwrap();
         let w = RadioWorld::from_scenario(&sc);
-        assert_eq!(w.steps, 80);
+        assert_eq!(w.steps(), 80);
         let h: Vec<f64> = w.landmarks[5..].iter().map(|l| l.1.z).collect();
         assert!(h.iter().all(|&h| (5.0..=10.0).contains(&h)), "{h:?}");
         assert!(h.windows(2).any(|p| p[0] != p[1]), "drawn, not equal: {h:?}");

@@ -172,12 +172,13 @@ pub struct SimulatedRun<const X: usize, const Z: usize> {
     pub scans: Vec<Scan<Z>>,
 }
 
-/// Simulates `steps` transitions of `dt` seconds from `x0` under the true control `u` and
+/// Simulates one transition of `dt` seconds per true control of `controls` (`u_k` for
+/// transition `k`) from `x0`, and
 /// one scan at each state (the first at `x0`), for any vehicle and sensor model: the true
-/// state moves by the model, `x_k = f(x_{k-1}, u) + q_k` with `q_k ~ N(0, Q)` the model's
+/// state moves by the model, `x_k = f(x_{k-1}, u_k) + q_k` with `q_k ~ N(0, Q)` the model's
 /// additive process noise ([`VehicleModel::process_noise`], drawn by
 /// [`rfslam_core::rbpf::draw_state`]: angles wrapped, held components kept); the filters
-/// receive `u + N(0, diag(control_sigma^2))` (zero sigmas: a known control, as the radio
+/// receive `u_k + N(0, diag(control_sigma^2))` (zero sigmas: a known control, as the radio
 /// world's speed and turn rate). The draws per step `k`: the process noise of transition
 /// `k` then the control noise (for `k >= 1`), then the scan ([`draw_scan`]). An error if the
 /// process noise cannot be factorised.
@@ -186,10 +187,9 @@ pub fn simulate_run<V, S, const X: usize, const M: usize, const Z: usize>(
     vehicle: &V,
     sensor: &S,
     x0: SVector<f64, X>,
-    u: Control,
+    controls: &[Control],
     control_sigma: [f64; 3],
     dt: f64,
-    steps: usize,
     landmarks: &[(i64, SVector<f64, M>, S::Mark)],
     rng: &mut Rng,
 ) -> Result<SimulatedRun<X, Z>, DataError>
@@ -199,9 +199,10 @@ where
 {
     let mut run = SimulatedRun { truth: Vec::new(), odometry: Vec::new(), scans: Vec::new() };
     let mut x = x0;
-    for k in 0..=steps {
+    for k in 0..=controls.len() {
         let t = k as f64 * dt;
         if k > 0 {
+            let u = controls[k - 1];
             let x_bar = vehicle.predict(&x, &u, dt);
             x = match vehicle.process_noise(dt) {
                 Some(q) => {
