@@ -281,10 +281,18 @@ struct OwnHead<'a> {
     world: &'a str,
 }
 
-/// `[initial_pose]` in the order of its keys (`t`, then the state components).
-struct InitialPose<'a>(Vec<(&'a str, f64)>);
+/// A table of numbers in the order of its keys: `[initial_pose]` (`t`, then the state
+/// components) and `[initial_sigma]` (the state components).
+struct OrderedKeys<'a>(Vec<(&'a str, f64)>);
 
-impl Serialize for InitialPose<'_> {
+impl OrderedKeys<'_> {
+    /// The TOML text of the table `[name]`.
+    fn table(&self, name: &str) -> Result<String, toml::ser::Error> {
+        toml::to_string(&std::collections::BTreeMap::from([(name, self)]))
+    }
+}
+
+impl Serialize for OrderedKeys<'_> {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeMap;
         let mut m = s.serialize_map(Some(self.0.len()))?;
@@ -293,16 +301,6 @@ impl Serialize for InitialPose<'_> {
         }
         m.end()
     }
-}
-
-#[derive(Serialize)]
-struct InitialPoseTable<'a> {
-    initial_pose: InitialPose<'a>,
-}
-
-#[derive(Serialize)]
-struct InitialSigmaTable<'a> {
-    initial_sigma: InitialPose<'a>,
 }
 
 #[derive(Serialize)]
@@ -401,11 +399,11 @@ impl<C: DatasetModels, const X: usize> DatasetMeta<C, X> {
         let mut keys = vec![("t", self.initial_t)];
         keys.extend(state.iter().zip(self.initial_pose.iter()).map(|(c, v)| (c.name, *v)));
         text.push('\n');
-        text.push_str(&toml::to_string(&InitialPoseTable { initial_pose: InitialPose(keys) }).map_err(ser)?);
+        text.push_str(&OrderedKeys(keys).table("initial_pose").map_err(ser)?);
         if self.initial_sigma.iter().any(|s| *s != 0.0) {
             let keys = state.iter().zip(self.initial_sigma.iter()).map(|(c, v)| (c.name, *v)).collect();
             text.push('\n');
-            text.push_str(&toml::to_string(&InitialSigmaTable { initial_sigma: InitialPose(keys) }).map_err(ser)?);
+            text.push_str(&OrderedKeys(keys).table("initial_sigma").map_err(ser)?);
         }
         text.push('\n');
         text.push_str(&self.models.write_models()?);

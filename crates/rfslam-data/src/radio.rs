@@ -389,7 +389,7 @@ impl RadioScenario {
                 return Err(ConfigError::new(format!("world.walls[{i}].normal"), "must not be zero"));
             }
             let va = wall.mirror(w.base_station);
-            if (va[0] - w.base_station[0]).hypot(va[1] - w.base_station[1]) < limits::MIN_DISTANCE {
+            if horizontal_distance(&va, &w.base_station) < limits::MIN_DISTANCE {
                 return Err(ConfigError::new(
                     format!("world.walls[{i}]"),
                     "passes through the base station: its virtual anchor would be the base station",
@@ -420,37 +420,7 @@ impl RadioScenario {
             None => {}
         }
         if !w.waypoints.is_empty() {
-            if !(2..=MAX_WAYPOINTS).contains(&w.waypoints.len()) {
-                return Err(ConfigError::new(
-                    "world.waypoints",
-                    format!("must hold 2 to {MAX_WAYPOINTS} waypoints, not {}", w.waypoints.len()),
-                ));
-            }
-            if w.turn_rate_deg == 0.0 {
-                return Err(ConfigError::new(
-                    "world.turn_rate_deg",
-                    "must not be 0 with world.waypoints: it is the largest turn rate of the drive through them",
-                ));
-            }
-            if w.speed == 0.0 {
-                return Err(ConfigError::new("world.speed", "must be above 0 to drive through world.waypoints"));
-            }
-            let start = w.start.map(|s| [s[0], s[1]]).unwrap_or_default();
-            for (i, p) in w.waypoints.iter().enumerate() {
-                coordinates(&format!("world.waypoints[{i}]"), p)?;
-                let prev = if i == 0 { start } else { w.waypoints[i - 1] };
-                if (p[0] - prev[0]).hypot(p[1] - prev[1]) < limits::MIN_DISTANCE {
-                    let from = if i == 0 { "world.start".to_string() } else { format!("world.waypoints[{}]", i - 1) };
-                    return Err(ConfigError::new(format!("world.waypoints[{i}]"), format!("is where {from} is")));
-                }
-            }
-            let (first, last) = (w.waypoints[0], w.waypoints[w.waypoints.len() - 1]);
-            if (first[0] - last[0]).hypot(first[1] - last[1]) < limits::MIN_DISTANCE {
-                return Err(ConfigError::new(
-                    "world.waypoints",
-                    "ends where it starts: the drive returns to the first waypoint after the last by itself",
-                ));
-            }
+            waypoints(w)?;
         }
         self.models().validate()?;
         for (i, (o, s)) in self.prior.offset.iter().zip(&self.prior.sigma).enumerate() {
@@ -478,6 +448,48 @@ impl RadioScenario {
         sc.validate().map_err(|e| DataError::config_in(path, text, e))?;
         Ok(sc)
     }
+}
+
+/// The `world.waypoints` of a drive through them: 2 to [`MAX_WAYPOINTS`], each within the
+/// plausible distances and away from the one before (the first from `world.start`), the last
+/// away from the first (the drive closes the loop itself), with a turn rate and a speed.
+fn waypoints(w: &RadioWorldConfig) -> Result<(), ConfigError> {
+    if !(2..=MAX_WAYPOINTS).contains(&w.waypoints.len()) {
+        return Err(ConfigError::new(
+            "world.waypoints",
+            format!("must hold 2 to {MAX_WAYPOINTS} waypoints, not {}", w.waypoints.len()),
+        ));
+    }
+    if w.turn_rate_deg == 0.0 {
+        return Err(ConfigError::new(
+            "world.turn_rate_deg",
+            "must not be 0 with world.waypoints: it is the largest turn rate of the drive through them",
+        ));
+    }
+    if w.speed == 0.0 {
+        return Err(ConfigError::new("world.speed", "must be above 0 to drive through world.waypoints"));
+    }
+    let start = w.start.map(|s| [s[0], s[1]]).unwrap_or_default();
+    for (i, p) in w.waypoints.iter().enumerate() {
+        coordinates(&format!("world.waypoints[{i}]"), p)?;
+        let prev = if i == 0 { start } else { w.waypoints[i - 1] };
+        if horizontal_distance(p, &prev) < limits::MIN_DISTANCE {
+            let from = if i == 0 { "world.start".to_string() } else { format!("world.waypoints[{}]", i - 1) };
+            return Err(ConfigError::new(format!("world.waypoints[{i}]"), format!("is where {from} is")));
+        }
+    }
+    if horizontal_distance(&w.waypoints[0], &w.waypoints[w.waypoints.len() - 1]) < limits::MIN_DISTANCE {
+        return Err(ConfigError::new(
+            "world.waypoints",
+            "ends where it starts: the drive returns to the first waypoint after the last by itself",
+        ));
+    }
+    Ok(())
+}
+
+/// The distance between the x-y parts of two points.
+fn horizontal_distance(a: &[f64], b: &[f64]) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
 }
 
 /// Each coordinate of the array `key` within the plausible distances (`key[i]` names a bad one).
