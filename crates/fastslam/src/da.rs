@@ -326,7 +326,7 @@ where
         return *only;
     }
     let mut best: Option<(f64, S::Mark)> = None;
-    for &t in mapped {
+    for &t in mapped.iter().filter(|&&t| sensor.measures(t)) {
         let e = sensor.birth_integral(x, z, t);
         if best.is_none_or(|b| e > b.0) {
             best = Some((e, t));
@@ -425,7 +425,7 @@ where
     /// [`DaFastSlam::try_new`] for a sensor [`DaFastSlam::check_model`] passed.
     pub(crate) fn new(name: &'static str, settings: DaSettings, vehicle: Vehicle<V, X>, sensor: S, n: usize) -> Self {
         let n = n.max(1);
-        let mapped: Vec<S::Mark> = S::Mark::ALL.iter().copied().filter(|&t| sensor.mapped(t)).collect();
+        let mapped: Vec<S::Mark> = sensor.marks().iter().copied().filter(|&t| sensor.mapped(t)).collect();
         let half_z = Z as f64 / 2.0;
         let log_p0 = S::Mark::ALL
             .iter()
@@ -501,8 +501,9 @@ where
     }
 
     /// Appends the children of `parent` at state `x` to `self.next`; returns the failures.
-    fn branch(&mut self, parent: usize, x: SVector<f64, X>, z: &[SVector<f64, Z>]) -> u32 {
-        let sensor = &self.sensor;
+    fn branch(&mut self, parent: usize, x: SVector<f64, X>, z: &[SVector<f64, Z>], source: u8) -> u32 {
+        let sensor = self.sensor.at_source(source);
+        let sensor = &*sensor;
         let mut failures = 0u32;
         let p = &self.set.particles()[parent];
         let nl = p.landmarks.len();
@@ -676,7 +677,7 @@ where
                     x_bar
                 }
             };
-            failures += self.branch(parent, x, &scan.z);
+            failures += self.branch(parent, x, &scan.z, scan.source);
             self.child_parent.resize(self.next.len(), parent);
         }
         // The children replace their parents (whose allocations are reused).
@@ -815,7 +816,7 @@ mod tests {
         f.set.particles_mut()[0].landmarks = vec![landmark(20.0, 0.6, 3.0), landmark(20.0, -0.6, 3.0)];
         let z = RangeBearing::new(20.2, 0.004);
         let mut rng = Rng::seed_from_u64(1);
-        let report = f.step(&[], &Scan { t: 1.0, z: vec![z], truth: None }, &mut rng);
+        let report = f.step(&[], &Scan { t: 1.0, z: vec![z], truth: None, source: 0 }, &mut rng);
         assert_eq!(f.len(), 3, "two landmarks and a new one");
         assert!(!report.resampled);
         // Expected weights: N(z; h(m_i), G P G^T + R) for each landmark, p_0 for a new one.
@@ -864,7 +865,7 @@ mod tests {
         let run = |cut: Option<f64>| {
             let mut f = engine("mh-fastslam", DaSettings { hypothesis_log_cut: cut, ..mh(4, 125) }, &m, 1);
             f.set.particles_mut()[0].landmarks = vec![landmark(20.0, 0.6, 3.0), landmark(20.0, -0.6, 3.0)];
-            f.step(&[], &Scan { t: 1.0, z: vec![z], truth: None }, &mut Rng::seed_from_u64(1));
+            f.step(&[], &Scan { t: 1.0, z: vec![z], truth: None, source: 0 }, &mut Rng::seed_from_u64(1));
             let mut lw: Vec<f64> = f.set.particles().iter().map(|p| p.log_w).collect();
             lw.sort_by(|a, b| b.total_cmp(a));
             lw
@@ -890,7 +891,12 @@ mod tests {
         for p in f.set.particles_mut() {
             p.landmarks = vec![landmark(20.0, 0.6, 3.0), landmark(20.0, -0.6, 3.0)];
         }
-        let scan = Scan { t: 1.0, z: vec![RangeBearing::new(20.0, 0.03), RangeBearing::new(20.0, -0.03)], truth: None };
+        let scan = Scan {
+            t: 1.0,
+            z: vec![RangeBearing::new(20.0, 0.03), RangeBearing::new(20.0, -0.03)],
+            truth: None,
+            source: 0,
+        };
         let mut rng = Rng::seed_from_u64(2);
         let r1 = f.step(&[], &scan, &mut rng);
         assert_eq!(f.len(), 100, "four children each, 100 <= 125: kept");
@@ -917,8 +923,12 @@ mod tests {
                 l
             })
             .collect();
-        let scan =
-            Scan { t: 1.0, z: grid.iter().map(|l| m.sensor.predict(&Pose::zeros(), &l.mean)).collect(), truth: None };
+        let scan = Scan {
+            t: 1.0,
+            z: grid.iter().map(|l| m.sensor.predict(&Pose::zeros(), &l.mean)).collect(),
+            truth: None,
+            source: 0,
+        };
         let bounded = DaSettings { max_ambiguous_measurements: Some(64), ..mh(4, 125) };
         let mut f = engine("mh-fastslam", bounded, &m, 3);
         for p in f.set.particles_mut() {
@@ -938,8 +948,12 @@ mod tests {
         // A small scan below the bound still branches into the 4 best associations.
         let mut f = engine("mh-fastslam", bounded, &m, 1);
         f.set.particles_mut()[0].landmarks = vec![landmark(20.0, 0.6, 3.0), landmark(20.0, -0.6, 3.0)];
-        let small =
-            Scan { t: 1.0, z: vec![RangeBearing::new(20.0, 0.03), RangeBearing::new(20.0, -0.03)], truth: None };
+        let small = Scan {
+            t: 1.0,
+            z: vec![RangeBearing::new(20.0, 0.03), RangeBearing::new(20.0, -0.03)],
+            truth: None,
+            source: 0,
+        };
         f.step(&[], &small, &mut rng);
         assert_eq!(f.len(), 4);
         assert!(!f.murty.stats().truncated);
@@ -956,11 +970,11 @@ mod tests {
         let lm = Point2::new(15.0, 2.0);
         let zl = m.sensor.predict(&Pose::zeros(), &lm);
         let clutter = RangeBearing::new(30.0, -0.8);
-        f.step(&[], &Scan { t: 1.0, z: vec![zl, clutter], truth: None }, &mut rng);
+        f.step(&[], &Scan { t: 1.0, z: vec![zl, clutter], truth: None, source: 0 }, &mut rng);
         assert_eq!(f.len(), 3);
         assert!(f.set.particles().iter().all(|p| p.landmarks.len() == 2));
         assert!(f.estimate().map.is_empty(), "P_E = 0.5 after the first sighting: not reported");
-        f.step(&[], &Scan { t: 2.0, z: vec![zl], truth: None }, &mut rng);
+        f.step(&[], &Scan { t: 2.0, z: vec![zl], truth: None, source: 0 }, &mut rng);
         assert!(f.set.particles().iter().all(|p| p.landmarks.len() == 1), "the clutter landmark was missed in view");
         let e = f.estimate();
         assert_eq!(e.map.len(), 1);
@@ -980,7 +994,7 @@ mod tests {
             let mut f = engine("fastslam-1.0", settings, &m, 1);
             let mut rng = Rng::seed_from_u64(3);
             for t in [1.0, 2.0] {
-                f.step(&[], &Scan { t, z: vec![zl], truth: None }, &mut rng);
+                f.step(&[], &Scan { t, z: vec![zl], truth: None, source: 0 }, &mut rng);
             }
             let l = &f.set.particles()[0].landmarks;
             assert_eq!(l.len(), 1);
@@ -1104,7 +1118,7 @@ mod typed {
     }
 
     fn scan(z: &[(f64, f64)]) -> Scan {
-        Scan { t: 1.0, z: z.iter().map(|&(u, v)| Vector2::new(u, v)).collect(), truth: None }
+        Scan { t: 1.0, z: z.iter().map(|&(u, v)| Vector2::new(u, v)).collect(), truth: None, source: 0 }
     }
 
     #[test]

@@ -156,15 +156,15 @@ where
     /// The EKF a first sighting of landmark `id` starts at state `x`: the sensor's birth
     /// density of `z` ([`InvertibleSensorModel::birth`]), or the anchor of its type when the
     /// sensor does not map it.
-    fn first_sighting(&self, id: i64, x: &SVector<f64, X>, z: &SVector<f64, Z>) -> Landmark<M> {
+    fn first_sighting(&self, sensor: &S, id: i64, x: &SVector<f64, X>, z: &SVector<f64, Z>) -> Landmark<M> {
         let mark = self.mark_of(id);
         let t = S::Mark::from_index(mark);
-        if !self.sensor.mapped(t)
+        if !sensor.mapped(t)
             && let Some((m, _)) = self.anchors.iter().find(|a| a.1 == mark)
         {
             return Landmark { id, mean: *m, cov: SMatrix::zeros(), mark };
         }
-        let (mean, cov) = self.sensor.birth(x, z, t);
+        let (mean, cov) = sensor.birth(x, z, t);
         Landmark { id, mean, cov, mark }
     }
 
@@ -176,6 +176,7 @@ where
         let mut chol = 0u32;
         let mut families = 0usize;
         let mut set = std::mem::take(&mut self.set);
+        let sensor = self.sensor.at_source(scan.source);
 
         for family in set.families_mut() {
             families += 1;
@@ -194,7 +195,7 @@ where
                     None => self.fresh.push((j, id)),
                 }
             }
-            let (sensor, space) = (&self.sensor, &self.space);
+            let (sensor, space) = (&*sensor, &self.space);
             let res = oid_proposal(sensor, space, &x_bar, &q, &rep.landmarks, &self.known, &self.known_z, &self.ipl);
             if res.lost_definiteness {
                 chol += 1;
@@ -241,7 +242,7 @@ where
                 for &(j, id) in &self.fresh {
                     let z = scan.z[j];
                     match p.landmarks.binary_search_by_key(&id, |l| l.id) {
-                        Err(pos) => p.landmarks.insert(pos, self.first_sighting(id, &x, &z)),
+                        Err(pos) => p.landmarks.insert(pos, self.first_sighting(sensor, id, &x, &z)),
                         // The same new landmark measured twice in one scan: update with the
                         // second measurement (no weight term either).
                         Ok(i) => {

@@ -36,7 +36,7 @@ fn oracle_fastslam_on_the_radio_world() {
         assert!(seen_sp >= 2, "the lap sees scattering points");
         assert_eq!(last.found(&scoring, LandmarkType::ScatteringPoint.mark(), 5.0), seen_sp);
         assert!(last.estimate.map.iter().all(|p| p.mark != LandmarkType::BaseStation.mark()));
-        let bs = RadioSensor::published().base_station;
+        let bs = RadioSensor::published().base_station();
         for p in f.particle_set() {
             assert_eq!(p.pose[2], 0.0, "the height is held");
             let anchor = p.landmarks.iter().find(|l| l.id == 0).expect("the base station's path is used");
@@ -83,7 +83,7 @@ fn fastslam1_and_mh_fastslam_on_the_radio_world() {
     let (vehicle, scoring) = (case.vehicle(), case.scoring());
     let model = vehicle.model;
     let comps = model.components();
-    let bs = RadioSensor::published().base_station;
+    let bs = RadioSensor::published().base_station();
     let va = LandmarkType::VirtualAnchor.mark();
     let base = FastSlam1Params { gate: GATE_CHI2_5_099, ..FastSlam1Params::default() };
     let mh = MhParams { base: base.clone(), ..MhParams::default() };

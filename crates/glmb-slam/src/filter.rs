@@ -41,6 +41,10 @@ pub struct Particle<const X: usize = 3, const M: usize = 2> {
     pub lmb: LmbMap<M>,
     /// `r_U(z_j)` of the previous scan.
     pub ru: Vec<f64>,
+    /// Births from a scan of another source than the next one (a radio world of several base
+    /// stations), with their source and `ln r_B`: they enter at the next scan of their source,
+    /// the first that can see them.
+    pub pending: Vec<(u8, Track<M>, f64)>,
 }
 
 impl<const X: usize, const M: usize> Default for Particle<X, M> {
@@ -51,6 +55,7 @@ impl<const X: usize, const M: usize> Default for Particle<X, M> {
             glmb: GlmbMap::default(),
             lmb: LmbMap::default(),
             ru: Vec::new(),
+            pending: Vec::new(),
         }
     }
 }
@@ -127,6 +132,8 @@ where
     set: ParticleSet<Particle<X, M>>,
     step: u64,
     prev_z: Vec<SVector<f64, Z>>,
+    /// The source of the previous scan (its births' sensor).
+    prev_source: u8,
     ws: Workspace<X, M>,
     trace: Vec<ProposalTrace<X>>,
 }
@@ -162,6 +169,7 @@ where
             set: ParticleSet::new(p0, n),
             step: 0,
             prev_z: Vec::new(),
+            prev_source: 0,
             ws: Workspace::default(),
             trace: Vec::new(),
         }
@@ -192,7 +200,10 @@ where
     pub fn step_impl(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
         self.set.draw_initial(&self.vehicle, rng, |p| &mut p.pose);
         self.step += 1;
-        let (sensor, space) = (&self.sensor, self.space);
+        // The births are of the previous scan's source, the rest of the step of this scan's.
+        let birth_sensor = self.sensor.at_source(self.prev_source);
+        let sensor = self.sensor.at_source(scan.source);
+        let (sensor, space) = (&*sensor, self.space);
         let p = &self.params;
         let um = UpdateModels {
             sensor,
@@ -211,19 +222,29 @@ where
         self.trace.clear();
         for part in self.set.particles_mut() {
             // Adaptive birth from the previous scan at the previous state (eq. 27), one track
-            // per mapped landmark type.
+            // per mapped landmark type; with several sources, at the next scan of the previous
+            // scan's source (a birth the scan cannot see would only wait, unconfirmed).
             ws.births.clear();
+            let wait = self.prev_source != scan.source;
             for (j, zj) in self.prev_z.iter().enumerate() {
                 let explained = part.ru.get(j).is_some_and(|&r| r >= p.explained_threshold);
                 let rb = if explained { p.birth_existing } else { p.birth_new };
                 if rb <= 0.0 {
                     continue;
                 }
-                for &t in S::Mark::ALL.iter().filter(|&&t| sensor.mapped(t)) {
-                    let (mean, cov) = sensor.birth(&part.pose, zj, t);
+                for &t in birth_sensor.marks().iter().filter(|&&t| birth_sensor.mapped(t) && birth_sensor.measures(t)) {
+                    let (mean, cov) = birth_sensor.birth(&part.pose, zj, t);
                     let mark = t.index();
-                    ws.births.push((Track { label: birth_label(self.step, j, mark), mean, cov, mark }, rb.ln()));
+                    let birth = (Track { label: birth_label(self.step, j, mark), mean, cov, mark }, rb.ln());
+                    match wait {
+                        true => part.pending.push((self.prev_source, birth.0, birth.1)),
+                        false => ws.births.push(birth),
+                    }
                 }
+            }
+            if !part.pending.is_empty() {
+                ws.births.extend(part.pending.iter().filter(|b| b.0 == scan.source).map(|b| (b.1, b.2)));
+                part.pending.retain(|b| b.0 != scan.source);
             }
             // Proposal: transition density (eq. 32) or the optimal kernel (eqs. 30-31).
             let (x_bar, q) = p.rbpf.predict_state(&self.vehicle, &part.pose, odometry);
@@ -294,6 +315,7 @@ where
         }
         self.prev_z.clear();
         self.prev_z.extend_from_slice(&scan.z);
+        self.prev_source = scan.source;
 
         let mut components = 0;
         let variant = self.variant;

@@ -81,7 +81,7 @@ fn glmb_family_localises_and_maps_the_radio_world() {
             // The anchor is in no particle's map: it stays where the sensor puts it.
             assert!(f.particle_set().iter().all(|p| p.glmb.tracks.iter().chain(&p.lmb.tracks).all(|t| t.mark != 0)));
             assert_eq!(f.anchors().len(), 1);
-            assert_eq!(f.anchors()[0].mean, RadioSensor::published().base_station);
+            assert_eq!(f.anchors()[0].mean, RadioSensor::published().base_station());
             assert!(f.particle_set().iter().all(|p| p.pose[2] == 0.0), "the height is held");
         }
     }

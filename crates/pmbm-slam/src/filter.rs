@@ -149,7 +149,7 @@ where
             .collect();
         let mut map = PmbmDensity::from_bernoullis(&anchors);
         map.undetected = undetected;
-        let nt = crate::pmbm::typed::type_count::<X, M, Z, S>();
+        let nt = crate::pmbm::typed::type_count(&model);
         if nt > 1 {
             map.types.extend(anchors.iter().flat_map(|a| crate::pmbm::typed::single_type(a, nt)));
         }
@@ -176,6 +176,12 @@ where
     /// The measurement model.
     pub fn model(&self) -> &S {
         &self.model
+    }
+
+    /// Makes the model that of the scans of `source` ([`SensorModel::set_source`]): the
+    /// steps that follow measure that source's scans.
+    pub fn set_source(&mut self, source: u8) {
+        self.model.set_source(source);
     }
 
     /// One recursion: per particle, `x_k ~ f(x_k | x_{k-1}, u)` (the transition density as
@@ -298,6 +304,7 @@ where
     rfslam_core::particle_set_methods!(set, pose);
 
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
+        self.set_source(scan.source);
         self.step_with(odometry, scan.z.iter().copied(), rng)
     }
 

@@ -138,6 +138,7 @@ where
     }
 
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
+        self.filter.set_source(scan.source);
         let (mh, log_clutter, space) = (&mut self.mh, self.log_clutter, self.space);
         self.filter.step_with_proposal(odometry, scan.z.iter().copied(), rng, |ctx, rng| {
             mh.map.clear();

@@ -27,7 +27,7 @@ pub fn typed_birth<const X: usize, const M: usize, const Z: usize, S: SensorMode
 ) -> (f64, Option<GaussianBernoulli<M>>) {
     let mut e_sum = 0.0;
     let mut best: Option<(f64, GaussianBernoulli<M>)> = None;
-    for &mark in S::Mark::ALL.iter().filter(|&&t| model.mapped(t)) {
+    for &mark in model.marks().iter().filter(|&&t| model.mapped(t) && model.measures(t)) {
         let Some((e, mean, cov)) = birth(mark) else { continue };
         e_sum += e;
         if best.is_none_or(|b| e > b.0) {

@@ -278,7 +278,7 @@ where
             .into_iter()
             .map(|(mean, mark)| GaussianBernoulli { r: 1.0, mean, cov: SMatrix::zeros(), mark: mark.index() })
             .collect();
-        let nt = type_count::<X, M, Z, S>();
+        let nt = type_count(&model);
         let types = if nt > 1 { bernoullis.iter().flat_map(|b| single_type(b, nt)).collect() } else { Vec::new() };
         MpmbFilter {
             gate: chi2_quantile(Z, params.gate_probability),
@@ -352,7 +352,7 @@ where
             self.undetected.thin(&self.model, &self.mean, &self.vehicle.model.planar_pose(&self.mean), &mut self.thin);
             return report(self.bernoullis.len(), chol + 1);
         }
-        let nt = type_count::<X, M, Z, S>();
+        let nt = type_count(&self.model);
         if nt > 1 {
             chol += self.map_children_typed(&l_u, nt);
             self.births_typed(&l_u, nt);
@@ -633,6 +633,7 @@ where
     }
 
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, _rng: &mut Rng) -> StepReport<M> {
+        self.model.set_source(scan.source);
         self.step_with(odometry, scan.z.iter().copied())
     }
 

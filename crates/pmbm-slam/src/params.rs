@@ -2,7 +2,7 @@
 //! choices where the paper gives no value).
 
 use rfslam_assign::{DEFAULT_LBP_MAX_SWEEPS, DEFAULT_LBP_TOLERANCE, LbpOptions, MAX_LBP_SWEEPS};
-use rfslam_core::model::{DetectionRegion, LandmarkMark};
+use rfslam_core::model::DetectionRegion;
 use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::{ClutterIntensity, ClutterModel, DetectionModel, ParamError, RbpfParams, SlamModels};
 use serde::{Deserialize, Serialize};
@@ -32,7 +32,8 @@ pub fn undetected_cell<const X: usize, const M: usize, const Z: usize, S: Sensor
     cell.unwrap_or_else(|| match model.detection_sector() {
         Some((fov, _)) => fov.max_range / CELLS_PER_RANGE,
         None => {
-            let radius = S::Mark::ALL
+            let radius = model
+                .marks()
                 .iter()
                 .filter_map(|&mark| match model.detection_region(mark) {
                     Some(DetectionRegion::Ball { radius, .. }) => Some(radius),
@@ -95,7 +96,7 @@ pub(crate) fn undetected_cells_per_scan<const X: usize, const M: usize, const Z:
         return Err(ParamError::new("undetected", "the thinned intensity needs landmarks in two or more dimensions"));
     }
     let cell = undetected_cell(cell, model);
-    for &mark in S::Mark::ALL.iter().filter(|&&mark| model.mapped(mark)) {
+    for &mark in model.marks().iter().filter(|&&mark| model.mapped(mark)) {
         let (cells, region) = match model.detection_region(mark) {
             None => {
                 return Err(ParamError::new(

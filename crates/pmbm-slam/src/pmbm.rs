@@ -344,7 +344,7 @@ fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorM
     ws.det.clear();
     ws.hyps.clear();
     ws.track_start.clear();
-    if typed::type_count::<X, M, Z, S>() > 1 {
+    if typed::type_count(model) > 1 {
         ws.ln_nu_new.clear();
         ws.r_new.clear();
         return typed::children(map, x, z, model, s, ws);
@@ -491,7 +491,7 @@ pub fn pmbm_update<const X: usize, const M: usize, const Z: usize, S: Invertible
     for w in &mut ws.gh_log_w {
         *w -= out.ln_chi;
     }
-    reduce(map, n_new, typed::type_count::<X, M, Z, S>(), s, ws);
+    reduce(map, n_new, typed::type_count(model), s, ws);
     out
 }
 
@@ -929,7 +929,7 @@ pub fn pmb_update<const X: usize, const M: usize, const Z: usize, S: InvertibleS
     };
     out.ln_chi = ln_fixed + ln_assoc;
     // TOMB/P: merge every track's children with its marginals; new tracks r = p_0j e_j / nu_j.
-    let nt = typed::type_count::<X, M, Z, S>();
+    let nt = typed::type_count(model);
     map.hyps.clear();
     map.types.clear();
     let mut row = 0;

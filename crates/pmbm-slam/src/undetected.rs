@@ -61,7 +61,7 @@ use std::sync::Arc;
 
 use nalgebra::{Matrix2, SMatrix, SVector};
 use rfslam_core::detection::{PD_MAX, PlacedFov};
-use rfslam_core::model::{DetectionRegion, LandmarkMark};
+use rfslam_core::model::DetectionRegion;
 use rfslam_core::{DetectionModel, Fov, FovEdge, Point2, Pose};
 use serde::{Deserialize, Serialize};
 
@@ -765,7 +765,7 @@ impl Undetected {
         cell: f64,
         sensor: &S,
     ) -> Self {
-        let types = S::Mark::ALL;
+        let types = sensor.marks();
         if undetected == UndetectedModel::Constant || types.len() == 1 {
             return Undetected::new(undetected, cell);
         }
@@ -825,7 +825,7 @@ impl Undetected {
             Undetected::Typed(types) => {
                 let mut mass = 0.0;
                 for (t, intensity) in types.iter_mut().enumerate() {
-                    let Some(region) = S::Mark::ALL.get(t).and_then(|&mark| model.detection_region(mark)) else {
+                    let Some(region) = model.marks().get(t).and_then(|&mark| model.detection_region(mark)) else {
                         continue;
                     };
                     mass += match (intensity, region) {

@@ -187,6 +187,8 @@ pub struct RbPhd<P: Proposal<X, M, Z>, const X: usize = 3, const M: usize = 2, c
     sensor: P::Sensor,
     /// The mapped landmark types, in the order of their marks.
     types: Vec<<P::Sensor as SensorModel<X, M, Z>>::Mark>,
+    /// The source of the scan whose ungated measurements are the next births.
+    birth_source: u8,
     sector: Option<Sector>,
     proposal: P,
     /// The particles, their families of identical copies, normalisation and resampling.
@@ -235,8 +237,7 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
         for (m, t) in sensor.anchors() {
             map.push_anchor(m, t.index());
         }
-        let all = <<P::Sensor as SensorModel<X, M, Z>>::Mark as LandmarkMark>::ALL;
-        let types = all.iter().copied().filter(|&t| sensor.mapped(t)).collect();
+        let types = sensor.marks().iter().copied().filter(|&t| sensor.mapped(t)).collect();
         let p0 = Particle { pose: vehicle.initial_state, map, ..Default::default() };
         RbPhd {
             params,
@@ -244,6 +245,7 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
             vehicle,
             sensor,
             types,
+            birth_source: 0,
             sector,
             proposal,
             set: ParticleSet::new(p0, n),
@@ -289,7 +291,8 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
     /// `t`, the sensor's birth density of `z` for that type at the state of k-1
     /// ([`InvertibleSensorModel::birth`]: `N(h^-1(z, x), J_z R_t J_z^T)` for a measurement that
     /// fixes its landmark, the sensor's own density for one that does not), weight
-    /// `birth_weight`.
+    /// `birth_weight`: the types the sensor of that scan's source measures
+    /// ([`SensorModel::measures`]).
     fn add_births(
         sensor: &P::Sensor,
         types: &[<P::Sensor as SensorModel<X, M, Z>>::Mark],
@@ -297,7 +300,7 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
         p: &mut Particle<X, M, Z>,
     ) {
         for z in &p.birth {
-            for &t in types {
+            for &t in types.iter().filter(|&&t| sensor.measures(t)) {
                 let (mean, cov) = sensor.birth(&p.pose, z, t);
                 p.map.push_marked(ln_birth, mean, cov, t.index());
             }
@@ -308,7 +311,10 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
     /// One recursion of \[Kaltiokallio2024\] Algorithm 3.
     pub fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
         self.set.draw_initial(&self.vehicle, rng, |p| &mut p.pose);
-        let (vehicle, sensor, sector) = (&self.vehicle, &self.sensor, self.sector.as_ref());
+        // The births are of the previous scan's source, the rest of the step of this scan's.
+        let birth_source = std::mem::replace(&mut self.birth_source, scan.source);
+        let (birth_sensor, sensor) = (self.sensor.at_source(birth_source), self.sensor.at_source(scan.source));
+        let (vehicle, sensor, sector) = (&self.vehicle, &*sensor, self.sector.as_ref());
         let ln_birth = self.params.birth_weight.ln();
         let upd_settings = UpdateSettings {
             gate: self.params.gate,
@@ -322,7 +328,7 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
 
         for family in self.set.families_mut() {
             for p in family.iter_mut() {
-                Self::add_births(sensor, &self.types, ln_birth, p);
+                Self::add_births(&birth_sensor, &self.types, ln_birth, p);
             }
             // Prediction and the active set, shared by the identical copies of the family.
             let rep = &family[0];

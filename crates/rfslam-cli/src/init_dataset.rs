@@ -87,8 +87,13 @@ fn readme_text(world: &str, c: &Columns, anchors: bool, types: bool) -> String {
             files::META
         ),
         format!(
-            "| `{}` | yes | `scan,t`: one row per scan, indices 0, 1, 2, ... in order, **also scans with no detection** |",
-            files::SCANS
+            "| `{}` | yes | `scan,t`: one row per scan, indices 0, 1, 2, ... in order, **also scans with no detection**{} |",
+            files::SCANS,
+            if anchors {
+                "; with several base stations a `source` column, the base station of each scan (0, 1, ... in the order of the `base_station`, `base_station_1`, ... rows of anchors.csv)"
+            } else {
+                ""
+            }
         ),
         format!(
             "| `{}` | yes | `scan`, {measurement}, `truth`: one row per detection; `truth` is the landmark id when you know it, `-1` for a false detection, empty when unknown (the column may be left out) |",
@@ -100,7 +105,7 @@ fn readme_text(world: &str, c: &Columns, anchors: bool, types: bool) -> String {
     ];
     if anchors {
         rows.push(format!(
-            "| `{}` | yes | `id`, {landmark}: the landmarks the world knows (the base stations) |",
+            "| `{}` | yes | `id`, {landmark}: the landmarks the world knows (the base stations: types `base_station`, then `base_station_1`, ... for more, each with its own `virtual_anchor_1`, ... types in `[landmarks] types`) |",
             files::ANCHORS
         ));
     }

@@ -175,8 +175,11 @@ impl Visitor for Run<'_> {
         let ds: Dataset<W::Models, X, M, Z> = match source {
             Source::Dataset(dir) => {
                 let ds = Dataset::<W::Models, X, M, Z>::read(dir).map_err(HarnessError::Data)?;
-                let bytes =
-                    registry::particle_bytes_in(&ov.params, &W::models(&ds).map_err(HarnessError::Data)?, filter);
+                let bytes = registry::particle_bytes_in(
+                    &ov.params,
+                    &W::dataset_models(&ds).map_err(HarnessError::Data)?,
+                    filter,
+                );
                 fits(args, &JobMemory::of::<X, M, Z>(&JobSize::RECORDED, args.particles, bytes))?;
                 ds
             }
@@ -191,7 +194,7 @@ impl Visitor for Run<'_> {
         };
         registry::check_dataset(entry, &ds)
             .map_err(|reason| HarnessError::UnsuitedData { filter: filter.to_string(), reason })?;
-        let models = W::models(&ds).map_err(HarnessError::Data)?;
+        let models = W::dataset_models(&ds).map_err(HarnessError::Data)?;
         let mut f = registry::build_in(&ov.params, &models, args.particles, filter)
             .map_err(|e| usage(format!("filter `{filter}`: {e}")))?;
         if args.save_particles && !f.particle_poses(&mut Vec::new()) {

@@ -279,3 +279,66 @@ fn world_kind_and_array_errors_name_the_key() {
         &[&format!("dataset.toml:{line}:"), "sigma"],
     );
 }
+
+/// The shipped scenario of two base stations: `rfslam simulate` writes each scan's source (the
+/// base stations in turn), both base stations in `anchors.csv` and the types of both;
+/// `rfslam run --dataset` replays `rfslam run --scenario` bit for bit; and the oracle, a PMBM
+/// filter and PHD-SLAM 3.0 map the virtual anchors of both base stations, each estimate of a
+/// base station's virtual anchor within 5 m of a true one of that base station (the two sets
+/// are 40 m and more apart).
+#[test]
+fn two_base_stations_ship_and_run() {
+    let dir = TempDir::new("radio-two-bs");
+    dir.write("two.toml", include_str!("../../../scenarios/radio5g-two-base-stations.toml"));
+    ok(dir.path(), &["simulate", "--scenario", "two.toml", "--seed", "2", "--out", "ds"]);
+    assert!(dir.read("ds/scans.csv").starts_with("scan,t,source\n0,0,0\n1,0.5,1\n2,1,0\n"));
+    let anchors = dir.read("ds/anchors.csv");
+    assert!(anchors.contains(",base_station\n") && anchors.contains(",base_station_1\n"), "{anchors}");
+    assert!(dir.read("ds/dataset.toml").contains("\"base_station_1\", \"virtual_anchor_1\"]"));
+    let truth = Csv::read(&dir.join("ds/landmarks.csv"));
+    for (filter, n, params) in [
+        ("fastslam-2.0-oracle", "10", ""),
+        ("mpmb-slam", "1", "undetected_intensity=3.06e-13"),
+        ("phd-3.0", "10", "gate=50.69"),
+    ] {
+        let run = |source: &[&str], out: &str| {
+            let mut args = vec!["run"];
+            args.extend_from_slice(source);
+            args.extend(["--filter", filter, "--particles", n, "--seed", "2", "--out", out]);
+            if !params.is_empty() {
+                args.extend(["--set", params]);
+            }
+            ok(dir.path(), &args);
+        };
+        run(&["--dataset", "ds"], &format!("{filter}-a"));
+        run(&["--scenario", "two.toml"], &format!("{filter}-b"));
+        for f in ["trajectory.csv", "map.csv"] {
+            assert_eq!(dir.read(&format!("{filter}-a/{f}")), dir.read(&format!("{filter}-b/{f}")), "{filter} {f}");
+        }
+        let map = Csv::read(&dir.join(&format!("{filter}-a/map.csv")));
+        for va in ["virtual_anchor", "virtual_anchor_1"] {
+            let est: Vec<usize> = (0..map.rows.len()).filter(|&i| map.get(i, "type") == va).collect();
+            assert!(est.len() >= 3, "{filter}: {} estimates of type {va}", est.len());
+            for i in est {
+                let near = (0..truth.rows.len()).filter(|&j| truth.get(j, "type") == va).any(|j| {
+                    let d: f64 = ["x", "y", "z"].iter().map(|c| (map.num(i, c) - truth.num(j, c)).powi(2)).sum();
+                    d.sqrt() < 5.0
+                });
+                assert!(near, "{filter}: a {va} estimate far from every true {va}");
+            }
+        }
+    }
+    // A scan of a base station the data set does not have is refused, naming the scan; so is
+    // a data set whose landmark types are not those of its base stations.
+    let scans = dir.read("ds/scans.csv");
+    dir.write("ds/scans.csv", &scans.replacen("\n2,1,0\n", "\n2,1,2\n", 1));
+    let run = ["run", "--dataset", "ds", "--filter", "dead-reckoning", "--out", "bad"];
+    fails(dir.path(), &run, 2, &["scan 2", "source 2", "2 base station(s)"]);
+    dir.write("ds/scans.csv", &scans);
+    let meta = dir.read("ds/dataset.toml");
+    dir.write(
+        "ds/dataset.toml",
+        &meta.replace("\"base_station_1\", \"virtual_anchor_1\"", "\"virtual_anchor_1\", \"base_station_1\""),
+    );
+    fails(dir.path(), &run, 2, &["1 base station(s)", "[landmarks] types"]);
+}

@@ -41,6 +41,9 @@ pub struct Scan<const Z: usize = 2> {
     /// Victoria Park import). `None` when nothing is known. Filters must not use them
     /// except the oracle baseline.
     pub truth: Option<Vec<i64>>,
+    /// The source of the scan's measurements ([`crate::SensorModel::sources`]: the radio
+    /// world's base station that transmitted them); 0 in a world of one source.
+    pub source: u8,
 }
 
 /// The truth label of a measurement whose origin is unknown (written as an empty `truth`

@@ -29,7 +29,8 @@ use crate::error::{ConfigError, DataError};
 pub mod files {
     /// Metadata and nominal models.
     pub const META: &str = "dataset.toml";
-    /// `scan,t`.
+    /// `scan,t`, and `source` when the sensor has several (the radio world's base station
+    /// of each scan; 0 when the column is absent).
     pub const SCANS: &str = "scans.csv";
     /// `scan` and the sensor model's measurement columns (`range,bearing`, `x,y`, `bearing`,
     /// `toa,dod_az,dod_el,doa_az,doa_el`), then `truth`.
@@ -50,6 +51,9 @@ pub mod files {
 /// finite (a coordinate or a speed of 1e308 made results `inf`). A cell beyond its bound is
 /// refused with its file, line and column; docs/datasets.md lists them.
 pub mod limits {
+    /// Most sources of a data set's scans (`scans.csv`'s `source`: the radio world's base
+    /// stations); the world's sensor says how many it has.
+    pub const MAX_SOURCES: usize = 16;
     /// Positions and displacements (m): landmark and ground-truth coordinates, the initial
     /// pose, measured distances (`range`, `toa`, relative `x`, `y`), odometry `dx`, `dy`, a
     /// clock bias.
@@ -512,9 +516,13 @@ impl<C: DatasetModels, const X: usize, const M: usize, const Z: usize> Dataset<C
         std::fs::write(&meta_path, self.meta.to_toml_string()?).map_err(|e| DataError::io(&meta_path, e))?;
         let columns = self.meta.models.columns();
 
-        let mut w = CsvOut::create(&dir.join(files::SCANS), "scan,t")?;
+        let sourced = self.scans.iter().any(|s| s.source != 0);
+        let mut w = CsvOut::create(&dir.join(files::SCANS), if sourced { "scan,t,source" } else { "scan,t" })?;
         for (k, s) in self.scans.iter().enumerate() {
-            w.line(format_args!("{k},{}", s.t))?;
+            match sourced {
+                true => w.line(format_args!("{k},{},{}", s.t, s.source))?,
+                false => w.line(format_args!("{k},{}", s.t))?,
+            }
         }
         w.finish()?;
 
@@ -755,7 +763,7 @@ pub fn write_landmarks<const M: usize>(
 }
 
 fn read_scans<const Z: usize>(path: &Path, initial_t: f64) -> Result<Vec<Scan<Z>>, DataError> {
-    let mut r = CsvRows::open(path, &["scan", "t"], &[])?;
+    let mut r = CsvRows::open(path, &["scan", "t"], &["source"])?;
     let mut scans: Vec<Scan<Z>> = Vec::new();
     while r.next_row()? {
         let k = r.i64(0)?;
@@ -769,7 +777,13 @@ fn read_scans<const Z: usize>(path: &Path, initial_t: f64) -> Result<Vec<Scan<Z>
         if t < initial_t {
             return Err(r.err(1, format!("time {t} is before the initial pose time {initial_t} of dataset.toml")));
         }
-        scans.push(Scan { t, z: Vec::new(), truth: None });
+        let source = match r.opt_i64(2)? {
+            None => 0,
+            Some(s) => u8::try_from(s).ok().filter(|&s| usize::from(s) < limits::MAX_SOURCES).ok_or_else(|| {
+                r.err(2, format!("source {s}: use a source index from 0 to {}", limits::MAX_SOURCES - 1))
+            })?,
+        };
+        scans.push(Scan { t, z: Vec::new(), truth: None, source });
     }
     if scans.is_empty() {
         // A run of zero steps would report a score of nothing as a result.
@@ -984,7 +998,7 @@ mod tests {
     fn with_odometry(motion: MotionConfig, scan_times: &[f64], rows: &[(f64, [f64; 3])]) -> Dataset {
         Dataset {
             meta: meta(motion),
-            scans: scan_times.iter().map(|&t| Scan { t, z: vec![], truth: None }).collect(),
+            scans: scan_times.iter().map(|&t| Scan { t, z: vec![], truth: None, source: 0 }).collect(),
             odometry: rows.iter().map(|&(t, u)| OdometryRow { t, u: Control::new(u[0], u[1], u[2]) }).collect(),
             groundtruth: None,
             landmarks: None,

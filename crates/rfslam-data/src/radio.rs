@@ -49,6 +49,24 @@ pub const MAX_WALLS: usize = 64;
 pub const MAX_SCATTERING_POINTS: usize = 1000;
 /// Most waypoints of a radio world's drive.
 pub const MAX_WAYPOINTS: usize = 1000;
+/// Most base stations of a radio world (the PMBM engines' typed Bernoullis hold the types of
+/// three).
+pub const MAX_BASE_STATIONS: usize = rfslam_core::model::MAX_BASE_STATIONS;
+
+/// The published world's base station (m).
+pub const PUBLISHED_BASE_STATION: [f64; 3] = [0.0, 0.0, 40.0];
+
+impl RadioWorldConfig {
+    /// The base stations, in the order of their sources: `base_stations`, or the one
+    /// `base_station` (`[0, 0, 40]` by default).
+    pub fn base_station_positions(&self) -> Vec<[f64; 3]> {
+        if self.base_stations.is_empty() {
+            vec![self.base_station.unwrap_or(PUBLISHED_BASE_STATION)]
+        } else {
+            self.base_stations.clone()
+        }
+    }
+}
 
 /// The `[world]` table of a radio scenario: the geometry (base station, walls, scattering
 /// points), the trajectory (a circle by speed, turn rate and start, or waypoints) and the lap.
@@ -69,8 +87,15 @@ pub struct RadioWorldConfig {
     pub sp_height_max: f64,
     /// Seed of the height draw.
     pub seed: u64,
-    /// The base station's position (m), known to the filters.
-    pub base_station: [f64; 3],
+    /// The base station's position (m), known to the filters; `[0, 0, 40]` when neither it
+    /// nor `base_stations` is given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub base_station: Option<[f64; 3]>,
+    /// Every base station (m), in the order of their scans' sources, instead of
+    /// `base_station`: 1 to [`MAX_BASE_STATIONS`] of them, transmitting in turn (scan `k` from
+    /// base station `k mod n`), each mirrored by every wall into its own virtual anchors.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub base_stations: Vec<[f64; 3]>,
     /// The walls: each mirrors the base station into a virtual anchor.
     pub walls: Vec<Wall>,
     /// The scattering points' horizontal positions (m); their heights are drawn.
@@ -114,7 +139,8 @@ impl Default for RadioWorldConfig {
             sp_height_min: 0.0,
             sp_height_max: 40.0,
             seed: 1,
-            base_station: [0.0, 0.0, 40.0],
+            base_station: None,
+            base_stations: Vec::new(),
             walls: vec![
                 wall([100.0, 0.0], [1.0, 0.0]),
                 wall([0.0, 100.0], [0.0, 1.0]),
@@ -295,9 +321,16 @@ impl RadioModels {
     }
 }
 
-/// The landmark types of the radio world, in the order of their marks
-/// (`rfslam_core::model::LandmarkType`).
-pub const RADIO_LANDMARK_TYPES: [&str; 3] = ["base_station", "virtual_anchor", "scattering_point"];
+/// The landmark types of the radio world of one base station, in the order of their marks
+/// (`rfslam_core::model::RadioMark`).
+pub const RADIO_LANDMARK_TYPES: [&str; 3] = rfslam_core::model::LandmarkType::NAMES;
+
+/// The landmark types of a radio world of `base_stations` base stations, in the order of
+/// their marks: [`RADIO_LANDMARK_TYPES`], then `base_station_s` and `virtual_anchor_s` of
+/// each further base station `s` (the scattering points are seen through every one).
+pub fn radio_landmark_types(base_stations: usize) -> Vec<String> {
+    rfslam_core::model::RadioMark::marks(base_stations).iter().map(|m| m.name()).collect()
+}
 
 impl DatasetModels for RadioModels {
     fn world(&self) -> &'static str {
@@ -377,7 +410,34 @@ impl RadioScenario {
         if w.sp_height_max < w.sp_height_min {
             return Err(ConfigError::new("world.sp_height_max", "must not be below world.sp_height_min"));
         }
-        coordinates("world.base_station", &w.base_station)?;
+        let stations = w.base_station_positions();
+        if !w.base_stations.is_empty() {
+            if w.base_station.is_some() {
+                return Err(ConfigError::new(
+                    "world.base_stations",
+                    "lists every base station: give it or world.base_station, not both",
+                ));
+            }
+            if w.base_stations.len() > MAX_BASE_STATIONS {
+                return Err(ConfigError::new(
+                    "world.base_stations",
+                    format!("at most {MAX_BASE_STATIONS} base stations, not {}", w.base_stations.len()),
+                ));
+            }
+        }
+        let key = |i: usize| {
+            if w.base_stations.is_empty() {
+                "world.base_station".to_string()
+            } else {
+                format!("world.base_stations[{i}]")
+            }
+        };
+        for (i, b) in stations.iter().enumerate() {
+            coordinates(&key(i), b)?;
+            if let Some(j) = stations[..i].iter().position(|o| distance(o, b) < limits::MIN_DISTANCE) {
+                return Err(ConfigError::new(key(i), format!("is where world.base_stations[{j}] is")));
+            }
+        }
         if w.walls.len() > MAX_WALLS {
             return Err(ConfigError::new("world.walls", format!("at most {MAX_WALLS} walls, not {}", w.walls.len())));
         }
@@ -388,12 +448,16 @@ impl RadioScenario {
             if !(n.is_normal() && n > 0.0) {
                 return Err(ConfigError::new(format!("world.walls[{i}].normal"), "must not be zero"));
             }
-            let va = wall.mirror(w.base_station);
-            if horizontal_distance(&va, &w.base_station) < limits::MIN_DISTANCE {
-                return Err(ConfigError::new(
-                    format!("world.walls[{i}]"),
-                    "passes through the base station: its virtual anchor would be the base station",
-                ));
+            for (j, b) in stations.iter().enumerate() {
+                if horizontal_distance(&wall.mirror(*b), b) < limits::MIN_DISTANCE {
+                    return Err(ConfigError::new(
+                        format!("world.walls[{i}]"),
+                        format!(
+                            "passes through the base station {}: its virtual anchor would be the base station",
+                            key(j)
+                        ),
+                    ));
+                }
             }
         }
         if w.scattering_points.len() > MAX_SCATTERING_POINTS {
@@ -492,6 +556,11 @@ fn horizontal_distance(a: &[f64], b: &[f64]) -> f64 {
     (a[0] - b[0]).hypot(a[1] - b[1])
 }
 
+/// The distance between the points `a` and `b` (m).
+fn distance(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a.iter().zip(b).map(|(p, q)| (p - q) * (p - q)).sum::<f64>().sqrt()
+}
+
 /// Each coordinate of the array `key` within the plausible distances (`key[i]` names a bad one).
 fn coordinates(key: &str, values: &[f64]) -> Result<(), ConfigError> {
     let range = Interval::magnitude(limits::MAX_DISTANCE);
@@ -545,6 +614,33 @@ mod tests {
         assert!(e.contains("world.base_station[1]"), "{e}");
         let e = err("walls = [{ point = [5.0, 0.0] }]");
         assert!(e.contains("normal"), "{e}");
+    }
+
+    /// `world.base_stations`: 1 to 3, not with `world.base_station`, none where another is, no
+    /// wall through any; each refusal names its key. Given, they are the base stations.
+    #[test]
+    fn base_station_keys_are_checked() {
+        let err = error_of;
+        let e = err("base_station = [0.0, 0.0, 40.0]
+base_stations = [[0.0, 0.0, 40.0]]");
+        assert!(e.contains("world.base_stations") && e.contains("not both"), "{e}");
+        let e = err("base_stations = [[0.0, 0.0, 40.0], [1.0, 0.0, 40.0], [2.0, 0.0, 40.0], [3.0, 0.0, 40.0]]");
+        assert!(e.contains("world.base_stations") && e.contains("at most 3"), "{e}");
+        let e = err("base_stations = [[0.0, 0.0, 40.0], [0.0, 0.0, 40.0]]");
+        assert!(e.contains("world.base_stations[1]") && e.contains("world.base_stations[0]"), "{e}");
+        let e = err("base_stations = [[0.0, 0.0, 40.0], [100.0, 30.0, 20.0]]");
+        assert!(e.contains("world.walls[0]") && e.contains("world.base_stations[1]"), "{e}");
+        let e = err("base_stations = [[0.0, 0.0, 40.0], [10.0, 1e300, 20.0]]");
+        assert!(e.contains("world.base_stations[1][1]"), "{e}");
+        let text =
+            "name = \"r\"\n[world]\nkind = \"radio5g\"\nbase_stations = [[0.0, 0.0, 40.0], [40.0, 40.0, 25.0]]\n";
+        let sc = RadioScenario::from_toml_str(text, "r.toml").unwrap();
+        assert_eq!(sc.world.base_station_positions(), vec![[0.0, 0.0, 40.0], [40.0, 40.0, 25.0]]);
+        assert_eq!(RadioWorldConfig::default().base_station_positions(), vec![PUBLISHED_BASE_STATION]);
+        assert_eq!(
+            radio_landmark_types(2).join(","),
+            "base_station,virtual_anchor,scattering_point,base_station_1,virtual_anchor_1"
+        );
     }
 
     #[test]

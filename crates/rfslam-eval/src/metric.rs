@@ -14,6 +14,7 @@
 
 use nalgebra::SVector;
 use rfslam_core::Point2;
+use rfslam_core::model::LandmarkType;
 use rfslam_metrics::stats::{mean_ci95, weighted_mean_ci95};
 use rfslam_metrics::{DaCounts, PoseErrors, Se2AlignedRmse, SumSquares};
 
@@ -962,14 +963,15 @@ impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for Split
 
 /// GOSPA per landmark type at every step, against every true landmark of the type (the
 /// PMBM-SLAM paper's Figs. 3 and 4 scoring): the final value and the mean over the steps of
-/// the radio world's virtual anchors (mark 1) and scattering points (mark 2).
+/// the radio world's virtual anchors (of every base station, [`crate::world::kind_gospa`])
+/// and scattering points.
 struct TypedGospaMetric<const M: usize> {
     truth: Vec<(u8, SVector<f64, M>)>,
     marks: usize,
     c: f64,
     p: f64,
-    /// The GOSPA of each type at every step so far.
-    per_step: Vec<Vec<f64>>,
+    /// The GOSPA of each kind of [`TYPED_COLUMNS`] at every step so far.
+    per_step: Vec<[Option<f64>; 2]>,
     est: Vec<(u8, SVector<f64, M>)>,
     scratch: (Points<M>, Points<M>),
     failed: bool,
@@ -991,9 +993,11 @@ impl<const M: usize> TypedGospaMetric<M> {
     }
 }
 
-/// The typed GOSPA columns: (mark, final column, mean column).
-const TYPED_COLUMNS: [(usize, &str, &str); 2] =
-    [(1, "va_gospa_m", "va_gospa_mean_m"), (2, "sp_gospa_m", "sp_gospa_mean_m")];
+/// The typed GOSPA columns: (kind, final column, mean column).
+const TYPED_COLUMNS: [(LandmarkType, &str, &str); 2] = [
+    (LandmarkType::VirtualAnchor, "va_gospa_m", "va_gospa_mean_m"),
+    (LandmarkType::ScatteringPoint, "sp_gospa_m", "sp_gospa_mean_m"),
+];
 
 impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for TypedGospaMetric<M> {
     fn observe(&mut self, rec: &StepRecord<X, M, Z>) {
@@ -1003,7 +1007,7 @@ impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for Typed
         self.est.clear();
         self.est.extend(rec.estimate.map.iter().map(|p| (p.mark, p.position)));
         match rfslam_metrics::gospa_per_mark(&self.truth, &self.est, self.marks, self.c, self.p, &mut self.scratch) {
-            Ok(g) => self.per_step.push(g.iter().map(|g| g.total).collect()),
+            Ok(g) => self.per_step.push(TYPED_COLUMNS.map(|(kind, ..)| crate::world::kind_gospa(&g, kind, self.p))),
             Err(_) => self.failed = true,
         }
     }
@@ -1012,15 +1016,13 @@ impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for Typed
             return;
         }
         let n = self.per_step.len() as f64;
-        for (mark, final_col, mean_col) in TYPED_COLUMNS {
-            if mark < self.marks {
+        for (i, (kind, final_col, mean_col)) in TYPED_COLUMNS.into_iter().enumerate() {
+            if kind.mark() < self.marks as u8 {
                 // A map GOSPA cannot score (a non-finite landmark estimate) fails the run.
+                let at = |g: &[Option<f64>; 2]| g[i].unwrap_or(f64::NAN);
                 let (last, mean) = match self.failed {
                     true => (f64::INFINITY, f64::INFINITY),
-                    false => (
-                        self.per_step.last().map_or(f64::NAN, |g| g[mark]),
-                        self.per_step.iter().map(|g| g[mark]).sum::<f64>() / n,
-                    ),
+                    false => (self.per_step.last().map_or(f64::NAN, at), self.per_step.iter().map(at).sum::<f64>() / n),
                 };
                 out.set(final_col, last);
                 out.set(mean_col, mean);
@@ -1531,7 +1533,11 @@ mod tests {
         maps: &[Vec<(f64, f64)>],
     ) -> Values {
         use rfslam_core::{Scan, StepReport};
-        ds.scans = labels.iter().enumerate().map(|(k, l)| Scan { t: k as f64, z: vec![], truth: l.clone() }).collect();
+        ds.scans = labels
+            .iter()
+            .enumerate()
+            .map(|(k, l)| Scan { t: k as f64, z: vec![], truth: l.clone(), source: 0 })
+            .collect();
         let m = MetricsConfig { gospa_p: 1.0, gospa_every: Some(every), ..Default::default() };
         let filter =
             crate::fixtures::try_build::<dead_reckoning::DeadReckoning>(Default::default(), &ds.models(), 1).unwrap();

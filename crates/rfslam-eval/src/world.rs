@@ -60,6 +60,24 @@ impl<const X: usize, const M: usize> WorldStep<X, M> {
     }
 }
 
+/// The GOSPA of the radio world's landmarks of one kind, from the GOSPA of each mark
+/// (`per_mark`, indexed by mark): the terms of the kind's marks summed, so that an estimate
+/// scores only against true landmarks of its own mark (a virtual anchor of one base station
+/// is never another's); with one base station, the one mark's GOSPA. `None` when no mark of
+/// the kind is scored.
+pub fn kind_gospa(per_mark: &[Gospa], kind: rfslam_core::model::LandmarkType, p: f64) -> Option<f64> {
+    use rfslam_core::model::{LandmarkMark, RadioMark};
+    let mut of_kind =
+        RadioMark::ALL.iter().filter(|m| m.kind == kind).filter_map(|m| per_mark.get(usize::from(m.index())));
+    let first = of_kind.next()?;
+    let mut rest = of_kind.peekable();
+    if rest.peek().is_none() {
+        return Some(first.total);
+    }
+    let terms = |g: &Gospa| g.loc_term + g.missed_term + g.false_term;
+    Some((terms(first) + rest.map(terms).sum::<f64>()).powf(1.0 / p))
+}
+
 /// Runs `step` (one recursion of a filter, returning its report and estimate) over every
 /// scan of `run` with the filter stream of `seed` (`stream(&[seed, purpose::FILTER])`),
 /// scoring each step.
@@ -126,13 +144,13 @@ impl RadioCase {
 
     /// The mapped landmarks (the base station left out), GOSPA p = 2, c = 20 m.
     pub fn scoring(&self) -> WorldScoring<3> {
-        use rfslam_core::model::LandmarkType;
+        use rfslam_core::model::{LandmarkMark, LandmarkType};
         let truth = self
             .world
             .landmarks
             .iter()
-            .filter(|l| l.2 != LandmarkType::BaseStation)
-            .map(|l| (l.2.mark(), l.1))
+            .filter(|l| l.2.kind != LandmarkType::BaseStation)
+            .map(|l| (l.2.index(), l.1))
             .collect();
         WorldScoring { truth, marks: 3, c: 20.0, p: 2.0 }
     }
@@ -175,7 +193,32 @@ impl RadioCase {
 
     /// Whether some estimate of `step` lies within 5 m of the base station.
     pub fn near_base_station(step: &WorldStep<5, 3>) -> bool {
-        let bs = rfslam_core::model::RadioSensor::published().base_station;
+        let bs = rfslam_core::model::RadioSensor::published().base_station();
         step.estimate.map.iter().any(|p| (p.position - bs).norm() <= 5.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rfslam_core::model::{LandmarkMark, LandmarkType, RadioMark};
+
+    /// The virtual anchors' GOSPA of two base stations is the GOSPA of their union with an
+    /// estimate scored only against its own base station's anchors: a second base station's
+    /// anchor estimated at the first one's anchor is false there and misses its own; with one
+    /// base station it is that mark's GOSPA; a kind with no mark scored is `None`.
+    #[test]
+    fn kind_gospa_scores_each_base_stations_anchors_apart() {
+        let (va0, va1) = (RadioMark::virtual_anchor(0).index(), RadioMark::virtual_anchor(1).index());
+        let at = |x: f64| SVector::<f64, 3>::new(x, 0.0, 0.0);
+        let truth = vec![(va0, at(0.0)), (va1, at(100.0))];
+        let est = vec![(va0, at(1.0)), (va1, at(0.0))];
+        let mut scratch = (Vec::new(), Vec::new());
+        let g = gospa_per_mark(&truth, &est, 5, 20.0, 2.0, &mut scratch).unwrap();
+        let va = kind_gospa(&g, LandmarkType::VirtualAnchor, 2.0).unwrap();
+        // 1 m localisation, one false and one missed landmark at c^2 / 2 each.
+        assert!((va - (1.0f64 + 400.0).sqrt()).abs() < 1e-12, "{va}");
+        assert_eq!(kind_gospa(&g[..3], LandmarkType::VirtualAnchor, 2.0), Some(g[1].total));
+        assert_eq!(kind_gospa(&g[..1], LandmarkType::ScatteringPoint, 2.0), None);
     }
 }

@@ -96,7 +96,7 @@ impl Visitor for JobRun<'_> {
         let entry = registry::find(&f.name).ok_or_else(|| HarnessError::Run(format!("unknown filter {}", f.name)))?;
         registry::check_dataset(entry, &dataset)
             .map_err(|reason| HarnessError::UnsuitedData { filter: f.label.clone(), reason })?;
-        let models = W::models(&dataset).map_err(HarnessError::Data)?;
+        let models = W::dataset_models(&dataset).map_err(HarnessError::Data)?;
         let mut filter = registry::build_in(&f.params, &models, job.particles, &f.name)
             .map_err(|source| HarnessError::Parameter { filter: f.label.clone(), source })?;
         let metrics = &plan.config.metrics;
@@ -117,9 +117,12 @@ impl Visitor for JobRun<'_> {
             }
             est.clear();
             est.extend(rec.estimate.map.iter().map(|p| (p.mark, p.position)));
+            let kinds = [LandmarkType::VirtualAnchor, LandmarkType::ScatteringPoint];
             let gospa =
                 rfslam_metrics::gospa_per_mark(&truth, &est, marks, metrics.gospa_c, metrics.gospa_p, &mut scratch)
-                    .map_or_else(|_| vec![f64::NAN; marks], |g| g.iter().map(|g| g.total).collect());
+                    .map_or([Some(f64::NAN); 2], |g| {
+                        kinds.map(|k| rfslam_eval::world::kind_gospa(&g, k, metrics.gospa_p))
+                    });
             steps.push(StepRow { t: rec.t, pose, gospa, landmarks: rec.estimate.map.len() });
         });
         // Truth that scores no step is a misconfiguration worth one warning per sweep.
@@ -175,7 +178,8 @@ pub const STEPS_HEADER: &str = "step,t_s,pos_err_m,head_err_deg,clock_err_m,va_g
 struct StepRow {
     t: f64,
     pose: rfslam_metrics::PoseErrors,
-    gospa: Vec<f64>,
+    /// The GOSPA of the virtual anchors and of the scattering points.
+    gospa: [Option<f64>; 2],
     landmarks: usize,
 }
 
@@ -190,7 +194,7 @@ fn write_steps(dir: &Path, plan: &Plan, job: &Job, steps: &[StepRow]) -> Result<
     let mut text = format!("{STEPS_HEADER}\n");
     for (k, s) in steps.iter().enumerate() {
         let opt = |v: Option<f64>| v.map(|v| v.to_string()).unwrap_or_default();
-        let gospa = |t: LandmarkType| s.gospa.get(usize::from(t.mark())).map(|g| g.to_string()).unwrap_or_default();
+        let [va, sp] = s.gospa.map(opt);
         let _ = writeln!(
             text,
             "{k},{},{},{},{},{},{},{}",
@@ -198,8 +202,8 @@ fn write_steps(dir: &Path, plan: &Plan, job: &Job, steps: &[StepRow]) -> Result<
             opt(s.pose.pos_rmse()),
             opt(s.pose.head_rmse_deg()),
             opt(s.pose.clock_rmse()),
-            gospa(LandmarkType::VirtualAnchor),
-            gospa(LandmarkType::ScatteringPoint),
+            va,
+            sp,
             s.landmarks
         );
     }

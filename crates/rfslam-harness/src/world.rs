@@ -17,7 +17,7 @@ use rfslam_core::model::{
     BearingOnlyModel, RadioSensor, RadioVehicle, RangeBearingModel, RelativePositionModel, StateComponent,
     VehicleModel, WorldVehicle,
 };
-use rfslam_core::{InvertibleSensorModel, Motion, PlanarSensor, PlanarSensorModel, WorldModels};
+use rfslam_core::{InvertibleSensorModel, Motion, PlanarSensor, PlanarSensorModel, SensorModel, WorldModels};
 use rfslam_data::{DataError, Dataset, DatasetModels, ModelConfig, RadioModels, RadioScenario, ScenarioConfig};
 use rfslam_sim::ScenarioData;
 
@@ -65,6 +65,25 @@ pub trait World<const X: usize, const M: usize, const Z: usize>: 'static {
     /// What each state component is (the vehicle model's).
     fn components(models: &WorldModels<Self::Vehicle, Self::Sensor, X, M, Z>) -> [StateComponent; X] {
         models.vehicle.model.components()
+    }
+
+    /// [`World::models`] of the data set `ds`, checked against its scans: each scan's source
+    /// (`scans.csv`'s `source`) is one the sensor has ([`SensorModel::sources`]).
+    #[allow(clippy::type_complexity)]
+    fn dataset_models(
+        ds: &Dataset<Self::Models, X, M, Z>,
+    ) -> Result<WorldModels<Self::Vehicle, Self::Sensor, X, M, Z>, DataError> {
+        let models = Self::models(ds)?;
+        let sources = models.sensor.sources();
+        if let Some(k) = ds.scans.iter().position(|s| s.source >= sources) {
+            return Err(DataError::Mismatch(format!(
+                "data set `{}`: scan {k} (scans.csv) is of source {}, but the {} world's sensor has {sources} source(s)",
+                ds.meta.name,
+                ds.scans[k].source,
+                Self::NAME
+            )));
+        }
+        Ok(models)
     }
 }
 

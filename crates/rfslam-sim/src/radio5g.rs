@@ -5,11 +5,11 @@
 //! 0.5 s, simulated with [`simulate_run`].
 
 use nalgebra::{SVector, Vector3};
-use rfslam_core::model::{LandmarkMark, LandmarkType, RadioSensor, RadioVehicle, Vehicle};
+use rfslam_core::model::{LandmarkMark, LandmarkType, RadioMark, RadioSensor, RadioVehicle, Vehicle};
 use rfslam_core::{Control, Rng, WorldModels};
 use rfslam_data::{
-    DataError, Dataset, DatasetMeta, Landmark, LandmarkTypes, OdometryRow, RADIO_LANDMARK_TYPES, RadioModels,
-    RadioScenario, TruthPose,
+    DataError, Dataset, DatasetMeta, Landmark, LandmarkTypes, OdometryRow, RadioModels, RadioScenario, TruthPose,
+    radio_landmark_types,
 };
 
 use crate::simulate::{SimulatedRun, simulate_run};
@@ -19,8 +19,9 @@ use crate::simulate::{SimulatedRun, simulate_run};
 #[derive(Debug, Clone, PartialEq)]
 pub struct RadioWorld {
     /// Landmarks: the base station (id 0), the virtual anchors (1-4), the scattering points
-    /// (5-8).
-    pub landmarks: Vec<(i64, Vector3<f64>, LandmarkType)>,
+    /// (5-8) of the published world; then, in a world of several base stations, each further
+    /// base station and its virtual anchors.
+    pub landmarks: Vec<(i64, Vector3<f64>, RadioMark)>,
     /// The initial state `[x, y, z, heading, clock bias]`.
     pub x0: SVector<f64, 5>,
     /// The known control `[speed, turn rate, 0]` (m/s, rad/s) of each transition (one scan
@@ -39,12 +40,12 @@ impl RadioWorld {
         let (speed, turn) = (22.22, std::f64::consts::PI / 10.0);
         let va = [(200.0, 0.0), (0.0, 200.0), (-200.0, 0.0), (0.0, -200.0)];
         let sp = [(65.0, 65.0), (65.0, -65.0), (-65.0, -65.0), (-65.0, 65.0)];
-        let mut landmarks = vec![(0, Vector3::new(0.0, 0.0, 40.0), LandmarkType::BaseStation)];
+        let mut landmarks = vec![(0, Vector3::new(0.0, 0.0, 40.0), RadioMark::base_station(0))];
         for (i, &(x, y)) in va.iter().enumerate() {
-            landmarks.push((1 + i as i64, Vector3::new(x, y, 40.0), LandmarkType::VirtualAnchor));
+            landmarks.push((1 + i as i64, Vector3::new(x, y, 40.0), RadioMark::virtual_anchor(0)));
         }
         for (i, (&(x, y), &h)) in sp.iter().zip(&sp_heights).enumerate() {
-            landmarks.push((5 + i as i64, Vector3::new(x, y, h), LandmarkType::ScatteringPoint));
+            landmarks.push((5 + i as i64, Vector3::new(x, y, h), RadioMark::SCATTERING_POINT));
         }
         RadioWorld {
             landmarks,
@@ -55,9 +56,11 @@ impl RadioWorld {
     }
 
     /// The world of a radio scenario (its `[world]` keys, the published world by default):
-    /// the base station (id 0), a virtual anchor per wall (the base station mirrored in it;
-    /// ids 1, 2, ... in the order of `world.walls`), the scattering points (the next ids, in
-    /// the order of `world.scattering_points`) at heights drawn from
+    /// the (first) base station (id 0), a virtual anchor per wall (the base station mirrored
+    /// in it; ids 1, 2, ... in the order of `world.walls`), the scattering points (the next
+    /// ids, in the order of `world.scattering_points`), then each further base station of
+    /// `world.base_stations` and its virtual anchors (the next ids); the scattering points at
+    /// heights drawn from
     /// `U[world.sp_height_min, world.sp_height_max]` with `world.seed` (one draw per point,
     /// once per scenario, shared by every run), and the vehicle's start and known control:
     /// `world.speed` and `world.turn_rate_deg` from `world.start` (by default on the circle
@@ -67,15 +70,24 @@ impl RadioWorld {
         use rand::RngExt;
         let w = &sc.world;
         let mut rng = rfslam_core::rng::stream(&[w.seed, rfslam_core::rng::purpose::WORLD]);
-        let bs = w.base_station;
-        let mut landmarks = vec![(0, Vector3::from(bs), LandmarkType::BaseStation)];
-        for wall in &w.walls {
-            landmarks.push((landmarks.len() as i64, Vector3::from(wall.mirror(bs)), LandmarkType::VirtualAnchor));
-        }
+        let stations = w.base_station_positions();
+        let mut landmarks = Vec::new();
+        let base_station = |landmarks: &mut Vec<(i64, Vector3<f64>, RadioMark)>, s: usize| {
+            let bs = stations[s];
+            landmarks.push((landmarks.len() as i64, Vector3::from(bs), RadioMark::base_station(s as u8)));
+            for wall in &w.walls {
+                let va = Vector3::from(wall.mirror(bs));
+                landmarks.push((landmarks.len() as i64, va, RadioMark::virtual_anchor(s as u8)));
+            }
+        };
+        base_station(&mut landmarks, 0);
         for &[x, y] in &w.scattering_points {
             let u: f64 = rng.random();
             let h = w.sp_height_min + u * (w.sp_height_max - w.sp_height_min);
-            landmarks.push((landmarks.len() as i64, Vector3::new(x, y, h), LandmarkType::ScatteringPoint));
+            landmarks.push((landmarks.len() as i64, Vector3::new(x, y, h), RadioMark::SCATTERING_POINT));
+        }
+        for s in 1..stations.len() {
+            base_station(&mut landmarks, s);
         }
         let turn = w.turn_rate_deg.to_radians();
         let start = w.start.unwrap_or([w.speed / turn, 0.0, 0.0]);
@@ -168,14 +180,14 @@ pub fn radio_filters_vehicle(sc: &RadioScenario, x0: &SVector<f64, 5>) -> Vehicl
 /// landmark type by `filter_noise_scale`). The clutter intensity is the rate over the
 /// clutter box's volume in both.
 pub fn radio_sensor(sc: &RadioScenario, filters: bool) -> RadioSensor {
-    radio_sensor_of(&sc.models(), Vector3::from(sc.world.base_station), filters)
+    let stations: Vec<Vector3<f64>> = sc.world.base_station_positions().into_iter().map(Vector3::from).collect();
+    radio_sensor_of(&sc.models(), &stations, filters)
 }
 
-/// [`radio_sensor`] of the model tables `models` with the base station at `base_station`.
-pub fn radio_sensor_of(models: &RadioModels, base_station: Vector3<f64>, filters: bool) -> RadioSensor {
+/// [`radio_sensor`] of the model tables `models` with the base stations at `base_stations`.
+pub fn radio_sensor_of(models: &RadioModels, base_stations: &[Vector3<f64>], filters: bool) -> RadioSensor {
     let s = &models.sensor;
     let mut out = RadioSensor {
-        base_station,
         sigma: s.sigma,
         noise_scale: if filters { s.filter_noise_scale } else { [1.0; 3] },
         pd: if filters { s.filter_pd } else { s.pd },
@@ -184,9 +196,9 @@ pub fn radio_sensor_of(models: &RadioModels, base_station: Vector3<f64>, filters
         toa_max: models.clutter.toa_max,
         ..RadioSensor::published()
     };
-    out.visibility[LandmarkType::ScatteringPoint.mark() as usize] = s.sp_visibility;
+    out.visibility[LandmarkType::ScatteringPoint as usize] = s.sp_visibility;
     out.kappa = out.clutter_rate / out.clutter_volume();
-    out
+    out.with_base_stations(base_stations)
 }
 
 /// A data set of the radio world: measurements in the radio sensor's components, the
@@ -205,8 +217,10 @@ pub fn radio_dataset(sc: &RadioScenario, seed: u64) -> Result<RadioDataset, Data
     let filters = radio_filters_vehicle(sc, &world.x0);
     let odometry = run.truth.iter().zip(&run.odometry).map(|((t, _), seg)| OdometryRow { t: *t, u: seg.u }).collect();
     let groundtruth = run.truth.iter().map(|(t, x)| TruthPose { t: *t, state: x.data.0[0].map(Some) }).collect();
-    let landmark = |&(id, position, t): &(i64, Vector3<f64>, LandmarkType)| Landmark { id, position, mark: t.mark() };
-    let (anchors, mapped): (Vec<_>, Vec<_>) = world.landmarks.iter().partition(|l| l.2 == LandmarkType::BaseStation);
+    let landmark = |&(id, position, t): &(i64, Vector3<f64>, RadioMark)| Landmark { id, position, mark: t.index() };
+    let (anchors, mapped): (Vec<_>, Vec<_>) =
+        world.landmarks.iter().partition(|l| l.2.kind == LandmarkType::BaseStation);
+    let stations = anchors.len();
     Ok(Dataset {
         meta: DatasetMeta {
             name: sc.name.clone(),
@@ -218,7 +232,7 @@ pub fn radio_dataset(sc: &RadioScenario, seed: u64) -> Result<RadioDataset, Data
             initial_pose: filters.initial_state,
             initial_sigma: filters.initial_sigma,
             models: sc.models(),
-            landmarks: LandmarkTypes { types: RADIO_LANDMARK_TYPES.map(String::from).to_vec() },
+            landmarks: LandmarkTypes { types: radio_landmark_types(stations) },
         },
         scans: run.scans,
         odometry,
@@ -230,18 +244,44 @@ pub fn radio_dataset(sc: &RadioScenario, seed: u64) -> Result<RadioDataset, Data
 
 /// The models the filters assume on a radio data set: the vehicle of its `[vehicle]` table
 /// with the prior of its `[initial_pose]` and `[initial_sigma]` (the control known, so no
-/// control noise), the sensor of its
-/// `[sensor]` and `[clutter]` tables with the base station of its `anchors.csv`, and the
-/// landmark types by id of its landmarks and anchors (for the oracle).
+/// control noise), the sensor of its `[sensor]` and `[clutter]` tables with the base stations
+/// of its `anchors.csv` (one row of type `base_station`, then one of `base_station_s` for each
+/// further base station `s`), and the landmark types by id of its landmarks and anchors (for
+/// the oracle). The data set's types must be those of its base stations, in order
+/// (`base_station`, `virtual_anchor`, `scattering_point`, then `base_station_1`,
+/// `virtual_anchor_1`, ...).
 pub fn radio_world_models(ds: &RadioDataset) -> Result<RadioWorldModels, DataError> {
-    let bs = LandmarkType::BaseStation.mark();
-    let base_station = ds.anchors.iter().find(|a| a.mark == bs).ok_or_else(|| {
-        DataError::Mismatch(format!(
-            "data set `{}`: the radio5g world needs its base station, a row of type base_station in anchors.csv",
-            ds.meta.name
-        ))
-    })?;
-    let types = ds.landmarks.iter().flatten().chain(&ds.anchors).map(|l| (l.id, LandmarkType::from_index(l.mark)));
+    let name = &ds.meta.name;
+    let mut stations = Vec::new();
+    for mark in RadioMark::ALL.iter().filter(|m| m.kind == LandmarkType::BaseStation) {
+        match ds.anchors.iter().find(|a| a.mark == mark.index()) {
+            Some(a) => stations.push(a.position),
+            None if stations.is_empty() => {
+                return Err(DataError::Mismatch(format!(
+                    "data set `{name}`: the radio5g world needs its base station, a row of type base_station in anchors.csv"
+                )));
+            }
+            None => break,
+        }
+    }
+    let types = radio_landmark_types(stations.len());
+    if ds.meta.landmarks.types != types {
+        return Err(DataError::Mismatch(format!(
+            "data set `{name}`: a radio5g world of {} base station(s) (anchors.csv) has the landmark types [{}], not [{}] \
+             (dataset.toml [landmarks] types)",
+            stations.len(),
+            types.join(", "),
+            ds.meta.landmarks.types.join(", ")
+        )));
+    }
+    if let Some(bad) = ds.scans.iter().position(|s| usize::from(s.source) >= stations.len()) {
+        return Err(DataError::Mismatch(format!(
+            "data set `{name}`: scan {bad} is of source {}, but anchors.csv holds {} base station(s)",
+            ds.scans[bad].source,
+            stations.len()
+        )));
+    }
+    let types = ds.landmarks.iter().flatten().chain(&ds.anchors).map(|l| (l.id, RadioMark::from_index(l.mark)));
     Ok(WorldModels {
         vehicle: Vehicle {
             model: RadioVehicle { sigma: ds.meta.models.vehicle.sigma },
@@ -249,7 +289,7 @@ pub fn radio_world_models(ds: &RadioDataset) -> Result<RadioWorldModels, DataErr
             initial_state: ds.meta.initial_pose,
             initial_sigma: ds.meta.initial_sigma,
         },
-        sensor: radio_sensor_of(&ds.meta.models, base_station.position, true),
+        sensor: radio_sensor_of(&ds.meta.models, &stations, true),
         landmark_types: types.collect(),
     })
 }
@@ -310,7 +350,7 @@ mod tests {
             speed = 10.0\nturn_rate_deg = 0.0\nstart = [-100.0, 0.0, 0.5]\nstart_heading_deg = 0.0\nclock_bias = 50.0\n";
         let sc = RadioScenario::from_toml_str(text, "s.toml").unwrap();
         let w = RadioWorld::from_scenario(&sc);
-        let types: Vec<LandmarkType> = w.landmarks.iter().map(|l| l.2).collect();
+        let types: Vec<LandmarkType> = w.landmarks.iter().map(|l| l.2.kind).collect();
         assert_eq!(types[0], LandmarkType::BaseStation);
         assert!(types[1..3].iter().all(|t| *t == LandmarkType::VirtualAnchor));
         assert!(types[3..].iter().all(|t| *t == LandmarkType::ScatteringPoint) && types.len() == 6);
@@ -324,7 +364,7 @@ mod tests {
         let run = w.simulate(&still, &radio_sensor(&sc, false), &mut Rng::seed_from_u64(1)).unwrap();
         let end = run.truth[40].1;
         assert!((end - SVector::from([100.0, 0.0, 0.5, 0.0, 50.0])).norm() < 1e-9, "{end}");
-        assert_eq!(radio_sensor(&sc, true).base_station, Vector3::new(150.0, 5.0, 10.0));
+        assert_eq!(radio_sensor(&sc, true).base_station(), Vector3::new(150.0, 5.0, 10.0));
     }
 
     /// With waypoints the noise-free vehicle passes within one step's travel of each

@@ -145,6 +145,7 @@ fn with_components<const Z: usize>(d: Dataset) -> Dataset<ModelConfig, 3, 2, Z> 
             t: s.t,
             z: s.z.iter().map(|z| nalgebra::SVector::<f64, Z>::from_fn(|i, _| z[i])).collect(),
             truth: s.truth,
+            source: s.source,
         })
         .collect();
     Dataset {

@@ -157,7 +157,7 @@ pub fn draw_scan<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const 
     sensor.sample_clutter(x, rng, &mut z);
     labels.resize(z.len(), -1);
     shuffle_scan(&mut z, &mut labels, rng);
-    Scan { t, z, truth: Some(labels) }
+    Scan { t, z, truth: Some(labels), source: 0 }
 }
 
 /// A run simulated in a world of any vehicle and sensor model ([`simulate_run`]): the true
@@ -180,8 +180,10 @@ pub struct SimulatedRun<const X: usize, const Z: usize> {
 /// [`rfslam_core::rbpf::draw_state`]: angles wrapped, held components kept); the filters
 /// receive `u_k + N(0, diag(control_sigma^2))` (zero sigmas: a known control, as the radio
 /// world's speed and turn rate). The draws per step `k`: the process noise of transition
-/// `k` then the control noise (for `k >= 1`), then the scan ([`draw_scan`]). An error if the
-/// process noise cannot be factorised.
+/// `k` then the control noise (for `k >= 1`), then the scan ([`draw_scan`]). A sensor of
+/// several sources ([`SensorModel::sources`]: the radio world's base stations) measures them
+/// in turn, scan `k` from source `k mod sources` (the base stations transmitting in turn). An
+/// error if the process noise cannot be factorised.
 #[allow(clippy::too_many_arguments)]
 pub fn simulate_run<V, S, const X: usize, const M: usize, const Z: usize>(
     vehicle: &V,
@@ -226,7 +228,16 @@ where
             run.odometry.push(ControlSegment { u: noisy, dt });
         }
         run.truth.push((t, x));
-        run.scans.push(draw_scan(sensor, t, &x, landmarks.iter().copied(), rng));
+        let source = (k % usize::from(sensor.sources().max(1))) as u8;
+        let mut scan = if source == 0 {
+            draw_scan(sensor, t, &x, landmarks.iter().copied(), rng)
+        } else {
+            let mut at = sensor.clone();
+            at.set_source(source);
+            draw_scan(&at, t, &x, landmarks.iter().copied(), rng)
+        };
+        scan.source = source;
+        run.scans.push(scan);
     }
     Ok(run)
 }

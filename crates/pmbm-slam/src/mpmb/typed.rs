@@ -61,7 +61,7 @@ where
             let mut q = 0.0;
             for (m, td) in prior.iter().enumerate().filter(|(_, td)| td.ln_w > f64::NEG_INFINITY) {
                 w[m] = td.ln_w.exp();
-                p[m] = model.detection_probability(&mu, &td.mean, &td.cov, S::Mark::ALL[m]);
+                p[m] = model.detection_probability(&mu, &td.mean, &td.cov, model.marks()[m]);
                 q += w[m] * p[m];
             }
             // Survival where the landmark is detectable (1: the static map of [Kim2022]).
@@ -88,7 +88,7 @@ where
                 if p[m] <= 0.0 {
                     continue;
                 }
-                let mark = S::Mark::ALL[m];
+                let mark = model.marks()[m];
                 let Some(l_p) = lower_factor(&td.cov) else {
                     chol += 1;
                     continue;
@@ -158,7 +158,7 @@ where
             let start = ws.born_types.len();
             let mut e = [0.0; MAX_TYPES];
             let mut e_sum = 0.0;
-            for (m, &mark) in S::Mark::ALL.iter().take(nt).enumerate() {
+            for (m, &mark) in model.marks().iter().take(nt).enumerate() {
                 let l_ru = self.l_ru[m].as_ref().filter(|_| model.mapped(mark));
                 let Some(l_ru) = l_ru else {
                     ws.born_types.push(TypeDensity {

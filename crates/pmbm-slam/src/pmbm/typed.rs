@@ -19,7 +19,7 @@
 //! holds that type's mark and density, so that the association, the reduction and the
 //! estimates read one Gaussian as in a world of one type; the per-type densities sit beside
 //! it in [`PmbmDensity::types`], `types[h * T..(h + 1) * T]` for local hypothesis `h` and
-//! the world's `T` types (in [`LandmarkMark::ALL`] order; a type a Bernoulli cannot be has
+//! the world's `T` types (in the order of `SensorModel::marks`; a type a Bernoulli cannot be has
 //! `w_m = 0`). A world of one type keeps no such entries and runs the code of its parent
 //! module unchanged.
 
@@ -27,7 +27,6 @@ use nalgebra::{SMatrix, SVector};
 use rfslam_assign::AssignError;
 use rfslam_assign::tomb::{moment_match, probability};
 use rfslam_core::gaussian::symmetrise;
-use rfslam_core::model::LandmarkMark;
 use rfslam_core::rbpf::log_sum_exp;
 
 use super::{Detection, LN_2PI, LocalHypothesis, PmbmDensity, UpdateSettings, Workspace};
@@ -56,9 +55,11 @@ impl<const M: usize> TypeDensity<M> {
     }
 }
 
-/// The number of landmark types of sensor `S`'s world.
-pub fn type_count<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorModel<X, M, Z>>() -> usize {
-    S::Mark::ALL.len().min(MAX_TYPES)
+/// The number of landmark types of the sensor's world ([`rfslam_core::SensorModel::marks`]).
+pub fn type_count<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorModel<X, M, Z>>(
+    model: &S,
+) -> usize {
+    model.marks().len().min(MAX_TYPES)
 }
 
 /// The per-type densities of a local hypothesis known to be of one type: `h`'s own.
@@ -119,7 +120,7 @@ fn detect<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorMod
         if t.ln_w == f64::NEG_INFINITY || p[m] <= 0.0 {
             continue;
         }
-        let mark = S::Mark::ALL[m];
+        let mark = model.marks()[m];
         let noise = model.noise(mark);
         let lin = model.linearise(x, &t.mean, mark);
         let s_cov = symmetrise(&(lin.hm * t.cov * lin.hm.transpose() + noise));
@@ -191,7 +192,7 @@ pub fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSen
     s: &UpdateSettings,
     ws: &mut Workspace<M>,
 ) -> u32 {
-    let nt = type_count::<X, M, Z, S>();
+    let nt = type_count(model);
     let mut chol = 0;
     ws.types.clear();
     for t in 0..map.tracks() {
@@ -205,7 +206,7 @@ pub fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSen
             if h.r > 0.0 {
                 for (m, td) in prior.iter().enumerate().filter(|(_, td)| td.ln_w > f64::NEG_INFINITY) {
                     w[m] = td.ln_w.exp();
-                    p[m] = model.detection_probability(x, &td.mean, &td.cov, S::Mark::ALL[m]);
+                    p[m] = model.detection_probability(x, &td.mean, &td.cov, model.marks()[m]);
                     p_fov += w[m] * p[m];
                 }
             }
@@ -248,7 +249,7 @@ pub fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSen
         let mut e_sum = 0.0;
         let start = ws.types.len();
         let mut first_mapped = None;
-        for (m, &mark) in S::Mark::ALL.iter().take(nt).enumerate() {
+        for (m, &mark) in model.marks().iter().take(nt).enumerate() {
             if !model.mapped(mark) {
                 ws.types.push(TypeDensity::absent(SVector::zeros(), SMatrix::zeros()));
                 continue;

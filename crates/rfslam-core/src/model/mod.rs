@@ -107,7 +107,7 @@ use crate::detection::{DetectionModel, Fov};
 use crate::gaussian::symmetrise;
 
 pub use bearing_only::{Bearing, BearingOnlyModel};
-pub use radio_sensor::{LandmarkType, RadioSensor};
+pub use radio_sensor::{LandmarkType, MAX_BASE_STATIONS, RadioMark, RadioSensor};
 pub use radio_vehicle::RadioVehicle;
 pub use range_bearing::RangeBearingModel;
 pub use relative_position::{RelativePositionModel, RelativePositionSensor};
@@ -455,6 +455,46 @@ pub trait SensorModel<const X: usize, const M: usize, const Z: usize>:
     fn assume(&self, change: &SensorChange) -> Result<Self, crate::ParamError> {
         change.refused(Self::NAME)?;
         Ok(self.clone())
+    }
+
+    /// The number of sources whose scans the sensor measures: the radio world's base
+    /// stations, each of which transmits the paths of its own scans. A scan's
+    /// [`crate::Scan::source`] is below it. One by default.
+    fn sources(&self) -> u8 {
+        1
+    }
+
+    /// Makes this the sensor as it measures the scans of `source` (below
+    /// [`SensorModel::sources`]): its predictions, fields of view and detection
+    /// probabilities are then that source's. Engines call it with each scan's source before
+    /// they use the sensor on the scan. Nothing changes with one source (the default).
+    fn set_source(&mut self, _source: u8) {}
+
+    /// This sensor as it measures the scans of `source` ([`SensorModel::set_source`] on a
+    /// copy): itself, borrowed, for a sensor of one source, so the planar engines copy
+    /// nothing.
+    fn at_source(&self, source: u8) -> std::borrow::Cow<'_, Self> {
+        if self.sources() <= 1 {
+            std::borrow::Cow::Borrowed(self)
+        } else {
+            let mut at = self.clone();
+            at.set_source(source);
+            std::borrow::Cow::Owned(at)
+        }
+    }
+
+    /// The landmark types of this sensor's world: a prefix of [`LandmarkMark::ALL`] (the radio
+    /// world's types of the base stations it has). Every type by default.
+    fn marks(&self) -> &'static [Self::Mark] {
+        Self::Mark::ALL
+    }
+
+    /// Whether a measurement of the current source can come from a landmark of type `mark`
+    /// (one of the radio world's virtual anchors belongs to one base station, and only that
+    /// base station's scans see it). Births start only such types; a type it does not measure
+    /// is out of view. Every type by default.
+    fn measures(&self, _mark: Self::Mark) -> bool {
+        true
     }
 
     /// Whether the filters map landmarks of type `mark`, starting them from measurements.
@@ -853,14 +893,23 @@ mod tests {
         assert_eq!(v.planar_diagonal([1.0, 2.0, 3.0]), nalgebra::Matrix3::from_diagonal(&Pose::new(1.0, 2.0, 3.0)));
     }
 
-    /// Marks index the types in order and back; an unknown index is the default type.
+    /// Marks index the types in order and back; an unknown index is the default type. The
+    /// radio marks of one base station are the first three, in the kinds' order, and each
+    /// further base station adds its base station and its virtual anchors.
     #[test]
     fn landmark_marks_round_trip() {
-        for (i, &t) in <LandmarkType as LandmarkMark>::ALL.iter().enumerate() {
+        for (i, &t) in <RadioMark as LandmarkMark>::ALL.iter().enumerate() {
             assert_eq!(usize::from(t.index()), i);
-            assert_eq!(LandmarkType::from_index(t.index()), t);
+            assert_eq!(RadioMark::from_index(t.index()), t);
         }
-        assert_eq!(LandmarkType::from_index(9), LandmarkType::default());
+        for (i, k) in LandmarkType::ALL.into_iter().enumerate() {
+            assert_eq!(usize::from(k.mark()), i);
+            assert_eq!(RadioMark::ALL[i].name(), LandmarkType::NAMES[i]);
+        }
+        assert_eq!(RadioMark::virtual_anchor(2).index(), 6);
+        assert_eq!(RadioMark::virtual_anchor(1).name(), "virtual_anchor_1");
+        assert_eq!(RadioMark::marks(2).len(), 5);
+        assert_eq!(RadioMark::from_index(9), RadioMark::default());
         assert_eq!(<() as LandmarkMark>::ALL.len(), 1);
         assert_eq!(().index(), 0);
     }

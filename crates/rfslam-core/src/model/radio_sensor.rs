@@ -11,40 +11,113 @@ use super::{
 };
 use crate::angle::wrap;
 
-/// The type of a landmark of the radio world (\[Kim2022\] Section II: `M = {BS, VA, SP}`), in
-/// the order of the marks of its data sets (`base_station`, `virtual_anchor`,
-/// `scattering_point`).
+/// The kind of a landmark of the radio world (\[Kim2022\] Section II: `M = {BS, VA, SP}`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum LandmarkType {
-    /// The base station (line-of-sight path), known to the filters.
+    /// A base station (line-of-sight path), known to the filters.
     #[default]
     BaseStation,
-    /// A virtual anchor: the mirror image of the base station in a wall (a reflected path).
+    /// A virtual anchor: the mirror image of a base station in a wall (a reflected path).
     VirtualAnchor,
     /// A scattering point (a path scattered at a small object).
     ScatteringPoint,
 }
 
 impl LandmarkType {
-    /// Every type, in the order of the marks.
+    /// Every kind, in the order of the marks of a world of one base station.
     pub const ALL: [LandmarkType; 3] =
         [LandmarkType::BaseStation, LandmarkType::VirtualAnchor, LandmarkType::ScatteringPoint];
 
-    /// The names a data set writes, in the order of the marks.
+    /// The names a data set writes for the types of the first base station.
     pub const NAMES: [&'static str; 3] = ["base_station", "virtual_anchor", "scattering_point"];
 
-    /// The mark (index into [`LandmarkType::ALL`]).
+    /// The mark of this kind of the first base station (its index into [`RadioMark::ALL`]).
     pub fn mark(self) -> u8 {
-        self as u8
+        RadioMark::from(self).index()
     }
 }
 
-impl LandmarkMark for LandmarkType {
-    const ALL: &'static [LandmarkType] = &LandmarkType::ALL;
+/// Most base stations of a radio world: the types of three (a base station and its virtual
+/// anchors each, the scattering points shared) are the seven the PMBM engines' typed
+/// Bernoullis hold at most.
+pub const MAX_BASE_STATIONS: usize = 3;
+
+/// The landmark type of the radio world as the filters carry it: a kind and, for a base
+/// station and a virtual anchor, the base station it belongs to (`source`, the index of the
+/// scans it transmits: [`crate::Scan::source`]). A virtual anchor is the mirror image of one
+/// base station and is seen only in that base station's scans; a scattering point is seen
+/// through every base station (its `source` is 0).
+///
+/// The marks: the first base station's types first, in the order of a world of one base
+/// station (`0` base station, `1` virtual anchor, `2` scattering point), then two per further
+/// base station (`3 + 2 (s - 1)` its base station, one more its virtual anchors), so a world
+/// of one base station has the same marks as before the others existed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct RadioMark {
+    /// The kind.
+    pub kind: LandmarkType,
+    /// The base station of a base station or a virtual anchor (0 for a scattering point).
+    pub source: u8,
+}
+
+impl RadioMark {
+    /// Every type of a world of [`MAX_BASE_STATIONS`] base stations, in the order of the marks.
+    pub const ALL: [RadioMark; 1 + 2 * MAX_BASE_STATIONS] = {
+        let mut all = [RadioMark { kind: LandmarkType::ScatteringPoint, source: 0 }; 1 + 2 * MAX_BASE_STATIONS];
+        let mut s = 0;
+        while s < MAX_BASE_STATIONS {
+            let i = if s == 0 { 0 } else { 1 + 2 * s };
+            all[i] = RadioMark { kind: LandmarkType::BaseStation, source: s as u8 };
+            all[i + 1] = RadioMark { kind: LandmarkType::VirtualAnchor, source: s as u8 };
+            s += 1;
+        }
+        all
+    };
+
+    /// The base station of `source`.
+    pub const fn base_station(source: u8) -> RadioMark {
+        RadioMark { kind: LandmarkType::BaseStation, source }
+    }
+
+    /// A virtual anchor of the base station of `source`.
+    pub const fn virtual_anchor(source: u8) -> RadioMark {
+        RadioMark { kind: LandmarkType::VirtualAnchor, source }
+    }
+
+    /// A scattering point.
+    pub const SCATTERING_POINT: RadioMark = RadioMark { kind: LandmarkType::ScatteringPoint, source: 0 };
+
+    /// The name a data set writes: the kind's ([`LandmarkType::NAMES`]) for the first base
+    /// station and the scattering points, with `_s` after it for base station `s > 0`
+    /// (`virtual_anchor_1`).
+    pub fn name(self) -> String {
+        let kind = LandmarkType::NAMES[self.kind as usize];
+        if self.source == 0 { kind.to_string() } else { format!("{kind}_{}", self.source) }
+    }
+
+    /// The marks of a world of `base_stations` base stations (1 to [`MAX_BASE_STATIONS`]).
+    pub fn marks(base_stations: usize) -> &'static [RadioMark] {
+        &RadioMark::ALL[..1 + 2 * base_stations.clamp(1, MAX_BASE_STATIONS)]
+    }
+}
+
+impl From<LandmarkType> for RadioMark {
+    /// The kind of the first base station.
+    fn from(kind: LandmarkType) -> RadioMark {
+        RadioMark { kind, source: 0 }
+    }
+}
+
+impl LandmarkMark for RadioMark {
+    const ALL: &'static [RadioMark] = &RadioMark::ALL;
 
     #[inline]
     fn index(self) -> u8 {
-        self.mark()
+        match (self.kind, self.source) {
+            (LandmarkType::ScatteringPoint, _) => 2,
+            (k, 0) => k as u8,
+            (k, s) => 1 + 2 * s + k as u8,
+        }
     }
 }
 
@@ -133,8 +206,13 @@ fn reflection_point(
 /// `kappa` per m rad^4.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RadioSensor {
-    /// The base station position `B` (m).
-    pub base_station: Vector3<f64>,
+    /// The base stations' positions (m), the first [`RadioSensor::sources`] of them used.
+    pub base_stations: [Vector3<f64>; MAX_BASE_STATIONS],
+    /// The number of base stations (1 to [`MAX_BASE_STATIONS`]).
+    pub sources: u8,
+    /// The base station whose scan the sensor measures ([`SensorModel::set_source`]): `B`
+    /// above.
+    pub source: u8,
     /// Standard deviations of `[toa, dod_az, dod_el, doa_az, doa_el]` (m, rad x 4).
     pub sigma: [f64; 5],
     /// Scale of `R` per landmark type (base station, virtual anchor, scattering point).
@@ -161,7 +239,9 @@ impl RadioSensor {
     /// scan uniform over 0-200 m of TOA and the angle box, `kappa = 1 / volume`.
     pub fn published() -> RadioSensor {
         let mut s = RadioSensor {
-            base_station: Vector3::new(0.0, 0.0, 40.0),
+            base_stations: [Vector3::new(0.0, 0.0, 40.0); MAX_BASE_STATIONS],
+            sources: 1,
+            source: 0,
             sigma: [0.1, 0.01, 0.01, 0.01, 0.01],
             noise_scale: [1.0, 1.0, 1.0],
             visibility: [f64::INFINITY, f64::INFINITY, 50.0],
@@ -175,6 +255,24 @@ impl RadioSensor {
         s
     }
 
+    /// This sensor with the base stations `positions` (1 to [`MAX_BASE_STATIONS`]; more are
+    /// left out), measuring the first one's scans.
+    pub fn with_base_stations(mut self, positions: &[Vector3<f64>]) -> RadioSensor {
+        let n = positions.len().clamp(1, MAX_BASE_STATIONS);
+        for (i, p) in positions.iter().take(n).enumerate() {
+            self.base_stations[i] = *p;
+        }
+        self.sources = n as u8;
+        self.source = 0;
+        self
+    }
+
+    /// The position `B` of the base station whose scan the sensor measures.
+    #[inline]
+    pub fn base_station(&self) -> Vector3<f64> {
+        self.base_stations[usize::from(self.source)]
+    }
+
     /// The volume of the clutter box, `toa_max (2 pi)^2 pi^2` (m rad^4).
     pub fn clutter_volume(&self) -> f64 {
         use std::f64::consts::{PI, TAU};
@@ -184,6 +282,7 @@ impl RadioSensor {
     /// `h(x, m, t)` with `H_x` (`5 x 5`) and `H_m` (`5 x 3`).
     #[inline]
     fn measure(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, t: LandmarkType) -> Linearised<5, 3, 5> {
+        let base_station = self.base_station();
         let v = Vector3::new(x[0], x[1], x[2]);
         let mut hx = SMatrix::<f64, 5, 5>::zeros();
         let mut hm = SMatrix::<f64, 5, 3>::zeros();
@@ -210,8 +309,8 @@ impl RadioSensor {
                 d
             }
             LandmarkType::VirtualAnchor => {
-                let (p, dp_dv, dp_dm) = reflection_point(&self.base_station, m, &v);
-                let d = Direction::of(&(p - self.base_station));
+                let (p, dp_dv, dp_dm) = reflection_point(&base_station, m, &v);
+                let d = Direction::of(&(p - base_station));
                 hx.fixed_view_mut::<1, 3>(1, 0).copy_from(&(d.d_az * dp_dv));
                 hx.fixed_view_mut::<1, 3>(2, 0).copy_from(&(d.d_el * dp_dv));
                 hm.fixed_view_mut::<1, 3>(1, 0).copy_from(&(d.d_az * dp_dm));
@@ -219,7 +318,7 @@ impl RadioSensor {
                 d
             }
             LandmarkType::ScatteringPoint => {
-                let d = Direction::of(&(m - self.base_station));
+                let d = Direction::of(&(m - base_station));
                 toa += d.r;
                 let mut row = hm.fixed_view_mut::<1, 3>(0, 0);
                 row += d.d_r;
@@ -234,7 +333,7 @@ impl RadioSensor {
 }
 
 impl SensorModel<5, 3, 5> for RadioSensor {
-    type Mark = LandmarkType;
+    type Mark = RadioMark;
 
     const NAME: &'static str = "radio5g";
 
@@ -249,23 +348,23 @@ impl SensorModel<5, 3, 5> for RadioSensor {
     }
 
     #[inline]
-    fn predict(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, mark: LandmarkType) -> SVector<f64, 5> {
-        self.measure(x, m, mark).z
+    fn predict(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, mark: RadioMark) -> SVector<f64, 5> {
+        self.measure(x, m, mark.kind).z
     }
 
     #[inline]
-    fn linearise(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, mark: LandmarkType) -> Linearised<5, 3, 5> {
-        self.measure(x, m, mark)
+    fn linearise(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, mark: RadioMark) -> Linearised<5, 3, 5> {
+        self.measure(x, m, mark.kind)
     }
 
-    fn noise(&self, mark: LandmarkType) -> SMatrix<f64, 5, 5> {
-        let s = self.noise_scale[mark as usize];
+    fn noise(&self, mark: RadioMark) -> SMatrix<f64, 5, 5> {
+        let s = self.noise_scale[mark.kind as usize];
         SMatrix::from_diagonal(&SVector::from(self.sigma.map(|v| s * v * v)))
     }
 
-    fn in_fov(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, mark: LandmarkType) -> bool {
+    fn in_fov(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, mark: RadioMark) -> bool {
         let d = Vector3::new(m.x - x[0], m.y - x[1], m.z - x[2]).norm();
-        d <= self.visibility[mark as usize]
+        self.measures(mark) && d <= self.visibility[mark.kind as usize]
     }
 
     fn detection_probability(
@@ -273,7 +372,7 @@ impl SensorModel<5, 3, 5> for RadioSensor {
         x: &SVector<f64, 5>,
         m: &Vector3<f64>,
         _cov: &Matrix3<f64>,
-        mark: LandmarkType,
+        mark: RadioMark,
     ) -> f64 {
         if self.in_fov(x, m, mark) { self.pd } else { 0.0 }
     }
@@ -286,40 +385,58 @@ impl SensorModel<5, 3, 5> for RadioSensor {
         self.clutter_rate
     }
 
-    fn pd_true(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, mark: LandmarkType) -> f64 {
+    fn pd_true(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, mark: RadioMark) -> f64 {
         if self.in_fov(x, m, mark) { self.pd_true } else { 0.0 }
     }
 
-    /// The base station is known (\[Kim2022\] Section II): virtual anchors and scattering
+    /// The base stations, each transmitting its own scans.
+    fn sources(&self) -> u8 {
+        self.sources
+    }
+
+    fn set_source(&mut self, source: u8) {
+        self.source = source.min(self.sources.saturating_sub(1));
+    }
+
+    /// A base station and the virtual anchors of each base station, and the scattering points.
+    fn marks(&self) -> &'static [RadioMark] {
+        RadioMark::marks(usize::from(self.sources))
+    }
+
+    /// A scan of one base station holds the paths of that base station (line of sight and its
+    /// virtual anchors) and of every scattering point.
+    fn measures(&self, mark: RadioMark) -> bool {
+        mark.kind == LandmarkType::ScatteringPoint || mark.source == self.source
+    }
+
+    /// The base stations are known (\[Kim2022\] Section II): virtual anchors and scattering
     /// points are mapped.
-    fn mapped(&self, mark: LandmarkType) -> bool {
-        mark != LandmarkType::BaseStation
+    fn mapped(&self, mark: RadioMark) -> bool {
+        mark.kind != LandmarkType::BaseStation
     }
 
     /// The virtual anchors everywhere, the scattering points within their visibility radius
-    /// of the vehicle (a 3-D ball), each with the filters' `p_D` (the types' visibility).
-    fn detection_region(&self, mark: LandmarkType) -> Option<DetectionRegion> {
-        let radius = self.visibility[mark as usize];
-        Some(if radius.is_finite() {
-            DetectionRegion::Ball { radius, pd: self.pd }
-        } else {
-            DetectionRegion::Everywhere { pd: self.pd }
-        })
+    /// of the vehicle (a 3-D ball), each with the filters' `p_D` (the types' visibility); the
+    /// types of another base station in the same region with `p_D = 0`.
+    fn detection_region(&self, mark: RadioMark) -> Option<DetectionRegion> {
+        let radius = self.visibility[mark.kind as usize];
+        let pd = if self.measures(mark) { self.pd } else { 0.0 };
+        Some(if radius.is_finite() { DetectionRegion::Ball { radius, pd } } else { DetectionRegion::Everywhere { pd } })
     }
 
-    /// The base station at its known position.
-    fn anchors(&self) -> Vec<(Vector3<f64>, LandmarkType)> {
-        vec![(self.base_station, LandmarkType::BaseStation)]
+    /// The base stations at their known positions.
+    fn anchors(&self) -> Vec<(Vector3<f64>, RadioMark)> {
+        (0..self.sources).map(|s| (self.base_stations[usize::from(s)], RadioMark::base_station(s))).collect()
     }
 
     fn sample<R: rand::Rng + ?Sized>(
         &self,
         x: &SVector<f64, 5>,
         m: &Vector3<f64>,
-        mark: LandmarkType,
+        mark: RadioMark,
         rng: &mut R,
     ) -> SVector<f64, 5> {
-        let s = self.noise_scale[mark as usize].sqrt();
+        let s = self.noise_scale[mark.kind as usize].sqrt();
         let mut z = self.predict(x, m, mark);
         for (i, sigma) in self.sigma.iter().enumerate() {
             let e: f64 = StandardNormal.sample(rng);
@@ -373,18 +490,18 @@ fn unit_direction(theta: f64, phi: f64) -> (Vector3<f64>, Vector3<f64>, Vector3<
 /// is from the one the inverse predicts. (For `Z = M` it is the planar models'
 /// `1 / |det H_m|`.)
 impl InvertibleSensorModel<5, 3, 5> for RadioSensor {
-    fn inverse(&self, x: &SVector<f64, 5>, z: &SVector<f64, 5>, mark: LandmarkType) -> Inverse<5, 3, 5> {
+    fn inverse(&self, x: &SVector<f64, 5>, z: &SVector<f64, 5>, mark: RadioMark) -> Inverse<5, 3, 5> {
         let v = Vector3::new(x[0], x[1], x[2]);
         let l = z[0] - x[4];
         let (u, du_dt, du_dp) = unit_direction(z[3] + x[3], z[4]);
         let mut jz = SMatrix::<f64, 3, 5>::zeros();
         let mut jx = SMatrix::<f64, 3, 5>::zeros();
-        let (m, dm_dl, dm_dt, dm_dp, dm_dv) = match mark {
+        let (m, dm_dl, dm_dt, dm_dp, dm_dv) = match mark.kind {
             LandmarkType::BaseStation | LandmarkType::VirtualAnchor => {
                 (v + u * l, u, du_dt * l, du_dp * l, Matrix3::identity())
             }
             LandmarkType::ScatteringPoint => {
-                let c = v - self.base_station;
+                let c = v - self.base_station();
                 let d = c.dot(&u) + l;
                 let t = (l * l - c.norm_squared()) / (2.0 * d);
                 // dt/dL = (L - t) / D, dt/dc = -(c + t u)^T / D, dt/du = -t c^T / D.
@@ -404,9 +521,9 @@ impl InvertibleSensorModel<5, 3, 5> for RadioSensor {
         Inverse { m, jz, jx }
     }
 
-    fn birth_integral(&self, x: &SVector<f64, 5>, z: &SVector<f64, 5>, mark: LandmarkType) -> f64 {
+    fn birth_integral(&self, x: &SVector<f64, 5>, z: &SVector<f64, 5>, mark: RadioMark) -> f64 {
         let m = self.inverse(x, z, mark).m;
-        let lin = self.measure(x, &m, mark);
+        let lin = self.measure(x, &m, mark.kind);
         let r = self.residual(z, &lin.z);
         let Some(r_ch) = self.noise(mark).cholesky() else { return 0.0 };
         // W = L_R^-1 H_m, y = L_R^-1 r: H^T R^-1 H = W^T W, and the exponent is the part of y
@@ -432,6 +549,10 @@ mod tests {
     use crate::model::conformance::check_sensor_model;
     use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
+    const BS: RadioMark = RadioMark::base_station(0);
+    const VA: RadioMark = RadioMark::virtual_anchor(0);
+    const SP: RadioMark = RadioMark::SCATTERING_POINT;
+
     fn state(x: f64, y: f64, heading: f64) -> SVector<f64, 5> {
         SVector::from([x, y, 0.0, heading, 300.0])
     }
@@ -441,7 +562,7 @@ mod tests {
         let s = RadioSensor::published();
         // The vehicle at its start (70.73, 0, 0) heading north (+y).
         let r = 70.7285;
-        let z = s.predict(&state(r, 0.0, FRAC_PI_2), &s.base_station, LandmarkType::BaseStation);
+        let z = s.predict(&state(r, 0.0, FRAC_PI_2), &s.base_station(), BS);
         let d = (r * r + 40.0f64 * 40.0).sqrt();
         assert!((z[0] - (d + 300.0)).abs() < 1e-9, "toa {}", z[0]);
         // DOD: from the BS towards the vehicle, azimuth 0 (along +x), looking down.
@@ -462,15 +583,15 @@ mod tests {
         // the VA, p = v + t (m - v) with x = 100: t = 1/2, p = (100, -25, 20).
         let x = state(0.0, -50.0, 0.0);
         let m = Vector3::new(200.0, 0.0, 40.0);
-        let (p, _, _) = reflection_point(&s.base_station, &m, &Vector3::new(0.0, -50.0, 0.0));
+        let (p, _, _) = reflection_point(&s.base_station(), &m, &Vector3::new(0.0, -50.0, 0.0));
         assert!((p - Vector3::new(100.0, -25.0, 20.0)).norm() < 1e-9, "{p}");
-        let z = s.predict(&x, &m, LandmarkType::VirtualAnchor);
+        let z = s.predict(&x, &m, VA);
         // TOA = |m - v| + b = |BS - p| + |p - v| + b (the reflected path's length).
-        let path = (p - s.base_station).norm() + (p - Vector3::new(0.0, -50.0, 0.0)).norm();
+        let path = (p - s.base_station()).norm() + (p - Vector3::new(0.0, -50.0, 0.0)).norm();
         assert!((z[0] - 300.0 - path).abs() < 1e-9);
         // DOD towards p: azimuth atan2(-25, 100), elevation asin(-20 / |p - BS|).
         assert!((z[1] - (-25.0f64).atan2(100.0)).abs() < 1e-12);
-        assert!((z[2] - (-20.0 / (p - s.base_station).norm()).asin()).abs() < 1e-12);
+        assert!((z[2] - (-20.0 / (p - s.base_station()).norm()).asin()).abs() < 1e-12);
         // DOA from the VA's direction: atan2(50, 200) relative to heading 0, looking up.
         assert!((z[3] - 50.0f64.atan2(200.0)).abs() < 1e-12 && z[4] > 0.0);
     }
@@ -481,8 +602,8 @@ mod tests {
         // An SP at (-65, 65, 20) seen from (-40, 40, 0) heading -3 rad (about -172 deg).
         let x = state(-40.0, 40.0, -3.0);
         let m = Vector3::new(-65.0, 65.0, 20.0);
-        let z = s.predict(&x, &m, LandmarkType::ScatteringPoint);
-        let (dv, db) = ((m - Vector3::new(-40.0, 40.0, 0.0)).norm(), (m - s.base_station).norm());
+        let z = s.predict(&x, &m, SP);
+        let (dv, db) = ((m - Vector3::new(-40.0, 40.0, 0.0)).norm(), (m - s.base_station()).norm());
         assert!((z[0] - (dv + db + 300.0)).abs() < 1e-9);
         // DOD of m - B = (-65, 65, -20): azimuth 3 pi / 4, elevation negative.
         assert!((z[1] - 3.0 * FRAC_PI_4).abs() < 1e-12 && z[2] < 0.0);
@@ -490,13 +611,10 @@ mod tests {
         let want = 3.0 * FRAC_PI_4 + 3.0 - 2.0 * PI;
         assert!((z[3] - want).abs() < 1e-12 && (-PI..PI).contains(&z[3]), "doa az {}", z[3]);
         // Out of view beyond 50 m; the BS and VAs always in view.
-        assert!(s.in_fov(&x, &m, LandmarkType::ScatteringPoint));
-        assert!(!s.in_fov(&state(70.0, 0.0, 0.0), &m, LandmarkType::ScatteringPoint));
-        assert!(s.in_fov(&state(70.0, 0.0, 0.0), &Vector3::new(0.0, -200.0, 40.0), LandmarkType::VirtualAnchor));
-        assert_eq!(
-            s.detection_probability(&state(70.0, 0.0, 0.0), &m, &Matrix3::identity(), LandmarkType::ScatteringPoint),
-            0.0
-        );
+        assert!(s.in_fov(&x, &m, SP));
+        assert!(!s.in_fov(&state(70.0, 0.0, 0.0), &m, SP));
+        assert!(s.in_fov(&state(70.0, 0.0, 0.0), &Vector3::new(0.0, -200.0, 40.0), VA));
+        assert_eq!(s.detection_probability(&state(70.0, 0.0, 0.0), &m, &Matrix3::identity(), SP), 0.0);
         // The note's clutter density 1.2832e-5 per m rad^4.
         assert!((s.kappa - 1.2832e-5).abs() < 1e-9);
     }
@@ -516,12 +634,12 @@ mod tests {
             let mut st = state(x, y, h);
             st[2] = 0.5 * k as f64;
             st[4] = 300.0 - 7.0 * k as f64;
-            cases.push((st, s.base_station, LandmarkType::BaseStation));
+            cases.push((st, s.base_station(), BS));
             for va in [[200.0, 0.0, 40.0], [0.0, 200.0, 40.0], [-200.0, 0.0, 40.0], [0.0, -200.0, 40.0]] {
-                cases.push((st, Vector3::from(va), LandmarkType::VirtualAnchor));
+                cases.push((st, Vector3::from(va), VA));
             }
             let sp = Vector3::new(x + 20.0, y - 25.0, 12.0);
-            cases.push((st, sp, LandmarkType::ScatteringPoint));
+            cases.push((st, sp, SP));
         }
         check_sensor_model(&s, &cases).unwrap();
         // The inverse of every type (its clutter is drawn over the measurement box, not the
@@ -545,11 +663,9 @@ mod tests {
         s.noise_scale = [1.0, 4.0, 9.0];
         let mut rng = crate::Rng::seed_from_u64(7);
         let x = state(10.0, -60.0, -3.0);
-        for (m, mark) in [
-            (Vector3::new(200.0, 0.0, 40.0), LandmarkType::VirtualAnchor),
-            (Vector3::new(30.0, -85.0, 12.0), LandmarkType::ScatteringPoint),
-            (s.base_station, LandmarkType::BaseStation),
-        ] {
+        for (m, mark) in
+            [(Vector3::new(200.0, 0.0, 40.0), VA), (Vector3::new(30.0, -85.0, 12.0), SP), (s.base_station(), BS)]
+        {
             let r = s.noise(mark);
             for dod_off in [0.0, 2.0] {
                 let mut z = s.predict(&x, &m, mark);
@@ -578,9 +694,9 @@ mod tests {
         let s = RadioSensor::published();
         let x = state(10.0, -60.0, -3.0);
         let m = Vector3::new(200.0, 0.0, 40.0);
-        let lin = s.linearise(&x, &m, LandmarkType::VirtualAnchor);
+        let lin = s.linearise(&x, &m, VA);
         assert!(lin.hx.fixed_view::<2, 3>(1, 0).norm() > 1e-4, "the DOD of a VA moves with the vehicle");
-        let sp = s.linearise(&x, &m, LandmarkType::ScatteringPoint);
+        let sp = s.linearise(&x, &m, SP);
         assert_eq!(sp.hx.fixed_view::<2, 3>(1, 0).norm(), 0.0, "the DOD of an SP does not");
     }
 }
