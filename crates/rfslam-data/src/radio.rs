@@ -114,6 +114,18 @@ pub struct RadioWorldConfig {
     /// `turn_rate_deg`. With waypoints `start` is required.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub waypoints: Vec<[f64; 2]>,
+    /// A ground-truth trajectory file instead of the circle or the waypoints: a CSV of
+    /// `t,x,y,z,heading,clock_bias` (s, m, m, m, rad, m; the columns of a radio data set's
+    /// `groundtruth.csv`), a row every `dt` from `t = 0`, at least `steps + 1` rows (the first
+    /// `steps + 1` are driven). The true states are the file's; the filters get the known
+    /// control of each step, the speed and turn rate of the arc from one row's pose that ends
+    /// at the next row's position (its turn the heading change). A relative path is looked up
+    /// as the data sets are (`RFSLAM_DATA`, `../shared/data`, `./data`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub trajectory: Option<std::path::PathBuf>,
+    /// The true states of `trajectory`, as read ([`RadioScenario::load_trajectory`]).
+    #[serde(skip)]
+    pub trajectory_states: Option<std::sync::Arc<Vec<[f64; 5]>>>,
     /// Its start heading (deg).
     pub start_heading_deg: f64,
     /// Its clock bias at the start (m).
@@ -152,6 +164,8 @@ impl Default for RadioWorldConfig {
             turn_rate_deg: 18.0,
             start: None,
             waypoints: Vec::new(),
+            trajectory: None,
+            trajectory_states: None,
             start_heading_deg: 90.0,
             clock_bias: 300.0,
         }
@@ -473,8 +487,18 @@ impl RadioScenario {
         in_range("world.turn_rate_deg", Interval::magnitude(limits::MAX_TURN_RATE_DEG), w.turn_rate_deg)?;
         in_range("world.start_heading_deg", Interval::magnitude(360.0), w.start_heading_deg)?;
         in_range("world.clock_bias", Interval::magnitude(limits::MAX_DISTANCE), w.clock_bias)?;
+        if w.trajectory.is_some() {
+            let other = [(w.start.is_some(), "world.start"), (!w.waypoints.is_empty(), "world.waypoints")];
+            if let Some((_, key)) = other.iter().find(|o| o.0) {
+                return Err(ConfigError::new(
+                    *key,
+                    "must not be given with world.trajectory: the trajectory file gives the start and the drive",
+                ));
+            }
+        }
         match w.start {
             Some(p) => coordinates("world.start", &p)?,
+            None if w.trajectory.is_some() => {}
             None if w.turn_rate_deg == 0.0 => {
                 return Err(ConfigError::new("world.start", "is required with world.turn_rate_deg = 0"));
             }
@@ -505,12 +529,76 @@ impl RadioScenario {
 }
 
 impl RadioScenario {
-    /// Parses and validates a radio scenario; errors name `file_name`, the line and the key.
+    /// Parses and validates a radio scenario and reads its trajectory file; errors name
+    /// `file_name`, the line and the key (or the trajectory file, its line and column).
     pub fn from_toml_str(text: &str, file_name: impl AsRef<std::path::Path>) -> Result<RadioScenario, DataError> {
         let path = file_name.as_ref();
-        let sc: RadioScenario = toml::from_str(text).map_err(|e| DataError::toml(path, text, &e))?;
+        let mut sc: RadioScenario = toml::from_str(text).map_err(|e| DataError::toml(path, text, &e))?;
         sc.validate().map_err(|e| DataError::config_in(path, text, e))?;
+        sc.load_trajectory()?;
         Ok(sc)
+    }
+
+    /// Reads `world.trajectory` (when given) into `world.trajectory_states`: a row every
+    /// `world.dt` from 0 (within 1e-6 s), at least `world.steps + 1` rows (the first
+    /// `world.steps + 1` kept), every value within the plausible bounds, the heading wrapped,
+    /// and each component the vehicle holds (`vehicle.sigma` 0, the height) the same in every
+    /// row. An error names the file, the line and the column.
+    pub fn load_trajectory(&mut self) -> Result<(), DataError> {
+        use crate::csvio::CsvRows;
+        use crate::dataset::limits as data_limits;
+        let Some(rel) = &self.world.trajectory else {
+            self.world.trajectory_states = None;
+            return Ok(());
+        };
+        let path = crate::find::find_data(&rel.to_string_lossy())?;
+        let names = ["x", "y", "z", "heading", "clock_bias"];
+        let mut required = vec!["t"];
+        required.extend(names);
+        let mut r = CsvRows::open(&path, &required, &[])?;
+        let (w, rows) = (&self.world, self.world.steps + 1);
+        let mut states: Vec<[f64; 5]> = Vec::with_capacity(rows);
+        while states.len() < rows && r.next_row()? {
+            let k = states.len();
+            let t = r.bounded_f64(0, data_limits::MAX_TIME, "s")?;
+            if (t - k as f64 * w.dt).abs() > 1e-6 {
+                return Err(r.err(
+                    0,
+                    format!(
+                        "time {t}: row {k} must be at {} s (a row every world.dt = {} s from 0)",
+                        k as f64 * w.dt,
+                        w.dt
+                    ),
+                ));
+            }
+            let mut x = [0.0; 5];
+            for (i, name) in names.iter().enumerate() {
+                x[i] = match *name {
+                    "heading" => rfslam_core::angle::wrap(r.bounded_f64(1 + i, data_limits::MAX_ANGLE, "rad")?),
+                    _ => r.bounded_f64(1 + i, data_limits::MAX_COORDINATE, "m")?,
+                };
+                if k > 0 && self.vehicle.sigma[i] == 0.0 && x[i] != states[0][i] {
+                    return Err(r.err(
+                        1 + i,
+                        format!(
+                            "{name} {} differs from the first row's {}: vehicle.sigma[{i}] = 0 holds it at its start",
+                            x[i], states[0][i]
+                        ),
+                    ));
+                }
+            }
+            states.push(x);
+        }
+        if states.len() < rows {
+            return Err(DataError::Mismatch(format!(
+                "{}: {} rows of states, but world.steps = {} needs {rows}",
+                path.display(),
+                states.len(),
+                w.steps
+            )));
+        }
+        self.world.trajectory_states = Some(std::sync::Arc::new(states));
+        Ok(())
     }
 }
 

@@ -401,13 +401,15 @@ pub fn scenario_from_table(
     from_table(table, origin, ScenarioConfig::validate, ConfigError::to_string)
 }
 
-/// Deserializes and validates a radio scenario table; `origin` says where an error should
-/// point.
+/// Deserializes and validates a radio scenario table and reads its trajectory file; `origin`
+/// says where an error should point.
 pub fn radio_scenario_from_table(
     table: &toml::Table,
     origin: &dyn Fn(&str, String) -> HarnessError,
 ) -> Result<RadioScenario, HarnessError> {
-    from_table(table, origin, RadioScenario::validate, |e| e.message().to_string())
+    let mut sc: RadioScenario = from_table(table, origin, RadioScenario::validate, |e| e.message().to_string())?;
+    sc.load_trajectory().map_err(HarnessError::Data)?;
+    Ok(sc)
 }
 
 /// Deserializes `table` as a `T` and checks it with `validate`; `origin` says where an error

@@ -32,6 +32,6 @@ pub use radio5g::{
     radio_sensor_of, radio_vehicle, radio_world_models,
 };
 pub use scenario::ScenarioData;
-pub use simulate::{SimulatedRun, draw_scan, simulate, simulate_run};
+pub use simulate::{SimulatedRun, draw_scan, simulate, simulate_along, simulate_run};
 pub use victoria_park::VictoriaPark;
 pub use world::World;

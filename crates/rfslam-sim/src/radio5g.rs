@@ -12,7 +12,7 @@ use rfslam_data::{
     radio_landmark_types,
 };
 
-use crate::simulate::{SimulatedRun, simulate_run};
+use crate::simulate::{SimulatedRun, simulate_along, simulate_run};
 
 /// The radio world: its landmarks (id, position, type), the vehicle's start and its known
 /// control, and the steps.
@@ -27,6 +27,9 @@ pub struct RadioWorld {
     /// The known control `[speed, turn rate, 0]` (m/s, rad/s) of each transition (one scan
     /// more than transitions).
     pub controls: Vec<Control>,
+    /// The true states of a trajectory file (`x0` first, one per scan), which the run follows
+    /// instead of drawing the process noise; `None` for a drive of the controls.
+    pub truth: Option<std::sync::Arc<Vec<[f64; 5]>>>,
     /// Step length (s).
     pub dt: f64,
 }
@@ -52,6 +55,7 @@ impl RadioWorld {
             x0: SVector::from([speed / turn, 0.0, 0.0, std::f64::consts::FRAC_PI_2, 300.0]),
             controls: vec![Control::new(speed, turn, 0.0); 40],
             dt: 0.5,
+            truth: None,
         }
     }
 
@@ -89,6 +93,16 @@ impl RadioWorld {
         for s in 1..stations.len() {
             base_station(&mut landmarks, s);
         }
+        if let Some(states) = &w.trajectory_states {
+            let controls = states.windows(2).map(|p| trajectory_control(&p[0], &p[1], w.dt)).collect();
+            return RadioWorld {
+                landmarks,
+                x0: SVector::from(states[0]),
+                controls,
+                dt: w.dt,
+                truth: Some(states.clone()),
+            };
+        }
         let turn = w.turn_rate_deg.to_radians();
         let start = w.start.unwrap_or([w.speed / turn, 0.0, 0.0]);
         let heading = w.start_heading_deg.to_radians();
@@ -102,6 +116,7 @@ impl RadioWorld {
             x0: SVector::from([start[0], start[1], start[2], heading, w.clock_bias]),
             controls,
             dt: w.dt,
+            truth: None,
         }
     }
 
@@ -118,8 +133,28 @@ impl RadioWorld {
         sensor: &RadioSensor,
         rng: &mut Rng,
     ) -> Result<SimulatedRun<5, 5>, DataError> {
-        simulate_run(vehicle, sensor, self.x0, &self.controls, [0.0; 3], self.dt, &self.landmarks, rng)
+        match &self.truth {
+            None => simulate_run(vehicle, sensor, self.x0, &self.controls, [0.0; 3], self.dt, &self.landmarks, rng),
+            Some(states) => {
+                let states: Vec<SVector<f64, 5>> = states.iter().map(|x| SVector::from(*x)).collect();
+                Ok(simulate_along(sensor, &states, &self.controls, self.dt, &self.landmarks, rng))
+            }
+        }
     }
+}
+
+/// The known control of the step from the state `a` to the state `b` of a trajectory file:
+/// the turn rate of the heading change, `omega = wrap(h_b - h_a) / dt`, and the speed of the
+/// arc of that turn from `a`'s pose through `b`'s position, `v = c omega / (2 sin(omega dt /
+/// 2))` for the chord `c` between the two horizontal positions (`c / dt` without a turn). The
+/// velocity model's noise-free step from `a` with it ends at `b` when `b` lies on that arc;
+/// otherwise the difference is process noise the filters must absorb.
+pub fn trajectory_control(a: &[f64; 5], b: &[f64; 5], dt: f64) -> Control {
+    let omega = rfslam_core::angle::wrap(b[3] - a[3]) / dt;
+    let chord = (b[0] - a[0]).hypot(b[1] - a[1]);
+    let half = omega * dt / 2.0;
+    let v = if half.abs() < 1e-9 { chord / dt } else { chord * omega / (2.0 * half.sin()) };
+    Control::new(v, omega, 0.0)
 }
 
 /// The known controls of `steps` transitions of `dt` driving from the pose `start`
@@ -392,6 +427,65 @@ mod tests {
             }
         }
         assert!(passed.len() >= 5 && passed.iter().enumerate().all(|(k, i)| *i == k % 3), "{passed:?}");
+    }
+
+    /// A trajectory file drives the run: its rows are the true states, and the known control
+    /// of each step is the arc between two rows (the published circle's file gives back its
+    /// speed and turn rate); a file that does not fit the scenario is refused, naming the file,
+    /// the line and the column, and `world.start` beside it names the key.
+    #[test]
+    fn a_trajectory_file_gives_the_truth_and_the_controls() {
+        use rfslam_core::VehicleModel;
+        let tmp = rfslam_data::testutil::TempDir::new("radio-trajectory");
+        let published = RadioWorld::published([10.0, 20.0, 30.0, 40.0]);
+        let model = RadioVehicle { sigma: [0.2, 0.2, 0.0, 1e-3, 0.2] };
+        let mut x = published.x0;
+        let mut text = String::from("t,x,y,z,heading,clock_bias\n");
+        for k in 0..=12 {
+            text.push_str(&format!(
+                "{},{},{},{},{},{}\n",
+                k as f64 * 0.5,
+                x[0],
+                x[1],
+                x[2],
+                x[3],
+                x[4] + 0.1 * k as f64
+            ));
+            x = model.predict(&x, &published.controls[0], 0.5);
+        }
+        let file = tmp.path().join("lap.csv");
+        std::fs::write(&file, &text).unwrap();
+        let scenario = |extra: &str| {
+            format!(
+                "name = \"t\"\n[world]\nkind = \"radio5g\"\nsteps = 10\ntrajectory = {:?}\n{extra}",
+                file.to_str().unwrap()
+            )
+        };
+        let sc = RadioScenario::from_toml_str(&scenario(""), "t.toml").unwrap();
+        let w = RadioWorld::from_scenario(&sc);
+        assert_eq!((w.steps(), w.x0), (10, published.x0));
+        for u in &w.controls {
+            assert!((u[0] - 22.22).abs() < 1e-9 && (u[1] - std::f64::consts::PI / 10.0).abs() < 1e-12, "{u}");
+        }
+        let (_, run) = radio_run(&sc, 3).unwrap();
+        assert_eq!(run.scans.len(), 11);
+        for (k, (t, x)) in run.truth.iter().enumerate() {
+            assert_eq!((*t, x[4]), (k as f64 * 0.5, 300.0 + 0.1 * k as f64), "the file's state {k}");
+        }
+        assert_eq!(radio_dataset(&sc, 3).unwrap().scans, run.scans);
+        // What does not fit.
+        let refused = |text: &str, extra: &str, needles: &[&str]| {
+            std::fs::write(&file, text).unwrap();
+            let e = RadioScenario::from_toml_str(&scenario(extra), "t.toml").unwrap_err().to_string();
+            assert!(needles.iter().all(|n| e.contains(n)), "{e}");
+        };
+        let lines: Vec<&str> = text.lines().collect();
+        refused(&lines[..6].join("\n"), "", &["lap.csv", "5 rows", "world.steps = 10"]);
+        refused(&text.replacen("\n0.5,", "\n0.6,", 1), "", &["lap.csv:3", "`t`", "0.5 s"]);
+        let lifted =
+            text.lines().enumerate().map(|(i, l)| if i == 4 { l.replacen(",0,", ",1,", 1) } else { l.to_string() });
+        refused(&(lifted.collect::<Vec<_>>().join("\n") + "\n"), "", &["lap.csv:5", "`z`", "vehicle.sigma[2] = 0"]);
+        refused(&text, "start = [0.0, 0.0, 0.0]", &["world.start", "world.trajectory"]);
     }
 
     /// A run's data set: written and read back bit for bit in the radio world's columns,

@@ -228,18 +228,51 @@ where
             run.odometry.push(ControlSegment { u: noisy, dt });
         }
         run.truth.push((t, x));
-        let source = (k % usize::from(sensor.sources().max(1))) as u8;
-        let mut scan = if source == 0 {
-            draw_scan(sensor, t, &x, landmarks.iter().copied(), rng)
-        } else {
-            let mut at = sensor.clone();
-            at.set_source(source);
-            draw_scan(&at, t, &x, landmarks.iter().copied(), rng)
-        };
-        scan.source = source;
-        run.scans.push(scan);
+        run.scans.push(scan_in_turn(sensor, k, t, &x, landmarks, rng));
     }
     Ok(run)
+}
+
+/// Scan `k` at time `t` from the true state `x` ([`draw_scan`]), of source `k mod sources`
+/// for a sensor of several sources.
+fn scan_in_turn<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
+    sensor: &S,
+    k: usize,
+    t: f64,
+    x: &SVector<f64, X>,
+    landmarks: &[(i64, SVector<f64, M>, S::Mark)],
+    rng: &mut Rng,
+) -> Scan<Z> {
+    let source = (k % usize::from(sensor.sources().max(1))) as u8;
+    let mut scan = draw_scan(&*sensor.at_source(source), t, x, landmarks.iter().copied(), rng);
+    scan.source = source;
+    scan
+}
+
+/// A run along given true states (a trajectory file: `states[k]` at `k dt`) instead of a
+/// drive of the controls: the filters receive `controls[k - 1]` for transition `k` (known,
+/// no noise), and scan `k` is drawn at `states[k]` as in [`simulate_run`].
+pub fn simulate_along<S, const X: usize, const M: usize, const Z: usize>(
+    sensor: &S,
+    states: &[SVector<f64, X>],
+    controls: &[Control],
+    dt: f64,
+    landmarks: &[(i64, SVector<f64, M>, S::Mark)],
+    rng: &mut Rng,
+) -> SimulatedRun<X, Z>
+where
+    S: SensorModel<X, M, Z>,
+{
+    let mut run = SimulatedRun { truth: Vec::new(), odometry: Vec::new(), scans: Vec::new() };
+    for (k, x) in states.iter().enumerate().take(controls.len() + 1) {
+        let t = k as f64 * dt;
+        if k > 0 {
+            run.odometry.push(ControlSegment { u: controls[k - 1], dt });
+        }
+        run.truth.push((t, *x));
+        run.scans.push(scan_in_turn(sensor, k, t, x, landmarks, rng));
+    }
+    run
 }
 
 /// Shuffles a scan's measurements and their truth labels together (Fisher-Yates with the
