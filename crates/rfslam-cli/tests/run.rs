@@ -99,3 +99,44 @@ fn simulated_dataset_runs_like_its_scenario_and_run_writes_the_documented_files(
         }
     }
 }
+
+/// A planar scenario's `[prior]` travels with its data set (`[initial_pose]` the prior mean,
+/// off the true start, and `[initial_sigma]` in radians for the heading); `run --dataset`
+/// replays `run --scenario` bit for bit and the filters start off the truth; a recorded world
+/// refuses the key, naming it.
+#[test]
+fn a_planar_prior_travels_with_the_data_set() {
+    let tmp = TempDir::new("planar-prior");
+    let prior =
+        "\n[prior]\noffset = [0.5, -0.5]\noffset_heading_deg = 1.0\nsigma = [0.5, 0.5]\nsigma_heading_deg = 1.0\n";
+    tmp.write("scen.toml", &format!("{}{prior}", scenario(20, 10, 0.95, 1.0)));
+    ok(tmp.path(), &["simulate", "--scenario", "scen.toml", "--seed", "3", "--out", "ds"]);
+    let meta: toml::Table = toml::from_str(&tmp.read("ds/dataset.toml")).unwrap();
+    let truth = Csv::read(&tmp.join("ds/groundtruth.csv"));
+    let x = meta["initial_pose"]["x"].as_float().unwrap();
+    assert!((x - truth.num(0, "x") - 0.5).abs() < 1e-9, "prior mean x {x}, true {}", truth.num(0, "x"));
+    let heading_sigma = meta["initial_sigma"]["heading"].as_float().unwrap();
+    assert!((heading_sigma - 1f64.to_radians()).abs() < 1e-15, "{heading_sigma}");
+    for filter in ["phd-3.0", "fastslam-1.0", "pmbm-slam"] {
+        let common = ["--filter", filter, "--particles", "8", "--seed", "3"];
+        let (a, b) = (format!("a-{filter}"), format!("b-{filter}"));
+        ok(tmp.path(), &[&["run", "--dataset", "ds"][..], &common, &["--out", &a]].concat());
+        ok(tmp.path(), &[&["run", "--scenario", "scen.toml"][..], &common, &["--out", &b]].concat());
+        for f in ["trajectory.csv", "map.csv"] {
+            assert_eq!(tmp.read(&format!("{a}/{f}")), tmp.read(&format!("{b}/{f}")), "{filter}: {f}");
+        }
+        let est = Csv::read(&tmp.join(&a).join("trajectory.csv"));
+        assert_ne!(est.num(0, "x"), truth.num(0, "x"), "{filter} starts off the truth");
+    }
+    let text = scenario(20, 10, 0.95, 1.0);
+    let (tables, _) = text.split_once("[world]").unwrap();
+    let ds = tmp.join("ds");
+    let recorded = format!("{tables}[world]\nkind = \"dataset\"\npath = {:?}\n{prior}", ds.to_str().unwrap());
+    tmp.write("rec.toml", &recorded);
+    fails(
+        tmp.path(),
+        &["run", "--scenario", "rec.toml", "--filter", "phd-3.0", "--out", "r"],
+        2,
+        &["prior", "[initial_sigma]"],
+    );
+}

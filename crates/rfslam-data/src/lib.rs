@@ -46,5 +46,5 @@ pub use mat::{MatArray, MatError, MatFile};
 pub use radio::{RADIO_LANDMARK_TYPES, RadioModels, RadioScenario, is_radio, radio_landmark_types};
 pub use scenario::{
     GLMB_SIM_LAP_LENGTH, GLMB_SIM_LAP_LENGTH_RANGE, GLMB_SIM_LAPS_DRIVEN, LoopParams, PLANAR_WORLD_KINDS,
-    ProceduralParams, ScenarioConfig, WorldSpec,
+    PlanarPriorConfig, ProceduralParams, ScenarioConfig, WorldSpec,
 };

@@ -417,6 +417,55 @@ pub struct ScenarioConfig {
     pub detection: DetectionModel,
     /// `[clutter]`.
     pub clutter: ClutterConfig,
+    /// `[prior]`: the filters' prior on the initial pose (none by default: the known start).
+    #[serde(default, skip_serializing_if = "PlanarPriorConfig::is_known_start")]
+    pub prior: PlanarPriorConfig,
+}
+
+/// The `[prior]` table of a planar scenario: the filters start from `x_0 ~ N(start + offset,
+/// diag(sigma^2))` around the world's true start (drawn once per particle by every particle
+/// engine), in metres and degrees. All zero (the default) is the known start of the papers'
+/// planar experiments. A recorded world (`dataset`, `victoria_park`) takes none: its data set
+/// carries its own prior (`dataset.toml`'s `[initial_sigma]`).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PlanarPriorConfig {
+    /// The prior mean's offset from the true start, `[x, y]` (m).
+    pub offset: [f64; 2],
+    /// The prior mean's heading offset (deg).
+    pub offset_heading_deg: f64,
+    /// The prior standard deviations of `[x, y]` (m).
+    pub sigma: [f64; 2],
+    /// The prior standard deviation of the heading (deg).
+    pub sigma_heading_deg: f64,
+}
+
+impl PlanarPriorConfig {
+    /// Whether this is the known start (every value zero).
+    pub fn is_known_start(&self) -> bool {
+        *self == PlanarPriorConfig::default()
+    }
+
+    /// The prior mean (heading wrapped) and standard deviations (rad for the heading) around
+    /// the true start `x0`.
+    pub fn of(&self, x0: &Pose) -> (Pose, Pose) {
+        let mean = Pose::new(
+            x0[0] + self.offset[0],
+            x0[1] + self.offset[1],
+            rfslam_core::angle::wrap(x0[2] + self.offset_heading_deg.to_radians()),
+        );
+        (mean, Pose::new(self.sigma[0], self.sigma[1], self.sigma_heading_deg.to_radians()))
+    }
+
+    /// Checks the values (keys as in the file: `prior.sigma[0]`).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        for i in 0..2 {
+            in_range(&format!("prior.offset[{i}]"), Interval::magnitude(limits::MAX_DISTANCE), self.offset[i])?;
+            in_range(&format!("prior.sigma[{i}]"), Interval::closed(0.0, limits::MAX_DISTANCE), self.sigma[i])?;
+        }
+        in_range("prior.offset_heading_deg", Interval::magnitude(180.0), self.offset_heading_deg)?;
+        in_range("prior.sigma_heading_deg", Interval::closed(0.0, 180.0), self.sigma_heading_deg)
+    }
 }
 
 impl ScenarioConfig {
@@ -455,6 +504,15 @@ impl ScenarioConfig {
     /// model tracks the laser).
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.models().validate()?;
+        self.prior.validate()?;
+        if !self.prior.is_known_start()
+            && matches!(self.world, WorldSpec::Dataset { .. } | WorldSpec::VictoriaPark { .. })
+        {
+            return Err(ConfigError::new(
+                "prior",
+                "applies to the generated worlds only: a recorded data set carries its own prior (dataset.toml's [initial_sigma])",
+            ));
+        }
         match &self.world {
             WorldSpec::Procedural(p) => p.validate().map_err(|e| e.prefixed("world"))?,
             WorldSpec::Loop(p) => p.validate().map_err(|e| e.prefixed("world"))?,
@@ -530,6 +588,28 @@ impl ScenarioConfig {
 mod tests {
     use super::*;
     use crate::testutil::{SMALL_SCENARIO, TempDir};
+
+    /// `[prior]`: its values are checked at their keys; all zero is the known start (and not
+    /// written out); a spread becomes the pose's standard deviations, the heading in radians.
+    #[test]
+    fn the_planar_prior_is_checked_and_converted() {
+        let with = |t: &str| ScenarioConfig::from_toml_str(&format!("{SMALL_SCENARIO}\n[prior]\n{t}\n"), "p.toml");
+        for (t, key) in [
+            ("sigma = [-1.0, 0.0]", "prior.sigma[0]"),
+            ("offset_heading_deg = 200.0", "prior.offset_heading_deg"),
+            ("sigma_heading_deg = -1.0", "prior.sigma_heading_deg"),
+            ("spread = 1.0", "spread"),
+        ] {
+            let e = with(t).unwrap_err().to_string();
+            assert!(e.contains(key) && e.contains("p.toml"), "{t}: {e}");
+        }
+        let sc = with("offset = [1.0, 2.0]\noffset_heading_deg = 90.0\nsigma_heading_deg = 180.0").unwrap();
+        let (mean, sigma) = sc.prior.of(&Pose::new(10.0, 20.0, std::f64::consts::FRAC_PI_2));
+        assert!((mean - Pose::new(11.0, 22.0, -std::f64::consts::PI)).norm() < 1e-12, "{mean}");
+        assert_eq!(sigma, Pose::new(0.0, 0.0, std::f64::consts::PI));
+        let known = ScenarioConfig::from_toml_str(SMALL_SCENARIO, "s.toml").unwrap();
+        assert!(known.prior.is_known_start() && !known.to_toml_string().unwrap().contains("[prior]"));
+    }
 
     /// The `[world]` table of the test scenario after its header.
     const SMALL_WORLD: &str = "kind = \"procedural\"\nseed = 1\nsteps = 120\nextent = 300.0\nlandmarks = 25\n";

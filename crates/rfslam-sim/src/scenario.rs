@@ -93,7 +93,10 @@ impl ScenarioData for ScenarioConfig {
         };
         let x0 =
             world.poses.first().map(|p| p.1).ok_or_else(|| DataError::Mismatch("the world has no poses".into()))?;
-        Ok(models.to_models_in(x0))
+        let (mean, sigma) = self.prior.of(&x0);
+        let mut m = models.to_models_in(mean);
+        m.initial_sigma = sigma;
+        Ok(m)
     }
 
     fn dataset_of<S: PlanarSensorModel<Z>, const Z: usize>(
@@ -125,13 +128,19 @@ impl ScenarioData for ScenarioConfig {
             d.meta.models = self.models();
             return Ok(d);
         }
-        match world {
-            Some(w) => simulate::<S, Z>(w, &self.models(), run_seed),
+        let mut d = match world {
+            Some(w) => simulate::<S, Z>(w, &self.models(), run_seed)?,
             None => {
                 let w = self.load_world()?.ok_or_else(|| DataError::Mismatch("the scenario has no world".into()))?;
-                simulate::<S, Z>(&w, &self.models(), run_seed)
+                simulate::<S, Z>(&w, &self.models(), run_seed)?
             }
+        };
+        // The filters' prior ([prior]) around the true start, carried by the data set.
+        if !self.prior.is_known_start() {
+            let (mean, sigma) = self.prior.of(&d.meta.initial_pose);
+            (d.meta.initial_pose, d.meta.initial_sigma) = (mean, sigma);
         }
+        Ok(d)
     }
 }
 
