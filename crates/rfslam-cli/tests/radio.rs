@@ -328,6 +328,18 @@ fn two_base_stations_ship_and_run() {
             }
         }
     }
+    // Every filter of the shipped experiment runs there (a failed job fails the sweep), and
+    // the PMBM, delta-GLMB and oracle filters map both base stations' virtual anchors.
+    let exp = include_str!("../../../configs/radio5g-two-base-stations.toml")
+        .replace("scenario = \"../scenarios/radio5g-two-base-stations.toml\"", "scenario = \"two.toml\"");
+    dir.write("exp.toml", &exp);
+    ok(dir.path(), &["sweep", "exp.toml", "--runs", "1", "--out", "sweep", "--quiet"]);
+    let runs = Csv::read(&dir.join("sweep/runs.csv"));
+    assert_eq!(runs.rows.len(), exp.matches("[[filters]]").count(), "one row per filter");
+    for filter in ["fastslam-2.0-oracle", "mpmb-slam", "pmbm-slam-mh", "glmb-2.0"] {
+        let i = (0..runs.rows.len()).find(|&i| runs.get(i, "filter") == filter).unwrap();
+        assert!(runs.num(i, "va_gospa_m") < 10.0, "{filter}: final VA GOSPA {}", runs.num(i, "va_gospa_m"));
+    }
     // A scan of a base station the data set does not have is refused, naming the scan; so is
     // a data set whose landmark types are not those of its base stations.
     let scans = dir.read("ds/scans.csv");
