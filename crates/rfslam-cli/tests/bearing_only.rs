@@ -26,13 +26,8 @@ fn a_bearing_only_scenario_simulates_replays_and_sweeps() {
     assert!(toml.contains("world = \"bearing_only\"") && toml.contains("model = \"bearing_only\""), "{toml}");
 
     for (filter, n) in [("phd-1.0", "3"), ("fastslam-1.0", "3"), ("glmb-1.0", "3"), ("dead-reckoning", "1")] {
-        let common = ["--filter", filter, "--particles", n, "--seed", "4"];
-        let (a, b) = (format!("ds-{filter}"), format!("sc-{filter}"));
-        ok(tmp.path(), &[&["run", "--dataset", "ds"][..], &common, &["--out", &a]].concat());
-        ok(tmp.path(), &[&["run", "--scenario", "bo.toml"][..], &common, &["--out", &b]].concat());
-        for f in ["trajectory.csv", "map.csv"] {
-            assert_eq!(tmp.read(&format!("{a}/{f}")), tmp.read(&format!("{b}/{f}")), "{filter}: {f}");
-        }
+        let args = ["--filter", filter, "--particles", n, "--seed", "4"];
+        let (a, b) = replays_bit_for_bit(tmp.path(), "ds", "bo.toml", &args, filter);
         let (mut ma, mut mb) =
             (metrics_raw(&tmp.join(&a).join("metrics.json")), metrics_raw(&tmp.join(&b).join("metrics.json")));
         for m in [&mut ma, &mut mb] {

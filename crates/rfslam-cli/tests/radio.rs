@@ -139,13 +139,8 @@ fn a_radio_geometry_of_ones_own_replays_bit_for_bit() {
     let count = |t: &str| (0..landmarks.rows.len()).filter(|&i| landmarks.get(i, "type") == t).count();
     assert_eq!((count("virtual_anchor"), count("scattering_point")), (2, 6));
     for filter in ["phd-3.0", "glmb-2.0"] {
-        let common = ["--filter", filter, "--particles", "5", "--seed", "3"];
-        let (a, b) = (format!("a-{filter}"), format!("b-{filter}"));
-        ok(dir.path(), &[&["run", "--dataset", "ds"][..], &common, &["--out", &a]].concat());
-        ok(dir.path(), &[&["run", "--scenario", "street.toml"][..], &common, &["--out", &b]].concat());
-        for f in ["trajectory.csv", "map.csv"] {
-            assert_eq!(dir.read(&format!("{a}/{f}")), dir.read(&format!("{b}/{f}")), "{filter}: {f}");
-        }
+        let args = ["--filter", filter, "--particles", "5", "--seed", "3"];
+        let (a, _) = replays_bit_for_bit(dir.path(), "ds", "street.toml", &args, filter);
         let m = metrics(&dir.join(&a).join("metrics.json"));
         assert!(m["pos_rmse_m"].as_f64().is_some_and(|v| v < 5.0), "{filter}: {m:?}");
     }
@@ -169,13 +164,8 @@ fn a_radio_prior_travels_with_the_data_set() {
     assert!((x - truth.num(0, "x") - 0.3).abs() < 1e-9, "prior mean x {x}, true {}", truth.num(0, "x"));
     for filter in ["pmbm-slam", "mpmb-slam", "phd-1.0"] {
         let n = if filter == "mpmb-slam" { "1" } else { "20" };
-        let common = ["--filter", filter, "--particles", n, "--seed", "4"];
-        let (a, b) = (format!("a-{filter}"), format!("b-{filter}"));
-        ok(dir.path(), &[&["run", "--dataset", "ds"][..], &common, &["--out", &a]].concat());
-        ok(dir.path(), &[&["run", "--scenario", "prior.toml"][..], &common, &["--out", &b]].concat());
-        for f in ["trajectory.csv", "map.csv"] {
-            assert_eq!(dir.read(&format!("{a}/{f}")), dir.read(&format!("{b}/{f}")), "{filter}: {f}");
-        }
+        let args = ["--filter", filter, "--particles", n, "--seed", "4"];
+        let (a, _) = replays_bit_for_bit(dir.path(), "ds", "prior.toml", &args, filter);
         let est = Csv::read(&dir.join(&a).join("trajectory.csv"));
         assert_ne!(est.num(0, "x"), truth.num(0, "x"), "{filter} starts off the truth");
     }
@@ -301,21 +291,12 @@ fn two_base_stations_ship_and_run() {
         ("mpmb-slam", "1", "undetected_intensity=3.06e-13"),
         ("phd-3.0", "10", "gate=50.69"),
     ] {
-        let run = |source: &[&str], out: &str| {
-            let mut args = vec!["run"];
-            args.extend_from_slice(source);
-            args.extend(["--filter", filter, "--particles", n, "--seed", "2", "--out", out]);
-            if !params.is_empty() {
-                args.extend(["--set", params]);
-            }
-            ok(dir.path(), &args);
-        };
-        run(&["--dataset", "ds"], &format!("{filter}-a"));
-        run(&["--scenario", "two.toml"], &format!("{filter}-b"));
-        for f in ["trajectory.csv", "map.csv"] {
-            assert_eq!(dir.read(&format!("{filter}-a/{f}")), dir.read(&format!("{filter}-b/{f}")), "{filter} {f}");
+        let mut args = vec!["--filter", filter, "--particles", n, "--seed", "2"];
+        if !params.is_empty() {
+            args.extend(["--set", params]);
         }
-        let map = Csv::read(&dir.join(&format!("{filter}-a/map.csv")));
+        let (a, _) = replays_bit_for_bit(dir.path(), "ds", "two.toml", &args, filter);
+        let map = Csv::read(&dir.join(&a).join("map.csv"));
         for va in ["virtual_anchor", "virtual_anchor_1"] {
             let est: Vec<usize> = (0..map.rows.len()).filter(|&i| map.get(i, "type") == va).collect();
             assert!(est.len() >= 3, "{filter}: {} estimates of type {va}", est.len());

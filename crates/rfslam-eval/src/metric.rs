@@ -14,7 +14,6 @@
 
 use nalgebra::SVector;
 use rfslam_core::Point2;
-use rfslam_core::model::LandmarkType;
 use rfslam_metrics::stats::{mean_ci95, weighted_mean_ci95};
 use rfslam_metrics::{DaCounts, PoseErrors, Se2AlignedRmse, SumSquares};
 
@@ -970,7 +969,7 @@ struct TypedGospaMetric<const M: usize> {
     marks: usize,
     c: f64,
     p: f64,
-    /// The GOSPA of each kind of [`TYPED_COLUMNS`] at every step so far.
+    /// The GOSPA of each kind of [`crate::world::SCORED_KINDS`] at every step so far.
     per_step: Vec<[Option<f64>; 2]>,
     est: Vec<(u8, SVector<f64, M>)>,
     scratch: (Points<M>, Points<M>),
@@ -993,11 +992,9 @@ impl<const M: usize> TypedGospaMetric<M> {
     }
 }
 
-/// The typed GOSPA columns: (kind, final column, mean column).
-const TYPED_COLUMNS: [(LandmarkType, &str, &str); 2] = [
-    (LandmarkType::VirtualAnchor, "va_gospa_m", "va_gospa_mean_m"),
-    (LandmarkType::ScatteringPoint, "sp_gospa_m", "sp_gospa_mean_m"),
-];
+/// The typed GOSPA columns, in the order of [`crate::world::SCORED_KINDS`]: (final column,
+/// mean column).
+const TYPED_COLUMNS: [(&str, &str); 2] = [("va_gospa_m", "va_gospa_mean_m"), ("sp_gospa_m", "sp_gospa_mean_m")];
 
 impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for TypedGospaMetric<M> {
     fn observe(&mut self, rec: &StepRecord<X, M, Z>) {
@@ -1007,7 +1004,7 @@ impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for Typed
         self.est.clear();
         self.est.extend(rec.estimate.map.iter().map(|p| (p.mark, p.position)));
         match rfslam_metrics::gospa_per_mark(&self.truth, &self.est, self.marks, self.c, self.p, &mut self.scratch) {
-            Ok(g) => self.per_step.push(TYPED_COLUMNS.map(|(kind, ..)| crate::world::kind_gospa(&g, kind, self.p))),
+            Ok(g) => self.per_step.push(crate::world::typed_gospa(&g, self.p)),
             Err(_) => self.failed = true,
         }
     }
@@ -1016,7 +1013,8 @@ impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for Typed
             return;
         }
         let n = self.per_step.len() as f64;
-        for (i, (kind, final_col, mean_col)) in TYPED_COLUMNS.into_iter().enumerate() {
+        for (i, (kind, (final_col, mean_col))) in crate::world::SCORED_KINDS.into_iter().zip(TYPED_COLUMNS).enumerate()
+        {
             if kind.mark() < self.marks as u8 {
                 // A map GOSPA cannot score (a non-finite landmark estimate) fails the run.
                 let at = |g: &[Option<f64>; 2]| g[i].unwrap_or(f64::NAN);

@@ -78,6 +78,17 @@ pub fn kind_gospa(per_mark: &[Gospa], kind: rfslam_core::model::LandmarkType, p:
     Some((terms(first) + rest.map(terms).sum::<f64>()).powf(1.0 / p))
 }
 
+/// The kinds of the radio world's per-kind GOSPA ([`typed_gospa`]): the virtual anchors,
+/// then the scattering points (the base stations are known, never scored).
+pub const SCORED_KINDS: [rfslam_core::model::LandmarkType; 2] =
+    [rfslam_core::model::LandmarkType::VirtualAnchor, rfslam_core::model::LandmarkType::ScatteringPoint];
+
+/// [`kind_gospa`] of each of [`SCORED_KINDS`]: the per-kind GOSPA of one step that `runs.csv`
+/// and the sweep's `steps/` files report.
+pub fn typed_gospa(per_mark: &[Gospa], p: f64) -> [Option<f64>; 2] {
+    SCORED_KINDS.map(|kind| kind_gospa(per_mark, kind, p))
+}
+
 /// Runs `step` (one recursion of a filter, returning its report and estimate) over every
 /// scan of `run` with the filter stream of `seed` (`stream(&[seed, purpose::FILTER])`),
 /// scoring each step.

@@ -28,7 +28,6 @@ use crate::runs::{RunRow, RunsAppender, read_job_rows, read_rows, write_rows};
 use crate::shard::{Shard, ShardRecord};
 use crate::summary::{summarise, write_summary};
 use crate::world::{Visitor, World};
-use rfslam_core::model::LandmarkType;
 use rfslam_eval::metric::Values;
 
 /// Options of one sweep invocation.
@@ -117,12 +116,9 @@ impl Visitor for JobRun<'_> {
             }
             est.clear();
             est.extend(rec.estimate.map.iter().map(|p| (p.mark, p.position)));
-            let kinds = [LandmarkType::VirtualAnchor, LandmarkType::ScatteringPoint];
             let gospa =
                 rfslam_metrics::gospa_per_mark(&truth, &est, marks, metrics.gospa_c, metrics.gospa_p, &mut scratch)
-                    .map_or([Some(f64::NAN); 2], |g| {
-                        kinds.map(|k| rfslam_eval::world::kind_gospa(&g, k, metrics.gospa_p))
-                    });
+                    .map_or([Some(f64::NAN); 2], |g| rfslam_eval::world::typed_gospa(&g, metrics.gospa_p));
             steps.push(StepRow { t: rec.t, pose, gospa, landmarks: rec.estimate.map.len() });
         });
         // Truth that scores no step is a misconfiguration worth one warning per sweep.

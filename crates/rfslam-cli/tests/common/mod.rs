@@ -83,6 +83,20 @@ pub fn ok(dir: &Path, args: &[&str]) -> Output {
     o
 }
 
+/// Runs `rfslam run args` once on the data set directory `dataset` and once on the scenario
+/// file `scenario` (into `<tag>-ds` and `<tag>-sc` under `dir`), and requires both to write
+/// the same `trajectory.csv` and `map.csv`, bit for bit. Returns the two output directories.
+pub fn replays_bit_for_bit(dir: &Path, dataset: &str, scenario: &str, args: &[&str], tag: &str) -> (String, String) {
+    let (a, b) = (format!("{tag}-ds"), format!("{tag}-sc"));
+    ok(dir, &[&["run", "--dataset", dataset][..], args, &["--out", &a]].concat());
+    ok(dir, &[&["run", "--scenario", scenario][..], args, &["--out", &b]].concat());
+    for f in ["trajectory.csv", "map.csv"] {
+        let read = |out: &str| std::fs::read_to_string(dir.join(out).join(f)).unwrap();
+        assert_eq!(read(&a), read(&b), "{tag}: {f} from the data set and from the scenario");
+    }
+    (a, b)
+}
+
 /// Runs `rfslam args` and requires exit code `code` and every needle in stderr.
 pub fn fails(dir: &Path, args: &[&str], code: i32, needles: &[&str]) -> Output {
     let o = rfslam(dir, args);
