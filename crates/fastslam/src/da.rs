@@ -816,7 +816,7 @@ mod tests {
         f.set.particles_mut()[0].landmarks = vec![landmark(20.0, 0.6, 3.0), landmark(20.0, -0.6, 3.0)];
         let z = RangeBearing::new(20.2, 0.004);
         let mut rng = Rng::seed_from_u64(1);
-        let report = f.step(&[], &Scan { t: 1.0, z: vec![z], truth: None, source: 0 }, &mut rng);
+        let report = f.step(&[], &Scan { t: 1.0, z: vec![z], truth: None, source: 0, noise: None }, &mut rng);
         assert_eq!(f.len(), 3, "two landmarks and a new one");
         assert!(!report.resampled);
         // Expected weights: N(z; h(m_i), G P G^T + R) for each landmark, p_0 for a new one.
@@ -865,7 +865,7 @@ mod tests {
         let run = |cut: Option<f64>| {
             let mut f = engine("mh-fastslam", DaSettings { hypothesis_log_cut: cut, ..mh(4, 125) }, &m, 1);
             f.set.particles_mut()[0].landmarks = vec![landmark(20.0, 0.6, 3.0), landmark(20.0, -0.6, 3.0)];
-            f.step(&[], &Scan { t: 1.0, z: vec![z], truth: None, source: 0 }, &mut Rng::seed_from_u64(1));
+            f.step(&[], &Scan { t: 1.0, z: vec![z], truth: None, source: 0, noise: None }, &mut Rng::seed_from_u64(1));
             let mut lw: Vec<f64> = f.set.particles().iter().map(|p| p.log_w).collect();
             lw.sort_by(|a, b| b.total_cmp(a));
             lw
@@ -896,6 +896,7 @@ mod tests {
             z: vec![RangeBearing::new(20.0, 0.03), RangeBearing::new(20.0, -0.03)],
             truth: None,
             source: 0,
+            noise: None,
         };
         let mut rng = Rng::seed_from_u64(2);
         let r1 = f.step(&[], &scan, &mut rng);
@@ -928,6 +929,7 @@ mod tests {
             z: grid.iter().map(|l| m.sensor.predict(&Pose::zeros(), &l.mean)).collect(),
             truth: None,
             source: 0,
+            noise: None,
         };
         let bounded = DaSettings { max_ambiguous_measurements: Some(64), ..mh(4, 125) };
         let mut f = engine("mh-fastslam", bounded, &m, 3);
@@ -953,6 +955,7 @@ mod tests {
             z: vec![RangeBearing::new(20.0, 0.03), RangeBearing::new(20.0, -0.03)],
             truth: None,
             source: 0,
+            noise: None,
         };
         f.step(&[], &small, &mut rng);
         assert_eq!(f.len(), 4);
@@ -970,11 +973,11 @@ mod tests {
         let lm = Point2::new(15.0, 2.0);
         let zl = m.sensor.predict(&Pose::zeros(), &lm);
         let clutter = RangeBearing::new(30.0, -0.8);
-        f.step(&[], &Scan { t: 1.0, z: vec![zl, clutter], truth: None, source: 0 }, &mut rng);
+        f.step(&[], &Scan { t: 1.0, z: vec![zl, clutter], truth: None, source: 0, noise: None }, &mut rng);
         assert_eq!(f.len(), 3);
         assert!(f.set.particles().iter().all(|p| p.landmarks.len() == 2));
         assert!(f.estimate().map.is_empty(), "P_E = 0.5 after the first sighting: not reported");
-        f.step(&[], &Scan { t: 2.0, z: vec![zl], truth: None, source: 0 }, &mut rng);
+        f.step(&[], &Scan { t: 2.0, z: vec![zl], truth: None, source: 0, noise: None }, &mut rng);
         assert!(f.set.particles().iter().all(|p| p.landmarks.len() == 1), "the clutter landmark was missed in view");
         let e = f.estimate();
         assert_eq!(e.map.len(), 1);
@@ -994,7 +997,7 @@ mod tests {
             let mut f = engine("fastslam-1.0", settings, &m, 1);
             let mut rng = Rng::seed_from_u64(3);
             for t in [1.0, 2.0] {
-                f.step(&[], &Scan { t, z: vec![zl], truth: None, source: 0 }, &mut rng);
+                f.step(&[], &Scan { t, z: vec![zl], truth: None, source: 0, noise: None }, &mut rng);
             }
             let l = &f.set.particles()[0].landmarks;
             assert_eq!(l.len(), 1);
@@ -1118,7 +1121,7 @@ mod typed {
     }
 
     fn scan(z: &[(f64, f64)]) -> Scan {
-        Scan { t: 1.0, z: z.iter().map(|&(u, v)| Vector2::new(u, v)).collect(), truth: None, source: 0 }
+        Scan { t: 1.0, z: z.iter().map(|&(u, v)| Vector2::new(u, v)).collect(), truth: None, source: 0, noise: None }
     }
 
     #[test]

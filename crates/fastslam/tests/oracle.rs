@@ -24,7 +24,7 @@ fn meas(x: &Pose, m: &Point2) -> RangeBearing {
 }
 
 fn scan(t: f64, z: Vec<RangeBearing>, truth: Option<Vec<i64>>) -> Scan {
-    Scan { t, z, truth, source: 0 }
+    Scan { t, z, truth, source: 0, noise: None }
 }
 
 fn bits(e: &Estimate) -> Vec<u64> {

@@ -204,11 +204,28 @@ where
         odometry: &[ControlSegment],
         z: impl IntoIterator<Item = SVector<f64, Z>>,
         rng: &mut Rng,
+        propose: impl FnMut(&DrawContext<'_, V, S, X, M, Z>, &mut Rng) -> PoseDraw<X>,
+    ) -> StepReport<M> {
+        self.step_measured(odometry, z, None, rng, propose)
+    }
+
+    /// [`Self::step_with_proposal`] with each measurement's own covariance `R_j` in the map
+    /// update when `noise` gives one per measurement ([`Scan::noise`]; the proposal `propose`
+    /// is not given them).
+    fn step_measured(
+        &mut self,
+        odometry: &[ControlSegment],
+        z: impl IntoIterator<Item = SVector<f64, Z>>,
+        noise: Option<&[SMatrix<f64, Z, Z>]>,
+        rng: &mut Rng,
         mut propose: impl FnMut(&DrawContext<'_, V, S, X, M, Z>, &mut Rng) -> PoseDraw<X>,
     ) -> StepReport<M> {
         self.set.draw_initial(&self.vehicle, rng, |p| &mut p.pose);
         self.z.clear();
         self.z.extend(z);
+        // A data set gives every measurement's covariance or none (rfslam-data checks it).
+        debug_assert!(noise.is_none_or(|n| n.len() == self.z.len()));
+        let noise = noise.filter(|n| n.len() == self.z.len());
         let mut chol = 0u32;
         let mut proposal_components = 0;
         for part in self.set.particles_mut() {
@@ -223,12 +240,13 @@ where
             part.log_w += draw.log_correction;
             let out = match self.variant {
                 Variant::Pmbm => {
-                    pmbm_update(&mut part.map, &part.pose, &self.z, &self.model, &self.settings, &mut self.ws)
+                    pmbm_update(&mut part.map, &part.pose, &self.z, noise, &self.model, &self.settings, &mut self.ws)
                 }
                 Variant::Pmb => pmb_update(
                     &mut part.map,
                     &part.pose,
                     &self.z,
+                    noise,
                     &self.model,
                     &self.settings,
                     self.weight,
@@ -305,7 +323,7 @@ where
 
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
         self.set_source(scan.source);
-        self.step_with(odometry, scan.z.iter().copied(), rng)
+        self.step_measured(odometry, scan.z.iter().copied(), scan.noise.as_deref(), rng, PoseDraw::transition)
     }
 
     fn estimate(&self) -> Estimate<X, M> {
@@ -320,6 +338,7 @@ macro_rules! variant_filter {
         rfslam_core::filter_variant!(
             $(#[$doc])* $ty<S>(PmbmFilter), $name;
             params: Params,
+            per_measurement_noise: true,
             check: |params, models, particles| {
                 params.validate(particles)?;
                 params.check_undetected(&assumed_sensor(params, &models.sensor)?)

@@ -290,13 +290,17 @@ fn detect<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorMod
     p: f64,
     x: &SVector<f64, X>,
     z: &[SVector<f64, Z>],
+    noise: Option<&[SMatrix<f64, Z, Z>]>,
     model: &S,
     s: &UpdateSettings,
     ws: &mut Workspace<M>,
 ) -> u32 {
     let mark = S::Mark::from_index(h.mark);
-    let r_noise = model.noise(mark);
     let lin = model.linearise(x, &h.mean, mark);
+    if let Some(noise) = noise {
+        return detect_each(h, r.ln() + p.ln(), &lin, z, noise, model, s, ws);
+    }
+    let r_noise = model.noise(mark);
     let s_cov = symmetrise(&(lin.hm * h.cov * lin.hm.transpose() + r_noise));
     let Some(ch) = s_cov.cholesky() else {
         return 1;
@@ -325,6 +329,105 @@ fn detect<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorMod
     0
 }
 
+/// One measurement against one Gaussian under the measurement's own covariance `R_j`: the
+/// Cholesky factor `l` of `S_j = H P H^T + R_j`, `ln det S_j`, the residual `v` and its
+/// squared Mahalanobis distance.
+pub(crate) struct GatedPair<const Z: usize> {
+    pub l: SMatrix<f64, Z, Z>,
+    pub log_det: f64,
+    pub v: SVector<f64, Z>,
+    pub maha: f64,
+}
+
+/// [`GatedPair`] of measurement `z` (covariance `noise`) and the Gaussian of covariance `cov`
+/// linearised as `lin`: `Err(())` when `S_j` fails Cholesky, `Ok(None)` outside the gate.
+pub(crate) fn gate_pair<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorModel<X, M, Z>>(
+    lin: &rfslam_core::model::Linearised<X, M, Z>,
+    cov: &SMatrix<f64, M, M>,
+    z: &SVector<f64, Z>,
+    noise: &SMatrix<f64, Z, Z>,
+    model: &S,
+    gate: f64,
+) -> Result<Option<GatedPair<Z>>, ()> {
+    let Some(ch) = symmetrise(&(lin.hm * cov * lin.hm.transpose() + noise)).cholesky() else { return Err(()) };
+    let l = ch.unpack();
+    let v = model.residual(z, &lin.z);
+    let Some(y) = l.solve_lower_triangular(&v) else { return Ok(None) };
+    let maha = y.norm_squared();
+    if maha > gate {
+        return Ok(None);
+    }
+    let log_det: f64 = (0..Z).map(|i| 2.0 * l[(i, i)].ln()).sum();
+    Ok(Some(GatedPair { l, log_det, v, maha }))
+}
+
+/// The EKF update of `N(mean, cov)` by a measurement of covariance `noise`: the gain
+/// `K = P H^T S^-1` from the factor `l` of `S` ([`gate_pair`]), and the Joseph-form covariance.
+pub(crate) fn ekf_gain<const M: usize, const Z: usize>(
+    hm: &SMatrix<f64, Z, M>,
+    cov: &SMatrix<f64, M, M>,
+    l: &SMatrix<f64, Z, Z>,
+    noise: &SMatrix<f64, Z, Z>,
+) -> (SMatrix<f64, M, Z>, SMatrix<f64, M, M>) {
+    let ph = cov * hm.transpose();
+    let y = l.solve_lower_triangular(&ph.transpose()).unwrap_or_else(SMatrix::zeros);
+    let k = l.transpose().solve_upper_triangular(&y).unwrap_or_else(SMatrix::zeros).transpose();
+    let a = SMatrix::<f64, M, M>::identity() - k * hm;
+    (k, symmetrise(&(a * cov * a.transpose() + k * noise * k.transpose())))
+}
+
+/// Step iv of [`detect`] when each measurement has its own covariance `R_j` (`noise`,
+/// [`rfslam_core::Scan::noise`]): `S_j = H P H^T + R_j`, its gate, likelihood and EKF update
+/// per measurement. `ln_rp = ln r + ln p_D`. Returns the `S_j` that failed Cholesky (that
+/// pair is not a detection).
+#[allow(clippy::too_many_arguments)]
+fn detect_each<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorModel<X, M, Z>>(
+    h: &LocalHypothesis<M>,
+    ln_rp: f64,
+    lin: &rfslam_core::model::Linearised<X, M, Z>,
+    z: &[SVector<f64, Z>],
+    noise: &[SMatrix<f64, Z, Z>],
+    model: &S,
+    s: &UpdateSettings,
+    ws: &mut Workspace<M>,
+) -> u32 {
+    let mut chol = 0;
+    for (j, (zj, r_j)) in z.iter().zip(noise).enumerate() {
+        let Ok(pair) = gate_pair(lin, &h.cov, zj, r_j, model, s.gate) else {
+            chol += 1;
+            continue;
+        };
+        let Some(GatedPair { l, log_det, v, maha }) = pair else { continue };
+        let (k, cov) = ekf_gain(&lin.hm, &h.cov, &l, r_j);
+        let ln_nu = ln_rp - 0.5 * (Z as f64 * LN_2PI + log_det + maha);
+        ws.det.push(Detection { j, child: ws.hyps.len() as u32, ln_nu });
+        ws.hyps.push(LocalHypothesis { r: 1.0, mean: h.mean + k * v, cov, mark: h.mark });
+    }
+    chol
+}
+
+/// The new landmark of type `mark` started by measurement `z` at pose `x`, and the birth
+/// integral of its new-track weight, with the measurement's own covariance `r` when the scan
+/// gives one ([`InvertibleSensorModel::birth_with_noise`]), else the sensor model's.
+pub(crate) fn measurement_birth<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorModel<X, M, Z>>(
+    model: &S,
+    x: &SVector<f64, X>,
+    z: &SVector<f64, Z>,
+    mark: S::Mark,
+    r: Option<&SMatrix<f64, Z, Z>>,
+) -> (SVector<f64, M>, SMatrix<f64, M, M>, f64) {
+    match r {
+        None => {
+            let (mean, cov) = model.birth(x, z, mark);
+            (mean, cov, model.birth_integral(x, z, mark))
+        }
+        Some(r) => {
+            let (mean, cov) = model.birth_with_noise(x, z, mark, r);
+            (mean, cov, model.birth_integral_with_noise(x, z, mark, r))
+        }
+    }
+}
+
 /// Steps ii-iv of \[Kim2022\] Appendix A at pose `x` for every local hypothesis of `map`:
 /// fills the workspace's new arena (each prior local hypothesis followed by its missed
 /// child and its detected children, then the two local hypotheses of every measurement's
@@ -333,6 +436,7 @@ fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorM
     map: &PmbmDensity<M>,
     x: &SVector<f64, X>,
     z: &[SVector<f64, Z>],
+    noise: Option<&[SMatrix<f64, Z, Z>]>,
     model: &S,
     s: &UpdateSettings,
     ws: &mut Workspace<M>,
@@ -347,7 +451,7 @@ fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorM
     if typed::type_count(model) > 1 {
         ws.ln_nu_new.clear();
         ws.r_new.clear();
-        return typed::children(map, x, z, model, s, ws);
+        return typed::children(map, x, z, noise, model, s, ws);
     }
     for t in 0..map.tracks() {
         ws.track_start.push(ws.hyps.len());
@@ -362,7 +466,7 @@ fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorM
             ws.hyps.push(*h);
             let first_det = ws.det.len();
             if p > 0.0 && !z.is_empty() {
-                chol += detect(h, r, p, x, z, model, s, ws);
+                chol += detect(h, r, p, x, z, noise, model, s, ws);
             }
             // Step iii: missed, with [Kim2022]'s adaptive p_D (Section V): P_D if the
             // hypothesis gates a measurement, else 0, unless `p_D` is taken in the whole FOV.
@@ -379,17 +483,18 @@ fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorM
     // type of the largest (\[Kim2022\] Appendix A; the type estimate is the most likely).
     ws.ln_nu_new.clear();
     ws.r_new.clear();
-    for zj in z {
+    for (j, zj) in z.iter().enumerate() {
+        let r_j = noise.map(|n| &n[j]);
         let (e_sum, born) = typed_birth(model, |mark| {
-            let (mean, cov) = model.birth(x, zj, mark);
+            let (mean, cov, integral) = measurement_birth(model, x, zj, mark, r_j);
             // lambda_u,k-1 around the new landmark (`kappa_u` exactly for the constant intensity).
             let lambda =
                 s.undetected_intensity * map.undetected.birth_multiplier(&mean, &cov, usize::from(mark.index()));
-            let e = model.detection_probability(x, &mean, &cov, mark) * lambda * model.birth_integral(x, zj, mark);
+            let e = model.detection_probability(x, &mean, &cov, mark) * lambda * integral;
             Some((e, mean, cov))
         });
         let b = born.unwrap_or_else(|| {
-            let (mean, cov) = model.birth(x, zj, S::Mark::default());
+            let (mean, cov, _) = measurement_birth(model, x, zj, S::Mark::default(), r_j);
             LocalHypothesis { r: 0.0, mean, cov, mark: S::Mark::default().index() }
         });
         let nu = e_sum + model.clutter_intensity(zj).max(s.min_clutter_intensity);
@@ -415,15 +520,21 @@ fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorM
 /// matrix is ranked once, for the largest budget of the hypotheses that share it, and each
 /// of them takes its own budget's prefix of that ranking (Murty's enumeration does not
 /// depend on the budget before it stops, so the prefix is what its own call would return).
+///
+/// `noise` holds each measurement's own covariance `R_j` when the scan gives one
+/// ([`rfslam_core::Scan::noise`]; it then replaces `R` in that measurement's gate, likelihood,
+/// update and new track); `None`: the sensor model's `R` for all.
+#[allow(clippy::too_many_arguments)]
 pub fn pmbm_update<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorModel<X, M, Z>>(
     map: &mut PmbmDensity<M>,
     x: &SVector<f64, X>,
     z: &[SVector<f64, Z>],
+    noise: Option<&[SMatrix<f64, Z, Z>]>,
     model: &S,
     s: &UpdateSettings,
     ws: &mut Workspace<M>,
 ) -> UpdateOutcome {
-    let mut out = UpdateOutcome { cholesky_failures: children(map, x, z, model, s, ws), ..Default::default() };
+    let mut out = UpdateOutcome { cholesky_failures: children(map, x, z, noise, model, s, ws), ..Default::default() };
     let n_old = map.tracks();
     let n_new = n_old + z.len();
     let nb = map.branching.len();
@@ -885,17 +996,23 @@ fn log_add(a: f64, b: f64) -> f64 {
 /// (eqs. 48-51) back to one Bernoulli per track, tracks with `r < bernoulli_prune`
 /// deleted. `ln_chi` is `-F` (Proposition 2) or the most likely association's log weight
 /// (eq. 47). `map` must hold one global hypothesis (so one local hypothesis per track).
+///
+/// `noise` holds each measurement's own covariance `R_j` when the scan gives one
+/// ([`rfslam_core::Scan::noise`]; it then replaces `R` in that measurement's gate, likelihood,
+/// update and new track); `None`: the sensor model's `R` for all.
+#[allow(clippy::too_many_arguments)]
 pub fn pmb_update<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorModel<X, M, Z>>(
     map: &mut PmbmDensity<M>,
     x: &SVector<f64, X>,
     z: &[SVector<f64, Z>],
+    noise: Option<&[SMatrix<f64, Z, Z>]>,
     model: &S,
     s: &UpdateSettings,
     weight: PmbWeight,
     ws: &mut Workspace<M>,
 ) -> UpdateOutcome {
     debug_assert!(map.hypotheses() == 1 && map.branching.is_empty());
-    let mut out = UpdateOutcome { cholesky_failures: children(map, x, z, model, s, ws), ..Default::default() };
+    let mut out = UpdateOutcome { cholesky_failures: children(map, x, z, noise, model, s, ws), ..Default::default() };
     let n_old = map.tracks();
     // The problem holds the tracks that gate a measurement; the others are missed with
     // probability one and contribute ln nu_i(empty) to ln chi directly.

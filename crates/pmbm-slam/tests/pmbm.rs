@@ -84,7 +84,7 @@ fn one_bernoulli_one_measurement() {
     let s = settings(0.0, 1e6);
     let mut ws = Workspace::default();
     let mut map = PmbmDensity::from_bernoullis(&[b]);
-    let out = pmbm_update(&mut map, &x, &z, &m, &s, &mut ws);
+    let out = pmbm_update(&mut map, &x, &z, None, &m, &s, &mut ws);
     assert!((out.ln_chi - ln_chi).abs() < 1e-12, "{} vs {ln_chi}", out.ln_chi);
     // The measurement's new track has r = 0 in both hypotheses and is deleted.
     assert_eq!((map.hypotheses(), map.tracks()), (2, 1));
@@ -97,13 +97,66 @@ fn one_bernoulli_one_measurement() {
 
     for weight in [PmbWeight::Bethe, PmbWeight::MostLikely] {
         let mut pmb = PmbmDensity::from_bernoullis(&[b]);
-        let out = pmb_update(&mut pmb, &x, &z, &m, &s, weight, &mut ws);
+        let out = pmb_update(&mut pmb, &x, &z, None, &m, &s, weight, &mut ws);
         let expect = if weight == PmbWeight::Bethe { ln_chi } else { missed.max(detected).ln() };
         assert!((out.ln_chi - expect).abs() < 1e-9, "{weight:?}: {} vs {expect}", out.ln_chi);
         // TOMB/P: r = p(missed) r_miss + p(detected).
         assert_eq!(pmb.tracks(), 1);
         assert!((pmb.hyps[0].r - (w_miss * r_miss + w_det)).abs() < 1e-9);
     }
+}
+
+/// A measurement's own covariance `R_j` replaces `R` in its likelihood, its EKF update and
+/// its new track: `R_j = R` gives the sensor-noise update, and `R_j = 4 R` (with a
+/// correlation) gives `ln chi`, the detected mean and the new track's density by hand with
+/// `S = H P H^T + R_j`.
+#[test]
+fn a_measurement_covariance_replaces_r() {
+    let m = model();
+    let x = Pose::new(1.0, -2.0, 0.3);
+    let b = bernoulli(0.6, 8.0, 3.0);
+    let z = [m.predict(&x, &b.mean, ()) + Vector2::new(0.2, -0.01), RangeBearing::new(20.0, -1.0)];
+    let ku = 1e-3;
+    let s = settings(ku, 1e6);
+    let mut ws = Workspace::default();
+    let run = |noise: Option<&[Matrix2<f64>]>, ws: &mut Workspace<2>| {
+        let mut map = PmbmDensity::from_bernoullis(&[b]);
+        let out = pmbm_update(&mut map, &x, &z, noise, &m, &s, ws);
+        (out, map)
+    };
+    let (plain, plain_map) = run(None, &mut ws);
+    let same = [m.r, m.r];
+    let (with_r, with_r_map) = run(Some(&same), &mut ws);
+    assert!((plain.ln_chi - with_r.ln_chi).abs() < 1e-12, "{} vs {}", plain.ln_chi, with_r.ln_chi);
+    assert_eq!(plain_map.hypotheses(), with_r_map.hypotheses());
+    for (a, c) in plain_map.hyps.iter().zip(&with_r_map.hyps) {
+        assert!((a.r - c.r).abs() < 1e-12 && (a.mean - c.mean).amax() < 1e-12 && (a.cov - c.cov).amax() < 1e-12);
+    }
+
+    let r2 = m.r * 4.0 + Matrix2::new(0.0, 1e-3, 1e-3, 0.0);
+    let own = [r2, m.r * 9.0];
+    let (out, map) = run(Some(&own), &mut ws);
+    // By hand: measurement 0 is the track's or clutter/new; measurement 1 is new or clutter.
+    let lin = m.sensor.linearise(&x, &b.mean);
+    let s2 = lin.hm * b.cov * lin.hm.transpose() + r2;
+    let v = RangeBearingSensor::residual(&z[0], &lin.z);
+    let detected = (b.r * PD).ln() + log_normal(&v, &s2).unwrap();
+    let xi = |j: usize| PD * ku * m.birth_integral_with_noise(&x, &z[j], (), &own[j]) + KAPPA;
+    let missed = (1.0 - b.r * PD).ln();
+    let ln_chi = (missed.exp() * xi(0) + detected.exp()).ln() + xi(1).ln();
+    assert!((out.ln_chi - ln_chi).abs() < 1e-10, "{} vs {ln_chi}", out.ln_chi);
+    let k = b.cov * lin.hm.transpose() * s2.try_inverse().unwrap();
+    let detected_mean = b.mean + k * v;
+    assert!(map.hyps.iter().any(|h| h.r == 1.0 && (h.mean - detected_mean).amax() < 1e-10), "{:?}", map.hyps);
+    // Measurement 1's new track: the birth density with 9 R.
+    let (mean, cov) = m.birth_with_noise(&x, &z[1], (), &own[1]);
+    let (_, plain_cov) = m.birth(&x, &z[1], ());
+    assert!((cov - plain_cov * 9.0).amax() < 1e-12);
+    assert!(map.hyps.iter().any(|h| h.r > 0.0 && (h.mean - mean).amax() < 1e-12 && (h.cov - cov).amax() < 1e-12));
+    // PMB reads them too.
+    let mut pmb = PmbmDensity::from_bernoullis(&[b]);
+    pmb_update(&mut pmb, &x, &z, Some(&own), &m, &s, PmbWeight::Bethe, &mut ws);
+    assert!(pmb.hyps.iter().any(|h| (h.cov - cov).amax() < 1e-12), "{:?}", pmb.hyps);
 }
 
 /// Test 2: three tracks and three measurements, every pair gated (a loopy graph): Murty
@@ -125,7 +178,7 @@ fn pmbm_matches_brute_force_on_three_by_three() {
     let s = settings(ku, 1e6);
     let mut ws = Workspace::default();
     let mut map = PmbmDensity::from_bernoullis(&tracks);
-    let out = pmbm_update(&mut map, &x, &z, &m, &s, &mut ws);
+    let out = pmbm_update(&mut map, &x, &z, None, &m, &s, &mut ws);
     assert_eq!(map.hypotheses(), brute.len());
     assert!((out.ln_chi - exact.ln_chi).abs() < 1e-9, "{} vs {}", out.ln_chi, exact.ln_chi);
     let mut ours = map.gh_log_w.clone();
@@ -140,7 +193,7 @@ fn pmbm_matches_brute_force_on_three_by_three() {
     let expected: f64 = (0..map.hypotheses()).map(|a| map.gh_log_w[a].exp() * map.expected_landmarks(a)).sum();
 
     let mut pmb = PmbmDensity::from_bernoullis(&tracks);
-    let out = pmb_update(&mut pmb, &x, &z, &m, &s, PmbWeight::Bethe, &mut ws);
+    let out = pmb_update(&mut pmb, &x, &z, None, &m, &s, PmbWeight::Bethe, &mut ws);
     // Every pair gated with comparable likelihoods: the most loopy 3 x 3 graph, where the
     // Bethe approximation is a strict lower bound (0.61 nats below here).
     assert!(out.ln_chi < exact.ln_chi && out.ln_chi > exact.ln_chi - 1.0, "{} vs {}", out.ln_chi, exact.ln_chi);
@@ -164,16 +217,16 @@ fn pmb_weight_and_cardinality_equal_pmbm_on_a_tree() {
     let s = settings(1e-3, 9.21);
     let mut ws = Workspace::default();
     let mut map = PmbmDensity::from_bernoullis(&tracks);
-    let full = pmbm_update(&mut map, &x, &z, &m, &s, &mut ws);
+    let full = pmbm_update(&mut map, &x, &z, None, &m, &s, &mut ws);
     let expected: f64 = (0..map.hypotheses()).map(|a| map.gh_log_w[a].exp() * map.expected_landmarks(a)).sum();
     let mut pmb = PmbmDensity::from_bernoullis(&tracks);
-    let out = pmb_update(&mut pmb, &x, &z, &m, &s, PmbWeight::Bethe, &mut ws);
+    let out = pmb_update(&mut pmb, &x, &z, None, &m, &s, PmbWeight::Bethe, &mut ws);
     assert!((out.ln_chi - full.ln_chi).abs() < 1e-9, "{} vs {}", out.ln_chi, full.ln_chi);
     let card: f64 = pmb.hyps.iter().map(|h| h.r).sum();
     assert!((card - expected).abs() < 1e-9, "{card} vs {expected}");
     // Most likely association: a lower bound.
     let mut pmb = PmbmDensity::from_bernoullis(&tracks);
-    let ml = pmb_update(&mut pmb, &x, &z, &m, &s, PmbWeight::MostLikely, &mut ws);
+    let ml = pmb_update(&mut pmb, &x, &z, None, &m, &s, PmbWeight::MostLikely, &mut ws);
     assert!(ml.ln_chi < full.ln_chi);
 }
 
@@ -193,7 +246,7 @@ fn reduction_caps_and_prunes_global_hypotheses() {
     let mut ws = Workspace::default();
     let s = UpdateSettings { max_global_hypotheses: 5, ..settings(1e-3, 1e6) };
     let mut map = PmbmDensity::from_bernoullis(&tracks);
-    let out = pmbm_update(&mut map, &x, &z, &m, &s, &mut ws);
+    let out = pmbm_update(&mut map, &x, &z, None, &m, &s, &mut ws);
     // Budget ceil(5 * 1) = 5 assignments: chi is their sum.
     let top5 = rfslam_core::rbpf::log_sum_exp(&brute[..5]);
     assert!((out.ln_chi - (exact.ln_chi + top5)).abs() < 1e-9);
@@ -203,7 +256,7 @@ fn reduction_caps_and_prunes_global_hypotheses() {
     }
     let s = UpdateSettings { gh_prune: 0.05, ..settings(1e-3, 1e6) };
     let mut map = PmbmDensity::from_bernoullis(&tracks);
-    pmbm_update(&mut map, &x, &z, &m, &s, &mut ws);
+    pmbm_update(&mut map, &x, &z, None, &m, &s, &mut ws);
     let kept = brute.iter().filter(|&&b| b >= 0.05f64.ln()).count();
     assert_eq!(map.hypotheses(), kept);
     let total: f64 = map.gh_log_w.iter().map(|l| l.exp()).sum();
@@ -236,7 +289,7 @@ fn shared_subproblem_keeps_each_hypothesis_budget() {
     assert_eq!(lw.len(), 3);
     let top = |k: usize| lw[..k].iter().map(|l| l.exp()).sum::<f64>();
     let s = UpdateSettings { max_global_hypotheses: 4, ..settings(1e-3, 1e6) };
-    let out = pmbm_update(&mut map, &x, &z, &m, &s, &mut Workspace::default());
+    let out = pmbm_update(&mut map, &x, &z, None, &m, &s, &mut Workspace::default());
     let expected = (0.7 * top(3) + 0.3 * top(2)).ln();
     assert!((out.ln_chi - expected).abs() < 1e-9, "{} vs {expected}", out.ln_chi);
     assert_eq!(map.hypotheses(), 4);
@@ -367,7 +420,7 @@ fn hypotheses_made_equal_by_bernoulli_pruning_are_merged() {
     };
     // Missed children: r = 0.3 * 0.1 / 0.73 = 0.041 and 0.2 * 0.1 / 0.82 = 0.024.
     let s = UpdateSettings { bernoulli_prune: 0.05, ..settings(0.0, 9.21) };
-    let out = pmbm_update(&mut map, &x, &[], &m, &s, &mut Workspace::default());
+    let out = pmbm_update(&mut map, &x, &[], None, &m, &s, &mut Workspace::default());
     let chi = 0.6 * 0.73 + 0.4 * 0.82; // times 1 - 0.9 p_D for the strong track
     assert!((out.ln_chi - (chi * (1.0 - 0.9 * PD)).ln()).abs() < 1e-12);
     assert_eq!((map.tracks(), map.hypotheses()), (1, 1));
@@ -387,18 +440,18 @@ fn survival_and_gated_missed_detection() {
     let mut ws = Workspace::default();
     let s = UpdateSettings { survival: 0.9, ..settings(0.0, 9.21) };
     let mut map = PmbmDensity::from_bernoullis(&[b]);
-    let out = pmbm_update(&mut map, &x, &[], &m, &s, &mut ws);
+    let out = pmbm_update(&mut map, &x, &[], None, &m, &s, &mut ws);
     let r = 0.8 * 0.9;
     assert!((out.ln_chi - (1.0 - r * PD).ln()).abs() < 1e-14);
     assert!((map.hyps[0].r - r * (1.0 - PD) / (1.0 - r * PD)).abs() < 1e-14);
 
     let s = UpdateSettings { missed_in_fov: false, ..settings(0.0, 9.21) };
     let mut map = PmbmDensity::from_bernoullis(&[b]);
-    let out = pmbm_update(&mut map, &x, &far, &m, &s, &mut ws);
+    let out = pmbm_update(&mut map, &x, &far, None, &m, &s, &mut ws);
     assert!((out.ln_chi - KAPPA.ln()).abs() < 1e-14, "only the clutter term: {}", out.ln_chi);
     assert_eq!((map.tracks(), map.hyps[0].r), (1, 0.8));
     let mut pmb = PmbmDensity::from_bernoullis(&[b]);
-    let out = pmb_update(&mut pmb, &x, &far, &m, &s, PmbWeight::Bethe, &mut ws);
+    let out = pmb_update(&mut pmb, &x, &far, None, &m, &s, PmbWeight::Bethe, &mut ws);
     assert!((out.ln_chi - KAPPA.ln()).abs() < 1e-12);
     assert_eq!(pmb.hyps[0].r, 0.8);
 }
@@ -431,7 +484,7 @@ fn expected_fov_edge_reaches_the_update() {
             _ => assert!(pd > 0.2 * PD && pd < 0.6 * PD, "expected p_D {pd}"),
         }
         let mut map = PmbmDensity::from_bernoullis(&[b]);
-        let out = pmbm_update(&mut map, &x, &z, &m, &s, &mut Workspace::default());
+        let out = pmbm_update(&mut map, &x, &z, None, &m, &s, &mut Workspace::default());
         assert!(out.ln_chi.is_finite());
         landmarks.push(map.global(0).filter(|h| h.r > 0.4).count());
     }

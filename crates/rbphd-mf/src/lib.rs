@@ -144,7 +144,7 @@ mod tests {
             for k in 0..10 {
                 let landmark = nalgebra::Vector2::new(30.0, 5.0);
                 let z = m.sensor.predict(&rfslam_core::Pose::new(k as f64 + 1.0, 0.0, 0.0), &landmark);
-                let r = f.step(&odo, &Scan { t: k as f64, z: vec![z], truth: None, source: 0 }, &mut rng);
+                let r = f.step(&odo, &Scan { t: k as f64, z: vec![z], truth: None, source: 0, noise: None }, &mut rng);
                 assert!(r.ess >= 1.0 - 1e-9 && r.ess <= 5.0 + 1e-9, "{s}: ESS {}", r.ess);
                 assert_eq!(r.cholesky_failures, 0);
             }

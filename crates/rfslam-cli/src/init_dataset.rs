@@ -77,6 +77,18 @@ fn readme_text(world: &str, c: &Columns, anchors: bool, types: bool) -> String {
     let state = list(c.state.iter().map(|s| format!("`{}` ({})", s.name, unit(s.angle))).collect());
     let measurement = list(c.measurement.iter().map(|m| format!("`{}` ({})", m.name, m.unit)).collect());
     let control = list(c.control.iter().map(|u| format!("`{u}` ({})", limits::control(u).1)).collect());
+    let noise = rfslam_data::dataset::noise_columns(&c.measurement);
+    let variances = list(noise.iter().filter(|n| n.entry.0 == n.entry.1).map(|n| format!("`{}`", n.name)).collect());
+    let covariance = match noise.iter().find(|n| n.entry.0 != n.entry.1) {
+        Some(n) => format!(
+            " and any covariances you know (`cov_<a>_<b>`, `a` before `b` in the order above: `{}`, ...)",
+            n.name
+        ),
+        None => String::new(),
+    };
+    let readers: Vec<&str> =
+        rfslam_harness::registry::REGISTRY.iter().filter(|e| e.per_measurement_noise).map(|e| e.name).collect();
+    let readers = readers.join(", ");
     let mut landmark = list(c.landmark.iter().map(|l| format!("`{l}` (m)")).collect());
     if types {
         landmark.push_str(", `type` (a name of `[landmarks] types` in `dataset.toml`)");
@@ -96,7 +108,7 @@ fn readme_text(world: &str, c: &Columns, anchors: bool, types: bool) -> String {
             }
         ),
         format!(
-            "| `{}` | yes | `scan`, {measurement}, `truth`: one row per detection; `truth` is the landmark id when you know it, `-1` for a false detection, empty when unknown (the column may be left out) |",
+            "| `{}` | yes | `scan`, {measurement}, `truth`: one row per detection; `truth` is the landmark id when you know it, `-1` for a false detection, empty when unknown (the column may be left out); optionally each detection's own covariance, used in place of the sensor's noise by the filters that read it ({readers}; the others refuse it): every variance {variances}{covariance}, in the units above squared |",
             files::MEASUREMENTS
         ),
         format!("| `{}` | yes | `t`, {control}: the controls of the vehicle model |", files::ODOMETRY),

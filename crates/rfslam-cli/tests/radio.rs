@@ -335,3 +335,51 @@ fn two_base_stations_ship_and_run() {
     );
     fails(dir.path(), &run, 2, &["1 base station(s)", "[landmarks] types"]);
 }
+
+/// A radio data set that gives each path's own covariance (`var_*` columns, as a channel
+/// estimator's Fisher information does): with the filters' `R` in every row (4 times the
+/// simulated noise's, the scenario's `filter_noise_scale`), `rfslam run` of pmbm-slam writes
+/// what it writes without the columns, bit for bit; with the simulated noise's, something
+/// else; a filter
+/// that does not read them (phd-3.0) is refused with exit 2, naming the columns and the
+/// filters that read them.
+#[test]
+fn a_radio_data_set_with_a_covariance_per_path() {
+    use rfslam_core::model::{RadioMark, RadioSensor, SensorModel};
+    let dir = TempDir::new("radio-cov");
+    dir.write("radio5g.toml", SCENARIO);
+    ok(dir.path(), &["simulate", "--scenario", "radio5g.toml", "--seed", "8", "--out", "ds"]);
+    let r = RadioSensor::published().noise(RadioMark::SCATTERING_POINT);
+    assert!(dir.read("ds/dataset.toml").contains("filter_noise_scale = [4.0, 4.0, 4.0]"));
+    let with = |scale: f64, out: &str| {
+        let text = dir.read("ds/measurements.csv");
+        let mut lines = text.lines();
+        let mut new = format!("{},var_toa,var_dod_az,var_dod_el,var_doa_az,var_doa_el\n", lines.next().unwrap());
+        for l in lines {
+            let cells: Vec<String> = (0..5).map(|i| (r[(i, i)] * scale).to_string()).collect();
+            new.push_str(&format!("{l},{}\n", cells.join(",")));
+        }
+        std::fs::create_dir_all(dir.join(out)).unwrap();
+        for f in std::fs::read_dir(dir.join("ds")).unwrap() {
+            let f = f.unwrap().path();
+            std::fs::copy(&f, dir.join(out).join(f.file_name().unwrap())).unwrap();
+        }
+        dir.write(&format!("{out}/measurements.csv"), &new);
+    };
+    with(4.0, "ds-r");
+    with(1.0, "ds-sim");
+    let run = |ds: &str, out: &str| {
+        let args = ["run", "--dataset", ds, "--filter", "pmbm-slam", "--particles", "10", "--seed", "8"];
+        ok(dir.path(), &[&args[..], &["--set", "undetected=\"constant\"", "--out", out]].concat());
+        dir.read(&format!("{out}/trajectory.csv"))
+    };
+    let plain = run("ds", "a");
+    assert_eq!(run("ds-r", "b"), plain, "R_j = R gives the run without the columns");
+    assert_ne!(run("ds-sim", "c"), plain, "R_j = R / 4 reaches the filter");
+    fails(
+        dir.path(),
+        &["run", "--dataset", "ds-r", "--filter", "phd-3.0", "--particles", "1", "--out", "d"],
+        2,
+        &["phd-3.0", "var_*", "pmbm-slam, pmb-slam"],
+    );
+}

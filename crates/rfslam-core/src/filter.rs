@@ -122,6 +122,7 @@ macro_rules! filter_variant {
         $(#[$doc:meta])* $ty:ident<S>($engine:ident), $name:literal;
         params: $params:ty,
         $(requires_truth: $truth:expr,)?
+        $(per_measurement_noise: $noise:expr,)?
         check: |$cp:ident, $cm:ident, $cn:ident| $check:expr,
         build: |$bp:ident, $bm:ident, $bn:ident| $build:expr
         $(, particle_bytes: |$zp:ident, $zm:ident| $bytes:expr)? $(,)?
@@ -131,6 +132,7 @@ macro_rules! filter_variant {
         impl<S: $crate::PlanarSensorModel> $crate::FilterBuild for $ty<S> {
             type Params = $params;
             $(const REQUIRES_TRUTH: bool = $truth;)?
+            $(const PER_MEASUREMENT_NOISE: bool = $noise;)?
         }
 
         impl<V, S, const X: usize, const M: usize, const Z: usize> $crate::WorldBuild<V, S, X, M, Z> for $ty
@@ -269,6 +271,11 @@ pub trait FilterBuild: 'static {
     /// Whether the filter needs the data set's truth labels (an oracle baseline); the
     /// harness refuses data without them before running.
     const REQUIRES_TRUTH: bool = false;
+
+    /// Whether the filter reads each measurement's own covariance ([`crate::Scan::noise`])
+    /// wherever it would read the sensor model's `R`; the harness refuses a data set that
+    /// carries them to a filter that does not, rather than let it ignore them.
+    const PER_MEASUREMENT_NOISE: bool = false;
 }
 
 /// The models a registered filter is built for in a world: the vehicle and the sensor as the

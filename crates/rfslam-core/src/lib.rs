@@ -49,4 +49,5 @@ pub use rng::Rng;
 pub use sensor::RangeBearingSensor;
 pub use types::{
     Control, ControlSegment, Estimate, MapPoint, Point2, Pose, RangeBearing, Scan, StepReport, TRUTH_UNKNOWN,
+    measurement_noise,
 };

@@ -1,6 +1,6 @@
 //! Plain data types that flow between datasets, filters and the harness.
 
-use nalgebra::{SVector, Vector3};
+use nalgebra::{SMatrix, SVector, Vector3};
 
 /// Robot pose `x = [px, py, theta]` (m, m, rad), heading wrapped to `[-pi, pi)`.
 pub type Pose = nalgebra::Vector3<f64>;
@@ -44,6 +44,31 @@ pub struct Scan<const Z: usize = 2> {
     /// The source of the scan's measurements ([`crate::SensorModel::sources`]: the radio
     /// world's base station that transmitted them); 0 in a world of one source.
     pub source: u8,
+    /// Each measurement's own covariance `R_j`, in the sensor model's components, when the
+    /// data set gives one (a channel estimator reports a covariance per path, from the
+    /// Fisher information); `None`: every measurement has the sensor model's `R`. A filter
+    /// that reads it uses `R_j` wherever it would use `R` for measurement `j`
+    /// ([`Scan::measurement_noise`]); one that does not is refused such a data set.
+    pub noise: Option<Vec<SMatrix<f64, Z, Z>>>,
+}
+
+impl<const Z: usize> Scan<Z> {
+    /// The covariance of measurement `j`: its own `R_j` when the scan carries one, else the
+    /// sensor model's `r`.
+    pub fn measurement_noise(&self, j: usize, r: &SMatrix<f64, Z, Z>) -> SMatrix<f64, Z, Z> {
+        measurement_noise(self.noise.as_deref(), j, r)
+    }
+}
+
+/// The covariance of measurement `j` of a scan whose per-measurement covariances are `noise`
+/// ([`Scan::noise`]): `noise[j]` when given, else the sensor model's `r`.
+#[inline]
+pub fn measurement_noise<const Z: usize>(
+    noise: Option<&[SMatrix<f64, Z, Z>]>,
+    j: usize,
+    r: &SMatrix<f64, Z, Z>,
+) -> SMatrix<f64, Z, Z> {
+    noise.map_or(*r, |n| n[j])
 }
 
 /// The truth label of a measurement whose origin is unknown (written as an empty `truth`

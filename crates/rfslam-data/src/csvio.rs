@@ -17,7 +17,7 @@ pub struct CsvRows {
     /// Byte offset and line of the last located record (lines are counted from the bytes:
     /// the csv crate's own line count skips blank lines).
     counted: (u64, u64),
-    names: Vec<&'static str>,
+    names: Vec<String>,
     index: Vec<Option<usize>>,
     record: csv::ByteRecord,
     line: u64,
@@ -25,7 +25,7 @@ pub struct CsvRows {
 
 impl CsvRows {
     /// Opens `path` and locates `required` (error if absent) and `optional` columns.
-    pub fn open(path: &Path, required: &[&'static str], optional: &[&'static str]) -> Result<Self, DataError> {
+    pub fn open(path: &Path, required: &[&str], optional: &[&str]) -> Result<Self, DataError> {
         let bytes = std::fs::read(path).map_err(|e| DataError::io(path, e))?;
         let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).flexible(false).from_reader(Cursor::new(bytes));
         let header = match reader.byte_headers() {
@@ -50,7 +50,7 @@ impl CsvRows {
             }
         }
         index.extend(optional.iter().map(|n| find(n)));
-        let names = required.iter().chain(optional).copied().collect();
+        let names = required.iter().chain(optional).map(|n| n.to_string()).collect();
         Ok(CsvRows {
             path: path.to_path_buf(),
             reader,
@@ -103,7 +103,7 @@ impl CsvRows {
 
     /// An error about column `i` of the current row.
     pub fn err(&self, i: usize, message: impl Into<String>) -> DataError {
-        DataError::value(&self.path, self.line, self.names[i], message)
+        DataError::value(&self.path, self.line, &self.names[i], message)
     }
 
     /// A finite number in column `i`.

@@ -33,7 +33,8 @@ pub mod files {
     /// of each scan; 0 when the column is absent).
     pub const SCANS: &str = "scans.csv";
     /// `scan` and the sensor model's measurement columns (`range,bearing`, `x,y`, `bearing`,
-    /// `toa,dod_az,dod_el,doa_az,doa_el`), then `truth`.
+    /// `toa,dod_az,dod_el,doa_az,doa_el`), then `truth`, and optionally each measurement's
+    /// own covariance ([`super::noise_columns`]: `var_<a>` and `cov_<a>_<b>`).
     pub const MEASUREMENTS: &str = "measurements.csv";
     /// `t` and the control columns of the vehicle model.
     pub const ODOMETRY: &str = "odometry.csv";
@@ -464,6 +465,14 @@ pub struct Dataset<C = ModelConfig, const X: usize = 3, const M: usize = 2, cons
     pub anchors: Vec<Landmark<M>>,
 }
 
+impl<C, const X: usize, const M: usize, const Z: usize> Dataset<C, X, M, Z> {
+    /// Whether the scans carry each measurement's own covariance ([`Scan::noise`], the
+    /// `var_*` and `cov_*` columns of `measurements.csv`).
+    pub fn has_measurement_noise(&self) -> bool {
+        self.scans.iter().any(|s| s.noise.is_some())
+    }
+}
+
 impl<const Z: usize> Dataset<ModelConfig, 3, 2, Z> {
     /// The motion model of the odometry.
     pub fn motion(&self) -> rfslam_core::Motion {
@@ -527,8 +536,14 @@ impl<C: DatasetModels, const X: usize, const M: usize, const Z: usize> Dataset<C
         w.finish()?;
 
         let labelled = self.scans.iter().any(|s| s.truth.is_some());
-        let names: Vec<&str> = columns.measurement.iter().map(|c| c.name).collect();
-        let header = format!("scan,{}{}", names.join(","), if labelled { ",truth" } else { "" });
+        let noisy = self.scans.iter().any(|s| s.noise.is_some());
+        let cov_cols = if noisy { noise_columns(&columns.measurement) } else { Vec::new() };
+        let mut names: Vec<&str> = columns.measurement.iter().map(|c| c.name).collect();
+        if labelled {
+            names.push("truth");
+        }
+        names.extend(cov_cols.iter().map(|c| c.name.as_str()));
+        let header = format!("scan,{}", names.join(","));
         let mut w = CsvOut::create(&dir.join(files::MEASUREMENTS), &header)?;
         let mut line = String::new();
         for (k, s) in self.scans.iter().enumerate() {
@@ -541,6 +556,13 @@ impl<C: DatasetModels, const X: usize, const M: usize, const Z: usize> Dataset<C
                     t.len()
                 )));
             }
+            if noisy && s.noise.as_ref().is_none_or(|n| n.len() != s.z.len()) {
+                return Err(DataError::Mismatch(format!(
+                    "scan {k} has {} measurements but {} covariances (a data set gives every measurement's or none)",
+                    s.z.len(),
+                    s.noise.as_ref().map_or(0, Vec::len)
+                )));
+            }
             for (i, z) in s.z.iter().enumerate() {
                 use std::fmt::Write as _;
                 line.clear();
@@ -551,6 +573,11 @@ impl<C: DatasetModels, const X: usize, const M: usize, const Z: usize> Dataset<C
                 if labelled {
                     let label = s.truth.as_ref().map(|t| t[i]).filter(|&l| l != TRUTH_UNKNOWN);
                     let _ = write!(line, ",{}", Opt(label));
+                }
+                if let Some(noise) = s.noise.as_ref().filter(|_| noisy) {
+                    for c in &cov_cols {
+                        let _ = write!(line, ",{}", noise[i][c.entry]);
+                    }
                 }
                 w.line(format_args!("{line}"))?;
             }
@@ -783,7 +810,7 @@ fn read_scans<const Z: usize>(path: &Path, initial_t: f64) -> Result<Vec<Scan<Z>
                 r.err(2, format!("source {s}: use a source index from 0 to {}", limits::MAX_SOURCES - 1))
             })?,
         };
-        scans.push(Scan { t, z: Vec::new(), truth: None, source });
+        scans.push(Scan { t, z: Vec::new(), truth: None, source, noise: None });
     }
     if scans.is_empty() {
         // A run of zero steps would report a score of nothing as a result.
@@ -801,7 +828,11 @@ fn read_measurements<const Z: usize>(
     let mut required = vec!["scan"];
     required.extend(components.iter().map(|c| c.name));
     let truth = 1 + Z;
-    let mut r = CsvRows::open(path, &required, &["truth"])?;
+    let cov_cols = noise_columns(components);
+    let mut optional = vec!["truth"];
+    optional.extend(cov_cols.iter().map(|c| c.name.as_str()));
+    let mut r = CsvRows::open(path, &required, &optional)?;
+    let per_measurement = per_measurement_noise(path, &r, &cov_cols, truth + 1)?;
     let n = scans.len();
     let mut current: Option<usize> = None;
     let (mut any_labelled, mut any_unlabelled) = (false, false);
@@ -838,10 +869,17 @@ fn read_measurements<const Z: usize>(
         } else {
             any_unlabelled = true;
         }
+        let noise = match per_measurement {
+            true => Some(read_noise::<Z>(&r, &cov_cols, components, truth + 1)?),
+            false => None,
+        };
         let scan = &mut scans[k];
         if current != Some(k) {
             current = Some(k);
             scan.truth = Some(Vec::new());
+        }
+        if let Some(n) = noise {
+            scan.noise.get_or_insert_with(Vec::new).push(n);
         }
         // Every row's label for now (empty cells as TRUTH_UNKNOWN); a scan with no label
         // at all gets `truth = None` below.
@@ -849,6 +887,11 @@ fn read_measurements<const Z: usize>(
             t.push(label.unwrap_or(TRUTH_UNKNOWN));
         }
         scan.z.push(z);
+    }
+    if per_measurement {
+        for s in scans.iter_mut() {
+            s.noise.get_or_insert_with(Vec::new);
+        }
     }
     for s in scans.iter_mut() {
         if s.truth.as_ref().is_some_and(|t| !t.is_empty() && t.iter().all(|&l| l == TRUTH_UNKNOWN)) {
@@ -863,6 +906,93 @@ fn read_measurements<const Z: usize>(
         }
     }
     Ok(())
+}
+
+/// One optional covariance column of `measurements.csv`: entry `(a, b)`, `a <= b`, of a
+/// measurement's own covariance `R_j`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NoiseColumn {
+    /// `var_<a>` on the diagonal, `cov_<a>_<b>` off it (the component names).
+    pub name: String,
+    /// Row and column of `R_j` (`a <= b`).
+    pub entry: (usize, usize),
+}
+
+/// The covariance columns of a measurement of `components`: the variances `var_<a>` in
+/// component order, then the covariances `cov_<a>_<b>` (`a` before `b`) of the upper
+/// triangle. A data set gives either none of them (every measurement has the sensor
+/// model's `R`) or every variance, with any covariance it knows (an absent column or an
+/// empty cell is 0). Units are the components' own, squared (`m^2`, `rad^2`, `m rad`).
+pub fn noise_columns(components: &[MeasurementComponent]) -> Vec<NoiseColumn> {
+    let n = components.len();
+    let diagonal = (0..n).map(|a| NoiseColumn { name: format!("var_{}", components[a].name), entry: (a, a) });
+    let off = (0..n).flat_map(|a| {
+        (a + 1..n).map(move |b| NoiseColumn {
+            name: format!("cov_{}_{}", components[a].name, components[b].name),
+            entry: (a, b),
+        })
+    });
+    diagonal.chain(off.collect::<Vec<_>>()).collect()
+}
+
+/// Whether `measurements.csv` (opened as `r`, the covariance columns from `first`) gives
+/// per-measurement covariances: every variance column, or no covariance column at all.
+fn per_measurement_noise(path: &Path, r: &CsvRows, cols: &[NoiseColumn], first: usize) -> Result<bool, DataError> {
+    let present: Vec<bool> = (0..cols.len()).map(|i| r.has(first + i)).collect();
+    if !present.iter().any(|&p| p) {
+        return Ok(false);
+    }
+    let variances = cols.iter().filter(|c| c.entry.0 == c.entry.1).count();
+    if let Some(i) = (0..variances).find(|&i| !present[i]) {
+        let given: Vec<&str> = cols.iter().zip(&present).filter(|(_, p)| **p).map(|(c, _)| c.name.as_str()).collect();
+        return Err(DataError::row(
+            path,
+            1,
+            format!(
+                "column `{}` is missing: a per-measurement covariance needs every variance ({}); the file has {}",
+                cols[i].name,
+                cols[..variances].iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", "),
+                given.join(", ")
+            ),
+        ));
+    }
+    Ok(true)
+}
+
+/// The current row's covariance `R_j` (columns from `first`, in [`noise_columns`]' order):
+/// every variance positive, every entry within its bound, and `R_j` positive definite.
+fn read_noise<const Z: usize>(
+    r: &CsvRows,
+    cols: &[NoiseColumn],
+    components: &[MeasurementComponent],
+    first: usize,
+) -> Result<nalgebra::SMatrix<f64, Z, Z>, DataError> {
+    let bound = |a: usize| if components[a].angle { limits::MAX_ANGLE } else { limits::MAX_COORDINATE };
+    let mut noise = nalgebra::SMatrix::<f64, Z, Z>::zeros();
+    for (i, c) in cols.iter().enumerate() {
+        let (a, b) = c.entry;
+        let unit = match a == b {
+            true => format!("{}^2", components[a].unit),
+            false => format!("{} {}", components[a].unit, components[b].unit),
+        };
+        let limit = bound(a) * bound(b);
+        let v = match a == b {
+            true => r.bounded_f64(first + i, limit, &unit)?,
+            false => r.opt_bounded_f64(first + i, limit, &unit)?.unwrap_or(0.0),
+        };
+        if a == b && v <= 0.0 {
+            return Err(r.err(first + i, format!("variance {v}: a measurement's variance must be positive ({unit})")));
+        }
+        noise[(a, b)] = v;
+        noise[(b, a)] = v;
+    }
+    if noise.cholesky().is_none() {
+        return Err(r.err(
+            first + Z,
+            "the measurement's covariance (columns var_*, cov_*) is not positive definite: a covariance exceeds what its variances allow",
+        ));
+    }
+    Ok(noise)
 }
 
 fn read_odometry(path: &Path, cols: &'static [&'static str]) -> Result<Vec<OdometryRow>, DataError> {
@@ -998,7 +1128,7 @@ mod tests {
     fn with_odometry(motion: MotionConfig, scan_times: &[f64], rows: &[(f64, [f64; 3])]) -> Dataset {
         Dataset {
             meta: meta(motion),
-            scans: scan_times.iter().map(|&t| Scan { t, z: vec![], truth: None, source: 0 }).collect(),
+            scans: scan_times.iter().map(|&t| Scan { t, z: vec![], truth: None, source: 0, noise: None }).collect(),
             odometry: rows.iter().map(|&(t, u)| OdometryRow { t, u: Control::new(u[0], u[1], u[2]) }).collect(),
             groundtruth: None,
             landmarks: None,
@@ -1318,6 +1448,74 @@ mod tests {
         let text = std::fs::read_to_string(tmp.path().join(files::MEASUREMENTS)).unwrap();
         assert!(text.lines().nth(1).unwrap().ends_with(','), "{text}");
         assert_eq!(<Dataset>::read(tmp.path()).unwrap(), d3);
+    }
+
+    /// Each measurement's own covariance (`var_*`, `cov_*` columns) is written and read back
+    /// bit for bit, a data set without one writes no such column, and the variances alone
+    /// (an estimator's diagonal) read as a diagonal `R_j`.
+    #[test]
+    fn per_measurement_covariances_round_trip() {
+        let tmp = TempDir::new("noise");
+        let mut d = example();
+        let r = |a: f64, b: f64, c: f64| nalgebra::Matrix2::new(a, c, c, b);
+        for s in &mut d.scans {
+            s.noise = Some(s.z.iter().enumerate().map(|(i, _)| r(0.01 * (i + 1) as f64 / 3.0, 1e-6, 1e-5)).collect());
+        }
+        d.write(tmp.path()).unwrap();
+        let text = std::fs::read_to_string(tmp.path().join(files::MEASUREMENTS)).unwrap();
+        assert!(text.starts_with("scan,range,bearing,truth,var_range,var_bearing,cov_range_bearing\n"), "{text}");
+        let back = <Dataset>::read(tmp.path()).unwrap();
+        assert_eq!(back, d);
+        assert!(back.has_measurement_noise());
+        // Every scan has its list, an empty scan an empty one.
+        assert_eq!(back.scans[1].noise.as_deref(), Some(&[][..]));
+
+        // No covariance, no columns.
+        let plain = example();
+        plain.write(tmp.path()).unwrap();
+        let text = std::fs::read_to_string(tmp.path().join(files::MEASUREMENTS)).unwrap();
+        assert!(!text.contains("var_"), "{text}");
+        assert!(!<Dataset>::read(tmp.path()).unwrap().has_measurement_noise());
+
+        // The variances alone: cov_range_bearing absent is 0.
+        let lines: Vec<String> = std::fs::read_to_string(tmp.path().join(files::MEASUREMENTS))
+            .unwrap()
+            .lines()
+            .enumerate()
+            .map(|(i, l)| if i == 0 { format!("{l},var_bearing,var_range") } else { format!("{l},0.0004,2.5") })
+            .collect();
+        std::fs::write(tmp.path().join(files::MEASUREMENTS), lines.join("\n") + "\n").unwrap();
+        let back = <Dataset>::read(tmp.path()).unwrap();
+        assert_eq!(back.scans[0].noise.as_ref().unwrap()[1], r(2.5, 0.0004, 0.0));
+        assert_eq!(back.scans[0].measurement_noise(1, &r(1.0, 1.0, 0.0)), r(2.5, 0.0004, 0.0));
+        assert_eq!(plain.scans[0].measurement_noise(1, &r(1.0, 1.0, 0.0)), r(1.0, 1.0, 0.0));
+    }
+
+    /// A per-measurement covariance that is incomplete, not positive or not positive
+    /// definite is refused naming the file, line and column.
+    #[test]
+    fn per_measurement_covariance_errors_name_line_and_column() {
+        let add = |header: &str, cells: &str| {
+            let (header, cells) = (header.to_string(), cells.to_string());
+            move |t: String| {
+                t.lines()
+                    .enumerate()
+                    .map(|(i, l)| if i == 0 { format!("{l},{header}\n") } else { format!("{l},{cells}\n") })
+                    .collect::<String>()
+            }
+        };
+        let e = broken(files::MEASUREMENTS, add("var_range", "0.01"));
+        assert!(e.contains("measurements.csv:1") && e.contains("column `var_bearing` is missing"), "{e}");
+        let e = broken(files::MEASUREMENTS, add("cov_range_bearing", "0"));
+        assert!(e.contains("column `var_range` is missing"), "{e}");
+        let e = broken(files::MEASUREMENTS, add("var_range,var_bearing", "0,1e-4"));
+        assert!(e.contains("measurements.csv:2") && e.contains("var_range") && e.contains("positive"), "{e}");
+        let e = broken(files::MEASUREMENTS, add("var_range,var_bearing", ",1e-4"));
+        assert!(e.contains("measurements.csv:2") && e.contains("var_range") && e.contains("empty"), "{e}");
+        let e = broken(files::MEASUREMENTS, add("var_range,var_bearing,cov_range_bearing", "1,1e-4,0.5"));
+        assert!(e.contains("measurements.csv:2") && e.contains("not positive definite"), "{e}");
+        let e = broken(files::MEASUREMENTS, add("var_range,var_bearing", "1e300,1e-4"));
+        assert!(e.contains("measurements.csv:2") && e.contains("var_range"), "{e}");
     }
 
     /// `dataset.toml` names its world; a data set written before the key existed is of the

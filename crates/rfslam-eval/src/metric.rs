@@ -1534,7 +1534,7 @@ mod tests {
         ds.scans = labels
             .iter()
             .enumerate()
-            .map(|(k, l)| Scan { t: k as f64, z: vec![], truth: l.clone(), source: 0 })
+            .map(|(k, l)| Scan { t: k as f64, z: vec![], truth: l.clone(), source: 0, noise: None })
             .collect();
         let m = MetricsConfig { gospa_p: 1.0, gospa_every: Some(every), ..Default::default() };
         let filter =

@@ -20,6 +20,9 @@ pub struct FilterEntry {
     pub baseline: bool,
     /// The filter needs truth labels on every scan (oracle baselines).
     pub requires_truth: bool,
+    /// The filter reads each measurement's own covariance when a data set gives one
+    /// ([`FilterBuild::PER_MEASUREMENT_NOISE`]); the others are refused such a data set.
+    pub per_measurement_noise: bool,
     /// Parses and validates parameters without building, in the planar world of a sensor of
     /// two components ([`check_in`] is every world's).
     pub validate: fn(&toml::Table, &SlamModels, usize) -> Result<(), ParamError>,
@@ -103,6 +106,7 @@ macro_rules! registry {
                 summary: $summary,
                 baseline: registry!(@baseline $($baseline)?),
                 requires_truth: <$ty as FilterBuild>::REQUIRES_TRUTH,
+                per_measurement_noise: <$ty as FilterBuild>::PER_MEASUREMENT_NOISE,
                 validate: |t, m, n| {
                     if m.sensor_model == RelativePositionModel::PLANAR {
                         check_in(t, &m.world::<RelativePositionModel>(), n, $name)
@@ -227,11 +231,22 @@ pub fn find(name: &str) -> Option<&'static FilterEntry> {
 /// measurement) is refused when a scan has no truth labels, or when any measurement's label
 /// is not an association it could be told: [`rfslam_core::TRUTH_UNKNOWN`] (an unknown origin,
 /// such as the real tree detections of the Victoria Park import beside its labelled
-/// artificial clutter) or anything else below `-1`. The error names the first such scan.
+/// artificial clutter) or anything else below `-1`. The error names the first such scan. A
+/// filter without [`FilterEntry::per_measurement_noise`] is refused a data set whose
+/// measurements carry their own covariances, naming the filters that read them.
 pub fn check_dataset<C, const X: usize, const M: usize, const Z: usize>(
     entry: &FilterEntry,
     dataset: &rfslam_data::Dataset<C, X, M, Z>,
 ) -> Result<(), String> {
+    if dataset.has_measurement_noise() && !entry.per_measurement_noise {
+        let readers: Vec<&str> = REGISTRY.iter().filter(|e| e.per_measurement_noise).map(|e| e.name).collect();
+        return Err(format!(
+            "filter `{}` does not read a per-measurement covariance, and data set `{}` gives one (measurements.csv columns var_*, cov_*): run it without those columns, or use a filter that reads them ({})",
+            entry.name,
+            dataset.meta.name,
+            readers.join(", ")
+        ));
+    }
     if !entry.requires_truth {
         return Ok(());
     }

@@ -29,7 +29,7 @@ fn every_filter_starts_from_the_prior() {
     let truth = rfslam_sim::RadioWorld::from_scenario(&sc).x0;
     let mean = truth + nalgebra::SVector::from(offset);
     assert_eq!(models.vehicle.initial_state, mean);
-    let empty = Scan { t: 0.0, z: Vec::new(), truth: Some(Vec::new()), source: 0 };
+    let empty = Scan { t: 0.0, z: Vec::new(), truth: Some(Vec::new()), source: 0, noise: None };
     let mut checked = 0;
     for entry in REGISTRY {
         let step = |seed: u64| -> Box<dyn SlamFilter<5, 3, 5>> {
@@ -79,7 +79,7 @@ fn a_known_start_draws_nothing() {
     assert!(models.vehicle.start_known());
     let truth = rfslam_sim::RadioWorld::from_scenario(&sc).x0;
     assert_eq!(models.vehicle.initial_state, truth);
-    let empty = Scan { t: 0.0, z: Vec::new(), truth: Some(Vec::new()), source: 0 };
+    let empty = Scan { t: 0.0, z: Vec::new(), truth: Some(Vec::new()), source: 0, noise: None };
     for name in ["phd-1.0", "pmbm-slam", "fastslam-1.0", "glmb-1.0"] {
         let mut f = build_in(&toml::Table::new(), &models, 50, name).unwrap();
         f.step(&[], &empty, &mut stream(&[1]));

@@ -155,6 +155,7 @@ fn with_components<const Z: usize>(d: Dataset) -> Dataset<ModelConfig, 3, 2, Z> 
             z: s.z.iter().map(|z| nalgebra::SVector::<f64, Z>::from_fn(|i, _| z[i])).collect(),
             truth: s.truth,
             source: s.source,
+            noise: None,
         })
         .collect();
     Dataset {

@@ -157,7 +157,7 @@ pub fn draw_scan<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const 
     sensor.sample_clutter(x, rng, &mut z);
     labels.resize(z.len(), -1);
     shuffle_scan(&mut z, &mut labels, rng);
-    Scan { t, z, truth: Some(labels), source: 0 }
+    Scan { t, z, truth: Some(labels), source: 0, noise: None }
 }
 
 /// A run simulated in a world of any vehicle and sensor model ([`simulate_run`]): the true

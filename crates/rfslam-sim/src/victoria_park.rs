@@ -240,7 +240,7 @@ impl VictoriaPark {
             let mut labels = vec![TRUTH_UNKNOWN; real];
             labels.resize(z.len(), -1);
             shuffle_scan(&mut z, &mut labels, &mut rng);
-            scans.push(Scan { t, z, truth: Some(labels), source: 0 });
+            scans.push(Scan { t, z, truth: Some(labels), source: 0, noise: None });
         }
         let odometry = self.inputs.clone();
         let (to_frame, origin) = match gps_frame {

@@ -108,11 +108,15 @@ fn detect<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorMod
     p: &[f64; MAX_TYPES],
     x: &SVector<f64, X>,
     z: &[SVector<f64, Z>],
+    noise: Option<&[SMatrix<f64, Z, Z>]>,
     model: &S,
     s: &UpdateSettings,
     ws: &mut Workspace<M>,
     gated: &mut [bool; MAX_TYPES],
 ) -> u32 {
+    if let Some(noise) = noise {
+        return detect_each(h, prior, r, p, x, z, noise, model, s, ws, gated);
+    }
     let nt = prior.len();
     let mut chol = 0;
     let mut lins: [Option<TypeLin<M, Z>>; MAX_TYPES] = [None; MAX_TYPES];
@@ -182,12 +186,73 @@ fn detect<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorMod
     chol
 }
 
+/// [`detect`] when each measurement has its own covariance `R_j` (`noise`): every type's
+/// `S_j = H P H^T + R_j`, gate, likelihood and EKF update per measurement.
+#[allow(clippy::too_many_arguments)]
+fn detect_each<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorModel<X, M, Z>>(
+    h: &LocalHypothesis<M>,
+    prior: &[TypeDensity<M>],
+    r: f64,
+    p: &[f64; MAX_TYPES],
+    x: &SVector<f64, X>,
+    z: &[SVector<f64, Z>],
+    noise: &[SMatrix<f64, Z, Z>],
+    model: &S,
+    s: &UpdateSettings,
+    ws: &mut Workspace<M>,
+    gated: &mut [bool; MAX_TYPES],
+) -> u32 {
+    let nt = prior.len();
+    let mut chol = 0;
+    let mut lins: [Option<rfslam_core::model::Linearised<X, M, Z>>; MAX_TYPES] = [None; MAX_TYPES];
+    for (m, t) in prior.iter().enumerate() {
+        if t.ln_w > f64::NEG_INFINITY && p[m] > 0.0 {
+            lins[m] = Some(model.linearise(x, &t.mean, model.marks()[m]));
+        }
+    }
+    let ln_r = r.ln();
+    for (j, (zj, r_j)) in z.iter().zip(noise).enumerate() {
+        let mut terms = [f64::NEG_INFINITY; MAX_TYPES];
+        let mut updated = [None; MAX_TYPES];
+        for m in 0..nt {
+            let (Some(lin), t) = (&lins[m], &prior[m]) else { continue };
+            let Ok(pair) = super::gate_pair(lin, &t.cov, zj, r_j, model, s.gate) else {
+                chol += 1;
+                continue;
+            };
+            let Some(super::GatedPair { l, log_det, v, maha }) = pair else { continue };
+            terms[m] = t.ln_w + p[m].ln() - 0.5 * (Z as f64 * LN_2PI + log_det + maha);
+            let (k, cov) = super::ekf_gain(&lin.hm, &t.cov, &l, r_j);
+            updated[m] = Some((t.mean + k * v, cov));
+            gated[m] = true;
+        }
+        if terms[..nt].iter().all(|&t| t == f64::NEG_INFINITY) {
+            continue;
+        }
+        let lse = log_sum_exp(&terms[..nt]);
+        let child = ws.hyps.len();
+        ws.det.push(Detection { j, child: child as u32, ln_nu: ln_r + lse });
+        for m in 0..nt {
+            let t = &prior[m];
+            ws.types.push(match updated[m] {
+                Some((mean, cov)) => TypeDensity { ln_w: terms[m] - lse, mean, cov },
+                None => TypeDensity::absent(t.mean, t.cov),
+            });
+        }
+        let mut c = LocalHypothesis { r: 1.0, ..*h };
+        most_likely(&mut c, &ws.types[child * nt..(child + 1) * nt]);
+        ws.hyps.push(c);
+    }
+    chol
+}
+
 /// Steps ii-iv of [`super::pmbm_update`] and [`super::pmb_update`] in a world of several
 /// landmark types, with the densities of every type (see the module documentation).
 pub fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorModel<X, M, Z>>(
     map: &PmbmDensity<M>,
     x: &SVector<f64, X>,
     z: &[SVector<f64, Z>],
+    noise: Option<&[SMatrix<f64, Z, Z>]>,
     model: &S,
     s: &UpdateSettings,
     ws: &mut Workspace<M>,
@@ -218,7 +283,7 @@ pub fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSen
             ws.types.extend_from_slice(prior);
             let mut gated = [false; MAX_TYPES];
             if p_fov > 0.0 && !z.is_empty() {
-                chol += detect(&h, prior, r, &p, x, z, model, s, ws, &mut gated);
+                chol += detect(&h, prior, r, &p, x, z, noise, model, s, ws, &mut gated);
             }
             // Step iii, with the adaptive p_D per type.
             let mut q = 0.0;
@@ -244,7 +309,8 @@ pub fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSen
     ws.det_start.push(ws.det.len());
     // Step ii: one new track per measurement, "not started" then "exists", both with the
     // measurement's per-type densities.
-    for zj in z {
+    for (j, zj) in z.iter().enumerate() {
+        let r_j = noise.map(|n| &n[j]);
         let mut e = [0.0; MAX_TYPES];
         let mut e_sum = 0.0;
         let start = ws.types.len();
@@ -254,10 +320,10 @@ pub fn children<const X: usize, const M: usize, const Z: usize, S: InvertibleSen
                 ws.types.push(TypeDensity::absent(SVector::zeros(), SMatrix::zeros()));
                 continue;
             }
-            let (mean, cov) = model.birth(x, zj, mark);
+            let (mean, cov, integral) = super::measurement_birth(model, x, zj, mark, r_j);
             // lambda_u,k-1 around the new landmark (`kappa_u` exactly for the constant intensity).
             let lambda = s.undetected_intensity * map.undetected.birth_multiplier(&mean, &cov, m);
-            e[m] = model.detection_probability(x, &mean, &cov, mark) * lambda * model.birth_integral(x, zj, mark);
+            e[m] = model.detection_probability(x, &mean, &cov, mark) * lambda * integral;
             e_sum += e[m];
             first_mapped.get_or_insert(m);
             ws.types.push(TypeDensity { ln_w: 0.0, mean, cov });

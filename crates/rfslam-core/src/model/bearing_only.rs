@@ -193,9 +193,10 @@ impl InvertibleSensorModel<3, 2, 1> for BearingOnlyModel {
 
     /// `N(m, J diag(sigma_r0^2, sigma_phi^2) J^T)` with `J = dm/d(r, phi)` at the prior range:
     /// the range prior along the bearing, the bearing's noise across it.
-    fn birth(&self, x: &Pose, z: &Bearing, _: ()) -> (Point2, Matrix2<f64>) {
+    /// A measurement's own bearing variance `r` takes the place of `sigma_phi^2`.
+    fn birth_with_noise(&self, x: &Pose, z: &Bearing, _: (), r: &Matrix1<f64>) -> (Point2, Matrix2<f64>) {
         let (m, j, _) = self.sensor.inverse_with_jacobians(x, &self.at_prior(z));
-        let noise = Matrix2::new(self.birth_range_sigma.powi(2), 0.0, 0.0, self.sigma * self.sigma);
+        let noise = Matrix2::new(self.birth_range_sigma.powi(2), 0.0, 0.0, r[(0, 0)]);
         (m, symmetrise(&(j * noise * j.transpose())))
     }
 

@@ -607,14 +607,40 @@ pub trait InvertibleSensorModel<const X: usize, const M: usize, const Z: usize>:
         z: &SVector<f64, Z>,
         mark: Self::Mark,
     ) -> (SVector<f64, M>, SMatrix<f64, M, M>) {
+        self.birth_with_noise(x, z, mark, &self.noise(mark))
+    }
+
+    /// [`Self::birth`] of a measurement whose covariance is `r` (its own, [`crate::Scan::noise`],
+    /// instead of the sensor model's): `N(h^-1(z, x), J_z r J_z^T)`.
+    fn birth_with_noise(
+        &self,
+        x: &SVector<f64, X>,
+        z: &SVector<f64, Z>,
+        mark: Self::Mark,
+        r: &SMatrix<f64, Z, Z>,
+    ) -> (SVector<f64, M>, SMatrix<f64, M, M>) {
         let inv = self.inverse(x, z, mark);
-        (inv.m, symmetrise(&(inv.jz * self.noise(mark) * inv.jz.transpose())))
+        (inv.m, symmetrise(&(inv.jz * r * inv.jz.transpose())))
     }
 
     /// `int N(z; h(x, m), R) dm` over the landmark space, `1 / |det H_m|` at the inverse:
     /// the new-track weight of a constant undetected intensity `kappa_u` is `p_D kappa_u`
     /// times this.
     fn birth_integral(&self, x: &SVector<f64, X>, z: &SVector<f64, Z>, mark: Self::Mark) -> f64;
+
+    /// [`Self::birth_integral`] of a measurement whose covariance is `r`. The default is the
+    /// sensor-noise integral, right for a sensor with as many components as the landmark has
+    /// coordinates (the integral `1 / |det H_m|` does not depend on `R`); a sensor with more
+    /// components, whose integral does (the radio sensor), overrides it.
+    fn birth_integral_with_noise(
+        &self,
+        x: &SVector<f64, X>,
+        z: &SVector<f64, Z>,
+        mark: Self::Mark,
+        _r: &SMatrix<f64, Z, Z>,
+    ) -> f64 {
+        self.birth_integral(x, z, mark)
+    }
 }
 
 #[cfg(test)]

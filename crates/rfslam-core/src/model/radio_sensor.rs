@@ -522,10 +522,23 @@ impl InvertibleSensorModel<5, 3, 5> for RadioSensor {
     }
 
     fn birth_integral(&self, x: &SVector<f64, 5>, z: &SVector<f64, 5>, mark: RadioMark) -> f64 {
+        self.birth_integral_with_noise(x, z, mark, &self.noise(mark))
+    }
+
+    /// The integral over the 3-D landmark space of the 5-D Gaussian `N(z; h(x, m), R)` with
+    /// the measurement's own `R` (`noise`): the Laplace form at the inverse, exact for the
+    /// model linearised there.
+    fn birth_integral_with_noise(
+        &self,
+        x: &SVector<f64, 5>,
+        z: &SVector<f64, 5>,
+        mark: RadioMark,
+        noise: &SMatrix<f64, 5, 5>,
+    ) -> f64 {
         let m = self.inverse(x, z, mark).m;
         let lin = self.measure(x, &m, mark.kind);
         let r = self.residual(z, &lin.z);
-        let Some(r_ch) = self.noise(mark).cholesky() else { return 0.0 };
+        let Some(r_ch) = noise.cholesky() else { return 0.0 };
         // W = L_R^-1 H_m, y = L_R^-1 r: H^T R^-1 H = W^T W, and the exponent is the part of y
         // outside the column space of W.
         let (Some(w), Some(y)) =
