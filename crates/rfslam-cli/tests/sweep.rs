@@ -49,7 +49,7 @@ fn with_scenario(test: &str) -> (TempDir, String) {
 
 /// Every registered filter (dead reckoning twice, under two labels) with the particle
 /// counts among 1 and 3 it accepts.
-fn all_entries(models: &rfslam_core::SlamModels) -> Vec<Entry> {
+fn all_entries(models: &RangeBearingModels) -> Vec<Entry> {
     let mut entries = dead_reckoning_pair();
     for (e, counts) in registered(models, &[1, 3]) {
         if e.name != "dead-reckoning" {
@@ -413,7 +413,7 @@ fn grid_points_have_columns_rows_and_report_sections() {
             };
             let mut t = toml::Table::new();
             t.insert(k.clone(), alt.clone());
-            if (e.validate)(&t, &models, counts[0]).is_ok() {
+            if rfslam_harness::registry::check_in(&t, &models, counts[0], e.name).is_ok() {
                 entries.push(Entry::new(e.name, "gridded", &counts[..1]));
                 filter_key = Some((format!("filter.gridded.{k}"), format!("[{v}, {alt}]")));
                 break 'found;

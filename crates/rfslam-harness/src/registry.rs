@@ -1,13 +1,8 @@
 //! The filter registry: name -> typed parameters -> filter. Adding a filter is one line in
 //! [`REGISTRY`] (and one dependency in this crate's Cargo.toml).
 
-use rfslam_core::model::{RangeBearingModel, RelativePositionModel, WorldVehicle};
-use rfslam_core::{
-    FilterBuild, InvertibleSensorModel, ParamError, PlanarSensorModel, SlamFilter, SlamModels, WorldBuild, WorldModels,
-};
-
-/// Builds a boxed filter from a parameter table, the scenario's models and a particle count.
-pub type BuildFn = fn(&toml::Table, &SlamModels, usize) -> Result<Box<dyn SlamFilter>, ParamError>;
+use rfslam_core::model::WorldVehicle;
+use rfslam_core::{FilterBuild, InvertibleSensorModel, ParamError, SlamFilter, WorldBuild, WorldModels};
 
 /// One registered filter.
 pub struct FilterEntry {
@@ -23,12 +18,6 @@ pub struct FilterEntry {
     /// The filter reads each measurement's own covariance when a data set gives one
     /// ([`FilterBuild::PER_MEASUREMENT_NOISE`]); the others are refused such a data set.
     pub per_measurement_noise: bool,
-    /// Parses and validates parameters without building, in the planar world of a sensor of
-    /// two components ([`check_in`] is every world's).
-    pub validate: fn(&toml::Table, &SlamModels, usize) -> Result<(), ParamError>,
-    /// Parses, validates and builds, in the planar world of a sensor of two components
-    /// ([`build_in`] is every world's).
-    pub build: BuildFn,
     /// The default parameters, as a table (written into resolved configurations).
     pub defaults: fn() -> toml::Table,
 }
@@ -107,20 +96,6 @@ macro_rules! registry {
                 baseline: registry!(@baseline $($baseline)?),
                 requires_truth: <$ty as FilterBuild>::REQUIRES_TRUTH,
                 per_measurement_noise: <$ty as FilterBuild>::PER_MEASUREMENT_NOISE,
-                validate: |t, m, n| {
-                    if m.sensor_model == RelativePositionModel::PLANAR {
-                        check_in(t, &m.world::<RelativePositionModel>(), n, $name)
-                    } else {
-                        check_in(t, &m.world::<RangeBearingModel>(), n, $name)
-                    }
-                },
-                build: |t, m, n| {
-                    if m.sensor_model == RelativePositionModel::PLANAR {
-                        build_in(t, &m.world::<RelativePositionModel>(), n, $name)
-                    } else {
-                        build_in(t, &m.world::<RangeBearingModel>(), n, $name)
-                    }
-                },
                 defaults: defaults_with::<$ty>,
             },
         )*];

@@ -17,6 +17,8 @@
 //! [`RANGE_BEARING_ONLY`], so that neither a silent refusal nor a forgotten list entry
 //! passes.
 
+mod planar;
+
 use rfslam_core::angle::wrap;
 use rfslam_core::model::{RangeBearingModel, RelativePositionModel};
 use rfslam_core::motion::propagate;
@@ -71,7 +73,7 @@ fn scenario(
 
 /// Whether `entry` refuses the sensor of `models` (its validation names the key `sensor`).
 fn refuses(entry: &FilterEntry, models: &SlamModels) -> bool {
-    [1, 3].iter().all(|&n| (entry.validate)(&toml::Table::new(), models, n).is_err_and(|e| e.key == "sensor"))
+    [1, 3].iter().all(|&n| planar::check(entry, &toml::Table::new(), models, n).is_err_and(|e| e.key == "sensor"))
 }
 
 /// The registered filters that serve the sensor of `models`.
@@ -107,13 +109,13 @@ fn dataset(sc: &ScenarioConfig, seed: u64) -> Dataset {
 
 /// The particle counts among `candidates` that `entry` accepts with its default parameters.
 fn counts(entry: &FilterEntry, models: &SlamModels, candidates: &[usize]) -> Vec<usize> {
-    candidates.iter().copied().filter(|&n| (entry.validate)(&toml::Table::new(), models, n).is_ok()).collect()
+    candidates.iter().copied().filter(|&n| planar::check(entry, &toml::Table::new(), models, n).is_ok()).collect()
 }
 
 /// Runs `entry` with default parameters and `n` particles over `ds` with run seed `seed`;
 /// returns the outcome and the estimate after every step.
 fn run(entry: &FilterEntry, ds: &Dataset, n: usize, seed: u64) -> (JobOutcome, Vec<Estimate>) {
-    let mut f = (entry.build)(&toml::Table::new(), &ds.models(), n)
+    let mut f = planar::build(entry, &toml::Table::new(), &ds.models(), n)
         .unwrap_or_else(|e| panic!("{} with {n} particles does not build: {e}", entry.name));
     let mut estimates = Vec::with_capacity(ds.scans.len());
     let o = run_filter(ds, f.as_mut(), seed, &MetricsConfig::default(), &mut |r| estimates.push(r.estimate.clone()));
@@ -165,7 +167,7 @@ fn every_filter_serves_or_refuses_each_sensor() {
             let listed = sensor != RangeBearingModel::PLANAR && RANGE_BEARING_ONLY.contains(&entry.name);
             assert_eq!(refuses(entry, &models), listed, "{} on the {} sensor", entry.name, sensor.name);
             if listed {
-                let e = (entry.build)(&toml::Table::new(), &models, 3).err().expect("refused at build");
+                let e = planar::build(entry, &toml::Table::new(), &models, 3).err().expect("refused at build");
                 assert_eq!(e.key, "sensor", "{}: {e}", entry.name);
                 assert!(e.message.contains(sensor.name), "{}: {e}", entry.name);
             }
@@ -179,10 +181,10 @@ fn default_parameters_validate_and_build() {
         let defaults = (entry.defaults)();
         let mut built = 0;
         for n in [1, 3] {
-            let empty = (entry.validate)(&toml::Table::new(), models, n);
-            let written = (entry.validate)(&defaults, models, n);
+            let empty = planar::check(entry, &toml::Table::new(), models, n);
+            let written = planar::check(entry, &defaults, models, n);
             assert_eq!(empty, written, "{} N={n}: the written defaults validate differently from none", entry.name);
-            match (entry.build)(&defaults, models, n) {
+            match planar::build(entry, &defaults, models, n) {
                 Ok(f) => {
                     assert!(empty.is_ok(), "{} N={n} builds but does not validate: {empty:?}", entry.name);
                     assert_eq!(f.name(), entry.name, "the filter calls itself by another name");
@@ -295,14 +297,14 @@ fn bad_parameters_are_rejected_naming_the_key() {
         }
         // Too many particles, whatever the machine's memory.
         let too_many = rfslam_core::params::MAX_PARTICLES + 1;
-        let e = (entry.validate)(&toml::Table::new(), models, too_many).expect_err(entry.name);
+        let e = planar::check(entry, &toml::Table::new(), models, too_many).expect_err(entry.name);
         assert_eq!(e.key, "particles", "{}: {too_many} particles rejected as {e}", entry.name);
         for (key, table) in bad {
-            match (entry.validate)(&table, models, n) {
+            match planar::check(entry, &table, models, n) {
                 Ok(()) => panic!("{}: {table:?} is accepted", entry.name),
                 Err(e) => assert_eq!(e.key, key, "{}: {table:?} rejected as {e}", entry.name),
             }
-            match (entry.build)(&table, models, n) {
+            match planar::build(entry, &table, models, n) {
                 Ok(_) => panic!("{}: {table:?} builds", entry.name),
                 Err(e) => assert_eq!(e.key, key, "{}: {table:?} rejected as {e}", entry.name),
             }
@@ -377,8 +379,8 @@ fn particle_filters_report_poses_and_parents() {
             }
             // Resampling at every step where the filter has the key, so that parents move.
             let eager = toml::Table::from_iter([("resample_ess_fraction".to_string(), toml::Value::Float(0.99))]);
-            let params = if (entry.validate)(&eager, &models, 3).is_ok() { eager } else { toml::Table::new() };
-            let mut f = (entry.build)(&params, &models, 3)
+            let params = if planar::check(entry, &eager, &models, 3).is_ok() { eager } else { toml::Table::new() };
+            let mut f = planar::build(entry, &params, &models, 3)
                 .unwrap_or_else(|e| panic!("{} with 3 particles does not build: {e}", entry.name));
             let (mut poses, mut parents) = (Vec::new(), Vec::new());
             let mut before = f.particles();

@@ -9,6 +9,8 @@
 //! filter accepts (its own, its proposal's and the shared ones, those whose default is
 //! "none" included).
 
+mod planar;
+
 use std::collections::BTreeSet;
 
 use rfslam_core::Pose;
@@ -119,7 +121,7 @@ fn filter_keys(entry: &rfslam_harness::registry::FilterEntry) -> BTreeSet<String
     let models = ModelConfig::phd_slam_synthetic().to_models(Pose::zeros());
     let mut keys: BTreeSet<String> = (entry.defaults)().keys().cloned().collect();
     let probe = toml::Table::from_iter([(PROBE.to_string(), toml::Value::Integer(1))]);
-    let e = (entry.validate)(&probe, &models, 1).expect_err("an unknown parameter must be rejected");
+    let e = planar::check(entry, &probe, &models, 1).expect_err("an unknown parameter must be rejected");
     assert!(e.to_string().contains(PROBE), "{}: {e}", entry.name);
     keys.extend(quoted(&e.to_string()));
     keys

@@ -2,6 +2,8 @@
 //! wrong type or value, nested, and behind a custom (flattening) deserializer such as
 //! rbphd's, which loses toml's positions.
 
+mod planar;
+
 use rfslam_harness::registry::parse_params;
 use serde::Deserialize;
 
@@ -79,14 +81,14 @@ fn a_misspelt_key_lists_every_accepted_key() {
     let models = rfslam_data::ModelConfig::phd_slam_synthetic().to_models(rfslam_core::Pose::zeros());
     let phd3 = REGISTRY.iter().find(|e| e.name == "phd-3.0").expect("registered");
     let t: toml::Table = "resample_ess_fracton = 0.5".parse().unwrap();
-    let e = (phd3.validate)(&t, &models, 10).expect_err("a misspelt key");
+    let e = planar::check(phd3, &t, &models, 10).expect_err("a misspelt key");
     assert_eq!(e.key, "resample_ess_fracton");
     for k in ["resample_ess_fraction", "resample_ess", "q_jitter", "birth_weight", "weighting", "max_assignments"] {
         assert!(e.message.contains(&format!("`{k}`")), "{k} not listed: {e}");
     }
     for entry in REGISTRY {
         let t: toml::Table = "zz_misspelt = 1".parse().unwrap();
-        let e = (entry.validate)(&t, &models, 1).expect_err("an unknown key");
+        let e = planar::check(entry, &t, &models, 1).expect_err("an unknown key");
         assert_eq!(e.key, "zz_misspelt", "{}", entry.name);
         for k in (entry.defaults)().keys() {
             assert!(e.message.contains(&format!("`{k}`")), "{}: {k} not listed: {e}", entry.name);

@@ -3,6 +3,8 @@
 //! bounds are loose against what the filters achieve (phd-3.0: 0.3-1.3 m on seeds 1-6) and
 //! tight against failure (dead reckoning drifts 10-40 m on the same data).
 
+mod planar;
+
 use rfslam_data::ScenarioConfig;
 use rfslam_eval::MetricsConfig;
 use rfslam_eval::run_filter;
@@ -22,7 +24,7 @@ fn pos_rmse(filter: &str, particles: usize, seed: u64) -> (f64, f64) {
     let world = sc.load_world().unwrap();
     let ds = sc.build_dataset(world.as_ref(), seed).unwrap();
     let entry = registry::find(filter).unwrap();
-    let mut f = (entry.build)(&toml::Table::new(), &ds.models(), particles).unwrap();
+    let mut f = planar::build(entry, &toml::Table::new(), &ds.models(), particles).unwrap();
     let o = run_filter(&ds, f.as_mut(), seed, &MetricsConfig::default(), &mut |_| {});
     assert_eq!(o["steps"] as usize, 500);
     (o["pos_rmse_m"], o["gospa_m"])

@@ -9,7 +9,7 @@ use std::process::{Child, Command};
 use std::sync::RwLock;
 
 use rfslam_data::testutil::small_scenario;
-use rfslam_harness::registry::{FilterEntry, REGISTRY};
+use rfslam_harness::registry::{self, FilterEntry, REGISTRY};
 use rfslam_sim::ScenarioData;
 
 /// A directory under the system temp dir, unique per test, removed when the test passes
@@ -155,19 +155,26 @@ pub fn experiment(scenario: &str, runs: usize, seed: u64, entries: &[Entry], ext
     s
 }
 
-/// The models a filter is validated with on `scenario_text`.
-pub fn models(scenario_text: &str) -> rfslam_core::SlamModels {
+/// The models of the range-bearing world the test scenarios are of.
+pub type RangeBearingModels =
+    rfslam_core::WorldModels<rfslam_core::Motion, rfslam_core::model::RangeBearingModel, 3, 2, 2>;
+
+/// The models a filter is validated with on `scenario_text`, a range-bearing scenario.
+pub fn models(scenario_text: &str) -> RangeBearingModels {
     let sc = rfslam_data::ScenarioConfig::from_toml_str(scenario_text, "scenario.toml").expect("valid scenario");
-    sc.models_for(None).expect("scenario models")
+    let m = sc.models_for(None).expect("scenario models");
+    assert!(m.sensor_model.name == "range_bearing", "a range-bearing test scenario");
+    m.world()
 }
 
 /// The particle counts among `candidates` that `entry` accepts with its default parameters.
-pub fn valid_counts(entry: &FilterEntry, models: &rfslam_core::SlamModels, candidates: &[usize]) -> Vec<usize> {
-    candidates.iter().copied().filter(|&n| (entry.validate)(&toml::Table::new(), models, n).is_ok()).collect()
+pub fn valid_counts(entry: &FilterEntry, models: &RangeBearingModels, candidates: &[usize]) -> Vec<usize> {
+    let none = toml::Table::new();
+    candidates.iter().copied().filter(|&n| registry::check_in(&none, models, n, entry.name).is_ok()).collect()
 }
 
 /// Every registered filter with the counts among `candidates` it accepts (at least one).
-pub fn registered(models: &rfslam_core::SlamModels, candidates: &[usize]) -> Vec<(&'static FilterEntry, Vec<usize>)> {
+pub fn registered(models: &RangeBearingModels, candidates: &[usize]) -> Vec<(&'static FilterEntry, Vec<usize>)> {
     REGISTRY
         .iter()
         .map(|e| {
