@@ -261,6 +261,9 @@ where
     /// Scratch of step i's grid thinning.
     thin: ThinScratch,
     z: Vec<SVector<f64, Z>>,
+    /// Each measurement's own covariance `R_j` when the scan gives them (`per_measurement`).
+    noise: Vec<SMatrix<f64, Z, Z>>,
+    per_measurement: bool,
 }
 
 impl<V, S, const X: usize, const M: usize, const Z: usize> MpmbFilter<V, S, X, M, Z>
@@ -304,6 +307,8 @@ where
             ws: Workspace::default(),
             thin: ThinScratch::default(),
             z: Vec::new(),
+            noise: Vec::new(),
+            per_measurement: false,
         }
     }
 
@@ -340,8 +345,28 @@ where
         odometry: &[ControlSegment],
         z: impl IntoIterator<Item = SVector<f64, Z>>,
     ) -> StepReport<M> {
+        self.step_measured(odometry, z, None)
+    }
+
+    /// [`Self::step_with`] with each measurement's own covariance `R_j` ([`Scan::noise`]) in
+    /// place of `R` when `noise` gives one per measurement: `R_U = noise_inflation R_j` in
+    /// steps ii and iv, `R_j` in the birth integral and in step 6's stacked update.
+    pub fn step_measured(
+        &mut self,
+        odometry: &[ControlSegment],
+        z: impl IntoIterator<Item = SVector<f64, Z>>,
+        noise: Option<&[SMatrix<f64, Z, Z>]>,
+    ) -> StepReport<M> {
         self.z.clear();
         self.z.extend(z);
+        // A data set gives every measurement's covariance or none (rfslam-data checks it).
+        debug_assert!(noise.is_none_or(|n| n.len() == self.z.len()));
+        self.noise.clear();
+        self.per_measurement = false;
+        if let Some(n) = noise.filter(|n| n.len() == self.z.len()) {
+            self.noise.extend_from_slice(n);
+            self.per_measurement = true;
+        }
         let mut chol = self.predict(odometry);
         let l_u = self.space.lower_factor(&self.cov).unwrap_or_else(|| {
             chol += 1;
@@ -393,6 +418,8 @@ where
     /// failures (a Bernoulli whose `P` or `S` fails is only missed).
     fn map_children(&mut self, l_u: &SMatrix<f64, X, X>) -> u32 {
         let (model, ws, mu, survival) = (&self.model, &mut self.ws, self.mean, self.params.survival_fov);
+        let noise = self.per_measurement.then_some(&self.noise[..]);
+        let inflation = self.params.noise_inflation;
         let mut chol = 0;
         ws.missed.clear();
         ws.ln_miss.clear();
@@ -420,17 +447,28 @@ where
             let pose = PosePoints::new(n, &mu, l_u, |s| model.predict(s, &b.mean, mark), res);
             let input = InputPoints::new(n, &b.mean, &l_p, &pose.y0, |m| model.predict(&mu, m, mark), res);
             let mom = PairMoments::new(n, &pose, &input);
-            let s_cov = symmetrise(&(mom.cov + self.r_u[usize::from(b.mark)]));
-            let Some(ch) = s_cov.cholesky() else {
-                chol += 1;
-                continue;
+            // One update for every measurement under R_U, or one per measurement under its own.
+            let shared = match noise {
+                None => match CubatureUpdate::new(&mom, &b.cov, &self.r_u[usize::from(b.mark)]) {
+                    Some(u) => Some(u),
+                    None => {
+                        chol += 1;
+                        continue;
+                    }
+                },
+                Some(_) => None,
             };
-            let l = ch.l();
-            let log_det: f64 = (0..Z).map(|i| 2.0 * l[(i, i)].ln()).sum();
             let ln_rp = r.ln() + p.ln();
-            let k = ch.solve(&mom.cross_v.transpose()).transpose();
-            let cov = symmetrise(&(b.cov - k * s_cov * k.transpose()));
             for (j, zj) in self.z.iter().enumerate() {
+                let Some(CubatureUpdate { l, log_det, k, cov }) = shared.or_else(|| {
+                    let r_u = noise.map_or(self.r_u[usize::from(b.mark)], |n| n[j] * inflation);
+                    CubatureUpdate::new(&mom, &b.cov, &r_u).or_else(|| {
+                        chol += 1;
+                        None
+                    })
+                }) else {
+                    continue;
+                };
                 let v = model.residual(zj, &pose.y0) - mom.dmean;
                 let Some(y) = l.solve_lower_triangular(&v) else { continue };
                 let maha = y.norm_squared();
@@ -455,19 +493,26 @@ where
         ws.born.clear();
         let n = self.n_s + Z;
         let sub = |a: &SVector<f64, M>, b: &SVector<f64, M>| a - b;
-        for zj in &self.z {
+        let noise = self.per_measurement.then_some(&self.noise[..]);
+        for (j, zj) in self.z.iter().enumerate() {
             let l_ru = &self.l_ru;
             let (e_sum, born) = typed_birth(model, |mark| {
-                let l_ru = l_ru[usize::from(mark.index())].as_ref()?;
+                let own = noise.and_then(|n| lower_factor(&(n[j] * s.noise_inflation)));
+                let l_ru = match noise {
+                    None => l_ru[usize::from(mark.index())].as_ref()?,
+                    Some(_) => own.as_ref()?,
+                };
                 let pose = PosePoints::new(n, &mu, l_u, |x| model.inverse(x, zj, mark).m, sub);
                 let input = InputPoints::new(n, zj, l_ru, &pose.y0, |z| model.inverse(&mu, z, mark).m, sub);
                 let mom = PairMoments::new(n, &pose, &input);
                 let mean = pose.y0 + mom.dmean;
                 let lambda =
                     s.undetected_intensity * undetected.birth_multiplier(&mean, &mom.cov, usize::from(mark.index()));
-                let e = model.detection_probability(&mu, &mean, &mom.cov, mark)
-                    * lambda
-                    * model.birth_integral(&mu, zj, mark);
+                let integral = match noise {
+                    None => model.birth_integral(&mu, zj, mark),
+                    Some(n) => model.birth_integral_with_noise(&mu, zj, mark, &n[j]),
+                };
+                let e = model.detection_probability(&mu, &mean, &mom.cov, mark) * lambda * integral;
                 Some((e, mean, mom.cov))
             });
             let nu = e_sum + model.clutter_intensity(zj).max(s.min_clutter_intensity);
@@ -484,6 +529,7 @@ where
     /// failures (then the vehicle keeps its prediction).
     fn vehicle_update(&mut self, l_u: &SMatrix<f64, X, X>) -> u32 {
         let (model, ws, mu) = (&self.model, &mut self.ws, self.mean);
+        let noise = self.per_measurement.then_some(&self.noise[..]);
         ws.sel.clear();
         for (row, c) in ws.best.association().iter().enumerate() {
             let i = ws.rows[row];
@@ -529,7 +575,8 @@ where
                 let db = (pb.sum() + ws.input_pts[b].sum) * w;
                 let mut blk = pa.outer(pb) * w - da * db.transpose();
                 if a == b {
-                    blk += ia.sq * w + self.r[usize::from(self.bernoullis[ws.sel[a].0].mark)];
+                    let r = &self.r[usize::from(self.bernoullis[ws.sel[a].0].mark)];
+                    blk += ia.sq * w + rfslam_core::measurement_noise(noise, ws.sel[a].1, r);
                 }
                 ws.s_mat.view_mut((Z * a, Z * b), (Z, Z)).copy_from(&blk);
                 ws.s_mat.view_mut((Z * b, Z * a), (Z, Z)).copy_from(&blk.transpose());
@@ -634,7 +681,7 @@ where
 
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, _rng: &mut Rng) -> StepReport<M> {
         self.model.set_source(scan.source);
-        self.step_with(odometry, scan.z.iter().copied())
+        self.step_measured(odometry, scan.z.iter().copied(), scan.noise.as_deref())
     }
 
     fn estimate(&self) -> Estimate<X, M> {
@@ -648,6 +695,34 @@ where
 
     fn particle_parents(&self, _out: &mut Vec<usize>) -> bool {
         false
+    }
+}
+
+/// The cubature update of a landmark `N(., p)` by one measurement whose moments are `mom`
+/// under the noise `r_u`: the lower factor `l` of `S = Cov[y] + r_u`, `ln det S`, the gain
+/// `K = Cov[m, y] S^-1` and the updated covariance `P - K S K^T`.
+#[derive(Clone, Copy)]
+pub(crate) struct CubatureUpdate<const M: usize, const Z: usize> {
+    pub l: SMatrix<f64, Z, Z>,
+    pub log_det: f64,
+    pub k: SMatrix<f64, M, Z>,
+    pub cov: SMatrix<f64, M, M>,
+}
+
+impl<const M: usize, const Z: usize> CubatureUpdate<M, Z> {
+    /// `None` when `S` fails Cholesky.
+    pub(crate) fn new<const X: usize>(
+        mom: &PairMoments<M, Z, X>,
+        p: &SMatrix<f64, M, M>,
+        r_u: &SMatrix<f64, Z, Z>,
+    ) -> Option<Self> {
+        let s_cov = symmetrise(&(mom.cov + r_u));
+        let ch = s_cov.cholesky()?;
+        let l = ch.l();
+        let log_det: f64 = (0..Z).map(|i| 2.0 * l[(i, i)].ln()).sum();
+        let k = ch.solve(&mom.cross_v.transpose()).transpose();
+        let cov = symmetrise(&(p - k * s_cov * k.transpose()));
+        Some(CubatureUpdate { l, log_det, k, cov })
     }
 }
 
@@ -675,7 +750,7 @@ impl<S: PlanarSensorModel> SlamFilter for MpmbSlam<S> {
     }
 
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, _rng: &mut Rng) -> StepReport {
-        self.0.step_with(odometry, scan.z.iter().copied())
+        self.0.step_measured(odometry, scan.z.iter().copied(), scan.noise.as_deref())
     }
 
     fn estimate(&self) -> Estimate {
@@ -685,6 +760,7 @@ impl<S: PlanarSensorModel> SlamFilter for MpmbSlam<S> {
 
 impl<S: PlanarSensorModel> FilterBuild for MpmbSlam<S> {
     type Params = MpmbParams;
+    const PER_MEASUREMENT_NOISE: bool = true;
 }
 
 /// In every world: one Gaussian vehicle (no particles), the sensor the filter assumes

@@ -338,9 +338,9 @@ fn two_base_stations_ship_and_run() {
 
 /// A radio data set that gives each path's own covariance (`var_*` columns, as a channel
 /// estimator's Fisher information does): with the filters' `R` in every row (4 times the
-/// simulated noise's, the scenario's `filter_noise_scale`), `rfslam run` of pmbm-slam writes
-/// what it writes without the columns, bit for bit; with the simulated noise's, something
-/// else; a filter
+/// simulated noise's, the scenario's `filter_noise_scale`), `rfslam run` of pmbm-slam and of
+/// mpmb-slam writes what it writes without the columns, bit for bit; with the simulated
+/// noise's, something else; a filter
 /// that does not read them (phd-3.0) is refused with exit 2, naming the columns and the
 /// filters that read them.
 #[test]
@@ -368,18 +368,20 @@ fn a_radio_data_set_with_a_covariance_per_path() {
     };
     with(4.0, "ds-r");
     with(1.0, "ds-sim");
-    let run = |ds: &str, out: &str| {
-        let args = ["run", "--dataset", ds, "--filter", "pmbm-slam", "--particles", "10", "--seed", "8"];
-        ok(dir.path(), &[&args[..], &["--set", "undetected=\"constant\"", "--out", out]].concat());
-        dir.read(&format!("{out}/trajectory.csv"))
-    };
-    let plain = run("ds", "a");
-    assert_eq!(run("ds-r", "b"), plain, "R_j = R gives the run without the columns");
-    assert_ne!(run("ds-sim", "c"), plain, "R_j = R / 4 reaches the filter");
+    for (filter, n) in [("pmbm-slam", "10"), ("mpmb-slam", "1")] {
+        let run = |ds: &str, out: &str| {
+            let args = ["run", "--dataset", ds, "--filter", filter, "--particles", n, "--seed", "8"];
+            ok(dir.path(), &[&args[..], &["--set", "undetected=\"constant\"", "--out", out]].concat());
+            dir.read(&format!("{out}/trajectory.csv")) + &dir.read(&format!("{out}/map.csv"))
+        };
+        let plain = run("ds", &format!("{filter}-a"));
+        assert_eq!(run("ds-r", &format!("{filter}-b")), plain, "{filter}: R_j = R gives the run without the columns");
+        assert_ne!(run("ds-sim", &format!("{filter}-c")), plain, "{filter}: R_j = R / 4 reaches the filter");
+    }
     fails(
         dir.path(),
         &["run", "--dataset", "ds-r", "--filter", "phd-3.0", "--particles", "1", "--out", "d"],
         2,
-        &["phd-3.0", "var_*", "pmbm-slam, pmb-slam"],
+        &["phd-3.0", "var_*", "pmbm-slam, pmb-slam, mpmb-slam"],
     );
 }

@@ -14,27 +14,25 @@
 
 use nalgebra::{SMatrix, SVector};
 use rfslam_assign::tomb::{GaussianBernoulli, tomb_new_track};
-use rfslam_core::gaussian::symmetrise;
 use rfslam_core::model::{LandmarkMark, VehicleModel};
 use rfslam_core::rbpf::log_sum_exp;
 
-use super::{Detection, LN_2PI, MpmbFilter};
+use super::{CubatureUpdate, Detection, LN_2PI, MpmbFilter};
 use crate::cubature::{InputPoints, PairMoments, PosePoints, lower_factor};
 use crate::model::InvertibleSensorModel;
 use crate::pmbm::typed::{MAX_TYPES, TypeDensity, most_likely, tomb_merge_typed};
 
 /// One type's cubature moments at a Bernoulli: `z_hat - dmean` split as the pose points'
-/// `y0` and the mean offset, the Cholesky factor of `S`, `ln det S`, `ln (w_m p_D(m))`, the
-/// gain and the updated covariance.
+/// `y0` and the moments' mean offset, `ln (w_m p_D(m))`, and the update (factor of `S`,
+/// `ln det S`, gain, updated covariance).
 #[derive(Clone, Copy)]
-struct TypeMoments<const M: usize, const Z: usize> {
+struct TypeMoments<const M: usize, const Z: usize, const X: usize> {
     y0: SVector<f64, Z>,
-    dmean: SVector<f64, Z>,
-    l: SMatrix<f64, Z, Z>,
-    log_det: f64,
+    pm: PairMoments<M, Z, X>,
     ln_wp: f64,
-    k: SMatrix<f64, M, Z>,
-    cov: SMatrix<f64, M, M>,
+    /// The update under `R_U`, shared by every measurement; `None` with per-measurement
+    /// covariances.
+    update: Option<CubatureUpdate<M, Z>>,
 }
 
 impl<V, S, const X: usize, const M: usize, const Z: usize> MpmbFilter<V, S, X, M, Z>
@@ -46,6 +44,8 @@ where
     /// Cholesky failures (a type whose `P` or `S` fails is not detectable).
     pub(super) fn map_children_typed(&mut self, l_u: &SMatrix<f64, X, X>, nt: usize) -> u32 {
         let (model, ws, mu, survival) = (&self.model, &mut self.ws, self.mean, self.params.survival_fov);
+        let noise = self.per_measurement.then_some(&self.noise[..]);
+        let inflation = self.params.noise_inflation;
         let mut chol = 0;
         ws.missed.clear();
         ws.missed_types.clear();
@@ -83,7 +83,7 @@ where
             if q <= 0.0 || self.z.is_empty() {
                 continue;
             }
-            let mut mom: [Option<TypeMoments<M, Z>>; MAX_TYPES] = [None; MAX_TYPES];
+            let mut mom: [Option<TypeMoments<M, Z, X>>; MAX_TYPES] = [None; MAX_TYPES];
             for (m, td) in prior.iter().enumerate() {
                 if p[m] <= 0.0 {
                     continue;
@@ -97,32 +97,44 @@ where
                 let pose = PosePoints::new(n, &mu, l_u, |s| model.predict(s, &td.mean, mark), res);
                 let input = InputPoints::new(n, &td.mean, &l_p, &pose.y0, |x| model.predict(&mu, x, mark), res);
                 let pm = PairMoments::new(n, &pose, &input);
-                let s_cov = symmetrise(&(pm.cov + self.r_u[m]));
-                let Some(ch) = s_cov.cholesky() else {
-                    chol += 1;
-                    continue;
+                let update = match noise {
+                    None => {
+                        let Some(u) = CubatureUpdate::new(&pm, &td.cov, &self.r_u[m]) else {
+                            chol += 1;
+                            continue;
+                        };
+                        Some(u)
+                    }
+                    Some(_) => None,
                 };
-                let l = ch.l();
-                let log_det: f64 = (0..Z).map(|i| 2.0 * l[(i, i)].ln()).sum();
-                let k = ch.solve(&pm.cross_v.transpose()).transpose();
-                let cov = symmetrise(&(td.cov - k * s_cov * k.transpose()));
                 let ln_wp = td.ln_w + p[m].ln();
-                mom[m] = Some(TypeMoments { y0: pose.y0, dmean: pm.dmean, l, log_det, ln_wp, k, cov });
+                mom[m] = Some(TypeMoments { y0: pose.y0, pm, ln_wp, update });
             }
             let ln_r = r.ln();
             for (j, zj) in self.z.iter().enumerate() {
                 let mut terms = [f64::NEG_INFINITY; MAX_TYPES];
                 let mut nus = [SVector::<f64, Z>::zeros(); MAX_TYPES];
+                let mut updates: [Option<CubatureUpdate<M, Z>>; MAX_TYPES] = [None; MAX_TYPES];
                 for m in 0..nt {
                     let Some(tm) = &mom[m] else { continue };
-                    let v = model.residual(zj, &tm.y0) - tm.dmean;
-                    let Some(y) = tm.l.solve_lower_triangular(&v) else { continue };
+                    let Some(u) = tm.update.or_else(|| {
+                        let r_u = noise.map_or(self.r_u[m], |n| n[j] * inflation);
+                        CubatureUpdate::new(&tm.pm, &prior[m].cov, &r_u).or_else(|| {
+                            chol += 1;
+                            None
+                        })
+                    }) else {
+                        continue;
+                    };
+                    let v = model.residual(zj, &tm.y0) - tm.pm.dmean;
+                    let Some(y) = u.l.solve_lower_triangular(&v) else { continue };
                     let maha = y.norm_squared();
                     if maha > self.gate {
                         continue;
                     }
-                    terms[m] = tm.ln_wp - 0.5 * (Z as f64 * LN_2PI + tm.log_det + maha);
+                    terms[m] = tm.ln_wp - 0.5 * (Z as f64 * LN_2PI + u.log_det + maha);
                     nus[m] = v;
+                    updates[m] = Some(u);
                 }
                 if terms[..nt].iter().all(|&t| t == f64::NEG_INFINITY) {
                     continue;
@@ -130,9 +142,9 @@ where
                 let lse = log_sum_exp(&terms[..nt]);
                 let start = ws.det_types.len();
                 for (m, td) in prior.iter().enumerate() {
-                    ws.det_types.push(match &mom[m] {
-                        Some(tm) if terms[m] > f64::NEG_INFINITY => {
-                            TypeDensity { ln_w: terms[m] - lse, mean: td.mean + tm.k * nus[m], cov: tm.cov }
+                    ws.det_types.push(match &updates[m] {
+                        Some(u) if terms[m] > f64::NEG_INFINITY => {
+                            TypeDensity { ln_w: terms[m] - lse, mean: td.mean + u.k * nus[m], cov: u.cov }
                         }
                         _ => TypeDensity { ln_w: f64::NEG_INFINITY, ..*td },
                     });
@@ -154,12 +166,18 @@ where
         ws.born_types.clear();
         let n = self.n_s + Z;
         let sub = |a: &SVector<f64, M>, b: &SVector<f64, M>| a - b;
-        for zj in &self.z {
+        let noise = self.per_measurement.then_some(&self.noise[..]);
+        for (j, zj) in self.z.iter().enumerate() {
+            let own = noise.and_then(|n| lower_factor(&(n[j] * s.noise_inflation)));
             let start = ws.born_types.len();
             let mut e = [0.0; MAX_TYPES];
             let mut e_sum = 0.0;
             for (m, &mark) in model.marks().iter().take(nt).enumerate() {
-                let l_ru = self.l_ru[m].as_ref().filter(|_| model.mapped(mark));
+                let l_ru = match noise {
+                    None => self.l_ru[m].as_ref(),
+                    Some(_) => own.as_ref(),
+                };
+                let l_ru = l_ru.filter(|_| model.mapped(mark));
                 let Some(l_ru) = l_ru else {
                     ws.born_types.push(TypeDensity {
                         ln_w: f64::NEG_INFINITY,
@@ -173,9 +191,11 @@ where
                 let pm = PairMoments::new(n, &pose, &input);
                 let mean = pose.y0 + pm.dmean;
                 let lambda = s.undetected_intensity * undetected.birth_multiplier(&mean, &pm.cov, m);
-                e[m] = model.detection_probability(&mu, &mean, &pm.cov, mark)
-                    * lambda
-                    * model.birth_integral(&mu, zj, mark);
+                let integral = match noise {
+                    None => model.birth_integral(&mu, zj, mark),
+                    Some(n) => model.birth_integral_with_noise(&mu, zj, mark, &n[j]),
+                };
+                e[m] = model.detection_probability(&mu, &mean, &pm.cov, mark) * lambda * integral;
                 e_sum += e[m];
                 ws.born_types.push(TypeDensity { ln_w: 0.0, mean, cov: pm.cov });
             }
