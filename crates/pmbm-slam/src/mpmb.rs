@@ -496,8 +496,8 @@ where
         let noise = self.per_measurement.then_some(&self.noise[..]);
         for (j, zj) in self.z.iter().enumerate() {
             let l_ru = &self.l_ru;
+            let own = noise.and_then(|n| lower_factor(&(n[j] * s.noise_inflation)));
             let (e_sum, born) = typed_birth(model, |mark| {
-                let own = noise.and_then(|n| lower_factor(&(n[j] * s.noise_inflation)));
                 let l_ru = match noise {
                     None => l_ru[usize::from(mark.index())].as_ref()?,
                     Some(_) => own.as_ref()?,
