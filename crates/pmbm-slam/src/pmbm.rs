@@ -339,17 +339,18 @@ pub(crate) struct GatedPair<const Z: usize> {
     pub maha: f64,
 }
 
-/// [`GatedPair`] of measurement `z` (covariance `noise`) and the Gaussian of covariance `cov`
-/// linearised as `lin`: `Err(())` when `S_j` fails Cholesky, `Ok(None)` outside the gate.
+/// [`GatedPair`] of measurement `z` (covariance `noise`) and a Gaussian linearised as `lin`
+/// whose `H P H^T` is `hph` (computed once per Gaussian, not per measurement): `Err(())` when
+/// `S_j` fails Cholesky, `Ok(None)` outside the gate.
 pub(crate) fn gate_pair<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorModel<X, M, Z>>(
     lin: &rfslam_core::model::Linearised<X, M, Z>,
-    cov: &SMatrix<f64, M, M>,
+    hph: &SMatrix<f64, Z, Z>,
     z: &SVector<f64, Z>,
     noise: &SMatrix<f64, Z, Z>,
     model: &S,
     gate: f64,
 ) -> Result<Option<GatedPair<Z>>, ()> {
-    let Some(ch) = symmetrise(&(lin.hm * cov * lin.hm.transpose() + noise)).cholesky() else { return Err(()) };
+    let Some(ch) = symmetrise(&(hph + noise)).cholesky() else { return Err(()) };
     let l = ch.unpack();
     let v = model.residual(z, &lin.z);
     let Some(y) = l.solve_lower_triangular(&v) else { return Ok(None) };
@@ -392,8 +393,9 @@ fn detect_each<const X: usize, const M: usize, const Z: usize, S: InvertibleSens
     ws: &mut Workspace<M>,
 ) -> u32 {
     let mut chol = 0;
+    let hph = lin.hm * h.cov * lin.hm.transpose();
     for (j, (zj, r_j)) in z.iter().zip(noise).enumerate() {
-        let Ok(pair) = gate_pair(lin, &h.cov, zj, r_j, model, s.gate) else {
+        let Ok(pair) = gate_pair(lin, &hph, zj, r_j, model, s.gate) else {
             chol += 1;
             continue;
         };

@@ -169,14 +169,8 @@ fn detect<const X: usize, const M: usize, const Z: usize, S: InvertibleSensorMod
                 continue;
             }
             let tl = lins[m].as_ref().expect("a gated type is linearised");
-            let (k, cov) = *gains[m].get_or_insert_with(|| {
-                // K = P H^T S^-1 (S = L L^T); Joseph form of the covariance.
-                let ph = t.cov * tl.hm.transpose();
-                let y = tl.l.solve_lower_triangular(&ph.transpose()).unwrap_or_else(SMatrix::zeros);
-                let k = tl.l.transpose().solve_upper_triangular(&y).unwrap_or_else(SMatrix::zeros).transpose();
-                let a = SMatrix::<f64, M, M>::identity() - k * tl.hm;
-                (k, symmetrise(&(a * t.cov * a.transpose() + k * tl.noise * k.transpose())))
-            });
+            // K = P H^T S^-1 (S = L L^T); Joseph form of the covariance.
+            let (k, cov) = *gains[m].get_or_insert_with(|| super::ekf_gain(&tl.hm, &t.cov, &tl.l, &tl.noise));
             ws.types.push(TypeDensity { ln_w: terms[m] - lse, mean: t.mean + k * nus[m], cov });
         }
         let mut c = LocalHypothesis { r: 1.0, ..*h };
@@ -204,10 +198,13 @@ fn detect_each<const X: usize, const M: usize, const Z: usize, S: InvertibleSens
 ) -> u32 {
     let nt = prior.len();
     let mut chol = 0;
-    let mut lins: [Option<rfslam_core::model::Linearised<X, M, Z>>; MAX_TYPES] = [None; MAX_TYPES];
+    // Each type's linearisation and H P H^T, once for every measurement.
+    let mut lins: [Option<(rfslam_core::model::Linearised<X, M, Z>, SMatrix<f64, Z, Z>)>; MAX_TYPES] =
+        [None; MAX_TYPES];
     for (m, t) in prior.iter().enumerate() {
         if t.ln_w > f64::NEG_INFINITY && p[m] > 0.0 {
-            lins[m] = Some(model.linearise(x, &t.mean, model.marks()[m]));
+            let lin = model.linearise(x, &t.mean, model.marks()[m]);
+            lins[m] = Some((lin, lin.hm * t.cov * lin.hm.transpose()));
         }
     }
     let ln_r = r.ln();
@@ -215,8 +212,8 @@ fn detect_each<const X: usize, const M: usize, const Z: usize, S: InvertibleSens
         let mut terms = [f64::NEG_INFINITY; MAX_TYPES];
         let mut updated = [None; MAX_TYPES];
         for m in 0..nt {
-            let (Some(lin), t) = (&lins[m], &prior[m]) else { continue };
-            let Ok(pair) = super::gate_pair(lin, &t.cov, zj, r_j, model, s.gate) else {
+            let (Some((lin, hph)), t) = (&lins[m], &prior[m]) else { continue };
+            let Ok(pair) = super::gate_pair(lin, hph, zj, r_j, model, s.gate) else {
                 chol += 1;
                 continue;
             };
