@@ -184,7 +184,7 @@ pub(crate) fn existence_sensor<S: SensorModel<X, M, Z>, const X: usize, const M:
 macro_rules! da_variant {
     ($(#[$doc:meta])* $ty:ident, $params:ty, $name:literal) => {
         rfslam_core::filter_variant!(
-            $(#[$doc])* $ty<S>(DaFastSlam), $name;
+            $(#[$doc])* $ty(DaFastSlam), $name;
             params: $params,
             check: |params, models, particles| {
                 params.validate(particles)?;

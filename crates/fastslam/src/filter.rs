@@ -7,7 +7,7 @@ use rfslam_core::ipl::IplSettings;
 use rfslam_core::model::{InvertibleSensorModel, LandmarkMark, Vehicle, VehicleModel};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet};
 use rfslam_core::state::StateSpace;
-use rfslam_core::{ControlSegment, Estimate, FilterEngine, MapPoint, PlanarSensorModel, Rng, Scan, StepReport};
+use rfslam_core::{ControlSegment, Estimate, FilterEngine, MapPoint, Rng, Scan, StepReport};
 
 use crate::params::{Params, WeightMode};
 use crate::proposal::{Landmark, ProposalSampler, landmark_update, oid_proposal, sequential_predictive};
@@ -316,10 +316,9 @@ where
 rfslam_core::filter_variant!(
     /// `fastslam-2.0-oracle`: FastSLAM 2.0 given the true associations, with the IPL
     /// approximation of the optimal importance density (the Oracle RBPF of
-    /// \[Kaltiokallio2024\]), on a planar sensor of a scenario (the range-bearing one by
-    /// default). In another world the oracle is given the landmark types by id, as it is
-    /// given the associations.
-    OracleFastSlam2<S>(OracleEngine), "fastslam-2.0-oracle";
+    /// \[Kaltiokallio2024\]), in every world. In a world of several landmark types the oracle
+    /// is given the landmark types by id, as it is given the associations.
+    OracleFastSlam2(OracleEngine), "fastslam-2.0-oracle";
     params: Params,
     requires_truth: crate::requires_truth_labels(),
     check: |params, _models, particles| params.validate(particles),
@@ -328,24 +327,6 @@ rfslam_core::filter_variant!(
             .with_landmark_types(models.landmark_types.iter().copied())
     },
 );
-
-impl<S: PlanarSensorModel> OracleFastSlam2<S> {
-    /// The particles (for inspection and tests).
-    pub fn particle_set(&self) -> &[Particle] {
-        self.0.particle_set()
-    }
-
-    /// Index of the particle the estimate comes from.
-    pub fn best_index(&self) -> usize {
-        self.0.best_index()
-    }
-
-    /// Scans with measurements that were processed as prediction only because they had no
-    /// truth labels (or not one per measurement).
-    pub fn unlabelled_scans(&self) -> usize {
-        self.0.unlabelled_scans()
-    }
-}
 
 impl<const X: usize, const M: usize> LogWeighted for Particle<X, M> {
     fn log_weight(&self) -> f64 {

@@ -17,7 +17,7 @@
 //! checks the data set before a run. Because [`SlamFilter::step`](rfslam_core::SlamFilter::step)
 //! cannot fail, a scan without labels (or with a label count different from its
 //! measurement count) is processed as **prediction only** — no panic, no landmark, every
-//! measurement reported as clutter — and counted by [`OracleFastSlam2::unlabelled_scans`].
+//! measurement reported as clutter — and counted by [`OracleEngine::unlabelled_scans`].
 //!
 //! # One recursion, per particle
 //!

@@ -390,7 +390,7 @@ where
 macro_rules! variant_filter {
     ($(#[$doc:meta])* $ty:ident, $variant:expr, $name:literal) => {
         rfslam_core::filter_variant!(
-            $(#[$doc])* $ty<S>(GlmbSlam), $name;
+            $(#[$doc])* $ty(GlmbSlam), $name;
             params: Params,
             check: |params, _models, particles| params.validate(particles),
             build: |params, models, particles| {

@@ -14,9 +14,9 @@
 //! mapped type (multi-class labelled births, our choice); the sensor's anchors (the radio
 //! world's base station) are known landmarks in every hypothesis, existence 1 and zero
 //! covariance, whose detections are assigned like any track's and which are never updated,
-//! pruned or estimated. The registered filters are instantiated for the planar vehicle and
-//! sensor models (`rfslam_core::PlanarSensorModel`), where all of this reduces to the
-//! single-type filters of the papers.
+//! pruned or estimated. The registered filters are built in every world of the registry; in
+//! the planar worlds (one landmark type, no anchor) all of this reduces to the single-type
+//! filters of the papers.
 //!
 //! - **Map** ([`map::GlmbMap`]): a Gaussian delta-GLMB density (eqs. 10, 23), a table of
 //!   labelled Gaussian tracks (label = birth step and measurement, kept forever; landmarks

@@ -69,7 +69,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let ds = <Dataset>::read(Path::new(dir))?;
     let models = ds.models();
     let params = Params::default();
-    let model = RangeBearingModel::new(&models, params.clutter_intensity(&models));
+    let model = pmbm_slam::filter::assumed_sensor(&params, &models.world::<RangeBearingModel>().sensor)?;
     let cell = match args.get(1) {
         Some(c) => c.parse()?,
         None => models.fov.max_range / CELLS_PER_RANGE,

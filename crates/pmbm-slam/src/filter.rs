@@ -331,12 +331,11 @@ where
     }
 }
 
-/// A registered variant of [`PmbmFilter`], generic over the planar sensor model, and its
-/// [`FilterBuild`].
+/// A registered variant of [`PmbmFilter`] in every world, and its [`FilterBuild`].
 macro_rules! variant_filter {
     ($(#[$doc:meta])* $ty:ident, $variant:expr, $name:literal) => {
         rfslam_core::filter_variant!(
-            $(#[$doc])* $ty<S>(PmbmFilter), $name;
+            $(#[$doc])* $ty(PmbmFilter), $name;
             params: Params,
             per_measurement_noise: true,
             check: |params, models, particles| {

@@ -72,8 +72,7 @@
 //! term, every scan updates each type's density and weight, and the type reported is the
 //! most likely ([`pmbm::typed`]); the anchors (the radio world's base station) are tracks of existence 1
 //! and zero covariance that every update conditions on and no estimate reports. The
-//! registered filters are instantiated for the planar sensor models
-//! (`rfslam_core::PlanarSensorModel`: the range-bearing and the relative-position sensor).
+//! registered filters are built in every world of the registry, the planar ones included.
 //! The clutter intensity is in measurement space by default
 //! (`clutter_intensity = "measurement"`): it is the ratio `e_j / kappa(z_j)` that decides
 //! whether a measurement starts a landmark, and the Cartesian density of the published

@@ -204,8 +204,8 @@ where
 rfslam_core::filter_variant!(
     /// `pmbm-slam-mh`: PMBM-SLAM (\[Kim2022\] Section IV-B) with the poses drawn from PHD-SLAM
     /// 3.0's multi-hypotheses importance density on each particle's heaviest global
-    /// hypothesis (our variant; see the module docs), on the planar sensor model `S`.
-    PmbmSlamMh<S>(PmbmMh), "pmbm-slam-mh";
+    /// hypothesis (our variant; see the module docs), in every world.
+    PmbmSlamMh(PmbmMh), "pmbm-slam-mh";
     params: MhPmbmParams,
     check: |params, models, particles| {
         params.validate(particles)?;

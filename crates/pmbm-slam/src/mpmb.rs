@@ -37,17 +37,15 @@ use rfslam_core::motion::{propagate, propagate_with_covariance};
 use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::state::StateSpace;
 use rfslam_core::{
-    ClutterIntensity, ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, Motion, ParamError, Rng, Scan,
-    SlamFilter, StepReport,
+    ClutterIntensity, ControlSegment, Estimate, FilterBuild, FilterEngine, MapPoint, ParamError, Rng, Scan, StepReport,
 };
 use serde::{Deserialize, Serialize};
 
 use crate::cubature::{InputPoints, PairMoments, PosePoints, lower_factor};
-use crate::model::{InvertibleSensorModel, RangeBearingModel, chi2_quantile, typed_birth};
+use crate::model::{InvertibleSensorModel, chi2_quantile, typed_birth};
 use crate::params::{Params, check_cell, check_undetected, undetected_cell};
 use crate::pmbm::typed::{TypeDensity, single_type, type_count};
 use crate::undetected::{ThinScratch, Undetected, UndetectedModel};
-use rfslam_core::PlanarSensorModel;
 
 mod typed;
 
@@ -730,35 +728,16 @@ fn report<const M: usize>(components: usize, cholesky_failures: u32) -> StepRepo
     StepReport { components, cholesky_failures, ..StepReport::plain(1) }
 }
 
-/// `mpmb-slam`: marginalized PMB-SLAM (\[Kim2022\] Section IV-D) on a planar sensor of a
-/// scenario (the range-bearing one by default).
-#[derive(Debug, Clone)]
-pub struct MpmbSlam<S: PlanarSensorModel = RangeBearingModel>(pub MpmbFilter<Motion, S, 3, 2, 2>);
+/// `mpmb-slam`: marginalized PMB-SLAM (\[Kim2022\] Section IV-D), registered in every world.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct MpmbSlam;
 
-impl<S: PlanarSensorModel> MpmbSlam<S> {
+impl MpmbSlam {
     /// Registered name.
     pub const NAME: &'static str = "mpmb-slam";
 }
 
-impl<S: PlanarSensorModel> SlamFilter for MpmbSlam<S> {
-    fn name(&self) -> &str {
-        Self::NAME
-    }
-
-    fn particles(&self) -> usize {
-        1
-    }
-
-    fn step(&mut self, odometry: &[ControlSegment], scan: &Scan, _rng: &mut Rng) -> StepReport {
-        self.0.step_measured(odometry, scan.z.iter().copied(), scan.noise.as_deref())
-    }
-
-    fn estimate(&self) -> Estimate {
-        self.0.estimate()
-    }
-}
-
-impl<S: PlanarSensorModel> FilterBuild for MpmbSlam<S> {
+impl FilterBuild for MpmbSlam {
     type Params = MpmbParams;
     const PER_MEASUREMENT_NOISE: bool = true;
 }

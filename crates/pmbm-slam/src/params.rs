@@ -4,7 +4,7 @@
 use rfslam_assign::{DEFAULT_LBP_MAX_SWEEPS, DEFAULT_LBP_TOLERANCE, LbpOptions, MAX_LBP_SWEEPS};
 use rfslam_core::model::DetectionRegion;
 use rfslam_core::params::{CountRange, Interval};
-use rfslam_core::{ClutterIntensity, ClutterModel, DetectionModel, ParamError, RbpfParams, SlamModels};
+use rfslam_core::{ClutterIntensity, ClutterModel, ParamError, RbpfParams};
 use serde::{Deserialize, Serialize};
 
 use crate::model::{SensorModel, chi2_quantile};
@@ -289,22 +289,6 @@ impl Params {
         model: &S,
     ) -> Result<(), ParamError> {
         check_undetected(self.undetected, self.undetected_cell, model)
-    }
-
-    /// The clutter intensity `kappa` the filter assumes on `models`.
-    pub fn clutter_intensity(&self, models: &SlamModels) -> f64 {
-        let clutter =
-            ClutterModel { rate: self.clutter_rate.unwrap_or(models.clutter.rate), intensity: self.clutter_intensity };
-        clutter.intensity(&models.fov, &models.sensor_model)
-    }
-
-    /// The detection model the filter assumes: the scenario's with `detection_pd` applied.
-    pub fn detection(&self, models: &SlamModels) -> DetectionModel {
-        match (self.detection_pd, models.detection) {
-            (None, d) => d,
-            (Some(pd), DetectionModel::Constant { .. }) => DetectionModel::Constant { pd },
-            (Some(pd0), DetectionModel::RangeLinear { .. }) => DetectionModel::RangeLinear { pd0 },
-        }
     }
 
     /// The settings of the map update for a sensor measuring in `z_dim` dimensions.

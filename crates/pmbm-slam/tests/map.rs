@@ -90,7 +90,8 @@ fn single_detection_existence(ds: &rfslam_data::Dataset) -> f64 {
         d => panic!("the test world has a constant p_D, not {d:?}"),
     };
     let e = pd * p.undetected_intensity * models.fov.max_range;
-    e / (e + p.clutter_intensity(&models))
+    let sensor = pmbm_slam::filter::assumed_sensor(&p, &models.world::<pmbm_slam::RangeBearingModel>().sensor).unwrap();
+    e / (e + sensor.kappa)
 }
 
 /// `T_EP = 0.95`, above the existence a single detection gives here (0.915): no false, no

@@ -7,9 +7,8 @@ use rfslam_core::model::{LandmarkMark, Vehicle, VehicleModel};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet};
 use rfslam_core::state::StateSpace;
 use rfslam_core::{
-    ControlSegment, DetectionModel, Estimate, FilterBuild, Fov, InvertibleSensorModel, MapPoint, Motion, ParamError,
-    PlacedFov, PlanarSensorModel, Point2, Rng, Scan, SensorModel, SlamFilter, SlamModels, StepReport, WorldBuild,
-    WorldModels,
+    ControlSegment, DetectionModel, Estimate, FilterBuild, Fov, InvertibleSensorModel, MapPoint, ParamError, PlacedFov,
+    Point2, Rng, Scan, SensorModel, SlamFilter, StepReport, WorldBuild, WorldModels,
 };
 
 use crate::gm::{GmMap, ReduceScratch, ReduceSettings, UpdateScratch, UpdateSettings, phd_update_hold, reduce};
@@ -231,7 +230,7 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
             active: fov.enlarged(params.fov_buffer_range, params.fov_buffer_deg.to_radians()),
             detection,
         });
-        let estimate_threshold = params.estimate_threshold_for(sector.map(|s| s.detection), P::ESTIMATE_THRESHOLD);
+        let estimate_threshold = params.estimate_threshold(sector.map(|s| s.detection), P::ESTIMATE_THRESHOLD);
         let estimate_count = params.estimate_count(P::ESTIMATE_ROUNDING);
         let mut map = GmMap::default();
         for (m, t) in sensor.anchors() {
@@ -266,15 +265,6 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
             mf,
             strategy: StrategyScratch::default(),
         }
-    }
-
-    /// The mean number of clutter measurements per scan `N_c` of the weighting strategies
-    /// (\[LeungInostrozaAdams\] eq. 21). It is common to every particle, so it does not change
-    /// the normalised weights; [`RbPhd::new`] takes the sensor's
-    /// ([`SensorModel::clutter_rate`]).
-    pub fn with_clutter_rate(mut self, rate: f64) -> Self {
-        self.clutter_rate = rate;
-        self
     }
 
     /// The particles (for inspection and tests).
@@ -506,28 +496,9 @@ pub fn map_estimate<const M: usize>(map: &GmMap<M>, threshold: f64, count: Estim
     }
 }
 
-impl<P> RbPhd<P>
-where
-    P: Proposal<Vehicle = Motion>,
-    P::Sensor: PlanarSensorModel,
-{
-    /// A filter with `n` particles on a planar world: the vehicle and the sensor of `models`
-    /// with the overrides of [`RbPhdParams::filter_models`] (the clutter intensity in the
-    /// scenario's units).
-    pub fn from_models(params: RbPhdParams, proposal: P, models: &SlamModels, n: usize) -> Self {
-        let models = &params.filter_models(models);
-        let sensor = <P::Sensor as PlanarSensorModel>::from_models(models, models.clutter_intensity());
-        RbPhd::new(params, proposal, models.vehicle(), sensor, n).with_clutter_rate(models.clutter.rate)
-    }
-}
-
 /// The registered filters (`phd-1.0`, `phd-3.0`, ...): a variant's parameters are the
 /// shared RB-PHD keys and its proposal's.
-impl<P> FilterBuild for RbPhd<P>
-where
-    P: Proposal<Vehicle = Motion>,
-    P::Sensor: PlanarSensorModel,
-{
+impl<P: Proposal> FilterBuild for RbPhd<P> {
     type Params = PhdParams<P::Params>;
 }
 
@@ -566,8 +537,7 @@ pub trait ProposalIn<V, S, const X: usize, const M: usize, const Z: usize>: Prop
 /// the world's models.
 impl<P, V, S, const X: usize, const M: usize, const Z: usize> WorldBuild<V, S, X, M, Z> for RbPhd<P>
 where
-    P: Proposal<Vehicle = Motion> + ProposalIn<V, S, X, M, Z>,
-    P::Sensor: PlanarSensorModel,
+    P: Proposal + ProposalIn<V, S, X, M, Z>,
     V: VehicleModel<X, 3> + Clone + Send + 'static,
     S: InvertibleSensorModel<X, M, Z>,
 {
@@ -635,7 +605,7 @@ mod tests {
         const ESTIMATE_THRESHOLD: Option<f64> = if ROUND { Some(0.5) } else { None };
         const ESTIMATE_ROUNDING: bool = ROUND;
         type Params = ();
-        type Vehicle = Motion;
+        type Vehicle = rfslam_core::Motion;
         type Sensor = rfslam_core::model::RangeBearingModel;
 
         fn validate(_: &()) -> Result<(), ParamError> {
@@ -657,14 +627,35 @@ mod tests {
         }
     }
 
-    fn models() -> SlamModels {
-        rfslam_eval::fixtures::unit_test_models(Matrix2::new(1.0, 0.0, 0.0, 3e-4), 100.0)
+    /// A one-particle filter on the range-bearing unit-test world, with the sensor `params`
+    /// assume.
+    fn filter<const ROUND: bool>(params: RbPhdParams) -> RbPhd<Prior<ROUND>> {
+        let world = rfslam_eval::fixtures::unit_test_models(Matrix2::new(1.0, 0.0, 0.0, 3e-4), 100.0).world();
+        let sensor = assumed_sensor(&params, &world.sensor).unwrap();
+        RbPhd::new(params, Prior::<ROUND>, world.vehicle, sensor, 1)
+    }
+
+    /// The sensitivity overrides change what the filter assumes of the sensor (`p_D` of
+    /// either detection model, the clutter rate and its intensity) and nothing else.
+    #[test]
+    fn the_assumed_sensor_takes_the_overrides() {
+        use rfslam_core::model::RangeBearingModel;
+        let world = rfslam_eval::fixtures::unit_test_models(Matrix2::identity(), 50.0).world::<RangeBearingModel>();
+        let base = world.sensor;
+        assert_eq!(assumed_sensor(&RbPhdParams::default(), &base).unwrap(), base);
+        let p = RbPhdParams { detection_pd: Some(0.4), clutter_rate: Some(20.0), ..Default::default() };
+        let m = assumed_sensor(&p, &base).unwrap();
+        assert_eq!(m.detection, DetectionModel::Constant { pd: 0.4 });
+        assert_eq!((m.clutter.rate, m.kappa), (20.0, base.kappa * 20.0 / base.clutter.rate));
+        assert_eq!((m.fov, m.r, m.clutter.intensity), (base.fov, base.r, base.clutter.intensity));
+        let linear = RangeBearingModel { detection: DetectionModel::RangeLinear { pd0: 0.7 }, ..base };
+        assert_eq!(assumed_sensor(&p, &linear).unwrap().detection, DetectionModel::RangeLinear { pd0: 0.4 });
     }
 
     /// The number of landmarks in the estimate of a one-particle map with components of
     /// weights 1.7, 0.9, 0.3 and 0.004.
     fn estimated<const ROUND: bool>(params: RbPhdParams) -> usize {
-        let mut f = RbPhd::from_models(params, Prior::<ROUND>, &models(), 1);
+        let mut f = filter::<ROUND>(params);
         let map = &mut f.set.particles_mut()[0].map;
         for (k, w) in [1.7f64, 0.9, 0.3, 0.004].into_iter().enumerate() {
             map.push(w.ln(), Point2::new(10.0 * k as f64, 0.0), Matrix2::identity());
@@ -711,7 +702,7 @@ mod tests {
         assert_eq!(xs(&map, EstimateCount::One).len(), 4);
         // The filter reads the key.
         let p = RbPhdParams { estimate_count: Some(EstimateCount::Total), ..Default::default() };
-        let mut f = RbPhd::from_models(p, Prior::<true>, &models(), 1);
+        let mut f = filter::<true>(p);
         f.set.particles_mut()[0].map.push(2.6f64.ln(), at(1.0), Matrix2::identity());
         assert_eq!(f.estimate().map.len(), 1);
     }
@@ -719,7 +710,7 @@ mod tests {
     /// A component of absurd weight stands for at most `MAX_ROUNDED_COPIES` landmarks.
     #[test]
     fn the_rounded_estimate_is_bounded() {
-        let mut f = RbPhd::from_models(RbPhdParams::default(), Prior::<true>, &models(), 1);
+        let mut f = filter::<true>(RbPhdParams::default());
         f.set.particles_mut()[0].map.push(1e300f64.ln(), Point2::new(1.0, 0.0), Matrix2::identity());
         assert_eq!(f.estimate().map.len(), MAX_ROUNDED_COPIES as usize);
     }

@@ -2,7 +2,7 @@
 //! (shared keys plus its proposal's keys, e.g. `merge = 10`, `max_assignments = 50`).
 
 use rfslam_core::params::Interval;
-use rfslam_core::{ClutterModel, DetectionModel, ParamError, RbpfParams, SlamModels};
+use rfslam_core::{ClutterModel, DetectionModel, ParamError, RbpfParams};
 use serde::{Deserialize, Serialize};
 
 use crate::weighting::{MfTerms, MultiFeatureSettings, Weighting};
@@ -131,25 +131,6 @@ pub enum EstimateCount {
 }
 
 impl RbPhdParams {
-    /// The models the filter assumes: the scenario's, with [`RbPhdParams::detection_pd`],
-    /// [`RbPhdParams::clutter_rate`] and [`RbPhdParams::clutter_intensity`] applied.
-    pub fn filter_models(&self, models: &SlamModels) -> SlamModels {
-        let mut m = models.clone();
-        if let Some(pd) = self.detection_pd {
-            m.detection = match m.detection {
-                DetectionModel::Constant { .. } => DetectionModel::Constant { pd },
-                DetectionModel::RangeLinear { .. } => DetectionModel::RangeLinear { pd0: pd },
-            };
-        }
-        if let Some(rate) = self.clutter_rate {
-            m.clutter.rate = rate;
-        }
-        if let Some(units) = self.clutter_intensity {
-            m.clutter.intensity = units;
-        }
-        m
-    }
-
     /// Checks ranges.
     pub fn validate(&self, particles: usize) -> Result<(), ParamError> {
         for (key, v) in
@@ -191,17 +172,12 @@ impl RbPhdParams {
         })
     }
 
-    /// The map estimate threshold: the parameter, else the variant's default
-    /// `variant`, else `(1 - pD)^2` (Victoria Park's range-dependent model: its value at zero
-    /// range).
-    pub fn estimate_threshold(&self, models: &SlamModels, variant: Option<f64>) -> f64 {
-        self.estimate_threshold_for(Some(models.detection), variant)
-    }
-
-    /// [`RbPhdParams::estimate_threshold`] with the detection model of a sensor's planar
-    /// sector, `None` for a sensor without one: then 0.5 (our choice: the usual cutoff of a
-    /// weight that stands for a landmark, \[LeungInostrozaAdams\] Section IV-B).
-    pub fn estimate_threshold_for(&self, detection: Option<DetectionModel>, variant: Option<f64>) -> f64 {
+    /// The map estimate threshold: the parameter, else the variant's default `variant`, else
+    /// `(1 - pD)^2` with the detection model of a sensor's planar sector (Victoria Park's
+    /// range-dependent model: its value at zero range), else, for a sensor without a sector,
+    /// 0.5 (our choice: the usual cutoff of a weight that stands for a landmark,
+    /// \[LeungInostrozaAdams\] Section IV-B).
+    pub fn estimate_threshold(&self, detection: Option<DetectionModel>, variant: Option<f64>) -> f64 {
         self.estimate_threshold.or(variant).unwrap_or_else(|| {
             let pd = match detection {
                 Some(DetectionModel::Constant { pd }) => pd,
@@ -230,40 +206,6 @@ rfslam_core::flat_params!(PhdParams<PP>);
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::{Matrix2, Matrix3};
-    use rfslam_core::{ClutterIntensity, ClutterModel, Fov, Motion, Pose, RangeBearingSensor};
-
-    fn models(detection: DetectionModel) -> SlamModels {
-        SlamModels {
-            motion: Motion::Velocity,
-            control_noise: Matrix3::identity(),
-            sensor_model: rfslam_core::PlanarSensor::default(),
-            sensor: RangeBearingSensor::default(),
-            measurement_noise: Matrix2::identity(),
-            fov: Fov::new(50.0, 1.0),
-            detection,
-            clutter: ClutterModel { rate: 5.0, intensity: ClutterIntensity::Cartesian },
-            initial_pose: Pose::zeros(),
-            initial_sigma: nalgebra::Vector3::zeros(),
-        }
-    }
-
-    /// The sensitivity overrides change what the filter assumes and nothing else.
-    #[test]
-    fn filter_models_apply_the_overrides() {
-        let base = models(DetectionModel::Constant { pd: 0.95 });
-        assert_eq!(RbPhdParams::default().filter_models(&base), base);
-        let p = RbPhdParams { detection_pd: Some(0.4), clutter_rate: Some(20.0), ..Default::default() };
-        let m = p.filter_models(&base);
-        assert_eq!(m.detection, DetectionModel::Constant { pd: 0.4 });
-        assert_eq!(m.clutter.rate, 20.0);
-        assert_eq!(
-            (m.fov, m.measurement_noise, m.clutter.intensity),
-            (base.fov, base.measurement_noise, base.clutter.intensity)
-        );
-        let vp = p.filter_models(&models(DetectionModel::RangeLinear { pd0: 0.7 }));
-        assert_eq!(vp.detection, DetectionModel::RangeLinear { pd0: 0.4 });
-    }
 
     /// `estimate_count` parses, resolves against `estimate_rounding` and the variant, and
     /// refuses to be given with `estimate_rounding`.

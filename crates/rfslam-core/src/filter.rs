@@ -73,42 +73,21 @@ pub trait FilterEngine<const X: usize = 3, const M: usize = 2, const Z: usize = 
     fn particle_parents(&self, out: &mut Vec<usize>) -> bool;
 }
 
-/// Declares a registered filter as a newtype over a [`FilterEngine`]: the struct, its
-/// `NAME` and a [`SlamFilter`] implementation that delegates every method to the engine.
-/// The filter's [`FilterBuild`] (its parameters and how the variant is built) stays with
-/// the family.
+/// Declares a registered variant of a family whose engine `Engine<V, S, X, M, Z>` is generic
+/// over the vehicle and the sensor model (named alone: `GlmbSlam`): a unit type that names the
+/// variant (its `NAME`), with its [`FilterBuild`] and its [`WorldBuild`] in every world (the
+/// engine under the registered name, [`Named`]): the parameters' type, the oracle flag when
+/// set ([`FilterBuild::REQUIRES_TRUTH`]), whether it reads a per-measurement covariance
+/// ([`FilterBuild::PER_MEASUREMENT_NOISE`]), the checks of the parameters with the world's
+/// models and the number of particles ([`WorldBuild::check_world`]) and the engine on the
+/// world's models (after the checks; a change the filter makes to the sensor it assumes goes
+/// through [`crate::SensorModel::assume`], refused with `?` where the world's model takes
+/// none). No world is the variant's own: the planar ones are worlds like the others.
 ///
 /// ```ignore
 /// rfslam_core::filter_variant!(
 ///     /// `glmb-1.0`: delta-GLMB-SLAM 1.0.
-///     Glmb1(GlmbSlam), "glmb-1.0"
-/// );
-/// ```
-///
-/// A family generic over the planar sensor declares its variants generic too, the sensor
-/// model defaulting to the range-bearing one:
-///
-/// ```ignore
-/// rfslam_core::filter_variant!(
-///     /// `pmbm-slam`: PMBM-SLAM.
-///     PmbmSlam<S>(PmbmFilter<S, 2, 2>), "pmbm-slam"
-/// );
-/// ```
-///
-/// A family whose engine `Engine<V, S, X, M, Z>` is generic over the vehicle and the sensor
-/// model (named alone: `GlmbSlam`; the planar newtype wraps `Engine<Motion, S, 3, 2, 2>`) also
-/// gives how the variant is built, and the macro writes its [`FilterBuild`] and its
-/// [`WorldBuild`] in every world (the engine under the registered name, [`Named`]): the parameters' type, the oracle
-/// flag when set ([`FilterBuild::REQUIRES_TRUTH`]), the checks of the parameters with the
-/// world's models and the number of particles ([`WorldBuild::check_world`]) and the engine
-/// on the world's models (after the checks; a change the filter makes to the sensor it
-/// assumes goes through [`crate::SensorModel::assume`], refused with `?` where the world's
-/// model takes none):
-///
-/// ```ignore
-/// rfslam_core::filter_variant!(
-///     /// `glmb-1.0`: delta-GLMB-SLAM 1.0.
-///     Glmb1<S>(GlmbSlam), "glmb-1.0";
+///     Glmb1(GlmbSlam), "glmb-1.0";
 ///     params: Params,
 ///     check: |params, _models, particles| params.validate(particles),
 ///     build: |params, models, particles| {
@@ -119,7 +98,7 @@ pub trait FilterEngine<const X: usize = 3, const M: usize = 2, const Z: usize = 
 #[macro_export]
 macro_rules! filter_variant {
     (
-        $(#[$doc:meta])* $ty:ident<S>($engine:ident), $name:literal;
+        $(#[$doc:meta])* $ty:ident($engine:ident), $name:literal;
         params: $params:ty,
         $(requires_truth: $truth:expr,)?
         $(per_measurement_noise: $noise:expr,)?
@@ -127,9 +106,16 @@ macro_rules! filter_variant {
         build: |$bp:ident, $bm:ident, $bn:ident| $build:expr
         $(, particle_bytes: |$zp:ident, $zm:ident| $bytes:expr)? $(,)?
     ) => {
-        $crate::filter_variant!($(#[$doc])* $ty<S>($engine<$crate::Motion, S, 3, 2, 2>), $name);
+        $(#[$doc])*
+        #[derive(Debug, Clone, Copy, Default)]
+        pub struct $ty;
 
-        impl<S: $crate::PlanarSensorModel> $crate::FilterBuild for $ty<S> {
+        impl $ty {
+            /// Registered name.
+            pub const NAME: &'static str = $name;
+        }
+
+        impl $crate::FilterBuild for $ty {
             type Params = $params;
             $(const REQUIRES_TRUTH: bool = $truth;)?
             $(const PER_MEASUREMENT_NOISE: bool = $noise;)?
@@ -166,67 +152,6 @@ macro_rules! filter_variant {
                     $bytes
                 }
             )?
-        }
-    };
-    ($(#[$doc:meta])* $ty:ident<S>($engine:ty), $name:literal) => {
-        $(#[$doc])*
-        #[derive(Debug, Clone)]
-        pub struct $ty<S: $crate::PlanarSensorModel = $crate::model::RangeBearingModel>(pub $engine);
-
-        impl<S: $crate::PlanarSensorModel> $ty<S> {
-            /// Registered name.
-            pub const NAME: &'static str = $name;
-        }
-
-        impl<S: $crate::PlanarSensorModel> $crate::SlamFilter for $ty<S>
-        where
-            $engine: $crate::filter::FilterEngine,
-        {
-            $crate::filter_variant!(@delegate);
-        }
-    };
-    ($(#[$doc:meta])* $ty:ident($engine:ty), $name:literal) => {
-        $(#[$doc])*
-        #[derive(Debug, Clone)]
-        pub struct $ty(pub $engine);
-
-        impl $ty {
-            /// Registered name.
-            pub const NAME: &'static str = $name;
-        }
-
-        impl $crate::SlamFilter for $ty {
-            $crate::filter_variant!(@delegate);
-        }
-    };
-    (@delegate) => {
-        fn name(&self) -> &str {
-            Self::NAME
-        }
-
-        fn particles(&self) -> usize {
-            $crate::filter::FilterEngine::particles(&self.0)
-        }
-
-        fn step(
-            &mut self,
-            odometry: &[$crate::ControlSegment],
-            scan: &$crate::Scan,
-            rng: &mut $crate::Rng,
-        ) -> $crate::StepReport {
-            $crate::filter::FilterEngine::step(&mut self.0, odometry, scan, rng)
-        }
-
-        fn estimate(&self) -> $crate::Estimate {
-            $crate::filter::FilterEngine::estimate(&self.0)
-        }
-
-        fn particle_poses(&self, out: &mut Vec<($crate::Pose, f64)>) -> bool {
-            $crate::filter::FilterEngine::particle_poses(&self.0, out)
-        }
-
-        fn particle_parents(&self, out: &mut Vec<usize>) -> bool {
-            $crate::filter::FilterEngine::particle_parents(&self.0, out)
         }
     };
 }

@@ -17,10 +17,8 @@ use serde::{Deserialize, Deserializer, Serialize};
 
 use crate::model::{Vehicle, VehicleModel};
 use crate::motion::propagate_with_covariance;
-use crate::planar::SlamModels;
 use crate::rbpf::{ResampleRule, ResampleScheme};
 use crate::types::ControlSegment;
-use crate::types::Pose;
 
 /// An invalid filter parameter: the key and what is wrong with it.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -272,17 +270,10 @@ impl RbpfParams {
         Matrix3::from_diagonal(&self.q_jitter.into())
     }
 
-    /// The prediction every RBPF makes for a particle (or a family of identical copies):
-    /// `x_bar = f(x_{k-1}, u)` through the odometry segments and `Q = F_u Q_u F_u^T` plus
-    /// the jitter.
-    pub fn predict(&self, models: &SlamModels, pose: &Pose, odometry: &[ControlSegment]) -> (Pose, Matrix3<f64>) {
-        let (x_bar, q) = propagate_with_covariance(&models.motion, pose, odometry, &models.control_noise);
-        (x_bar, q + self.jitter())
-    }
-
-    /// [`RbpfParams::predict`] for a vehicle of any state: `x_bar = f(x_{k-1}, u)` through the
-    /// odometry segments and `Q = F_u Q_u F_u^T` (plus the model's additive process noise)
-    /// plus [`RbpfParams::jitter_for`]. For the planar models it is `predict`, bit for bit.
+    /// The prediction every RBPF makes for a particle (or a family of identical copies), for
+    /// a vehicle of any state: `x_bar = f(x_{k-1}, u)` through the odometry segments and
+    /// `Q = F_u Q_u F_u^T` (plus the model's additive process noise) plus
+    /// [`RbpfParams::jitter_for`] (`diag(q_jitter)` for the planar pose).
     pub fn predict_state<V: VehicleModel<X, 3>, const X: usize>(
         &self,
         vehicle: &Vehicle<V, X>,

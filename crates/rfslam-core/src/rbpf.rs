@@ -151,7 +151,7 @@ pub trait LogWeighted {
 /// and spare particles whose allocations are reused (no allocation per step once warm).
 ///
 /// One recursion: iterate [`ParticleSet::families_mut`] (or [`ParticleSet::particles_mut`]
-/// when copies share nothing), predicting with [`crate::RbpfParams::predict`]; a filter
+/// when copies share nothing), predicting with [`crate::RbpfParams::predict_state`]; a filter
 /// whose population changes size builds the new one from [`ParticleSet::spare`] particles
 /// and hands it over with [`ParticleSet::replace`]; then
 /// [`ParticleSet::normalise_and_resample`].

@@ -18,7 +18,6 @@
 //! cluster, the memory the batch job was given (SLURM `--mem`). Where neither is known the
 //! check is skipped.
 
-use rfslam_core::SlamModels;
 use rfslam_sim::World;
 
 /// One range-bearing measurement (two `f64`): [`bytes_per_measurement`] of a planar sensor.
@@ -65,14 +64,8 @@ impl JobSize {
     /// A recorded data set: already in memory, its map counted as empty.
     pub const RECORDED: JobSize = JobSize { scans: 0.0, landmarks: 0.0, clutter_rate: 0.0 };
 
-    /// A planar scenario of the generated world `world` (None: a recorded data set or
-    /// Victoria Park) with the clutter of `models`.
-    pub fn planar(world: Option<&World>, models: &SlamModels) -> JobSize {
-        JobSize::generated(world, models.clutter.rate)
-    }
-
-    /// A planar scenario of the generated world `world` (None: nothing generated) with
-    /// `clutter_rate` returns per scan.
+    /// A planar scenario of the generated world `world` (None: nothing generated, a recorded
+    /// data set or Victoria Park) with `clutter_rate` returns per scan.
     pub fn generated(world: Option<&World>, clutter_rate: f64) -> JobSize {
         let (scans, landmarks) = world.map_or((0.0, 0.0), |w| (w.poses.len() as f64, w.landmarks.len() as f64));
         JobSize { scans, landmarks, clutter_rate: clutter_rate.max(0.0) }
@@ -105,12 +98,6 @@ impl JobMemory {
                 * particles as f64
                 * (bytes_per_particle(X) + size.landmarks * bytes_per_map_landmark(M) + filter_bytes.max(0.0)),
         }
-    }
-
-    /// The estimate for `particles` particles on the planar `world` (None: a recorded data
-    /// set) with the clutter of `models`.
-    pub fn estimate(world: Option<&World>, models: &SlamModels, particles: usize) -> JobMemory {
-        JobMemory::of::<3, 2, 2>(&JobSize::planar(world, models), particles, 0.0)
     }
 
     /// Both parts.
@@ -203,10 +190,10 @@ pub fn jobs_that_fit(peak: f64, available: f64) -> usize {
 mod tests {
     use super::*;
 
-    fn models(rate: f64) -> SlamModels {
-        let mut m = rfslam_eval::fixtures::phd_slam_synthetic_models();
-        m.clutter.rate = rate;
-        m
+    /// The estimate for `particles` particles of a planar range-bearing filter on `world`
+    /// with `rate` clutter returns per scan.
+    fn planar(world: Option<&World>, rate: f64, particles: usize) -> JobMemory {
+        JobMemory::of::<3, 2, 2>(&JobSize::generated(world, rate), particles, 0.0)
     }
 
     #[test]
@@ -224,11 +211,10 @@ mod tests {
     /// infinite estimates, never a panic.
     #[test]
     fn estimates_scale_with_particles_and_clutter() {
-        let m = models(5.0);
-        let e = JobMemory::estimate(None, &m, 1000);
+        let e = planar(None, 5.0, 1000);
         assert_eq!(e.data, 0.0);
         assert_eq!(e.particles, 2.0 * 1000.0 * BYTES_PER_PARTICLE);
-        let huge = JobMemory::estimate(None, &m, usize::MAX);
+        let huge = planar(None, 5.0, usize::MAX);
         assert!(huge.check(24.0 * 1024f64.powi(3)).is_err());
         assert!(huge.particles_dominate());
         assert_eq!(jobs_that_fit(10.0, 35.0), 3);
@@ -242,7 +228,7 @@ mod tests {
     fn a_world_adds_clutter_and_maps() {
         let p = rfslam_data::scenario::ProceduralParams { steps: 100, landmarks: 40, ..Default::default() };
         let w = World::procedural(&p, 1).unwrap();
-        let e = JobMemory::estimate(Some(&w), &models(1e9), 10);
+        let e = planar(Some(&w), 1e9, 10);
         assert_eq!(e.data, 100.0 * 1e9 * BYTES_PER_MEASUREMENT);
         assert_eq!(e.particles, 2.0 * 10.0 * (BYTES_PER_PARTICLE + 40.0 * BYTES_PER_MAP_LANDMARK));
         assert!(!e.particles_dominate());
