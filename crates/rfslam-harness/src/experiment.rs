@@ -500,10 +500,14 @@ impl Plan {
 
     /// Reads, resolves and validates an experiment file: the scenario at every grid point,
     /// every filter's parameters at every grid point, the published table; loads each
-    /// distinct world once.
+    /// distinct world once. In parts: the experiment's own entries (`check_entries`), the
+    /// scenario file and whether its world is radio, the grid (`check_grid`); then at each
+    /// grid point the resolved scenario table and filter tables (`resolve_point`), the
+    /// world's scenario (`point_scenario`) and the per-filter checks, parameters and memory
+    /// (`FilterChecks`), each error reported where `PointErrors` finds its cause.
     pub fn load(path: &Path) -> Result<Plan, HarnessError> {
         let text = read(path)?;
-        let config: ExperimentConfig = toml::from_str(&text).map_err(|e| toml_error(path, &text, &e))?;
+        let mut config: ExperimentConfig = toml::from_str(&text).map_err(|e| toml_error(path, &text, &e))?;
         let dir = path.parent().unwrap_or(Path::new("."));
         let err = |key: &str, msg: String| config_error(path, &text, key, msg);
 
@@ -515,7 +519,6 @@ impl Plan {
         }
         let (_, scenario_table) = load_scenario_table(&scenario_path)?;
         let radio = is_radio(&scenario_table);
-        let mut config = config;
         config.metrics.typed_world = radio;
 
         let published = match &config.published {
@@ -523,142 +526,43 @@ impl Plan {
             None => None,
         };
 
-        // Grid keys and values.
         let grid_keys: Vec<String> = config.grid.keys().cloned().collect();
         check_grid(&config, &grid_keys, &err)?;
 
-        // The scenario file deserialized (load_scenario_table); whether its values are valid too.
-        let base_valid = toml::Value::Table(scenario_table.clone())
-            .try_into::<ScenarioConfig>()
-            .is_ok_and(|sc| sc.validate().is_ok());
-        let mut points = Vec::new();
-        let mut worlds: Vec<(String, Arc<World>)> = Vec::new();
         let machine = crate::memory::machine_memory().map_err(|message| HarnessError::Config {
             file: path.to_path_buf(),
             line: None,
             key: String::new(),
             message,
         })?;
-        let mut peak_job_bytes = 0.0f64;
         let names: Vec<&str> = config.filters.iter().flat_map(|f| [f.label(), f.name.as_str()]).collect();
+        let mut errors = PointErrors {
+            err: &err,
+            scenario_path: &scenario_path,
+            scenario_table: &scenario_table,
+            // The scenario file deserialized (load_scenario_table); whether its values are valid too.
+            base_valid: toml::Value::Table(scenario_table.clone())
+                .try_into::<ScenarioConfig>()
+                .is_ok_and(|sc| sc.validate().is_ok()),
+            grid_keys: &grid_keys,
+            names: &names,
+            values: Vec::new(),
+            machine,
+        };
+        let mut points = Vec::new();
+        let mut worlds: Vec<(String, Arc<World>)> = Vec::new();
+        let mut peak_job_bytes = 0.0f64;
         for p in 0..config.n_points() {
-            let values = config.point_values(p);
-            let mut sc_table = scenario_table.clone();
-            let mut filters: Vec<ResolvedFilter> = config
-                .filters
-                .iter()
-                .map(|f| ResolvedFilter {
-                    name: f.name.clone(),
-                    label: f.label().to_string(),
-                    params: f.params.clone(),
-                    particles: f.particles.clone(),
-                })
-                .collect();
-            for (k, v) in grid_keys.iter().zip(&values) {
-                let gkey = format!("grid.\"{k}\"");
-                if let Some(rest) = k.strip_prefix("scenario.") {
-                    set_dotted(&mut sc_table, rest, v.clone()).map_err(|m| err(&gkey, m))?;
-                } else if let Some((who, key)) = k.strip_prefix("filter.").and_then(|r| split_filter_key(r, &names)) {
-                    for f in filters.iter_mut().filter(|f| f.label == who || f.name == who) {
-                        set_dotted(&mut f.params, key, v.clone()).map_err(|m| err(&gkey, m))?;
-                    }
-                }
-            }
-            let at = |values: &[toml::Value]| -> String {
-                grid_keys.iter().zip(values).map(|(k, v)| format!("{k} = {v}")).collect::<Vec<_>>().join(", ")
-            };
-            // An error is reported at the grid key that set the bad value, else where the value
-            // is written (naming the grid point, which may still be why it is bad).
-            let point = if grid_keys.is_empty() { String::new() } else { format!(" (at grid point {})", at(&values)) };
-            // Whether the grid's dotted `set` gave the value of the error's `key` (a dotted path,
-            // or a bare field name when the deserializer gives no more).
-            let covers = |set: &str, key: &str| {
-                key == set
-                    || key.strip_prefix(set).is_some_and(|r| r.starts_with('.'))
-                    || set.strip_suffix(key).is_some_and(|r| r.ends_with('.'))
-            };
-            // The grid key that set the value of the error's `key`, else the one whose value
-            // alone breaks the scenario (which deserializes without the grid, and may be valid):
-            // a type error names no key, an unknown table only its first part.
-            let set_by = |key: &str| {
-                let scenario_keys =
-                    || grid_keys.iter().zip(&values).filter_map(|(g, v)| Some((g, g.strip_prefix("scenario.")?, v)));
-                scenario_keys()
-                    .find(|(_, set, _)| !key.is_empty() && covers(set, key))
-                    .or_else(|| {
-                        scenario_keys().find(|(_, set, v)| {
-                            let mut t = scenario_table.clone();
-                            set_dotted(&mut t, set, (*v).clone()).is_err()
-                                || toml::Value::Table(t)
-                                    .try_into::<ScenarioConfig>()
-                                    .map_or(true, |sc| base_valid && sc.validate().is_err())
-                        })
-                    })
-                    .map(|(g, ..)| g)
-            };
-            let origin = |key: &str, msg: String| match set_by(key) {
-                Some(g) => err(
-                    &format!("grid.\"{g}\""),
-                    match key {
-                        "" => format!("at grid point ({}): {msg}", at(&values)),
-                        _ => format!("at grid point ({}): scenario key `{key}`: {msg}", at(&values)),
-                    },
-                ),
-                None => config_error(
-                    &scenario_path,
-                    &read(&scenario_path).unwrap_or_default(),
-                    key,
-                    format!("{msg}{point}"),
-                ),
-            };
-            // A filter's parameter error at the grid key that set the value, else at the entry.
-            let filter_error = |i: usize, f: &ResolvedFilter, n: usize, e: rfslam_core::ParamError| {
-                let set_by = grid_keys.iter().find(|g| {
-                    g.strip_prefix("filter.")
-                        .and_then(|r| split_filter_key(r, &names))
-                        .is_some_and(|(who, set)| (who == f.label || who == f.name) && covers(set, &e.key))
-                });
-                match set_by {
-                    Some(g) => err(
-                        &format!("grid.\"{g}\""),
-                        format!("at grid point ({}): filter `{}` with {n} particles: {e}", at(&values), f.label),
-                    ),
-                    None => {
-                        let key = if e.key == "particles" {
-                            format!("filters[{i}].particles")
-                        } else {
-                            format!("filters[{i}].params.{}", e.key)
-                        };
-                        err(&key, format!("filter `{}`: {e}{point}", f.label))
-                    }
-                }
-            };
-            // Whether one job of filter `i` with `n` particles, needing `need`, fits in the
-            // machine: its bytes, or the error at the key that makes most of them.
-            let fits = |i: usize, f: &ResolvedFilter, n: usize, need: JobMemory| -> Result<f64, HarnessError> {
-                if let Some(have) = machine
-                    && let Err(why) = need.check(have)
-                {
-                    let key = if need.particles_dominate() {
-                        format!("filters[{i}].particles")
-                    } else {
-                        match grid_keys.iter().find(|g| g.as_str() == "scenario.clutter.rate") {
-                            Some(g) => format!("grid.\"{g}\""),
-                            None => "scenario.clutter.rate".into(),
-                        }
-                    };
-                    return Err(err(&key, format!("filter `{}` with {n} particles: {why}{point}", f.label)));
-                }
-                Ok(need.total())
-            };
+            errors.values = config.point_values(p);
+            let (sc_table, filters) = resolve_point(&config, &scenario_table, &errors)?;
+            let origin = |key: &str, msg: String| errors.origin(key, msg);
             if is_radio(&sc_table) != radio {
                 return Err(origin("world.kind", "a grid may not change whether the world is the radio world".into()));
             }
             let scenario = point_scenario(&sc_table, radio, &origin, &mut worlds)?;
-            let checks =
-                FilterChecks { scenario: &scenario, filters: &filters, param_error: &filter_error, fits: &fits };
+            let checks = FilterChecks { scenario: &scenario, filters: &filters, errors: &errors };
             peak_job_bytes = peak_job_bytes.max(scenario.kind.visit(checks)?);
-            points.push(GridPoint { values, scenario, filters });
+            points.push(GridPoint { values: errors.values.clone(), scenario, filters });
         }
         let plan = Plan {
             path: path.to_path_buf(),
@@ -820,18 +724,12 @@ fn point_scenario(
 /// The per-filter checks of one grid point, in its world: every filter entry and particle
 /// count against the models the world's filters assume on the scenario
 /// (`WorldBuild::check_world`, through the registry), then each job's memory against the
-/// machine's. Gives the largest job's bytes; an error at the key `param_error` or `fits`
-/// names.
+/// machine's. Gives the largest job's bytes; an error where [`PointErrors`] reports it.
 struct FilterChecks<'a> {
     scenario: &'a WorldScenario,
     filters: &'a [ResolvedFilter],
-    param_error: &'a dyn Fn(usize, &ResolvedFilter, usize, rfslam_core::ParamError) -> HarnessError,
-    fits: &'a JobFits<'a>,
+    errors: &'a PointErrors<'a>,
 }
-
-/// Whether the job of filter entry `i` with `n` particles, needing the given memory, fits in
-/// the machine: its bytes, or the error at the key that makes most of them.
-type JobFits<'a> = dyn Fn(usize, &ResolvedFilter, usize, JobMemory) -> Result<f64, HarnessError> + 'a;
 
 impl crate::world::Visitor for FilterChecks<'_> {
     type Output = Result<f64, HarnessError>;
@@ -842,17 +740,170 @@ impl crate::world::Visitor for FilterChecks<'_> {
         let size = W::job_size(sc)?;
         for (i, f) in self.filters.iter().enumerate() {
             for &n in &f.particles {
-                registry::check_in(&f.params, &models, n, &f.name).map_err(|e| (self.param_error)(i, f, n, e))?;
+                registry::check_in(&f.params, &models, n, &f.name).map_err(|e| self.errors.filter_error(i, f, n, e))?;
             }
         }
         let mut peak = 0.0f64;
         for (i, f) in self.filters.iter().enumerate() {
             let bytes = registry::particle_bytes_in(&f.params, &models, &f.name);
             for &n in &f.particles {
-                peak = peak.max((self.fits)(i, f, n, JobMemory::of::<X, M, Z>(&size, n, bytes))?);
+                peak = peak.max(self.errors.fits(i, f, n, JobMemory::of::<X, M, Z>(&size, n, bytes))?);
             }
         }
         Ok(peak)
+    }
+}
+
+/// A grid point's scenario table (the scenario file with the point's `scenario.` grid values
+/// set) and its filters (each entry's parameters with the point's `filter.` values set).
+fn resolve_point(
+    config: &ExperimentConfig,
+    scenario_table: &toml::Table,
+    errors: &PointErrors,
+) -> Result<(toml::Table, Vec<ResolvedFilter>), HarnessError> {
+    let mut sc_table = scenario_table.clone();
+    let mut filters: Vec<ResolvedFilter> = config
+        .filters
+        .iter()
+        .map(|f| ResolvedFilter {
+            name: f.name.clone(),
+            label: f.label().to_string(),
+            params: f.params.clone(),
+            particles: f.particles.clone(),
+        })
+        .collect();
+    for (k, v) in errors.grid_keys.iter().zip(&errors.values) {
+        let gkey = format!("grid.\"{k}\"");
+        if let Some(rest) = k.strip_prefix("scenario.") {
+            set_dotted(&mut sc_table, rest, v.clone()).map_err(|m| (errors.err)(&gkey, m))?;
+        } else if let Some((who, key)) = k.strip_prefix("filter.").and_then(|r| split_filter_key(r, errors.names)) {
+            for f in filters.iter_mut().filter(|f| f.label == who || f.name == who) {
+                set_dotted(&mut f.params, key, v.clone()).map_err(|m| (errors.err)(&gkey, m))?;
+            }
+        }
+    }
+    Ok((sc_table, filters))
+}
+
+/// Where an error at a grid point is reported: at the grid key that set the bad value, else
+/// where the value is written (the scenario file, or the filter's entry in the experiment),
+/// naming the grid point, which may still be why it is bad.
+struct PointErrors<'a> {
+    /// An error at a key of the experiment file.
+    err: &'a dyn Fn(&str, String) -> HarnessError,
+    scenario_path: &'a Path,
+    /// The scenario file, without the grid.
+    scenario_table: &'a toml::Table,
+    /// Whether the scenario file is valid without the grid.
+    base_valid: bool,
+    grid_keys: &'a [String],
+    /// The filter entries' labels and names (a `filter.` grid key names one of them).
+    names: &'a [&'a str],
+    /// The point's grid values, in the order of `grid_keys`.
+    values: Vec<toml::Value>,
+    /// The machine's memory (bytes), when known.
+    machine: Option<f64>,
+}
+
+impl PointErrors<'_> {
+    /// `k = v, ...` of the point's grid values.
+    fn at(&self) -> String {
+        self.grid_keys.iter().zip(&self.values).map(|(k, v)| format!("{k} = {v}")).collect::<Vec<_>>().join(", ")
+    }
+
+    /// ` (at grid point ...)`, or nothing without a grid.
+    fn point(&self) -> String {
+        if self.grid_keys.is_empty() { String::new() } else { format!(" (at grid point {})", self.at()) }
+    }
+
+    /// Whether the grid's dotted `set` gave the value of the error's `key` (a dotted path, or
+    /// a bare field name when the deserializer gives no more).
+    fn covers(set: &str, key: &str) -> bool {
+        key == set
+            || key.strip_prefix(set).is_some_and(|r| r.starts_with('.'))
+            || set.strip_suffix(key).is_some_and(|r| r.ends_with('.'))
+    }
+
+    /// The `scenario.` grid key that set the value of the error's `key`, else the one whose
+    /// value alone breaks the scenario (which deserializes without the grid, and may be
+    /// valid): a type error names no key, an unknown table only its first part.
+    fn set_by(&self, key: &str) -> Option<&str> {
+        let scenario_keys =
+            || self.grid_keys.iter().zip(&self.values).filter_map(|(g, v)| Some((g, g.strip_prefix("scenario.")?, v)));
+        scenario_keys()
+            .find(|(_, set, _)| !key.is_empty() && Self::covers(set, key))
+            .or_else(|| {
+                scenario_keys().find(|(_, set, v)| {
+                    let mut t = self.scenario_table.clone();
+                    set_dotted(&mut t, set, (*v).clone()).is_err()
+                        || toml::Value::Table(t)
+                            .try_into::<ScenarioConfig>()
+                            .map_or(true, |sc| self.base_valid && sc.validate().is_err())
+                })
+            })
+            .map(|(g, ..)| g.as_str())
+    }
+
+    /// A scenario error at `key`: at the grid key that caused it, else in the scenario file.
+    fn origin(&self, key: &str, msg: String) -> HarnessError {
+        match self.set_by(key) {
+            Some(g) => (self.err)(
+                &format!("grid.\"{g}\""),
+                match key {
+                    "" => format!("at grid point ({}): {msg}", self.at()),
+                    _ => format!("at grid point ({}): scenario key `{key}`: {msg}", self.at()),
+                },
+            ),
+            None => config_error(
+                self.scenario_path,
+                &read(self.scenario_path).unwrap_or_default(),
+                key,
+                format!("{msg}{}", self.point()),
+            ),
+        }
+    }
+
+    /// Filter entry `i`'s parameter error with `n` particles: at the grid key that set the
+    /// value, else at the entry.
+    fn filter_error(&self, i: usize, f: &ResolvedFilter, n: usize, e: rfslam_core::ParamError) -> HarnessError {
+        let set_by = self.grid_keys.iter().find(|g| {
+            g.strip_prefix("filter.")
+                .and_then(|r| split_filter_key(r, self.names))
+                .is_some_and(|(who, set)| (who == f.label || who == f.name) && Self::covers(set, &e.key))
+        });
+        match set_by {
+            Some(g) => (self.err)(
+                &format!("grid.\"{g}\""),
+                format!("at grid point ({}): filter `{}` with {n} particles: {e}", self.at(), f.label),
+            ),
+            None => {
+                let key = if e.key == "particles" {
+                    format!("filters[{i}].particles")
+                } else {
+                    format!("filters[{i}].params.{}", e.key)
+                };
+                (self.err)(&key, format!("filter `{}`: {e}{}", f.label, self.point()))
+            }
+        }
+    }
+
+    /// Whether one job of filter entry `i` with `n` particles, needing `need`, fits in the
+    /// machine: its bytes, or the error at the key that makes most of them.
+    fn fits(&self, i: usize, f: &ResolvedFilter, n: usize, need: JobMemory) -> Result<f64, HarnessError> {
+        if let Some(have) = self.machine
+            && let Err(why) = need.check(have)
+        {
+            let key = if need.particles_dominate() {
+                format!("filters[{i}].particles")
+            } else {
+                match self.grid_keys.iter().find(|g| g.as_str() == "scenario.clutter.rate") {
+                    Some(g) => format!("grid.\"{g}\""),
+                    None => "scenario.clutter.rate".into(),
+                }
+            };
+            return Err((self.err)(&key, format!("filter `{}` with {n} particles: {why}{}", f.label, self.point())));
+        }
+        Ok(need.total())
     }
 }
 
