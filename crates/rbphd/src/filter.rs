@@ -29,6 +29,9 @@ pub struct Particle<const X: usize = 3, const M: usize = 2, const Z: usize = 2> 
     pub map: GmMap<M>,
     /// `Z^B_k`: measurements of the last scan that gated with no component (eq. 19).
     pub birth: Vec<SVector<f64, Z>>,
+    /// Their own covariances `R_j`, when the scan carried them ([`Scan::noise`]); empty
+    /// otherwise.
+    pub birth_noise: Vec<SMatrix<f64, Z, Z>>,
     /// Association of the last scan's measurements (position of the component),
     /// when the proposal makes explicit associations.
     pub associations: Vec<Option<SVector<f64, M>>>,
@@ -41,6 +44,7 @@ impl<const X: usize, const M: usize, const Z: usize> Clone for Particle<X, M, Z>
             pose: self.pose,
             map: self.map.clone(),
             birth: self.birth.clone(),
+            birth_noise: self.birth_noise.clone(),
             associations: self.associations.clone(),
         }
     }
@@ -51,6 +55,7 @@ impl<const X: usize, const M: usize, const Z: usize> Clone for Particle<X, M, Z>
         self.pose = src.pose;
         self.map.clone_from(&src.map);
         self.birth.clone_from(&src.birth);
+        self.birth_noise.clone_from(&src.birth_noise);
         self.associations.clone_from(&src.associations);
     }
 }
@@ -62,6 +67,7 @@ impl<const X: usize, const M: usize, const Z: usize> Default for Particle<X, M, 
             pose: SVector::zeros(),
             map: GmMap::default(),
             birth: Vec::new(),
+            birth_noise: Vec::new(),
             associations: Vec::new(),
         }
     }
@@ -289,13 +295,18 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
         ln_birth: f64,
         p: &mut Particle<X, M, Z>,
     ) {
-        for z in &p.birth {
+        let noise = (p.birth_noise.len() == p.birth.len()).then_some(&p.birth_noise);
+        for (j, z) in p.birth.iter().enumerate() {
             for &t in types.iter().filter(|&&t| sensor.measures(t)) {
-                let (mean, cov) = sensor.birth(&p.pose, z, t);
+                let (mean, cov) = match noise {
+                    Some(r) => sensor.birth_with_noise(&p.pose, z, t, &r[j]),
+                    None => sensor.birth(&p.pose, z, t),
+                };
                 p.map.push_marked(ln_birth, mean, cov, t.index());
             }
         }
         p.birth.clear();
+        p.birth_noise.clear();
     }
 
     /// One recursion of \[Kaltiokallio2024\] Algorithm 3.
@@ -306,6 +317,8 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
         let (birth_sensor, sensor) = (self.sensor.at_source(birth_source), self.sensor.at_source(scan.source));
         let (vehicle, sensor, sector) = (&self.vehicle, &*sensor, self.sector.as_ref());
         let ln_birth = self.params.birth_weight.ln();
+        // The scan's own covariances, one per measurement (else the sensor's R).
+        let noise = scan.noise.as_deref().filter(|n| n.len() == scan.z.len());
         let upd_settings = UpdateSettings {
             gate: self.params.gate,
             log_clutter: self.log_clutter,
@@ -378,6 +391,7 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
                     &self.active,
                     &pose,
                     &scan.z,
+                    noise,
                     sensor,
                     |m, c, k| sight.pd::<M, Z>(m, c, k),
                     |m| sight.in_hold_band(m),
@@ -398,6 +412,7 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
                             pose: &pose,
                             z: &scan.z,
                             sensor,
+                            noise,
                             log_clutter: self.log_clutter,
                             clutter_rate: self.clutter_rate,
                         };
@@ -409,6 +424,10 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
                 }
                 p.birth.clear();
                 p.birth.extend(scan.z.iter().zip(&self.upd.gated).filter(|(_, g)| !**g).map(|(z, _)| *z));
+                p.birth_noise.clear();
+                if let Some(r) = noise {
+                    p.birth_noise.extend(r.iter().zip(&self.upd.gated).filter(|(_, g)| !**g).map(|(r, _)| *r));
+                }
                 // Set-aside components stay as they are, in place (dropped if already
                 // below the pruning threshold), and so do the anchors; the updated active
                 // ones are pruned, merged and appended.
@@ -500,6 +519,7 @@ pub fn map_estimate<const M: usize>(map: &GmMap<M>, threshold: f64, count: Estim
 /// shared RB-PHD keys and its proposal's.
 impl<P: Proposal> FilterBuild for RbPhd<P> {
     type Params = PhdParams<P::Params>;
+    const PER_MEASUREMENT_NOISE: bool = P::PER_MEASUREMENT_NOISE;
 }
 
 /// The checks of a variant's parameters for `particles` particles, in any world: the shared

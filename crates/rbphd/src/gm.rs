@@ -171,6 +171,10 @@ pub struct UpdateScratch<const M: usize = 2, const Z: usize = 2> {
     gain: Vec<SMatrix<f64, M, Z>>,
     /// Updated covariance per detectable component (Joseph form).
     p_upd: Vec<SMatrix<f64, M, M>>,
+    /// With a covariance per measurement: the gain and the updated covariance of each pair
+    /// (row-major like `log_a`; zero where the pair did not gate).
+    pair_gain: Vec<SMatrix<f64, M, Z>>,
+    pair_p_upd: Vec<SMatrix<f64, M, M>>,
     /// Component index of each detectable row.
     rows: Vec<usize>,
     /// The leading rows that are anchors (in the likelihood, never updated).
@@ -186,6 +190,25 @@ pub struct UpdateScratch<const M: usize = 2, const Z: usize = 2> {
     held: Vec<(usize, usize)>,
 }
 
+impl<const M: usize, const Z: usize> UpdateScratch<M, Z> {
+    /// A detectable row: component `i`, its predicted measurement, gain, updated covariance
+    /// and `ln p_D`.
+    fn push_row(
+        &mut self,
+        i: usize,
+        zhat: SVector<f64, Z>,
+        k: SMatrix<f64, M, Z>,
+        p_upd: SMatrix<f64, M, M>,
+        ln_pd: f64,
+    ) {
+        self.rows.push(i);
+        self.zhat.push(zhat);
+        self.gain.push(k);
+        self.p_upd.push(p_upd);
+        self.log_pd.push(ln_pd);
+    }
+}
+
 impl<const M: usize, const Z: usize> Default for UpdateScratch<M, Z> {
     fn default() -> Self {
         UpdateScratch {
@@ -193,6 +216,8 @@ impl<const M: usize, const Z: usize> Default for UpdateScratch<M, Z> {
             zhat: Vec::new(),
             gain: Vec::new(),
             p_upd: Vec::new(),
+            pair_gain: Vec::new(),
+            pair_p_upd: Vec::new(),
             rows: Vec::new(),
             fixed_rows: 0,
             log_pd: Vec::new(),
@@ -218,6 +243,43 @@ pub struct UpdateOutcome {
     pub log_likelihood: f64,
     /// Covariances that failed Cholesky (those components were left as they were).
     pub cholesky_failures: u32,
+}
+
+/// `S^-1` and `ln det S` of the symmetrised `S`; `None` when it fails Cholesky.
+fn inverse_and_log_det<const D: usize>(s: &SMatrix<f64, D, D>) -> Option<(SMatrix<f64, D, D>, f64)> {
+    let ch = symmetrise(s).cholesky()?;
+    Some((ch.inverse(), log_det_of(ch.l_dirty())))
+}
+
+/// `nu^T S^-1 nu`.
+#[inline]
+fn mahalanobis<const D: usize>(nu: &SVector<f64, D>, s_inv: &SMatrix<f64, D, D>) -> f64 {
+    (nu.transpose() * s_inv * nu)[(0, 0)]
+}
+
+/// `ln a_ij = base - maha / 2` for a pair inside the gate (marking its measurement as
+/// gated), `-inf` outside.
+#[inline]
+fn gated_log_a(maha: f64, base: f64, gate: f64, gated: &mut bool) -> f64 {
+    if maha <= gate {
+        *gated = true;
+        base - 0.5 * maha
+    } else {
+        f64::NEG_INFINITY
+    }
+}
+
+/// EKF gain `K = P H^T S^-1` and the Joseph-form covariance
+/// `(I - K H) P (I - K H)^T + K R K^T` (eqs. 21-22).
+fn joseph_update<const M: usize, const Z: usize>(
+    p: &SMatrix<f64, M, M>,
+    hm: &SMatrix<f64, Z, M>,
+    s_inv: &SMatrix<f64, Z, Z>,
+    r: &SMatrix<f64, Z, Z>,
+) -> (SMatrix<f64, M, Z>, SMatrix<f64, M, M>) {
+    let k = p * hm.transpose() * s_inv;
+    let ikh = SMatrix::<f64, M, M>::identity() - k * hm;
+    (k, symmetrise(&(ikh * p * ikh.transpose() + k * r * k.transpose())))
 }
 
 /// `2 sum_i ln L_ii`, the log determinant from a Cholesky factor.
@@ -257,7 +319,7 @@ pub fn phd_update<S, const X: usize, const M: usize, const Z: usize>(
 where
     S: SensorModel<X, M, Z>,
 {
-    phd_update_hold(map, active, x, z, sensor, pd, |_| false, settings, scratch, out)
+    phd_update_hold(map, active, x, z, None, sensor, pd, |_| false, settings, scratch, out)
 }
 
 /// [`phd_update`] with the hold band of `[sensor] edge = "hold"` ([`rfslam_core::FovEdge::Hold`]):
@@ -269,12 +331,19 @@ where
 /// updated weight `max(eta_i, (1 - pD_i) eta_i + sum_j eta_ij)` is never below its prior
 /// weight. Undetected (no gated measurement) it keeps `eta_i` exactly. Outside the band the
 /// update is [`phd_update`]'s; the measurement term of the particle weight is unchanged.
+///
+/// With `noise` (one covariance `R_j` per measurement, [`rfslam_core::Scan::noise`]), pair
+/// `(i, j)` uses `S_ij = H_i P_i H_i^T + R_j` in its likelihood, gain and Joseph-form
+/// covariance (and an anchor `S_j = R_j`), in place of the type's `R`; a failed Cholesky of
+/// one `S_ij` is counted and drops only that pair. With every `R_j = R` it is the update
+/// without them, bit for bit.
 #[allow(clippy::too_many_arguments)]
 pub fn phd_update_hold<S, const X: usize, const M: usize, const Z: usize>(
     map: &GmMap<M>,
     active: &[usize],
     x: &SVector<f64, X>,
     z: &[SVector<f64, Z>],
+    noise: Option<&[SMatrix<f64, Z, Z>]>,
     sensor: &S,
     pd: impl Fn(&SVector<f64, M>, &SMatrix<f64, M, M>, u8) -> f64,
     in_band: impl Fn(&SVector<f64, M>) -> bool,
@@ -287,11 +356,15 @@ where
 {
     out.clear();
     let nz = z.len();
+    debug_assert!(noise.is_none_or(|n| n.len() == nz), "one covariance per measurement");
+    let noise = noise.filter(|n| n.len() == nz);
     let s = scratch;
     s.rows.clear();
     s.zhat.clear();
     s.gain.clear();
     s.p_upd.clear();
+    s.pair_gain.clear();
+    s.pair_p_upd.clear();
     s.log_pd.clear();
     s.log_a.clear();
     s.gated.clear();
@@ -308,28 +381,33 @@ where
             continue;
         }
         pd_mass += p_d;
-        let r = sensor.noise(S::Mark::from_index(mark));
         let zhat = sensor.predict(x, &m, S::Mark::from_index(mark));
-        let Some(ch) = symmetrise(&r).cholesky() else {
+        if let Some(rj) = noise {
+            s.push_row(i, zhat, SMatrix::zeros(), SMatrix::zeros(), p_d.ln());
+            for (j, (zj, r)) in z.iter().zip(rj).enumerate() {
+                let Some((s_inv, log_det)) = inverse_and_log_det(r) else {
+                    failures += 1;
+                    s.log_a.push(f64::NEG_INFINITY);
+                    continue;
+                };
+                let maha = mahalanobis(&sensor.residual(zj, &zhat), &s_inv);
+                let la =
+                    gated_log_a(maha, p_d.ln() - 0.5 * (Z as f64 * LN_2PI + log_det), settings.gate, &mut s.gated[j]);
+                s.log_a.push(la);
+            }
+            s.pair_gain.resize(s.log_a.len(), SMatrix::zeros());
+            s.pair_p_upd.resize(s.log_a.len(), SMatrix::zeros());
+            continue;
+        }
+        let Some((s_inv, log_det)) = inverse_and_log_det(&sensor.noise(S::Mark::from_index(mark))) else {
             failures += 1;
             continue;
         };
-        let s_inv = ch.inverse();
-        let base = p_d.ln() - 0.5 * (Z as f64 * LN_2PI + log_det_of(ch.l_dirty()));
-        s.rows.push(i);
-        s.zhat.push(zhat);
-        s.gain.push(SMatrix::zeros());
-        s.p_upd.push(SMatrix::zeros());
-        s.log_pd.push(p_d.ln());
+        let base = p_d.ln() - 0.5 * (Z as f64 * LN_2PI + log_det);
+        s.push_row(i, zhat, SMatrix::zeros(), SMatrix::zeros(), p_d.ln());
         for (j, zj) in z.iter().enumerate() {
-            let nu = sensor.residual(zj, &zhat);
-            let maha = (nu.transpose() * s_inv * nu)[(0, 0)];
-            let la = if maha <= settings.gate {
-                s.gated[j] = true;
-                base - 0.5 * maha
-            } else {
-                f64::NEG_INFINITY
-            };
+            let maha = mahalanobis(&sensor.residual(zj, &zhat), &s_inv);
+            let la = gated_log_a(maha, base, settings.gate, &mut s.gated[j]);
             s.log_a.push(la);
         }
     }
@@ -346,41 +424,53 @@ where
         let lw = map.log_w[i];
         pd_mass += p_d * lw.exp();
         let t = S::Mark::from_index(mark);
-        let r = &sensor.noise(t);
         let lin = sensor.linearise(x, &m, t);
         let p = map.cov[i];
-        let sm = symmetrise(&(lin.hm * p * lin.hm.transpose() + r));
-        let Some(ch) = sm.cholesky() else {
+        if let Some(rj) = noise {
+            let row = s.rows.len();
+            if in_band(&m) {
+                s.held.push((row, out.len()));
+            }
+            out.push_marked(lw + (1.0 - p_d).ln(), m, p, mark);
+            s.push_row(i, lin.z, SMatrix::zeros(), SMatrix::zeros(), p_d.ln());
+            let hph = lin.hm * p * lin.hm.transpose();
+            for (j, (zj, r)) in z.iter().zip(rj).enumerate() {
+                let (mut la, mut k, mut p_upd) = (f64::NEG_INFINITY, SMatrix::zeros(), SMatrix::zeros());
+                match inverse_and_log_det(&(hph + r)) {
+                    None => failures += 1,
+                    Some((s_inv, log_det)) => {
+                        let maha = mahalanobis(&sensor.residual(zj, &lin.z), &s_inv);
+                        let base = p_d.ln() + lw - 0.5 * (Z as f64 * LN_2PI + log_det);
+                        la = gated_log_a(maha, base, settings.gate, &mut s.gated[j]);
+                        if la > f64::NEG_INFINITY {
+                            (k, p_upd) = joseph_update(&p, &lin.hm, &s_inv, r);
+                        }
+                    }
+                }
+                s.log_a.push(la);
+                s.pair_gain.push(k);
+                s.pair_p_upd.push(p_upd);
+            }
+            continue;
+        }
+        let r = &sensor.noise(t);
+        let Some((s_inv, log_det)) = inverse_and_log_det(&(lin.hm * p * lin.hm.transpose() + r)) else {
             failures += 1;
             out.push_from(map, i);
             continue;
         };
-        let s_inv = ch.inverse();
-        let log_det = log_det_of(ch.l_dirty());
-        let k = p * lin.hm.transpose() * s_inv;
-        let ikh = SMatrix::<f64, M, M>::identity() - k * lin.hm;
-        let p_upd = symmetrise(&(ikh * p * ikh.transpose() + k * r * k.transpose()));
+        let (k, p_upd) = joseph_update(&p, &lin.hm, &s_inv, r);
         // missed-detection copy
         let row = s.rows.len();
         if in_band(&m) {
             s.held.push((row, out.len()));
         }
         out.push_marked(lw + (1.0 - p_d).ln(), m, p, mark);
-        s.rows.push(i);
-        s.zhat.push(lin.z);
-        s.gain.push(k);
-        s.p_upd.push(p_upd);
-        s.log_pd.push(p_d.ln());
+        s.push_row(i, lin.z, k, p_upd, p_d.ln());
         let base = p_d.ln() + lw - 0.5 * (Z as f64 * LN_2PI + log_det);
         for (j, zj) in z.iter().enumerate() {
-            let nu = sensor.residual(zj, &lin.z);
-            let maha = (nu.transpose() * s_inv * nu)[(0, 0)];
-            let la = if maha <= settings.gate {
-                s.gated[j] = true;
-                base - 0.5 * maha
-            } else {
-                f64::NEG_INFINITY
-            };
+            let maha = mahalanobis(&sensor.residual(zj, &lin.z), &s_inv);
+            let la = gated_log_a(maha, base, settings.gate, &mut s.gated[j]);
             s.log_a.push(la);
         }
         debug_assert_eq!(s.log_a.len(), (row + 1) * nz);
@@ -433,7 +523,11 @@ where
                 continue;
             }
             let nu = sensor.residual(zj, &s.zhat[row]);
-            out.push_marked(la - s.log_d[j], map.mean[i] + s.gain[row] * nu, s.p_upd[row], map.mark[i]);
+            let (k, p_upd) = match noise {
+                Some(_) => (&s.pair_gain[row * nz + j], &s.pair_p_upd[row * nz + j]),
+                None => (&s.gain[row], &s.p_upd[row]),
+            };
+            out.push_marked(la - s.log_d[j], map.mean[i] + k * nu, *p_upd, map.mark[i]);
         }
     }
     UpdateOutcome { log_likelihood: log_lik, cholesky_failures: failures }
@@ -635,6 +729,7 @@ mod tests {
                 &[0, 1],
                 &Pose::zeros(),
                 z,
+                None,
                 &sensor,
                 |_, _, _| 0.9,
                 band,
@@ -715,6 +810,68 @@ mod tests {
         let detected: f64 = scratch.log_d.iter().map(|ld| 1.0 - (ln_c - ld).exp()).sum();
         assert_relative_eq!(out.mass(), 0.2 * 1.3 + 0.5 + detected, epsilon = 1e-9);
         assert_relative_eq!(o.log_likelihood, scratch.log_d.iter().sum::<f64>(), epsilon = 1e-12);
+    }
+
+    /// One covariance per measurement ([`phd_update_hold`]'s `noise`): every `R_j = R` is the
+    /// update without them, bit for bit; a lone measurement with `R_j = 4 R` is the update of
+    /// a sensor whose `R` is `4 R`; a measurement whose `R_j` fails Cholesky for every
+    /// component is counted once per component, gates nothing (a birth) and leaves the
+    /// other measurements' pairs as they were.
+    #[test]
+    fn per_measurement_noise_replaces_r_pair_by_pair() {
+        let mut map = one_landmark();
+        map.push(0.3f64.ln(), Point2::new(0.0, 20.0), Matrix2::identity() * 2.0);
+        let r = Matrix2::new(0.5, 0.0, 0.0, 1e-3);
+        let sensor = RangeBearingSensor::default();
+        let z = [
+            sensor.predict(&Pose::zeros(), &Point2::new(10.3, 0.2)),
+            sensor.predict(&Pose::zeros(), &Point2::new(0.5, 19.0)),
+            RangeBearing::new(3.0, -2.0),
+        ];
+        let (mut scratch, mut out) = (UpdateScratch::default(), GmMap::default());
+        let mut run = |z: &[RangeBearing], noise: Option<&[Matrix2<f64>]>, r: &Matrix2<f64>| {
+            let o = phd_update_hold(
+                &map,
+                &[0, 1],
+                &Pose::zeros(),
+                z,
+                noise,
+                &crate::with_noise(&sensor, r),
+                |_, _, _| 0.8,
+                |_| false,
+                &settings(false),
+                &mut scratch,
+                &mut out,
+            );
+            (o.log_likelihood, o.cholesky_failures, out.clone(), scratch.gated.clone())
+        };
+        let flat = |m: &GmMap| -> Vec<f64> {
+            (0..m.len())
+                .flat_map(|i| [m.log_w[i]].into_iter().chain(m.mean[i].iter().copied()).chain(m.cov[i].iter().copied()))
+                .collect()
+        };
+        let (ll, fails, plain, gated) = run(&z, None, &r);
+        let (ll_r, fails_r, given_r, gated_r) = run(&z, Some(&[r; 3]), &r);
+        assert_eq!((ll, fails, &gated), (ll_r, fails_r, &gated_r));
+        assert_eq!(flat(&plain), flat(&given_r), "R_j = R is the update without them");
+        assert_eq!(gated, vec![true, true, false]);
+
+        let (ll_4, _, alone_4, _) = run(&z[..1], Some(&[r * 4.0]), &r);
+        let (ll_s, _, sensor_4, _) = run(&z[..1], None, &(r * 4.0));
+        assert_eq!(ll_4, ll_s);
+        assert_eq!(flat(&alone_4), flat(&sensor_4), "a lone R_j = 4 R is a sensor with 4 R");
+        assert_ne!(flat(&alone_4), flat(&run(&z[..1], None, &r).2));
+
+        let broken = Matrix2::new(-100.0, 0.0, 0.0, -100.0);
+        let (_, fails_b, with_broken, gated_b) = run(&z, Some(&[broken, r, r]), &r);
+        assert_eq!(fails_b, 2, "one failure per component for the broken measurement");
+        assert_eq!(gated_b, vec![false, true, false], "the broken measurement becomes a birth");
+        let (_, _, without_first, _) = run(&z[1..], None, &r);
+        assert_eq!(with_broken.len(), without_first.len(), "its pairs are dropped, the others kept");
+        // The missed copies and the second measurement's pairs are kept; only the
+        // normalisation of the dropped measurement (its clutter term alone) differs.
+        assert_eq!(with_broken.mean, without_first.mean);
+        assert_eq!(with_broken.cov, without_first.cov);
     }
 
     /// The bearing residual is wrapped in the gate and in the mean update: a landmark

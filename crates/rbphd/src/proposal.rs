@@ -115,6 +115,12 @@ pub trait Proposal<const X: usize = 3, const M: usize = 2, const Z: usize = 2>: 
     /// Whether the variant's map estimate counts `round(w)` landmarks per component when
     /// `estimate_rounding` is unset (`false`: one per component).
     const ESTIMATE_ROUNDING: bool = false;
+    /// Whether the density reads each measurement's own covariance `R_j`
+    /// ([`rfslam_core::Scan::noise`]) wherever it reads `R` (the filter's update, births and
+    /// weighting strategies always do): true for a density that reads no measurement (the
+    /// transition density); a density that linearises with `R` and does not is refused such
+    /// data ([`rfslam_core::FilterBuild::PER_MEASUREMENT_NOISE`]).
+    const PER_MEASUREMENT_NOISE: bool = false;
     /// The proposal's own parameters (`deny_unknown_fields`; defaults = the paper's).
     type Params: Serialize + DeserializeOwned + Default + Clone + Send;
     /// The vehicle model the proposal (and so the filter) is built for.
@@ -208,6 +214,7 @@ where
     const NAME: &'static str = B::NAME;
     const ESTIMATE_THRESHOLD: Option<f64> = B::ESTIMATE_THRESHOLD;
     const ESTIMATE_ROUNDING: bool = B::ESTIMATE_ROUNDING;
+    const PER_MEASUREMENT_NOISE: bool = true;
     type Params = B::Params;
     type Vehicle = V;
     type Sensor = S;

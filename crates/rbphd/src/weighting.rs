@@ -141,6 +141,9 @@ pub struct StrategyInput<'a, S = RangeBearingModel, const X: usize = 3, const M:
     pub z: &'a [SVector<f64, Z>],
     /// The sensor model (its noise `R` included).
     pub sensor: &'a S,
+    /// The scan's own covariance of each measurement, `R_j` ([`rfslam_core::Scan::noise`]),
+    /// which replaces `R` in the features' likelihoods; `None`: `R` of each feature's type.
+    pub noise: Option<&'a [SMatrix<f64, Z, Z>]>,
     /// `ln c` (clutter intensity, uniform).
     pub log_clutter: f64,
     /// `N_c`, the mean number of clutter measurements per scan (eq. 21).
@@ -163,8 +166,11 @@ pub struct StrategyOutcome {
 /// Reusable buffers of [`strategy_log_weight`].
 #[derive(Debug, Clone)]
 pub struct StrategyScratch<const Z: usize = 2> {
-    /// Per landmark type: `R^-1` and `ln N(0; 0, R)`.
+    /// Per landmark type (or, with `per_measurement`, per measurement): `R^-1` and
+    /// `ln N(0; 0, R)`.
     noise: Vec<(SMatrix<f64, Z, Z>, f64)>,
+    /// Whether `noise` is per measurement (the scan's own `R_j`).
+    per_measurement: bool,
     candidates: Vec<usize>,
     features: Vec<usize>,
     feature_pd: Vec<f64>,
@@ -178,10 +184,29 @@ pub struct StrategyScratch<const Z: usize = 2> {
     acc: Vec<f64>,
 }
 
+impl<const Z: usize> StrategyScratch<Z> {
+    /// Appends `R^-1` and `ln N(0; 0, R)` of `r`; false when `r` fails Cholesky.
+    fn push_noise(&mut self, r: &SMatrix<f64, Z, Z>) -> bool {
+        let Some((_, log_det_r)) = mahalanobis_and_log_det(&SVector::<f64, Z>::zeros(), r) else {
+            return false;
+        };
+        let r_inv = r.try_inverse().unwrap_or_else(SMatrix::zeros);
+        self.noise.push((r_inv, -0.5 * (Z as f64 * LN_2PI + log_det_r)));
+        true
+    }
+
+    /// `R^-1` and `ln N(0; 0, R)` of the pair of a feature of type `mark` and measurement `j`.
+    #[inline]
+    fn pair_noise(&self, mark: u8, j: usize) -> (SMatrix<f64, Z, Z>, f64) {
+        self.noise[if self.per_measurement { j } else { usize::from(mark) }]
+    }
+}
+
 impl<const Z: usize> Default for StrategyScratch<Z> {
     fn default() -> Self {
         StrategyScratch {
             noise: Vec::new(),
+            per_measurement: false,
             candidates: Vec::new(),
             features: Vec::new(),
             feature_pd: Vec::new(),
@@ -316,29 +341,31 @@ where
             - log_intensity(input.updated, None, &m, &mut out.cholesky_failures);
     }
 
-    // Point-feature likelihoods p(z | m, x) = N(z; h(m, x), R), R of the feature's type.
+    // Point-feature likelihoods p(z | m, x) = N(z; h(m, x), R), R of the feature's type (or
+    // the measurement's own R_j).
     s.noise.clear();
-    for &t in S::Mark::ALL {
-        let r = input.sensor.noise(t);
-        let Some((_, log_det_r)) = mahalanobis_and_log_det(&SVector::<f64, Z>::zeros(), &r) else {
-            out.cholesky_failures += 1;
-            out.log_weight = base;
-            return out;
-        };
-        let r_inv = r.try_inverse().unwrap_or_else(SMatrix::zeros);
-        s.noise.push((r_inv, -0.5 * (Z as f64 * LN_2PI + log_det_r)));
-    }
     let nz = input.z.len();
+    let per_measurement = input.noise.filter(|n| n.len() == nz);
+    let factored = match per_measurement {
+        Some(n) => n.iter().all(|r| s.push_noise(r)),
+        None => S::Mark::ALL.iter().all(|&t| s.push_noise(&input.sensor.noise(t))),
+    };
+    if !factored {
+        out.cholesky_failures += 1;
+        out.log_weight = base;
+        return out;
+    }
+    s.per_measurement = per_measurement.is_some();
 
     let log_lik = if weighting == Weighting::Single {
         // Eq. (23) divided by c^|Z| e^{-N_c}: (1 - pD) + pD sum_z p(z | m, x) / c.
         let f = s.features[0];
         let p_d = s.feature_pd[0];
         let mark = input.updated.mark[f];
-        let (r_inv, log_peak) = s.noise[usize::from(mark)];
         let h = input.sensor.predict(input.pose, &input.updated.mean[f], S::Mark::from_index(mark));
         let mut acc = (1.0 - p_d).ln();
-        for zj in input.z {
+        for (j, zj) in input.z.iter().enumerate() {
+            let (r_inv, log_peak) = s.pair_noise(mark, j);
             let nu = input.sensor.residual(zj, &h);
             let maha = (nu.transpose() * r_inv * nu)[(0, 0)];
             acc = log_add(acc, p_d.ln() + log_peak - 0.5 * maha - input.log_clutter);
@@ -372,9 +399,9 @@ fn multi_likelihood<S: SensorModel<X, M, Z>, const X: usize, const M: usize, con
         s.start.push(s.edges.len());
         let (m, mark) = (input.updated.mean[s.features[fi]], input.updated.mark[s.features[fi]]);
         let ln_pd = s.feature_pd[fi].ln();
-        let (r_inv, log_peak) = s.noise[usize::from(mark)];
         let h = input.sensor.predict(input.pose, &m, S::Mark::from_index(mark));
         for (j, zj) in input.z.iter().enumerate() {
+            let (r_inv, log_peak) = s.pair_noise(mark, j);
             let nu = input.sensor.residual(zj, &h);
             let maha = (nu.transpose() * r_inv * nu)[(0, 0)];
             if maha <= gate {
@@ -565,6 +592,7 @@ mod tests {
             pose: &Pose::zeros(),
             z: &case.z,
             sensor: &crate::with_noise(&sensor, &case.r),
+            noise: None,
             log_clutter: C.ln(),
             clutter_rate: NC,
         };
@@ -665,6 +693,7 @@ mod tests {
             pose: &Pose::zeros(),
             z: &z,
             sensor: &crate::with_noise(&sensor, &r),
+            noise: None,
             log_clutter: C.ln(),
             clutter_rate: NC,
         };
@@ -712,6 +741,7 @@ mod tests {
                 pose: &Pose::zeros(),
                 z: &[],
                 sensor: &crate::with_noise(&sensor, &r),
+                noise: None,
                 log_clutter: C.ln(),
                 clutter_rate: NC,
             };

@@ -100,7 +100,11 @@ fn per_measurement_covariances_reach_the_filters_that_read_them_and_refuse_the_o
     for &w in WorldKind::ALL {
         let (ran, failures) = w.visit(Covariances);
         assert!(failures.is_empty(), "{}", failures.join("\n"));
-        let expected: &[&str] = if w.name() == "bearing_only" { &[] } else { &["pmbm-slam", "pmb-slam", "mpmb-slam"] };
+        let expected: &[&str] = if w.name() == "bearing_only" {
+            &["phd-1.0", "rbphd-mf"]
+        } else {
+            &["phd-1.0", "rbphd-mf", "pmbm-slam", "pmb-slam", "mpmb-slam"]
+        };
         assert_eq!(ran, expected, "{}: the filters that ran with the covariances", w.name());
     }
 }
