@@ -55,6 +55,9 @@ impl<V: VehicleModel<X, 3> + Send, const X: usize, const M: usize, const Z: usiz
 
 impl FilterBuild for DeadReckoning {
     type Params = Params;
+    /// It reads no measurement, so a data set's own covariances cannot be ignored where `R`
+    /// would be read: such a data set runs (the odometry baseline beside the filters).
+    const PER_MEASUREMENT_NOISE: bool = true;
 }
 
 /// Odometry only, in any world (its measurements are never read).

@@ -40,7 +40,7 @@ use rfslam_core::model::{LandmarkMark, RangeBearingModel, VehicleModel};
 use rfslam_core::params::{CountRange, Interval};
 use rfslam_core::rbpf::log_sum_exp;
 use rfslam_core::state::StateSpace;
-use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Rng, SensorModel};
+use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Rng, SensorModel, measurement_noise};
 use serde::{Deserialize, Serialize};
 use std::marker::PhantomData;
 
@@ -114,6 +114,9 @@ pub struct SlrInput<'a, Sn: SensorModel<X, M, Z>, const X: usize, const M: usize
     pub p: &'a SMatrix<f64, M, M>,
     /// The landmark's type.
     pub mark: Sn::Mark,
+    /// The measurement's covariance: the sensor's `R` of `mark`, or the measurement's own
+    /// `R_j` when the scan carries one ([`rbphd::ProposalContext::noise`]).
+    pub r: SMatrix<f64, Z, Z>,
 }
 
 /// The first-order Taylor SLR of \[Kaltiokallio2024\] (phd-3.0): `(g(m, m_pi), G_x, G_m P G_m^T +
@@ -126,7 +129,7 @@ impl<const X: usize, const M: usize, const Z: usize> PoseSlr<X, M, Z> for Taylor
     #[inline(always)]
     fn linearise<Sn: SensorModel<X, M, Z>>(&self, at: &SlrInput<'_, Sn, X, M, Z>) -> Option<Linearised<Z, X>> {
         let lin = at.sensor.linearise(at.mean, at.m, at.mark);
-        Some((lin.z, lin.hx, lin.hm * at.p * lin.hm.transpose() + at.sensor.noise(at.mark)))
+        Some((lin.z, lin.hx, lin.hm * at.p * lin.hm.transpose() + at.r))
     }
 
     #[inline(always)]
@@ -137,8 +140,7 @@ impl<const X: usize, const M: usize, const Z: usize> PoseSlr<X, M, Z> for Taylor
     ) -> Option<f64> {
         let (sensor, mark) = (at.sensor, at.mark);
         let lin = sensor.linearise(at.mean, at.m, mark);
-        let r = sensor.noise(mark);
-        let s = symmetrise(&(lin.hx * at.cov * lin.hx.transpose() + lin.hm * at.p * lin.hm.transpose() + r));
+        let s = symmetrise(&(lin.hx * at.cov * lin.hx.transpose() + lin.hm * at.p * lin.hm.transpose() + at.r));
         let nu = sensor.residual(z, &lin.z);
         log_normal(&nu, &s)
     }
@@ -336,7 +338,7 @@ where
                     self.pairs_z.push(ctx.z[*j]);
                 }
             }
-            let (rows, pairs_row, slr) = (&self.rows, &self.pairs_row, &self.slr);
+            let (rows, pairs_row, slr, assoc) = (&self.rows, &self.pairs_row, &self.slr, &phi);
             let res = ipl_update_in(
                 space,
                 &x_bar,
@@ -346,7 +348,9 @@ where
                     let i = rows[pairs_row[k]];
                     let mark = Sn::Mark::from_index(ctx.map.mark[i]);
                     let (m, p) = (&ctx.map.mean[i], &ctx.map.cov[i]);
-                    slr.linearise(&SlrInput { sensor, mean: m_pi, cov: p_pi, m, p, mark })
+                    let j = assoc[pairs_row[k]].unwrap_or_default();
+                    let r = measurement_noise(ctx.noise, j, &sensor.noise(mark));
+                    slr.linearise(&SlrInput { sensor, mean: m_pi, cov: p_pi, m, p, mark, r })
                 },
                 |a, b| sensor.residual(a, b),
                 &ipl,
@@ -364,7 +368,8 @@ where
                     Some(j) => {
                         let (m_i, p_i) = (&ctx.map.mean[i], &ctx.map.cov[i]);
                         let mark = Sn::Mark::from_index(ctx.map.mark[i]);
-                        let at = SlrInput { sensor, mean: &res.mean, cov: &res.cov, m: m_i, p: p_i, mark };
+                        let r = measurement_noise(ctx.noise, *j, &sensor.noise(mark));
+                        let at = SlrInput { sensor, mean: &res.mean, cov: &res.cov, m: m_i, p: p_i, mark, r };
                         match self.slr.log_likelihood(&at, &ctx.z[*j]) {
                             Some(l) => log_w += pd.ln() + lw - ctx.log_clutter + l,
                             None => {
@@ -479,6 +484,7 @@ where
     V: VehicleModel<X, 3> + std::fmt::Debug + Clone + Send + Sync + 'static,
 {
     const NAME: &'static str = "phd-3.0";
+    const PER_MEASUREMENT_NOISE: bool = true;
     type Params = MhParams;
     type Vehicle = V;
     type Sensor = Sn;
@@ -540,6 +546,7 @@ mod tests {
             space: rfslam_core::state::StateSpace::PLANAR,
             sensor: &rb,
             z: &z,
+            noise: None,
             prior_pose: x_bar,
             predicted: x_bar,
             q,
@@ -594,6 +601,7 @@ mod tests {
             space: rfslam_core::state::StateSpace::PLANAR,
             sensor: &rb,
             z: &z,
+            noise: None,
             prior_pose: Pose::zeros(),
             predicted: Pose::new(1.0, 0.0, 0.0),
             q,

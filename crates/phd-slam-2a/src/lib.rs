@@ -507,6 +507,7 @@ mod tests {
             // Leaked: a test helper returns a context borrowing it.
             sensor: Box::leak(Box::new(rfslam_core::model::RangeBearingModel::new(m, 0.0))),
             z,
+            noise: None,
             prior_pose: x_bar,
             predicted: x_bar,
             q,

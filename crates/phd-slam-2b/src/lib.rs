@@ -45,7 +45,7 @@ use rfslam_core::gaussian::{log_normal, sample};
 use rfslam_core::joint_ipl::{JointIpl, JointIplSettings, KlOn};
 use rfslam_core::model::{LandmarkMark, RangeBearingModel};
 use rfslam_core::params::{CountRange, Interval};
-use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Rng};
+use rfslam_core::{InvertibleSensorModel, Motion, ParamError, Rng, measurement_noise};
 use serde::{Deserialize, Serialize};
 use std::marker::PhantomData;
 
@@ -109,6 +109,9 @@ pub struct JointProposal<S = RangeBearingModel, V = Motion, const X: usize = 3, 
     /// Mark index of each detected landmark.
     marks: Vec<u8>,
     z: Vec<SVector<f64, Z>>,
+    /// The covariance of each detected landmark's measurement (`R` of its type, or the
+    /// measurement's own `R_j`).
+    r: Vec<SMatrix<f64, Z, Z>>,
     /// The proposal `N(mean, cov)` of the last call.
     mean: SVector<f64, X>,
     cov: SMatrix<f64, X, X>,
@@ -128,6 +131,7 @@ where
     V: PhdVehicle<X>,
 {
     const NAME: &'static str = "phd-2.0b";
+    const PER_MEASUREMENT_NOISE: bool = true;
     type Params = JointParams;
     type Vehicle = V;
     type Sensor = S;
@@ -152,6 +156,7 @@ where
             p_m: Vec::new(),
             marks: Vec::new(),
             z: Vec::new(),
+            r: Vec::new(),
             mean: SVector::zeros(),
             cov: SMatrix::zeros(),
         }
@@ -193,6 +198,7 @@ where
         self.p_m.clear();
         self.marks.clear();
         self.z.clear();
+        self.r.clear();
         for (row, j) in self.phi.iter().enumerate() {
             if let Some(j) = j {
                 let i = self.rows[row];
@@ -200,6 +206,8 @@ where
                 self.p_m.push(ctx.map.cov[i]);
                 self.marks.push(ctx.map.mark[i]);
                 self.z.push(ctx.z[*j]);
+                let r = ctx.sensor.noise(S::Mark::from_index(ctx.map.mark[i]));
+                self.r.push(measurement_noise(ctx.noise, *j, &r));
             }
         }
         if self.z.is_empty() {
@@ -216,7 +224,7 @@ where
             kl_threshold: self.params.ipl_kl_threshold,
             kl_on: self.params.ipl_kl_on,
         };
-        let (sensor, marks) = (ctx.sensor, &self.marks);
+        let (sensor, marks, r) = (ctx.sensor, &self.marks, &self.r);
         let res = self.ipl.update_in(
             space,
             &x_bar,
@@ -227,7 +235,7 @@ where
             |a, x, mm| {
                 let mark = S::Mark::from_index(marks[a]);
                 let l = sensor.linearise(x, mm, mark);
-                (l.z, l.hx, l.hm, sensor.noise(mark))
+                (l.z, l.hx, l.hm, r[a])
             },
             |a, b| sensor.residual(a, b),
             &settings,
@@ -304,6 +312,7 @@ mod tests {
             // Leaked: a test helper returns a context borrowing it.
             sensor: Box::leak(Box::new(rfslam_core::model::RangeBearingModel::new(m, 0.0))),
             z,
+            noise: None,
             prior_pose: x_bar,
             predicted: x_bar,
             q,

@@ -204,8 +204,7 @@ impl SigmaPointSlr {
         &self,
         at: &SlrInput<'_, Sn, X, M, Z>,
     ) -> Option<(SVector<f64, Z>, SMatrix<f64, Z, Z>, SMatrix<f64, Z, X>)> {
-        let SlrInput { sensor, mean, cov, m, p, mark } = *at;
-        let r = sensor.noise(mark);
+        let SlrInput { sensor, mean, cov, m, p, mark, r } = *at;
         // The measurement's angular components, averaged on the circle.
         let angular = sensor.components().map(|c| c.angle);
         let held: [bool; X] = std::array::from_fn(|i| cov.row(i).iter().all(|&v| v == 0.0));
@@ -280,6 +279,7 @@ where
     V: PhdVehicle<X>,
 {
     const NAME: &'static str = "phd-3.0-sp";
+    const PER_MEASUREMENT_NOISE: bool = true;
     type Params = SpParams;
     type Vehicle = V;
     type Sensor = S;
@@ -334,7 +334,7 @@ mod tests {
         m: &'a Point2,
         pm: &'a Matrix2<f64>,
     ) -> SlrInput<'a, RangeBearingModel, 3, 2, 2> {
-        SlrInput { sensor: s, mean: x, cov: p, m, p: pm, mark: () }
+        SlrInput { sensor: s, mean: x, cov: p, m, p: pm, mark: (), r: s.noise(()) }
     }
 
     /// `R` of the PHD-SLAM synthetic experiment.

@@ -76,6 +76,8 @@ pub struct DrawContext<'a, V, S, const X: usize, const M: usize, const Z: usize>
     pub q: SMatrix<f64, X, X>,
     /// The scan `Z_k`.
     pub z: &'a [SVector<f64, Z>],
+    /// Each measurement's own covariance `R_j` when the scan carries them ([`Scan::noise`]).
+    pub noise: Option<&'a [SMatrix<f64, Z, Z>]>,
     /// The measurement model the filter assumes.
     pub model: &'a S,
     /// The vehicle as the filter assumes it.
@@ -210,9 +212,9 @@ where
     }
 
     /// [`Self::step_with_proposal`] with each measurement's own covariance `R_j` in the map
-    /// update when `noise` gives one per measurement ([`Scan::noise`]; the proposal `propose`
-    /// is not given them).
-    fn step_measured(
+    /// update when `noise` gives one per measurement ([`Scan::noise`]), and in the proposal's
+    /// context ([`DrawContext::noise`]).
+    pub fn step_measured(
         &mut self,
         odometry: &[ControlSegment],
         z: impl IntoIterator<Item = SVector<f64, Z>>,
@@ -230,8 +232,15 @@ where
         let mut proposal_components = 0;
         for part in self.set.particles_mut() {
             let (predicted, q) = self.params.rbpf.predict_state(&self.vehicle, &part.pose, odometry);
-            let ctx =
-                DrawContext { particle: &*part, predicted, q, z: &self.z, model: &self.model, vehicle: &self.vehicle };
+            let ctx = DrawContext {
+                particle: &*part,
+                predicted,
+                q,
+                z: &self.z,
+                noise,
+                model: &self.model,
+                vehicle: &self.vehicle,
+            };
             let draw = propose(&ctx, rng);
 
             chol += draw.cholesky_failures;

@@ -140,7 +140,7 @@ where
     fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
         self.filter.set_source(scan.source);
         let (mh, log_clutter, space) = (&mut self.mh, self.log_clutter, self.space);
-        self.filter.step_with_proposal(odometry, scan.z.iter().copied(), rng, |ctx, rng| {
+        self.filter.step_measured(odometry, scan.z.iter().copied(), scan.noise.as_deref(), rng, |ctx, rng| {
             mh.map.clear();
             mh.detectable.clear();
             mh.pd.clear();
@@ -168,6 +168,7 @@ where
                 space,
                 sensor: ctx.model,
                 z: ctx.z,
+                noise: ctx.noise,
                 prior_pose: ctx.particle.pose,
                 predicted: ctx.predicted,
                 q: ctx.q,
@@ -207,6 +208,7 @@ rfslam_core::filter_variant!(
     /// hypothesis (our variant; see the module docs), in every world.
     PmbmSlamMh(PmbmMh), "pmbm-slam-mh";
     params: MhPmbmParams,
+    per_measurement_noise: true,
     check: |params, models, particles| {
         params.validate(particles)?;
         params.pmbm.check_undetected(&assumed_sensor(&params.pmbm, &models.sensor)?)

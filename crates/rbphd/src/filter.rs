@@ -362,6 +362,7 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
                 space: self.space,
                 sensor,
                 z: &scan.z,
+                noise,
                 prior_pose: rep.pose,
                 predicted: x_bar,
                 q,

@@ -30,6 +30,10 @@ pub struct ProposalContext<
     pub sensor: &'a S,
     /// The scan `Z_k`.
     pub z: &'a [SVector<f64, Z>],
+    /// Each measurement's own covariance `R_j` when the scan carries them
+    /// ([`rfslam_core::Scan::noise`], one per measurement of `z`); `None`: the sensor's `R`
+    /// of each landmark type. A density with [`Proposal::PER_MEASUREMENT_NOISE`] uses them.
+    pub noise: Option<&'a [SMatrix<f64, Z, Z>]>,
     /// The particle's state `x_{k-1}`.
     pub prior_pose: SVector<f64, X>,
     /// `f(x_{k-1}, u_k)` through the odometry segments.

@@ -15,8 +15,9 @@ pub struct FilterEntry {
     pub baseline: bool,
     /// The filter needs truth labels on every scan (oracle baselines).
     pub requires_truth: bool,
-    /// The filter reads each measurement's own covariance when a data set gives one
-    /// ([`FilterBuild::PER_MEASUREMENT_NOISE`]); the others are refused such a data set.
+    /// The filter reads each measurement's own covariance when a data set gives one, or reads
+    /// no measurement ([`FilterBuild::PER_MEASUREMENT_NOISE`]); the others are refused such a
+    /// data set.
     pub per_measurement_noise: bool,
     /// The default parameters, as a table (written into resolved configurations).
     pub defaults: fn() -> toml::Table,
@@ -214,7 +215,9 @@ pub fn check_dataset<C, const X: usize, const M: usize, const Z: usize>(
     dataset: &rfslam_data::Dataset<C, X, M, Z>,
 ) -> Result<(), String> {
     if dataset.has_measurement_noise() && !entry.per_measurement_noise {
-        let readers: Vec<&str> = REGISTRY.iter().filter(|e| e.per_measurement_noise).map(|e| e.name).collect();
+        // The SLAM filters that read them (not the baseline, which reads no measurement).
+        let readers: Vec<&str> =
+            REGISTRY.iter().filter(|e| e.per_measurement_noise && !e.baseline).map(|e| e.name).collect();
         return Err(format!(
             "filter `{}` does not read a per-measurement covariance, and data set `{}` gives one (measurements.csv columns var_*, cov_*): run it without those columns, or use a filter that reads them ({})",
             entry.name,
