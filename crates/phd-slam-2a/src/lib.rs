@@ -155,8 +155,8 @@ pub struct MixtureTerm<const X: usize = 3> {
 struct Pair<const X: usize> {
     /// Map component index.
     comp: usize,
-    /// Row in the detectable list (index into `row_cov`).
-    row: usize,
+    /// Index of its covariance `Σ_i` (or `Σ_ij`) in `covs`.
+    cov: usize,
     /// Measurement index.
     meas: usize,
     /// `ln β_ij`.
@@ -181,7 +181,9 @@ pub struct Gao2021Proposal<
     models: PhantomData<(S, V)>,
     params: Gao2021Params,
     // reusable buffers
-    row_cov: Vec<SMatrix<f64, X, X>>,
+    /// `Σ_i` of each detectable component whose `S_i` factorised (`Σ_ij` of each pair with
+    /// per-measurement covariances).
+    covs: Vec<SMatrix<f64, X, X>>,
     pairs: Vec<Pair<X>>,
     meas_max: Vec<f64>,
     meas_sum: Vec<f64>,
@@ -203,7 +205,7 @@ impl<S, V, const X: usize, const M: usize, const Z: usize> Gao2021Proposal<S, V,
             pair: Some((p.comp, p.meas)),
             weight: p.weight,
             mean: p.mean,
-            cov: self.row_cov[p.row],
+            cov: self.covs[p.cov],
         }))
     }
 
@@ -270,46 +272,77 @@ where
     S: InvertibleSensorModel<X, M, Z>,
 {
     /// Steps 1-2 of the crate documentation: the gated pairs, their conditional means,
-    /// `Σ_i` per detectable component and `ln β_ij`.
+    /// `Σ_i` per detectable component (per pair, `Σ_ij`, with each measurement's own
+    /// covariance `R_j` in `ctx.noise`) and `ln β_ij`.
     fn collect_pairs(&mut self, ctx: &ProposalContext<S, V, X, M, Z>, stats: &mut ProposalStats) {
         let sensor = ctx.sensor;
         let (x_bar, q) = (ctx.predicted, ctx.q);
         self.pairs.clear();
-        self.row_cov.clear();
+        self.covs.clear();
         for (row, &i) in ctx.detectable.iter().enumerate() {
             let (m, p, log_eta, pd) = (ctx.map.mean[i], ctx.map.cov[i], ctx.map.log_w[i], ctx.pd[row]);
             let mark = S::Mark::from_index(ctx.map.mark[i]);
             let lin = sensor.linearise(&x_bar, &m, mark);
-            let omega = lin.hm * p * lin.hm.transpose() + sensor.noise(mark);
-            let s = symmetrise(&(lin.hx * q * lin.hx.transpose() + omega));
-            let Some(ch) = s.cholesky() else {
-                stats.cholesky_failures += 1;
-                self.row_cov.push(q);
-                continue;
-            };
-            // K = Q G_x^T S^-1, i.e. K^T = S^-1 (G_x Q) (S and Q symmetric); the held
-            // components' rows of Q, and so of K, are zero.
-            let k: SMatrix<f64, X, Z> = ch.solve(&(lin.hx * q)).transpose();
-            let a = SMatrix::<f64, X, X>::identity() - k * lin.hx;
-            self.row_cov.push(symmetrise(&(a * q * a.transpose() + k * omega * k.transpose())));
-            let l = ch.l_dirty();
-            let log_det = 2.0 * (0..Z).map(|c| l[(c, c)].ln()).sum::<f64>();
-            let base = pd.ln() + log_eta - ctx.log_clutter - 0.5 * (Z as f64 * LN_2PI + log_det);
-            for (j, zj) in ctx.z.iter().enumerate() {
-                let nu = sensor.residual(zj, &lin.z);
-                let maha = nu.dot(&ch.solve(&nu));
+            let hph = lin.hm * p * lin.hm.transpose();
+            let log_base = pd.ln() + log_eta - ctx.log_clutter;
+            let pair = |j: usize, c: &Conditioned<X, Z>, cov: usize, pairs: &mut Vec<Pair<X>>| {
+                let nu = sensor.residual(&ctx.z[j], &lin.z);
+                let maha = nu.dot(&c.chol.solve(&nu));
                 // Outside the gate, or NaN.
                 if maha.is_nan() || maha > ctx.gate {
-                    continue;
+                    return;
                 }
-                let log_beta = base - 0.5 * maha;
-                if !log_beta.is_finite() {
-                    continue;
+                let log_beta = log_base - 0.5 * (Z as f64 * LN_2PI + c.log_det) - 0.5 * maha;
+                if log_beta.is_finite() {
+                    let mean = ctx.space.wrapped(x_bar + c.gain * nu);
+                    pairs.push(Pair { comp: i, cov, meas: j, log_beta, weight: 0.0, mean });
                 }
-                let mean = ctx.space.wrapped(x_bar + k * nu);
-                self.pairs.push(Pair { comp: i, row, meas: j, log_beta, weight: 0.0, mean });
+            };
+            if let Some(noise) = ctx.noise {
+                for (j, rj) in noise.iter().enumerate() {
+                    let Some(c) = Conditioned::of(&lin.hx, &q, &(hph + rj)) else {
+                        stats.cholesky_failures += 1;
+                        continue;
+                    };
+                    self.covs.push(c.cov);
+                    pair(j, &c, self.covs.len() - 1, &mut self.pairs);
+                }
+                continue;
+            }
+            let Some(c) = Conditioned::of(&lin.hx, &q, &(hph + sensor.noise(mark))) else {
+                stats.cholesky_failures += 1;
+                continue;
+            };
+            self.covs.push(c.cov);
+            for j in 0..ctx.z.len() {
+                pair(j, &c, self.covs.len() - 1, &mut self.pairs);
             }
         }
+    }
+}
+
+/// The pose conditioned on one landmark's measurement, `Ω = G_m P G_m^T + R`:
+/// `S = G_x Q G_x^T + Ω`, its Cholesky factor and `ln |S|`, the gain `K = Q G_x^T S^-1` and
+/// `Σ = (I - K G_x) Q (I - K G_x)^T + K Ω K^T`.
+struct Conditioned<const X: usize, const Z: usize> {
+    chol: nalgebra::Cholesky<f64, nalgebra::Const<Z>>,
+    log_det: f64,
+    gain: SMatrix<f64, X, Z>,
+    cov: SMatrix<f64, X, X>,
+}
+
+impl<const X: usize, const Z: usize> Conditioned<X, Z> {
+    /// `None` when `S` fails Cholesky.
+    fn of(hx: &SMatrix<f64, Z, X>, q: &SMatrix<f64, X, X>, omega: &SMatrix<f64, Z, Z>) -> Option<Self> {
+        let chol = symmetrise(&(hx * q * hx.transpose() + omega)).cholesky()?;
+        // K = Q G_x^T S^-1, i.e. K^T = S^-1 (G_x Q) (S and Q symmetric); the held
+        // components' rows of Q, and so of K, are zero.
+        let gain: SMatrix<f64, X, Z> = chol.solve(&(hx * q)).transpose();
+        let a = SMatrix::<f64, X, X>::identity() - gain * hx;
+        let cov = symmetrise(&(a * q * a.transpose() + gain * omega * gain.transpose()));
+        let l = chol.l_dirty();
+        let log_det = 2.0 * (0..Z).map(|c| l[(c, c)].ln()).sum::<f64>();
+        Some(Conditioned { chol, log_det, gain, cov })
     }
 }
 
@@ -364,6 +397,7 @@ where
     V: PhdVehicle<X>,
 {
     const NAME: &'static str = "phd-2.0a";
+    const PER_MEASUREMENT_NOISE: bool = true;
     type Params = Gao2021Params;
     type Vehicle = V;
     type Sensor = S;
@@ -372,7 +406,7 @@ where
         Gao2021Proposal {
             models: PhantomData,
             params: params.clone(),
-            row_cov: Vec::new(),
+            covs: Vec::new(),
             pairs: Vec::new(),
             meas_max: Vec::new(),
             meas_sum: Vec::new(),
@@ -408,8 +442,8 @@ where
             None
         } else {
             let prior = std::iter::once((self.prior_weight, &self.predicted, &self.q));
-            let row_cov = &self.row_cov;
-            let pairs = self.pairs.iter().map(|p| (p.weight, &p.mean, &row_cov[p.row]));
+            let covs = &self.covs;
+            let pairs = self.pairs.iter().map(|p| (p.weight, &p.mean, &covs[p.cov]));
             match moment_match_in(space, &x_bar, prior.chain(pairs)) {
                 Some((m, c)) if m.iter().all(|v| v.is_finite()) && space.factorable(&c).cholesky().is_some() => {
                     Some((m, c))

@@ -109,11 +109,12 @@ fn per_measurement_covariances_reach_the_filters_that_read_them_and_refuse_the_o
         let (ran, failures) = w.visit(Covariances);
         assert!(failures.is_empty(), "{}", failures.join("\n"));
         let expected: &[&str] = if w.name() == "bearing_only" {
-            &["dead-reckoning", "phd-1.0", "phd-2.0b", "phd-3.0", "phd-3.0-sp", "rbphd-mf"]
+            &["dead-reckoning", "phd-1.0", "phd-2.0a", "phd-2.0b", "phd-3.0", "phd-3.0-sp", "rbphd-mf"]
         } else {
             &[
                 "dead-reckoning",
                 "phd-1.0",
+                "phd-2.0a",
                 "phd-2.0b",
                 "phd-3.0",
                 "phd-3.0-sp",
