@@ -69,11 +69,37 @@ pub fn spawn(cmd: &mut Command) -> Child {
     cmd.spawn().expect("start a child process")
 }
 
-/// Releases a directory lock this test holds, once no child is being started ([`STARTING`]):
-/// then no child process holds a copy of it.
+/// Releases a directory lock this test holds, once no child is being started ([`STARTING`]),
+/// and returns when the lock is free.
+///
+/// The wait is needed as well: Linux wakes the parent of a `posix_spawn` (and closes the
+/// error pipe of a fork and exec) inside the child's `execve` before the child's
+/// close-on-exec files are closed (`exec_mmap` before `do_close_on_exec` in `fs/exec.c`), so
+/// a child that [`spawn`] has already returned for can still hold a copy of the lock for a
+/// moment (seen under load: the next `rfslam` was refused naming this test's pid). The wait
+/// is bounded (10 s).
 pub fn release(lock: rfslam_harness::lock::DirLock) {
-    let _no_start = STARTING.write().unwrap_or_else(|p| p.into_inner());
-    drop(lock);
+    let dir = lock.path().parent().expect("a lock file lies in its directory").to_path_buf();
+    {
+        let _no_start = STARTING.write().unwrap_or_else(|p| p.into_inner());
+        drop(lock);
+    }
+    let start = std::time::Instant::now();
+    loop {
+        // The check opens the lock file itself: no child may be started meanwhile, or it
+        // would copy that file in turn.
+        let free = {
+            let _no_start = STARTING.write().unwrap_or_else(|p| p.into_inner());
+            rfslam_harness::lock::DirLock::check_free(&dir)
+        };
+        match free {
+            Ok(()) => return,
+            Err(e) => {
+                assert!(start.elapsed() < std::time::Duration::from_secs(10), "the released lock stays held: {e}")
+            }
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
 }
 
 /// Runs `rfslam args` and requires exit code 0.
