@@ -132,6 +132,8 @@ where
     set: ParticleSet<Particle<X, M>>,
     step: u64,
     prev_z: Vec<SVector<f64, Z>>,
+    /// Their own covariances `R_j`, when that scan carried them (else empty).
+    prev_noise: Vec<SMatrix<f64, Z, Z>>,
     /// The source of the previous scan (its births' sensor).
     prev_source: u8,
     ws: Workspace<X, M>,
@@ -169,6 +171,7 @@ where
             set: ParticleSet::new(p0, n),
             step: 0,
             prev_z: Vec::new(),
+            prev_noise: Vec::new(),
             prev_source: 0,
             ws: Workspace::default(),
             trace: Vec::new(),
@@ -208,6 +211,7 @@ where
         let um = UpdateModels {
             sensor,
             noise: &self.noise,
+            meas_noise: scan.noise.as_deref().filter(|n| n.len() == scan.z.len()),
             anchors: &self.anchors,
             space,
             min_clutter_intensity: p.min_clutter_intensity,
@@ -233,7 +237,10 @@ where
                     continue;
                 }
                 for &t in birth_sensor.marks().iter().filter(|&&t| birth_sensor.mapped(t) && birth_sensor.measures(t)) {
-                    let (mean, cov) = birth_sensor.birth(&part.pose, zj, t);
+                    let (mean, cov) = match self.prev_noise.get(j) {
+                        Some(r) => birth_sensor.birth_with_noise(&part.pose, zj, t, r),
+                        None => birth_sensor.birth(&part.pose, zj, t),
+                    };
                     let mark = t.index();
                     let birth = (Track { label: birth_label(self.step, j, mark), mean, cov, mark }, rb.ln());
                     match wait {
@@ -315,6 +322,10 @@ where
         }
         self.prev_z.clear();
         self.prev_z.extend_from_slice(&scan.z);
+        self.prev_noise.clear();
+        if let Some(n) = scan.noise.as_deref().filter(|n| n.len() == scan.z.len()) {
+            self.prev_noise.extend_from_slice(n);
+        }
         self.prev_source = scan.source;
 
         let mut components = 0;
@@ -392,6 +403,7 @@ macro_rules! variant_filter {
         rfslam_core::filter_variant!(
             $(#[$doc])* $ty(GlmbSlam), $name;
             params: Params,
+            per_measurement_noise: true,
             check: |params, _models, particles| params.validate(particles),
             build: |params, models, particles| {
                 GlmbSlam::new($variant, params, models.vehicle.clone(), models.sensor.clone(), particles)

@@ -135,6 +135,10 @@ pub struct UpdateModels<'a, S = RangeBearingModel, const X: usize = 3, const M: 
     /// Measurement noise `R` of each landmark type, indexed by mark (the sensor's
     /// `noise(mark)`, computed once).
     pub noise: &'a [SMatrix<f64, Z, Z>],
+    /// Each measurement's own covariance `R_j` when the scan carries them
+    /// ([`rfslam_core::Scan::noise`], one per measurement): it replaces `noise` for that
+    /// measurement in every likelihood and update.
+    pub meas_noise: Option<&'a [SMatrix<f64, Z, Z>]>,
     /// The anchors: known landmarks (existence 1, zero covariance) present in every
     /// hypothesis, never updated, pruned or estimated.
     pub anchors: &'a [Track<M>],
@@ -228,10 +232,11 @@ pub struct Workspace<const X: usize = 3, const M: usize = 2> {
 
 /// `ln N(z; h, S)` for every gated `z_j` and the EKF updates, for a track `(mean, cov)` seen
 /// from `x`; with `pose_cov = Some(Q)` the pose-marginalised likelihood
-/// (`S = H_x Q H_x^T + H_m P H_m^T + R`) and no update. Appends to `liks`;
-/// returns `false` if `S` failed Cholesky (then nothing is appended). The prediction, `R`
-/// and the update are those of the track's landmark type `mark`.
-#[allow(clippy::too_many_arguments)]
+/// (`S = H_x Q H_x^T + H_m P H_m^T + R`) and no update. Appends to `liks`; returns the
+/// number of `S` that failed Cholesky (nothing is appended for their measurements). The
+/// prediction, `R` and the update are those of the track's landmark type `mark`; with each
+/// measurement's own covariance (`m.meas_noise`) the pair of measurement `j` takes `R_j`, one
+/// `S` per pair.
 fn likelihoods<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
     m: &UpdateModels<S, X, M, Z>,
     x: &SVector<f64, X>,
@@ -239,43 +244,84 @@ fn likelihoods<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z:
     pose_cov: Option<&SMatrix<f64, X, X>>,
     z: &[SVector<f64, Z>],
     liks: &mut Vec<Lik<M>>,
-) -> bool {
-    let (mean, cov) = (&t.mean, &t.cov);
-    let r = &m.noise[usize::from(t.mark)];
-    let lin = m.sensor.linearise(x, mean, S::Mark::from_index(t.mark));
-    let ph = cov * lin.hm.transpose();
-    let mut s = lin.hm * ph + r;
-    if let Some(q) = pose_cov {
-        s += lin.hx * q * lin.hx.transpose();
-    }
-    let Some(ch) = symmetrise(&s).cholesky() else { return false };
-    let l = ch.l_dirty();
-    let mut half_log_det = 0.0;
-    for i in 0..Z {
-        half_log_det += l[(i, i)].ln();
-    }
-    let log_det = 2.0 * half_log_det;
-    let gain = ch.solve(&ph.transpose()).transpose();
-    let ikh = SMatrix::<f64, M, M>::identity() - gain * lin.hm;
-    let mut upd_cov = None;
-    for (j, zj) in z.iter().enumerate() {
+) -> u32 {
+    let lin = m.sensor.linearise(x, &t.mean, S::Mark::from_index(t.mark));
+    let ph = t.cov * lin.hm.transpose();
+    let pair_terms = |r: &SMatrix<f64, Z, Z>| PairTerms::of(&lin.hm, &lin.hx, &ph, r, pose_cov);
+    let mut push = |j: usize, zj: &SVector<f64, Z>, terms: &mut PairTerms<M, Z>| {
         let nu = m.sensor.residual(zj, &lin.z);
-        let Some(y) = l.solve_lower_triangular(&nu) else { continue };
+        let Some(y) = terms.l.solve_lower_triangular(&nu) else { return };
         let maha = y.norm_squared();
         if maha.is_nan() || maha > m.gate {
-            continue;
+            return;
         }
-        let log_q = -0.5 * (Z as f64 * LN_2PI + log_det + maha);
-        let (mean_u, cov_u) = if pose_cov.is_some() {
-            (*mean, *cov)
-        } else {
-            let c = *upd_cov
-                .get_or_insert_with(|| symmetrise(&(ikh * cov * ikh.transpose() + gain * r * gain.transpose())));
-            (mean + gain * nu, c)
-        };
+        let log_q = -0.5 * (Z as f64 * LN_2PI + terms.log_det + maha);
+        let (mean_u, cov_u) =
+            if pose_cov.is_some() { (t.mean, t.cov) } else { (t.mean + terms.gain * nu, terms.updated_cov(&t.cov)) };
         liks.push(Lik { j: j as u32, log_q, mean: mean_u, cov: cov_u });
+    };
+    match m.meas_noise {
+        None => {
+            let Some(mut terms) = pair_terms(&m.noise[usize::from(t.mark)]) else { return 1 };
+            for (j, zj) in z.iter().enumerate() {
+                push(j, zj, &mut terms);
+            }
+            0
+        }
+        Some(noise) => {
+            let mut failures = 0;
+            for (j, (zj, rj)) in z.iter().zip(noise).enumerate() {
+                match pair_terms(rj) {
+                    Some(mut terms) => push(j, zj, &mut terms),
+                    None => failures += 1,
+                }
+            }
+            failures
+        }
     }
-    true
+}
+
+/// A track's innovation terms under one `R`: the Cholesky factor `L` of `S` and `ln |S|`,
+/// the gain, and the Joseph-form updated covariance, formed once when first asked for.
+struct PairTerms<const M: usize, const Z: usize> {
+    l: SMatrix<f64, Z, Z>,
+    log_det: f64,
+    gain: SMatrix<f64, M, Z>,
+    ikh: SMatrix<f64, M, M>,
+    r: SMatrix<f64, Z, Z>,
+    updated: Option<SMatrix<f64, M, M>>,
+}
+
+impl<const M: usize, const Z: usize> PairTerms<M, Z> {
+    /// `S = H_m P H_m^T + R` (`+ H_x Q H_x^T` with `pose_cov`); `None` when `S` fails
+    /// Cholesky.
+    fn of<const X: usize>(
+        hm: &SMatrix<f64, Z, M>,
+        hx: &SMatrix<f64, Z, X>,
+        ph: &SMatrix<f64, M, Z>,
+        r: &SMatrix<f64, Z, Z>,
+        pose_cov: Option<&SMatrix<f64, X, X>>,
+    ) -> Option<Self> {
+        let mut s = hm * ph + r;
+        if let Some(q) = pose_cov {
+            s += hx * q * hx.transpose();
+        }
+        let ch = symmetrise(&s).cholesky()?;
+        let l = ch.l_dirty();
+        let mut half_log_det = 0.0;
+        for i in 0..Z {
+            half_log_det += l[(i, i)].ln();
+        }
+        let gain = ch.solve(&ph.transpose()).transpose();
+        let ikh = SMatrix::<f64, M, M>::identity() - gain * hm;
+        Some(PairTerms { l: *l, log_det: 2.0 * half_log_det, gain, ikh, r: *r, updated: None })
+    }
+
+    /// `(I - K H_m) P (I - K H_m)^T + K R K^T`.
+    fn updated_cov(&mut self, cov: &SMatrix<f64, M, M>) -> SMatrix<f64, M, M> {
+        let (ikh, gain, r) = (&self.ikh, &self.gain, &self.r);
+        *self.updated.get_or_insert_with(|| symmetrise(&(ikh * cov * ikh.transpose() + gain * r * gain.transpose())))
+    }
 }
 
 impl<const X: usize, const M: usize> Workspace<X, M> {
@@ -303,8 +349,8 @@ impl<const X: usize, const M: usize> Workspace<X, M> {
         // likelihoods (none when `pd` is 0).
         let mut row = |t: &Track<M>, src: usize, kind: Source, pd: f64, log_r: f64, ps: f64| {
             let lik_start = self.liks.len() as u32;
-            if pd > 0.0 && !likelihoods(m, x, t, pose_cov, z, &mut self.liks) {
-                chol += 1;
+            if pd > 0.0 {
+                chol += likelihoods(m, x, t, pose_cov, z, &mut self.liks);
             }
             Row { src: src as u32, kind, pd, log_r, ps, lik_start, lik_end: self.liks.len() as u32 }
         };
@@ -771,7 +817,7 @@ where
                     continue;
                 }
                 let t = ws.track_of(ws.table_rows[i] as usize, &map.tracks, m.anchors);
-                if !pose_ekf(m, &mut mu, &mut sig, t, &z[g as usize - 1]) {
+                if !pose_ekf(m, &mut mu, &mut sig, t, z, g as usize - 1) {
                     chol += 1;
                 }
             }
@@ -803,18 +849,22 @@ fn log_add(a: f64, b: f64) -> f64 {
     if m == f64::NEG_INFINITY { m } else { m + ((a - m).exp() + (b - m).exp()).ln() }
 }
 
-/// One EKF update of the state `(mu, sig)` by measurement `z` of landmark `t` (of its type),
-/// the landmark uncertainty entering as noise `H_m P H_m^T + R` (Joseph form), the angles
-/// wrapped. `false` on a Cholesky failure (the state is left unchanged).
+/// One EKF update of the state `(mu, sig)` by measurement `j` of the scan `z` of landmark
+/// `t` (of its type), the landmark uncertainty entering as noise `H_m P H_m^T + R` (`R_j`
+/// when the scan carries each measurement's own covariance; Joseph form), the angles wrapped.
+/// `false` on a Cholesky failure (the state is left unchanged).
 fn pose_ekf<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
     m: &UpdateModels<S, X, M, Z>,
     mu: &mut SVector<f64, X>,
     sig: &mut SMatrix<f64, X, X>,
     t: &Track<M>,
-    z: &SVector<f64, Z>,
+    z: &[SVector<f64, Z>],
+    j: usize,
 ) -> bool {
     let lin = m.sensor.linearise(mu, &t.mean, S::Mark::from_index(t.mark));
-    let noise = lin.hm * t.cov * lin.hm.transpose() + m.noise[usize::from(t.mark)];
+    let r = rfslam_core::measurement_noise(m.meas_noise, j, &m.noise[usize::from(t.mark)]);
+    let noise = lin.hm * t.cov * lin.hm.transpose() + r;
+    let z = &z[j];
     let ph: SMatrix<f64, X, Z> = *sig * lin.hx.transpose();
     let s = symmetrise(&(lin.hx * ph + noise));
     let Some(ch) = s.cholesky() else { return false };

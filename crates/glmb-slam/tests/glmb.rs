@@ -36,6 +36,7 @@ fn models(sensor: &RangeBearingModel, survival: f64) -> UpdateModels<'_> {
     UpdateModels {
         sensor,
         noise: std::slice::from_ref(&sensor.r),
+        meas_noise: None,
         anchors: &[],
         space: StateSpace::PLANAR,
         min_clutter_intensity: 1e-12,

@@ -341,7 +341,7 @@ fn two_base_stations_ship_and_run() {
 /// simulated noise's, the scenario's `filter_noise_scale`), `rfslam run` of pmbm-slam and of
 /// mpmb-slam writes what it writes without the columns, bit for bit; with the simulated
 /// noise's, something else; a filter
-/// that does not read them (glmb-2.0) is refused with exit 2, naming the columns and the
+/// that does not read them (fastslam-1.0) is refused with exit 2, naming the columns and the
 /// filters that read them.
 #[test]
 fn a_radio_data_set_with_a_covariance_per_path() {
@@ -380,12 +380,12 @@ fn a_radio_data_set_with_a_covariance_per_path() {
     }
     fails(
         dir.path(),
-        &["run", "--dataset", "ds-r", "--filter", "glmb-2.0", "--particles", "1", "--out", "d"],
+        &["run", "--dataset", "ds-r", "--filter", "fastslam-1.0", "--particles", "1", "--out", "d"],
         2,
         &[
-            "glmb-2.0",
+            "fastslam-1.0",
             "var_*",
-            "phd-1.0, phd-2.0a, phd-2.0b, phd-3.0, phd-3.0-sp, rbphd-mf, pmbm-slam, pmbm-slam-mh, pmb-slam, mpmb-slam",
+            "phd-1.0, phd-2.0a, phd-2.0b, phd-3.0, phd-3.0-sp, rbphd-mf, glmb-1.0, glmb-2.0, lmb-slam, pmbm-slam, pmbm-slam-mh, pmb-slam, mpmb-slam",
         ],
     );
 }
