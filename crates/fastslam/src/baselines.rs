@@ -186,6 +186,7 @@ macro_rules! da_variant {
         rfslam_core::filter_variant!(
             $(#[$doc])* $ty(DaFastSlam), $name;
             params: $params,
+            per_measurement_noise: true,
             check: |params, models, particles| {
                 params.validate(particles)?;
                 DaFastSlam::<V, S, X, M, Z>::check_model(&existence_sensor(&models.sensor)?)

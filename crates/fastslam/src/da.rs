@@ -95,7 +95,8 @@ use rfslam_core::{
     ControlSegment, Estimate, FilterEngine, Fov, MapPoint, Motion, ParamError, Pose, RbpfParams, Rng, Scan, StepReport,
 };
 
-use crate::proposal::{Landmark, ProposalSampler, landmark_update};
+use crate::proposal::{Landmark, ProposalSampler, landmark_update_with};
+use rfslam_core::measurement_noise;
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 const P_CLAMP: f64 = 1e-12;
@@ -202,6 +203,8 @@ pub struct DaSettings {
 #[derive(Debug, Clone, Copy)]
 struct Lin<const Z: usize> {
     zhat: SVector<f64, Z>,
+    /// `G_m P G_m^T`, for a pair's own `S = G_m P G_m^T + R_j`.
+    hph: SMatrix<f64, Z, Z>,
     s_inv: SMatrix<f64, Z, Z>,
     log_norm: f64,
     /// `V_G`, the volume of the gate in measurement space.
@@ -222,6 +225,16 @@ struct GateGeometry {
     volume_scale: f64,
     /// `(Z / 2) ln 2 pi`.
     half_log_2pi: f64,
+}
+
+impl GateGeometry {
+    /// `S^-1`, `ln N(0; 0, S)` and `det S` of the symmetrised `S`; `None` when it fails
+    /// Cholesky.
+    fn innovation<const Z: usize>(&self, s: &SMatrix<f64, Z, Z>) -> Option<(SMatrix<f64, Z, Z>, f64, f64)> {
+        let ch = rfslam_core::gaussian::symmetrise(s).cholesky()?;
+        let det: f64 = (0..Z).map(|i| ch.l_dirty()[(i, i)].powi(2)).product();
+        Some((ch.inverse(), -self.half_log_2pi - 0.5 * det.ln(), det))
+    }
 }
 
 impl GateGeometry {
@@ -280,17 +293,17 @@ where
     };
     let t = S::Mark::from_index(mark);
     let l = sensor.linearise(x, mean, t);
-    let s = rfslam_core::gaussian::symmetrise(&(l.hm * cov * l.hm.transpose() + sensor.noise(t)));
-    let Some(ch) = s.cholesky() else {
+    let hph = l.hm * cov * l.hm.transpose();
+    let Some((s_inv, log_norm, det)) = geometry.innovation(&(hph + sensor.noise(t))) else {
         *failures += 1;
         return None;
     };
-    let det: f64 = (0..Z).map(|i| ch.l_dirty()[(i, i)].powi(2)).product();
     let pd = sensor.detection_probability(x, mean, cov, t);
     Some(Lin {
         zhat: l.z,
-        s_inv: ch.inverse(),
-        log_norm: -geometry.half_log_2pi - 0.5 * det.ln(),
+        hph,
+        s_inv,
+        log_norm,
         gate_volume: geometry.volume_scale * det.sqrt(),
         kappa: sensor.clutter_intensity(&l.z),
         in_view: pd > 0.0,
@@ -335,6 +348,16 @@ where
     best.map_or_else(S::Mark::default, |b| b.1)
 }
 
+/// `ln p_0`, the likelihood of a measurement under covariance `r` that starts a new
+/// landmark: `settings.new_landmark_log_likelihood`, or the Gaussian `N(0; 0, 2 r)` at the
+/// gate's edge.
+fn new_landmark_log_likelihood<const Z: usize>(settings: &DaSettings, r: &SMatrix<f64, Z, Z>) -> f64 {
+    settings.new_landmark_log_likelihood.unwrap_or_else(|| {
+        let r2 = 2.0 * r;
+        -0.5 * settings.gate - Z as f64 / 2.0 * LN_2PI - 0.5 * determinant(&r2).max(1e-300).ln()
+    })
+}
+
 /// FastSLAM 1.0 / MH-FastSLAM with the existence filter (module docs), over the vehicle
 /// model `V` (states of `X` components) and the sensor model `S` (landmarks of `M`
 /// dimensions and types `S::Mark`, measurements of `Z`); the planar filters by default.
@@ -370,6 +393,9 @@ where
     // reusable buffers
     /// The particle's landmarks, then the anchors.
     lin: Vec<Option<Lin<Z>>>,
+    /// With each measurement's own covariance: `S_ij^-1` and `ln N(0; 0, S_ij)` of every
+    /// (row of `lin`, measurement) pair, row-major (`None`: not linearised or not factored).
+    pair: Vec<Option<(SMatrix<f64, Z, Z>, f64)>>,
     cand: Vec<usize>,
     cost: Vec<f64>,
     murty: Murty,
@@ -426,16 +452,7 @@ where
     pub(crate) fn new(name: &'static str, settings: DaSettings, vehicle: Vehicle<V, X>, sensor: S, n: usize) -> Self {
         let n = n.max(1);
         let mapped: Vec<S::Mark> = sensor.marks().iter().copied().filter(|&t| sensor.mapped(t)).collect();
-        let half_z = Z as f64 / 2.0;
-        let log_p0 = S::Mark::ALL
-            .iter()
-            .map(|&t| {
-                settings.new_landmark_log_likelihood.unwrap_or_else(|| {
-                    let r2 = 2.0 * sensor.noise(t);
-                    -0.5 * settings.gate - half_z * LN_2PI - 0.5 * determinant(&r2).max(1e-300).ln()
-                })
-            })
-            .collect();
+        let log_p0 = S::Mark::ALL.iter().map(|&t| new_landmark_log_likelihood(&settings, &sensor.noise(t))).collect();
         let anchors = sensor.anchors().into_iter().map(|(m, t)| (m, t.index())).collect();
         let sector = sensor.detection_sector().map(|(fov, _)| {
             let reach = fov.max_range * 1.5 + 10.0;
@@ -458,6 +475,7 @@ where
             next: Vec::new(),
             child_parent: Vec::new(),
             lin: Vec::new(),
+            pair: Vec::new(),
             cand: Vec::new(),
             cost: Vec::new(),
             murty: Murty::new(),
@@ -501,7 +519,14 @@ where
     }
 
     /// Appends the children of `parent` at state `x` to `self.next`; returns the failures.
-    fn branch(&mut self, parent: usize, x: SVector<f64, X>, z: &[SVector<f64, Z>], source: u8) -> u32 {
+    fn branch(
+        &mut self,
+        parent: usize,
+        x: SVector<f64, X>,
+        z: &[SVector<f64, Z>],
+        noise: Option<&[SMatrix<f64, Z, Z>]>,
+        source: u8,
+    ) -> u32 {
         let sensor = self.sensor.at_source(source);
         let sensor = &*sensor;
         let mut failures = 0u32;
@@ -521,15 +546,37 @@ where
             let l = gate_view(sensor, &x, &planar, sector, geometry, m, &known, *mark, &mut failures);
             self.lin.push(l);
         }
+        // With each measurement's own covariance, one S_ij per pair.
+        self.pair.clear();
+        if let Some(noise) = noise {
+            for l in &self.lin {
+                for rj in noise {
+                    let terms = l.as_ref().and_then(|l| self.geometry.innovation(&(l.hph + rj)));
+                    if l.is_some() && terms.is_none() {
+                        failures += 1;
+                    }
+                    self.pair.push(terms.map(|(s_inv, log_norm, _)| (s_inv, log_norm)));
+                }
+            }
+        }
+        // `S^-1` and `ln N(0; 0, S)` of row i of `lin` and measurement j.
+        let (lin, pair) = (&self.lin, &self.pair);
+        let terms = |i: usize, j: usize| -> Option<(SMatrix<f64, Z, Z>, f64)> {
+            match noise {
+                Some(_) => pair[i * nz + j],
+                None => lin[i].as_ref().map(|l| (l.s_inv, l.log_norm)),
+            }
+        };
+        let gated = |i: usize, j: usize, zj: &SVector<f64, Z>| -> Option<f64> {
+            let (l, (s_inv, log_norm)) = (lin[i].as_ref()?, terms(i, j)?);
+            let nu = sensor.residual(zj, &l.zhat);
+            let maha = (nu.transpose() * s_inv * nu)[(0, 0)];
+            (maha <= self.settings.gate).then_some(log_norm - 0.5 * maha)
+        };
         // Candidate columns: landmarks and anchors that gate with some measurement.
         self.cand.clear();
-        for (i, l) in self.lin.iter().enumerate() {
-            if let Some(l) = l
-                && z.iter().any(|zj| {
-                    let nu = sensor.residual(zj, &l.zhat);
-                    (nu.transpose() * l.s_inv * nu)[(0, 0)] <= self.settings.gate
-                })
-            {
+        for i in 0..lin.len() {
+            if z.iter().enumerate().any(|(j, zj)| gated(i, j, zj).is_some()) {
                 self.cand.push(i);
             }
         }
@@ -543,18 +590,14 @@ where
         self.cost.clear();
         for (j, zj) in z.iter().enumerate() {
             for &i in &self.cand {
-                let c = match &self.lin[i] {
-                    Some(l) => {
-                        let nu = sensor.residual(zj, &l.zhat);
-                        let maha = (nu.transpose() * l.s_inv * nu)[(0, 0)];
-                        if maha <= self.settings.gate { -(l.log_norm - 0.5 * maha) } else { f64::INFINITY }
-                    }
-                    None => f64::INFINITY,
-                };
-                self.cost.push(c);
+                self.cost.push(gated(i, j, zj).map_or(f64::INFINITY, |ll| -ll));
             }
+            let log_p0 = match noise {
+                Some(n) => new_landmark_log_likelihood(&self.settings, &n[j]),
+                None => self.log_p0[usize::from(self.births[j])],
+            };
             for jj in 0..nz {
-                self.cost.push(if jj == j { -self.log_p0[usize::from(self.births[j])] } else { f64::INFINITY });
+                self.cost.push(if jj == j { -log_p0 } else { f64::INFINITY });
             }
         }
         // The hypotheses (one empty assignment when the scan is empty).
@@ -623,7 +666,8 @@ where
                         }
                         let lm = &mut child.landmarks[i];
                         let mut ekf = Landmark { id: 0, mean: lm.mean, cov: lm.cov, mark: lm.mark };
-                        if landmark_update(sensor, &x, &mut ekf, zj).is_some() {
+                        let r = measurement_noise(noise, j, &sensor.noise(S::Mark::from_index(ekf.mark)));
+                        if landmark_update_with(sensor, &x, &mut ekf, zj, &r).is_some() {
                             lm.mean = ekf.mean;
                             lm.cov = ekf.cov;
                         } else {
@@ -633,7 +677,11 @@ where
                     }
                     _ => {
                         let mark = self.births[j];
-                        let (mean, cov) = sensor.birth(&x, zj, S::Mark::from_index(mark));
+                        let t = S::Mark::from_index(mark);
+                        let (mean, cov) = match noise {
+                            Some(n) => sensor.birth_with_noise(&x, zj, t, &n[j]),
+                            None => sensor.birth(&x, zj, t),
+                        };
                         self.fresh.push(DaLandmark { mean, cov, mark, log_odds: (pe / (1.0 - pe)).ln() });
                         child.associations.push(None);
                     }
@@ -665,6 +713,8 @@ where
     pub fn step(&mut self, odometry: &[ControlSegment], scan: &Scan<Z>, rng: &mut Rng) -> StepReport<M> {
         self.set.draw_initial(&self.vehicle, rng, |p| &mut p.pose);
         let mut failures = 0u32;
+        // The scan's own covariances, one per measurement (else each type's R).
+        let noise = scan.noise.as_deref().filter(|n| n.len() == scan.z.len());
         self.child_parent.clear();
         for parent in 0..self.set.len() {
             let p = &self.set.particles()[parent];
@@ -677,7 +727,7 @@ where
                     x_bar
                 }
             };
-            failures += self.branch(parent, x, &scan.z, scan.source);
+            failures += self.branch(parent, x, &scan.z, noise, scan.source);
             self.child_parent.resize(self.next.len(), parent);
         }
         // The children replace their parents (whose allocations are reused).

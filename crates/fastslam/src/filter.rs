@@ -7,10 +7,10 @@ use rfslam_core::ipl::IplSettings;
 use rfslam_core::model::{InvertibleSensorModel, LandmarkMark, Vehicle, VehicleModel};
 use rfslam_core::rbpf::{LogWeighted, ParticleSet};
 use rfslam_core::state::StateSpace;
-use rfslam_core::{ControlSegment, Estimate, FilterEngine, MapPoint, Rng, Scan, StepReport};
+use rfslam_core::{ControlSegment, Estimate, FilterEngine, MapPoint, Rng, Scan, StepReport, measurement_noise};
 
 use crate::params::{Params, WeightMode};
-use crate::proposal::{Landmark, ProposalSampler, landmark_update, oid_proposal, sequential_predictive};
+use crate::proposal::{Landmark, ProposalSampler, landmark_update_with, oid_proposal, sequential_predictive};
 
 /// One particle: log weight, vehicle state (`X` components, the planar pose by default) and
 /// one EKF per landmark id seen so far.
@@ -73,6 +73,8 @@ where
     known: Vec<usize>,
     /// ... and that measurement.
     known_z: Vec<SVector<f64, Z>>,
+    /// Their covariances when the scan carries each measurement's own (`R_j`), else empty.
+    known_r: Vec<SMatrix<f64, Z, Z>>,
     /// (measurement index, id) of first sightings.
     fresh: Vec<(usize, i64)>,
 }
@@ -100,6 +102,7 @@ where
             obs: Vec::new(),
             known: Vec::new(),
             known_z: Vec::new(),
+            known_r: Vec::new(),
             fresh: Vec::new(),
         }
     }
@@ -156,7 +159,14 @@ where
     /// The EKF a first sighting of landmark `id` starts at state `x`: the sensor's birth
     /// density of `z` ([`InvertibleSensorModel::birth`]), or the anchor of its type when the
     /// sensor does not map it.
-    fn first_sighting(&self, sensor: &S, id: i64, x: &SVector<f64, X>, z: &SVector<f64, Z>) -> Landmark<M> {
+    fn first_sighting(
+        &self,
+        sensor: &S,
+        id: i64,
+        x: &SVector<f64, X>,
+        z: &SVector<f64, Z>,
+        r: Option<&SMatrix<f64, Z, Z>>,
+    ) -> Landmark<M> {
         let mark = self.mark_of(id);
         let t = S::Mark::from_index(mark);
         if !sensor.mapped(t)
@@ -164,7 +174,10 @@ where
         {
             return Landmark { id, mean: *m, cov: SMatrix::zeros(), mark };
         }
-        let (mean, cov) = sensor.birth(x, z, t);
+        let (mean, cov) = match r {
+            Some(r) => sensor.birth_with_noise(x, z, t, r),
+            None => sensor.birth(x, z, t),
+        };
         Landmark { id, mean, cov, mark }
     }
 
@@ -177,6 +190,8 @@ where
         let mut families = 0usize;
         let mut set = std::mem::take(&mut self.set);
         let sensor = self.sensor.at_source(scan.source);
+        // The scan's own covariances, one per measurement (else each type's R).
+        let noise = scan.noise.as_deref().filter(|n| n.len() == scan.z.len());
 
         for family in set.families_mut() {
             families += 1;
@@ -185,37 +200,36 @@ where
             let (x_bar, q) = self.params.rbpf.predict_state(&self.vehicle, &rep.pose, odometry);
             self.known.clear();
             self.known_z.clear();
+            self.known_r.clear();
             self.fresh.clear();
             for &(j, id) in &self.obs {
                 match rep.find(id) {
                     Some(i) => {
                         self.known.push(i);
                         self.known_z.push(scan.z[j]);
+                        if let Some(n) = noise {
+                            self.known_r.push(n[j]);
+                        }
                     }
                     None => self.fresh.push((j, id)),
                 }
             }
             let (sensor, space) = (&*sensor, &self.space);
-            let res = oid_proposal(sensor, space, &x_bar, &q, &rep.landmarks, &self.known, &self.known_z, &self.ipl);
+            let known_r = noise.map(|_| &self.known_r[..]);
+            let (known, known_z) = (&self.known, &self.known_z);
+            let res = oid_proposal(sensor, space, &x_bar, &q, &rep.landmarks, known, known_z, known_r, &self.ipl);
             if res.lost_definiteness {
                 chol += 1;
             }
             let family_ll = match self.params.weight {
                 WeightMode::Importance => 0.0,
-                WeightMode::Predictive => sequential_predictive(
-                    sensor,
-                    space,
-                    &x_bar,
-                    &q,
-                    &res.mean,
-                    &rep.landmarks,
-                    &self.known,
-                    &self.known_z,
-                )
-                .unwrap_or_else(|| {
-                    chol += 1;
-                    0.0
-                }),
+                WeightMode::Predictive => {
+                    sequential_predictive(sensor, space, &x_bar, &q, &res.mean, &rep.landmarks, known, known_z, known_r)
+                        .unwrap_or_else(|| {
+                            chol += 1;
+                            0.0
+                        })
+                }
             };
             let sampler = ProposalSampler::new(space, &res.mean, &res.cov, &x_bar, &q);
 
@@ -227,8 +241,9 @@ where
                 });
                 p.pose = x;
                 let mut lw = if importance { corr } else { family_ll };
-                for (&i, z) in self.known.iter().zip(&self.known_z) {
-                    match landmark_update(sensor, &x, &mut p.landmarks[i], z) {
+                for (k, (&i, z)) in known.iter().zip(known_z).enumerate() {
+                    let r = measurement_noise(known_r, k, &sensor.noise(S::Mark::from_index(p.landmarks[i].mark)));
+                    match landmark_update_with(sensor, &x, &mut p.landmarks[i], z, &r) {
                         Some(ll) if importance => lw += ll,
                         Some(_) => {}
                         None => chol += 1,
@@ -241,12 +256,15 @@ where
                 // First sightings: the inverse sensor model at the drawn pose; no weight term.
                 for &(j, id) in &self.fresh {
                     let z = scan.z[j];
+                    let rj = noise.map(|n| &n[j]);
                     match p.landmarks.binary_search_by_key(&id, |l| l.id) {
-                        Err(pos) => p.landmarks.insert(pos, self.first_sighting(sensor, id, &x, &z)),
+                        Err(pos) => p.landmarks.insert(pos, self.first_sighting(sensor, id, &x, &z, rj)),
                         // The same new landmark measured twice in one scan: update with the
                         // second measurement (no weight term either).
                         Ok(i) => {
-                            if landmark_update(sensor, &x, &mut p.landmarks[i], &z).is_none() {
+                            let r =
+                                rj.copied().unwrap_or_else(|| sensor.noise(S::Mark::from_index(p.landmarks[i].mark)));
+                            if landmark_update_with(sensor, &x, &mut p.landmarks[i], &z, &r).is_none() {
                                 chol += 1;
                             }
                         }
@@ -321,6 +339,7 @@ rfslam_core::filter_variant!(
     OracleFastSlam2(OracleEngine), "fastslam-2.0-oracle";
     params: Params,
     requires_truth: crate::requires_truth_labels(),
+    per_measurement_noise: true,
     check: |params, _models, particles| params.validate(particles),
     build: |params, models, particles| {
         OracleEngine::new(params, models.vehicle.clone(), models.sensor.clone(), particles)

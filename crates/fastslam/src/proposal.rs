@@ -17,7 +17,7 @@ use rfslam_core::gaussian::{log_normal, symmetrise};
 use rfslam_core::ipl::{IplResult, IplSettings, Linearised, ipl_update_in, pose_diff};
 use rfslam_core::model::LandmarkMark;
 use rfslam_core::state::StateSpace;
-use rfslam_core::{Pose, SensorModel};
+use rfslam_core::{Pose, SensorModel, measurement_noise};
 
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
@@ -44,16 +44,19 @@ fn linearised<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: 
     sensor: &S,
     x: &SVector<f64, X>,
     lm: &Landmark<M>,
+    noise: Option<&[SMatrix<f64, Z, Z>]>,
+    k: usize,
 ) -> Linearised<Z, X> {
     let mark = S::Mark::from_index(lm.mark);
     let lin = sensor.linearise(x, &lm.mean, mark);
-    (lin.z, lin.hx, lin.hm * lm.cov * lin.hm.transpose() + sensor.noise(mark))
+    (lin.z, lin.hx, lin.hm * lm.cov * lin.hm.transpose() + measurement_noise(noise, k, &sensor.noise(mark)))
 }
 
 /// The IPL approximation of the optimal importance density `q(x) ∝ N(x; x_bar, Q) prod_k
 /// N(z_k; h(m_{i_k}, x), G_m P_{i_k} G_m^T + R)`: \[Kaltiokallio2024\] Algorithm 1 with the known
 /// association `z[k] <-> landmarks[known[k]]`, in the order given, over the vehicle state
-/// `space`. With no measurement the result is the prior `N(x_bar, Q)`.
+/// `space`. With no measurement the result is the prior `N(x_bar, Q)`. `noise`: each
+/// measurement's own covariance `R_k` (parallel to `z`) in place of `R`, when given.
 #[allow(clippy::too_many_arguments)]
 pub fn oid_proposal<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
     sensor: &S,
@@ -63,6 +66,7 @@ pub fn oid_proposal<S: SensorModel<X, M, Z>, const X: usize, const M: usize, con
     landmarks: &[Landmark<M>],
     known: &[usize],
     z: &[SVector<f64, Z>],
+    noise: Option<&[SMatrix<f64, Z, Z>]>,
     settings: &IplSettings,
 ) -> IplResult<X> {
     debug_assert_eq!(known.len(), z.len());
@@ -71,7 +75,7 @@ pub fn oid_proposal<S: SensorModel<X, M, Z>, const X: usize, const M: usize, con
         x_bar,
         q,
         z,
-        |k, x_pi, _| Some(linearised(sensor, x_pi, &landmarks[known[k]])),
+        |k, x_pi, _| Some(linearised(sensor, x_pi, &landmarks[known[k]], noise, k)),
         |a, b| sensor.residual(a, b),
         settings,
     )
@@ -80,7 +84,8 @@ pub fn oid_proposal<S: SensorModel<X, M, Z>, const X: usize, const M: usize, con
 /// `ln prod_k N(z_k; mu^z_k, Sigma^zz_k)`: the pose prior `N(x_bar, Q)` conditioned on the
 /// measurements one at a time with every landmark linearised at `lin_point` (one more pass
 /// of Algorithm 1 at its result: \[Kaltiokallio2024\] eqs. 43b-c), summing the log predictive
-/// densities. `None` if an innovation covariance is not positive definite.
+/// densities. `None` if an innovation covariance is not positive definite. `noise` as in
+/// [`oid_proposal`].
 #[allow(clippy::too_many_arguments)]
 pub fn sequential_predictive<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
     sensor: &S,
@@ -91,11 +96,12 @@ pub fn sequential_predictive<S: SensorModel<X, M, Z>, const X: usize, const M: u
     landmarks: &[Landmark<M>],
     known: &[usize],
     z: &[SVector<f64, Z>],
+    noise: Option<&[SMatrix<f64, Z, Z>]>,
 ) -> Option<f64> {
     let (mut m_s, mut p_s) = (*x_bar, *q);
     let mut total = 0.0;
-    for (zk, &i) in z.iter().zip(known) {
-        let (z_hat, a, omega) = linearised(sensor, lin_point, &landmarks[i]);
+    for (k, (zk, &i)) in z.iter().zip(known).enumerate() {
+        let (z_hat, a, omega) = linearised(sensor, lin_point, &landmarks[i], noise, k);
         let mu_z = z_hat + a * space.difference(&m_s, lin_point);
         let nu = sensor.residual(zk, &mu_z);
         let s = symmetrise(&(a * p_s * a.transpose() + omega));
@@ -129,8 +135,22 @@ pub fn landmark_update<S: SensorModel<X, M, Z>, const X: usize, const M: usize, 
     lm: &mut Landmark<M>,
     z: &SVector<f64, Z>,
 ) -> Option<f64> {
+    let r = sensor.noise(S::Mark::from_index(lm.mark));
+    landmark_update_with(sensor, x, lm, z, &r)
+}
+
+/// [`landmark_update`] under the covariance `r` of the measurement (its own `R_j`, or the
+/// landmark type's `R`).
+#[inline]
+pub fn landmark_update_with<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z: usize>(
+    sensor: &S,
+    x: &SVector<f64, X>,
+    lm: &mut Landmark<M>,
+    z: &SVector<f64, Z>,
+    r: &SMatrix<f64, Z, Z>,
+) -> Option<f64> {
     let mark = S::Mark::from_index(lm.mark);
-    let r = sensor.noise(mark);
+    let r = *r;
     let lin = sensor.linearise(x, &lm.mean, mark);
     let ph = lm.cov * lin.hm.transpose();
     let s = symmetrise(&(lin.hm * ph + r));
@@ -307,7 +327,8 @@ mod tests {
     #[test]
     fn linear_one_landmark_proposal_is_the_kalman_posterior() {
         let (sensor, r, x_bar, q, lm, z) = setup();
-        let res = oid_proposal(&sensor, &StateSpace::PLANAR, &x_bar, &q, &[lm], &[0], &[z], &IplSettings::default());
+        let res =
+            oid_proposal(&sensor, &StateSpace::PLANAR, &x_bar, &q, &[lm], &[0], &[z], None, &IplSettings::default());
         let s = sensor.a * q * sensor.a.transpose() + sensor.b * lm.cov * sensor.b.transpose() + r;
         let k = q * sensor.a.transpose() * s.try_inverse().unwrap();
         let mean = x_bar + k * (z - (sensor.a * x_bar + sensor.b * lm.mean));
@@ -324,7 +345,8 @@ mod tests {
     #[test]
     fn linear_importance_weight_is_the_marginal_likelihood() {
         let (sensor, r, x_bar, q, lm, z) = setup();
-        let res = oid_proposal(&sensor, &StateSpace::PLANAR, &x_bar, &q, &[lm], &[0], &[z], &IplSettings::default());
+        let res =
+            oid_proposal(&sensor, &StateSpace::PLANAR, &x_bar, &q, &[lm], &[0], &[z], None, &IplSettings::default());
         let omega = sensor.b * lm.cov * sensor.b.transpose() + r;
         let s = sensor.a * q * sensor.a.transpose() + omega;
         let marginal = log_normal(&(z - sensor.a * x_bar - sensor.b * lm.mean), &s).unwrap();
@@ -344,8 +366,8 @@ mod tests {
             assert_relative_eq!(updated.mean, m, epsilon = 1e-12);
             assert_relative_eq!(updated.cov, lm.cov - kl * sl * kl.transpose(), epsilon = 1e-12);
         }
-        let seq =
-            sequential_predictive(&sensor, &StateSpace::PLANAR, &x_bar, &q, &res.mean, &[lm], &[0], &[z]).unwrap();
+        let seq = sequential_predictive(&sensor, &StateSpace::PLANAR, &x_bar, &q, &res.mean, &[lm], &[0], &[z], None)
+            .unwrap();
         assert_relative_eq!(seq, marginal, epsilon = 1e-10);
     }
 
@@ -354,7 +376,7 @@ mod tests {
     #[test]
     fn prior_proposal_has_zero_correction() {
         let (sensor, _, x_bar, q, _, _) = setup();
-        let res = oid_proposal(&sensor, &StateSpace::PLANAR, &x_bar, &q, &[], &[], &[], &IplSettings::default());
+        let res = oid_proposal(&sensor, &StateSpace::PLANAR, &x_bar, &q, &[], &[], &[], None, &IplSettings::default());
         assert_eq!((res.mean, res.cov), (x_bar, q));
         let sampler = ProposalSampler::new(&StateSpace::PLANAR, &res.mean, &res.cov, &x_bar, &q).unwrap();
         let mut rng = rfslam_core::Rng::seed_from_u64(2);
@@ -371,8 +393,17 @@ mod tests {
         let lm2 = Landmark { id: 9, mean: Point2::new(-1.0, 0.5), cov: Matrix2::new(0.2, -0.05, -0.05, 0.4), mark: 0 };
         let z2 = RangeBearing::new(-0.9, 0.3);
         let lms = [lm, lm2];
-        let res =
-            oid_proposal(&sensor, &StateSpace::PLANAR, &x_bar, &q, &lms, &[1, 0], &[z2, z], &IplSettings::default());
+        let res = oid_proposal(
+            &sensor,
+            &StateSpace::PLANAR,
+            &x_bar,
+            &q,
+            &lms,
+            &[1, 0],
+            &[z2, z],
+            None,
+            &IplSettings::default(),
+        );
         // Joint: stacked 4-d measurement.
         let a = nalgebra::Matrix4x3::from_rows(&[
             sensor.a.row(0).into_owned(),
@@ -391,8 +422,9 @@ mod tests {
         assert_relative_eq!(res.mean, x_bar + k * (zz - pred), epsilon = 1e-10);
         assert_relative_eq!(res.cov, q - k * s * k.transpose(), epsilon = 1e-10);
         let joint = log_normal(&(zz - pred), &s).unwrap();
-        let seq = sequential_predictive(&sensor, &StateSpace::PLANAR, &x_bar, &q, &res.mean, &lms, &[1, 0], &[z2, z])
-            .unwrap();
+        let seq =
+            sequential_predictive(&sensor, &StateSpace::PLANAR, &x_bar, &q, &res.mean, &lms, &[1, 0], &[z2, z], None)
+                .unwrap();
         assert_relative_eq!(seq, joint, epsilon = 1e-10);
     }
 

@@ -76,6 +76,7 @@ fn main() {
             &p0.landmarks,
             &known,
             &kz,
+            None,
             &ipl,
         );
         let (orh, orp) = ratios(&res.cov, &q);

@@ -86,9 +86,14 @@ fn readme_text(world: &str, c: &Columns, anchors: bool, types: bool) -> String {
         ),
         None => String::new(),
     };
-    let readers: Vec<&str> =
-        rfslam_harness::registry::REGISTRY.iter().filter(|e| e.per_measurement_noise).map(|e| e.name).collect();
-    let readers = readers.join(", ");
+    let registry = rfslam_harness::registry::REGISTRY;
+    let refused: Vec<&str> = registry.iter().filter(|e| !e.per_measurement_noise).map(|e| e.name).collect();
+    let readers = if refused.is_empty() {
+        "every filter".to_string()
+    } else {
+        let readers: Vec<&str> = registry.iter().filter(|e| e.per_measurement_noise).map(|e| e.name).collect();
+        format!("{}; refused by {}", readers.join(", "), refused.join(", "))
+    };
     let mut landmark = list(c.landmark.iter().map(|l| format!("`{l}` (m)")).collect());
     if types {
         landmark.push_str(", `type` (a name of `[landmarks] types` in `dataset.toml`)");
@@ -108,7 +113,7 @@ fn readme_text(world: &str, c: &Columns, anchors: bool, types: bool) -> String {
             }
         ),
         format!(
-            "| `{}` | yes | `scan`, {measurement}, `truth`: one row per detection; `truth` is the landmark id when you know it, `-1` for a false detection, empty when unknown (the column may be left out); optionally each detection's own covariance, used in place of the sensor's noise by the filters that read it ({readers}; the others refuse it): every variance {variances}{covariance}, in the units above squared |",
+            "| `{}` | yes | `scan`, {measurement}, `truth`: one row per detection; `truth` is the landmark id when you know it, `-1` for a false detection, empty when unknown (the column may be left out); optionally each detection's own covariance, used in place of the sensor's noise ({readers}): every variance {variances}{covariance}, in the units above squared |",
             files::MEASUREMENTS
         ),
         format!("| `{}` | yes | `t`, {control}: the controls of the vehicle model |", files::ODOMETRY),

@@ -340,9 +340,9 @@ fn two_base_stations_ship_and_run() {
 /// estimator's Fisher information does): with the filters' `R` in every row (4 times the
 /// simulated noise's, the scenario's `filter_noise_scale`), `rfslam run` of pmbm-slam and of
 /// mpmb-slam writes what it writes without the columns, bit for bit; with the simulated
-/// noise's, something else; a filter
-/// that does not read them (fastslam-1.0) is refused with exit 2, naming the columns and the
-/// filters that read them.
+/// noise's, something else (every registered filter reads them:
+/// `rfslam-harness/tests/measurement_noise.rs`; the refusal of one that does not is
+/// `registry`'s unit test).
 #[test]
 fn a_radio_data_set_with_a_covariance_per_path() {
     use rfslam_core::model::{RadioMark, RadioSensor, SensorModel};
@@ -378,14 +378,4 @@ fn a_radio_data_set_with_a_covariance_per_path() {
         assert_eq!(run("ds-r", &format!("{filter}-b")), plain, "{filter}: R_j = R gives the run without the columns");
         assert_ne!(run("ds-sim", &format!("{filter}-c")), plain, "{filter}: R_j = R / 4 reaches the filter");
     }
-    fails(
-        dir.path(),
-        &["run", "--dataset", "ds-r", "--filter", "fastslam-1.0", "--particles", "1", "--out", "d"],
-        2,
-        &[
-            "fastslam-1.0",
-            "var_*",
-            "phd-1.0, phd-2.0a, phd-2.0b, phd-3.0, phd-3.0-sp, rbphd-mf, glmb-1.0, glmb-2.0, lmb-slam, pmbm-slam, pmbm-slam-mh, pmb-slam, mpmb-slam",
-        ],
-    );
 }

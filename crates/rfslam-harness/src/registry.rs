@@ -283,6 +283,29 @@ mod tests {
         sc.build_dataset(None, 1).expect("dataset")
     }
 
+    /// Every registered filter reads a data set's own covariances today; one that does not
+    /// (a new filter keeps `FilterBuild::PER_MEASUREMENT_NOISE` false until it does) is refused
+    /// them, the error naming the columns, the data set and the SLAM filters that read them.
+    #[test]
+    fn a_filter_that_does_not_read_per_measurement_covariances_is_refused_them() {
+        let mut ds = labelled();
+        for s in &mut ds.scans {
+            s.noise = Some(vec![nalgebra::Matrix2::new(0.01, 0.0, 0.0, 1e-4); s.z.len()]);
+        }
+        assert!(ds.has_measurement_noise());
+        for e in REGISTRY.iter().filter(|e| !e.requires_truth) {
+            assert_eq!(check_dataset(e, &ds), Ok(()), "{}", e.name);
+        }
+        let reader = REGISTRY.iter().find(|e| e.name == "phd-3.0").expect("phd-3.0 is registered");
+        let new_filter = FilterEntry { name: "a-new-filter", per_measurement_noise: false, ..*reader };
+        let err = check_dataset(&new_filter, &ds).expect_err("a filter that does not read them");
+        assert!(err.contains("a-new-filter") && err.contains("var_*"), "{err}");
+        assert!(err.contains(&format!("data set `{}`", ds.meta.name)), "{err}");
+        assert!(err.contains("phd-3.0") && err.contains("pmbm-slam") && !err.contains("dead-reckoning"), "{err}");
+        ds.scans.iter_mut().for_each(|s| s.noise = None);
+        assert_eq!(check_dataset(&new_filter, &ds), Ok(()));
+    }
+
     fn oracle() -> &'static FilterEntry {
         REGISTRY.iter().find(|e| e.requires_truth).expect("an oracle is registered")
     }
