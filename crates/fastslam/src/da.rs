@@ -561,10 +561,10 @@ where
         }
         // `S^-1` and `ln N(0; 0, S)` of row i of `lin` and measurement j.
         let (lin, pair) = (&self.lin, &self.pair);
-        let terms = |i: usize, j: usize| -> Option<(SMatrix<f64, Z, Z>, f64)> {
+        let terms = |i: usize, j: usize| -> Option<(&SMatrix<f64, Z, Z>, f64)> {
             match noise {
-                Some(_) => pair[i * nz + j],
-                None => lin[i].as_ref().map(|l| (l.s_inv, l.log_norm)),
+                Some(_) => pair[i * nz + j].as_ref().map(|(s_inv, log_norm)| (s_inv, *log_norm)),
+                None => lin[i].as_ref().map(|l| (&l.s_inv, l.log_norm)),
             }
         };
         let gated = |i: usize, j: usize, zj: &SVector<f64, Z>| -> Option<f64> {
@@ -677,11 +677,8 @@ where
                     }
                     _ => {
                         let mark = self.births[j];
-                        let t = S::Mark::from_index(mark);
-                        let (mean, cov) = match noise {
-                            Some(n) => sensor.birth_with_noise(&x, zj, t, &n[j]),
-                            None => sensor.birth(&x, zj, t),
-                        };
+                        let own = noise.map(|n| &n[j]);
+                        let (mean, cov) = sensor.birth_for(&x, zj, S::Mark::from_index(mark), own);
                         self.fresh.push(DaLandmark { mean, cov, mark, log_odds: (pe / (1.0 - pe)).ln() });
                         child.associations.push(None);
                     }

@@ -174,10 +174,7 @@ where
         {
             return Landmark { id, mean: *m, cov: SMatrix::zeros(), mark };
         }
-        let (mean, cov) = match r {
-            Some(r) => sensor.birth_with_noise(x, z, t, r),
-            None => sensor.birth(x, z, t),
-        };
+        let (mean, cov) = sensor.birth_for(x, z, t, r);
         Landmark { id, mean, cov, mark }
     }
 

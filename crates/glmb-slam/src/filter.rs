@@ -237,10 +237,7 @@ where
                     continue;
                 }
                 for &t in birth_sensor.marks().iter().filter(|&&t| birth_sensor.mapped(t) && birth_sensor.measures(t)) {
-                    let (mean, cov) = match self.prev_noise.get(j) {
-                        Some(r) => birth_sensor.birth_with_noise(&part.pose, zj, t, r),
-                        None => birth_sensor.birth(&part.pose, zj, t),
-                    };
+                    let (mean, cov) = birth_sensor.birth_for(&part.pose, zj, t, self.prev_noise.get(j));
                     let mark = t.index();
                     let birth = (Track { label: birth_label(self.step, j, mark), mean, cov, mark }, rb.ln());
                     match wait {

@@ -247,7 +247,9 @@ fn likelihoods<S: SensorModel<X, M, Z>, const X: usize, const M: usize, const Z:
 ) -> u32 {
     let lin = m.sensor.linearise(x, &t.mean, S::Mark::from_index(t.mark));
     let ph = t.cov * lin.hm.transpose();
-    let pair_terms = |r: &SMatrix<f64, Z, Z>| PairTerms::of(&lin.hm, &lin.hx, &ph, r, pose_cov);
+    // Once per track: `H_m P H_m^T` and the pose term `H_x Q H_x^T`.
+    let (hph, pose_term) = (lin.hm * ph, pose_cov.map(|q| lin.hx * q * lin.hx.transpose()));
+    let pair_terms = |r: &SMatrix<f64, Z, Z>| PairTerms::of(&lin.hm, &hph, pose_term.as_ref(), &ph, r);
     let mut push = |j: usize, zj: &SVector<f64, Z>, terms: &mut PairTerms<M, Z>| {
         let nu = m.sensor.residual(zj, &lin.z);
         let Some(y) = terms.l.solve_lower_triangular(&nu) else { return };
@@ -293,18 +295,18 @@ struct PairTerms<const M: usize, const Z: usize> {
 }
 
 impl<const M: usize, const Z: usize> PairTerms<M, Z> {
-    /// `S = H_m P H_m^T + R` (`+ H_x Q H_x^T` with `pose_cov`); `None` when `S` fails
-    /// Cholesky.
-    fn of<const X: usize>(
+    /// `S = H_m P H_m^T + R` (`hph + r`, plus the pose term `H_x Q H_x^T` when given);
+    /// `None` when `S` fails Cholesky.
+    fn of(
         hm: &SMatrix<f64, Z, M>,
-        hx: &SMatrix<f64, Z, X>,
+        hph: &SMatrix<f64, Z, Z>,
+        pose_term: Option<&SMatrix<f64, Z, Z>>,
         ph: &SMatrix<f64, M, Z>,
         r: &SMatrix<f64, Z, Z>,
-        pose_cov: Option<&SMatrix<f64, X, X>>,
     ) -> Option<Self> {
-        let mut s = hm * ph + r;
-        if let Some(q) = pose_cov {
-            s += hx * q * hx.transpose();
+        let mut s = hph + r;
+        if let Some(p) = pose_term {
+            s += p;
         }
         let ch = symmetrise(&s).cholesky()?;
         let l = ch.l_dirty();

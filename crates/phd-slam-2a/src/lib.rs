@@ -283,7 +283,10 @@ where
             let (m, p, log_eta, pd) = (ctx.map.mean[i], ctx.map.cov[i], ctx.map.log_w[i], ctx.pd[row]);
             let mark = S::Mark::from_index(ctx.map.mark[i]);
             let lin = sensor.linearise(&x_bar, &m, mark);
+            // Once per component: `G_m P G_m^T`, `G_x Q` and `G_x Q G_x^T`.
             let hph = lin.hm * p * lin.hm.transpose();
+            let hxq = lin.hx * q;
+            let hqh = hxq * lin.hx.transpose();
             let log_base = pd.ln() + log_eta - ctx.log_clutter;
             let pair = |j: usize, c: &Conditioned<X, Z>, cov: usize, pairs: &mut Vec<Pair<X>>| {
                 let nu = sensor.residual(&ctx.z[j], &lin.z);
@@ -300,7 +303,7 @@ where
             };
             if let Some(noise) = ctx.noise {
                 for (j, rj) in noise.iter().enumerate() {
-                    let Some(c) = Conditioned::of(&lin.hx, &q, &(hph + rj)) else {
+                    let Some(c) = Conditioned::of(&lin.hx, &hxq, &hqh, &q, &(hph + rj)) else {
                         stats.cholesky_failures += 1;
                         continue;
                     };
@@ -309,7 +312,7 @@ where
                 }
                 continue;
             }
-            let Some(c) = Conditioned::of(&lin.hx, &q, &(hph + sensor.noise(mark))) else {
+            let Some(c) = Conditioned::of(&lin.hx, &hxq, &hqh, &q, &(hph + sensor.noise(mark))) else {
                 stats.cholesky_failures += 1;
                 continue;
             };
@@ -332,12 +335,19 @@ struct Conditioned<const X: usize, const Z: usize> {
 }
 
 impl<const X: usize, const Z: usize> Conditioned<X, Z> {
-    /// `None` when `S` fails Cholesky.
-    fn of(hx: &SMatrix<f64, Z, X>, q: &SMatrix<f64, X, X>, omega: &SMatrix<f64, Z, Z>) -> Option<Self> {
-        let chol = symmetrise(&(hx * q * hx.transpose() + omega)).cholesky()?;
+    /// From `hxq = G_x Q` and `hqh = G_x Q G_x^T`, formed once per landmark; `None` when `S`
+    /// fails Cholesky.
+    fn of(
+        hx: &SMatrix<f64, Z, X>,
+        hxq: &SMatrix<f64, Z, X>,
+        hqh: &SMatrix<f64, Z, Z>,
+        q: &SMatrix<f64, X, X>,
+        omega: &SMatrix<f64, Z, Z>,
+    ) -> Option<Self> {
+        let chol = symmetrise(&(hqh + omega)).cholesky()?;
         // K = Q G_x^T S^-1, i.e. K^T = S^-1 (G_x Q) (S and Q symmetric); the held
         // components' rows of Q, and so of K, are zero.
-        let gain: SMatrix<f64, X, Z> = chol.solve(&(hx * q)).transpose();
+        let gain: SMatrix<f64, X, Z> = chol.solve(hxq).transpose();
         let a = SMatrix::<f64, X, X>::identity() - gain * hx;
         let cov = symmetrise(&(a * q * a.transpose() + gain * omega * gain.transpose()));
         let l = chol.l_dirty();

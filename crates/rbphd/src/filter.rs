@@ -298,10 +298,7 @@ impl<P: Proposal<X, M, Z>, const X: usize, const M: usize, const Z: usize> RbPhd
         let noise = (p.birth_noise.len() == p.birth.len()).then_some(&p.birth_noise);
         for (j, z) in p.birth.iter().enumerate() {
             for &t in types.iter().filter(|&&t| sensor.measures(t)) {
-                let (mean, cov) = match noise {
-                    Some(r) => sensor.birth_with_noise(&p.pose, z, t, &r[j]),
-                    None => sensor.birth(&p.pose, z, t),
-                };
+                let (mean, cov) = sensor.birth_for(&p.pose, z, t, noise.map(|r| &r[j]));
                 p.map.push_marked(ln_birth, mean, cov, t.index());
             }
         }

@@ -623,6 +623,22 @@ pub trait InvertibleSensorModel<const X: usize, const M: usize, const Z: usize>:
         (inv.m, symmetrise(&(inv.jz * r * inv.jz.transpose())))
     }
 
+    /// The birth a filter starts from `z`: [`Self::birth_with_noise`] under the measurement's
+    /// own covariance when the scan gives one (`own`), else [`Self::birth`]. Not meant to be
+    /// overridden.
+    fn birth_for(
+        &self,
+        x: &SVector<f64, X>,
+        z: &SVector<f64, Z>,
+        mark: Self::Mark,
+        own: Option<&SMatrix<f64, Z, Z>>,
+    ) -> (SVector<f64, M>, SMatrix<f64, M, M>) {
+        match own {
+            Some(r) => self.birth_with_noise(x, z, mark, r),
+            None => self.birth(x, z, mark),
+        }
+    }
+
     /// `int N(z; h(x, m), R) dm` over the landmark space, `1 / |det H_m|` at the inverse:
     /// the new-track weight of a constant undetected intensity `kappa_u` is `p_D kappa_u`
     /// times this.
