@@ -223,9 +223,7 @@ impl<const M: usize, const Z: usize, const X: usize> Default for Workspace<M, Z,
 /// the measurement model `S`. The sensor's anchors (known landmarks) are Bernoullis of
 /// existence 1 and zero covariance: they never move, update the vehicle in step 6 like any
 /// landmark above `T_EP`, and the estimate leaves them out. Components the vehicle model
-/// holds and the prior knows are held: the cubature rules run over the `d(s)` others (a held
-/// component with a prior spread, such as an uncertain base station, is estimated:
-/// [`StateSpace::of_vehicle`]).
+/// does not estimate are held: the cubature rules run over the `d(s)` estimated ones.
 #[derive(Debug, Clone)]
 pub struct MpmbFilter<V, S, const X: usize, const M: usize, const Z: usize>
 where
@@ -275,7 +273,7 @@ where
     pub fn new(params: MpmbParams, vehicle: Vehicle<V, X>, model: S) -> Self {
         let r: Vec<_> = S::Mark::ALL.iter().map(|&t| model.noise(t)).collect();
         let r_u: Vec<_> = r.iter().map(|r| r * params.noise_inflation).collect();
-        let space = StateSpace::of_vehicle(&vehicle);
+        let space = StateSpace::of(&vehicle.model);
         let bernoullis: Vec<_> = model
             .anchors()
             .into_iter()

@@ -207,11 +207,7 @@ impl Visitor for Run<'_> {
         std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
         // A world of several landmark types is scored per type, and with the clock bias, as
         // its sweeps are.
-        let metrics = &MetricsConfig {
-            typed_world: ds.meta.landmarks.types.len() > 1,
-            base_station_state: components.iter().any(|c| matches!(c, StateComponent::BaseStation(_))),
-            ..ov.metrics.clone()
-        };
+        let metrics = &MetricsConfig { typed_world: ds.meta.landmarks.types.len() > 1, ..ov.metrics.clone() };
         let o = run_with_outputs(args, &ds, components, f.as_mut(), metrics)?;
         if let Some(w) = o.unscored_truth(&ds, metrics) {
             eprintln!("warning: {w}");

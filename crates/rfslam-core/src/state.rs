@@ -29,18 +29,6 @@ impl<const X: usize> StateSpace<X> {
         StateSpace { angular: vehicle.components().map(|c| c.is_angle()), held: estimated.map(|e| !e) }
     }
 
-    /// The state space of a Gaussian vehicle with its prior: a component the model holds is
-    /// held only when the prior knows it (zero spread); one with a prior spread is a static
-    /// parameter the Gaussian estimates (its covariance from the prior, no process noise).
-    /// A particle filter keeps [`StateSpace::of`]: each particle holds its own draw.
-    pub fn of_vehicle<V: VehicleModel<X, 3>>(vehicle: &crate::model::Vehicle<V, X>) -> Self {
-        let mut space = Self::of(&vehicle.model);
-        for (held, sigma) in space.held.iter_mut().zip(vehicle.initial_sigma.iter()) {
-            *held &= *sigma == 0.0;
-        }
-        space
-    }
-
     /// Whether some component is held.
     #[inline]
     pub fn holds_any(&self) -> bool {

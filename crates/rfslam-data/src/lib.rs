@@ -43,9 +43,7 @@ pub use dataset::{
 pub use error::{ConfigError, DataError};
 pub use find::{DATA_ENV, data_dirs, find_data};
 pub use mat::{MatArray, MatError, MatFile};
-pub use radio::{
-    RADIO_LANDMARK_TYPES, RadioBsModels, RadioModels, RadioScenario, is_radio, is_radio_bs, radio_landmark_types,
-};
+pub use radio::{RADIO_LANDMARK_TYPES, RadioModels, RadioScenario, is_radio, radio_landmark_types};
 pub use scenario::{
     GLMB_SIM_LAP_LENGTH, GLMB_SIM_LAP_LENGTH_RANGE, GLMB_SIM_LAPS_DRIVEN, LoopParams, PLANAR_WORLD_KINDS,
     PlanarPriorConfig, ProceduralParams, ScenarioConfig, WorldSpec,

@@ -196,12 +196,6 @@ impl Default for RadioVehicleConfig {
 /// reference \[4\] uses `sigma = [0.3, 0.3, 0, 0.3 deg, 0.3]` with the one-sigma offset
 /// `[0.3, -0.3, 0, 0.3 deg, -0.3]`. A component the vehicle holds (zero `[vehicle] sigma`,
 /// not estimated) takes neither.
-///
-/// The first base station is known by default (\[Kim2022\] Section II). With
-/// `base_station_sigma` (m, x, y, z; any non-zero) it is known only through the prior
-/// `N(B + base_station_offset, diag(base_station_sigma^2))`, `B` its true position: the
-/// scenario is then of the world `radio5g-bs`, whose state carries the base station after the
-/// vehicle's five components and whose filters estimate it (not a setting of the paper).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RadioPriorConfig {
@@ -209,16 +203,6 @@ pub struct RadioPriorConfig {
     pub offset: [f64; 5],
     /// The prior standard deviations.
     pub sigma: [f64; 5],
-    /// The offset of the first base station's prior mean from its true position (m).
-    #[serde(skip_serializing_if = "is_zero3")]
-    pub base_station_offset: [f64; 3],
-    /// The first base station's prior standard deviations (m); zero: known.
-    #[serde(skip_serializing_if = "is_zero3")]
-    pub base_station_sigma: [f64; 3],
-}
-
-fn is_zero3(v: &[f64; 3]) -> bool {
-    v.iter().all(|x| *x == 0.0)
 }
 
 impl RadioPriorConfig {
@@ -228,12 +212,6 @@ impl RadioPriorConfig {
         let mut mean = std::array::from_fn(|i| x0[i] + self.offset[i]);
         mean[3] = rfslam_core::angle::wrap(mean[3]);
         (mean, self.sigma)
-    }
-
-    /// Whether the first base station is known only through a prior (the world
-    /// `radio5g-bs`).
-    pub fn base_station_uncertain(&self) -> bool {
-        !is_zero3(&self.base_station_sigma)
     }
 }
 
@@ -408,56 +386,18 @@ impl DatasetModels for RadioModels {
     }
 
     fn columns(&self) -> Columns {
-        use rfslam_core::model::{RadioVehicle, VehicleModel};
-        radio_columns(&RadioVehicle { sigma: self.vehicle.sigma }.components())
-    }
-
-    fn control_held(&self) -> bool {
-        true
-    }
-}
-
-/// The columns of a radio data set whose vehicle state has the components `state`.
-fn radio_columns(state: &[rfslam_core::model::StateComponent]) -> Columns {
-    use rfslam_core::model::{RadioSensor, SensorModel, StateComponent};
-    let state = state.iter().map(|c| StateColumn {
-        name: c.name(),
-        angle: c.is_angle(),
-        position: matches!(c, StateComponent::Position(_)),
-    });
-    Columns {
-        state: state.collect(),
-        control: &["v", "omega"],
-        measurement: RadioSensor::published().components().to_vec(),
-        landmark: &["x", "y", "z"],
-    }
-}
-
-/// The model tables of a data set of the world `radio5g-bs` (a base station known only
-/// through a prior, estimated with the vehicle): the radio world's tables; the state has the
-/// base station's `bs_x`, `bs_y`, `bs_z` after the vehicle's components, so `[initial_pose]`
-/// and `[initial_sigma]` give the base station's prior and `groundtruth.csv` its true
-/// position.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(transparent)]
-pub struct RadioBsModels(pub RadioModels);
-
-impl DatasetModels for RadioBsModels {
-    fn world(&self) -> &'static str {
-        "radio5g-bs"
-    }
-
-    fn read_models(text: &str, path: &Path) -> Result<Self, DataError> {
-        RadioModels::read_models(text, path).map(RadioBsModels)
-    }
-
-    fn write_models(&self) -> Result<String, DataError> {
-        self.0.write_models()
-    }
-
-    fn columns(&self) -> Columns {
-        use rfslam_core::model::{RadioBsVehicle, RadioVehicle, VehicleModel};
-        radio_columns(&RadioBsVehicle(RadioVehicle { sigma: self.0.vehicle.sigma }).components())
+        use rfslam_core::model::{RadioSensor, RadioVehicle, SensorModel, StateComponent, VehicleModel};
+        let state = RadioVehicle { sigma: self.vehicle.sigma }.components().map(|c| StateColumn {
+            name: c.name(),
+            angle: c.is_angle(),
+            position: matches!(c, StateComponent::Position(_)),
+        });
+        Columns {
+            state: state.to_vec(),
+            control: &["v", "omega"],
+            measurement: RadioSensor::published().components().to_vec(),
+            landmark: &["x", "y", "z"],
+        }
     }
 
     fn control_held(&self) -> bool {
@@ -583,16 +523,6 @@ impl RadioScenario {
                     ),
                 ));
             }
-        }
-        for (i, (o, s)) in self.prior.base_station_offset.iter().zip(&self.prior.base_station_sigma).enumerate() {
-            in_range(&format!("prior.base_station_offset[{i}]"), Interval::magnitude(limits::MAX_DISTANCE), *o)?;
-            in_range(&format!("prior.base_station_sigma[{i}]"), Interval::closed(0.0, limits::MAX_DISTANCE), *s)?;
-        }
-        if !self.prior.base_station_uncertain() && !is_zero3(&self.prior.base_station_offset) {
-            return Err(ConfigError::new(
-                "prior.base_station_offset",
-                "must be 0 for a known base station: give prior.base_station_sigma for a base station known only through a prior",
-            ));
         }
         Ok(())
     }
@@ -728,15 +658,6 @@ fn coordinates(key: &str, values: &[f64]) -> Result<(), ConfigError> {
 /// Whether a scenario table is of the radio world (`[world] kind = "radio5g"`).
 pub fn is_radio(table: &toml::Table) -> bool {
     table.get("world").and_then(|w| w.get("kind")).and_then(|k| k.as_str()) == Some("radio5g")
-}
-
-/// Whether the scenario table is a radio scenario whose first base station is known only
-/// through a prior (a non-zero `[prior] base_station_sigma`: the world `radio5g-bs`).
-pub fn is_radio_bs(table: &toml::Table) -> bool {
-    let sigma = table.get("prior").and_then(|p| p.get("base_station_sigma")).and_then(|s| s.as_array());
-    is_radio(table)
-        && sigma
-            .is_some_and(|s| s.iter().any(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)) != Some(0.0)))
 }
 
 #[cfg(test)]

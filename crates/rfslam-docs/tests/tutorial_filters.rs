@@ -23,8 +23,8 @@ fn planar() -> rfslam_data::Dataset {
 fn radio() -> (RadioDataset, RadioWorldModels) {
     let text = include_str!("../../../scenarios/radio5g.toml");
     let sc = rfslam_data::RadioScenario::from_toml_str(text, "radio5g.toml").unwrap();
-    let ds = radio_dataset::<RadioVehicle, 5>(&sc, 3).unwrap();
-    let models = radio_world_models::<RadioVehicle, 5>(&ds).unwrap();
+    let ds = radio_dataset(&sc, 3).unwrap();
+    let models = radio_world_models(&ds).unwrap();
     (ds, models)
 }
 

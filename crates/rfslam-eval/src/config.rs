@@ -56,10 +56,6 @@ pub struct MetricsConfig {
     /// harness from the scenario, never from a file.
     #[serde(skip)]
     pub typed_world: bool,
-    /// Whether the vehicle state carries a base station's position (the world `radio5g-bs`):
-    /// its RMSE column is written. Set by the harness from the scenario, never from a file.
-    #[serde(skip)]
-    pub base_station_state: bool,
 }
 
 fn is_false(b: &bool) -> bool {
@@ -118,7 +114,6 @@ impl Default for MetricsConfig {
             ancestry: false,
             gospa_every: None,
             typed_world: false,
-            base_station_state: false,
         }
     }
 }

@@ -94,7 +94,7 @@ impl Better {
 /// The family of a metric's columns in reports (one table per family).
 const fn family_of(metric: &'static str) -> &'static str {
     match metric.as_bytes() {
-        b"pose" | b"aligned_pose" | b"xy" | b"split" | b"clock" | b"base_station" => "localisation",
+        b"pose" | b"aligned_pose" | b"xy" | b"split" | b"clock" => "localisation",
         b"map_gospa" | b"ospa" | b"landmarks" | b"map_gospa_time" | b"typed" => "map",
         b"association" => "data association",
         b"time" => "cost",
@@ -464,18 +464,6 @@ pub static COLUMNS: &[Column] = &[
     ),
     summarised(
         real(
-            "bs_rmse_m",
-            "base_station",
-            "m",
-            "RMSE of the estimated base-station position over the scored steps (radio5g-bs)",
-        ),
-        "bs_rmse_m",
-        Some("bs_std_m"),
-        SCORED,
-        "base-station RMSE [m]",
-    ),
-    summarised(
-        real(
             "va_gospa_m",
             "typed",
             "m",
@@ -581,8 +569,6 @@ metrics! {
     // The clock bias's RMSE is the pose metric's; its column is written in a world of
     // landmark types beyond the planar ones (the 5G radio world), with the per-type GOSPA.
     "clock" => enabled: |m| m.typed_world, observer: |_, _| NoObserver;
-    // The base station's RMSE is the pose metric's, in a world whose state carries one.
-    "base_station" => enabled: |m| m.base_station_state, observer: |_, _| NoObserver;
     "typed" => enabled: |m| m.typed_world, observer: |m, s| TypedGospaMetric::new(m, s.scoring);
 }
 
@@ -680,7 +666,6 @@ impl<const X: usize, const M: usize, const Z: usize> Observer<X, M, Z> for PoseM
         out.set("pos_rmse_m", self.errors.pos_rmse().unwrap_or(f64::NAN));
         out.set("head_rmse_deg", self.errors.head_rmse_deg().unwrap_or(f64::NAN));
         out.set("clock_rmse_m", self.errors.clock_rmse().unwrap_or(f64::NAN));
-        out.set("bs_rmse_m", self.errors.bs_rmse().unwrap_or(f64::NAN));
         out.set("scored_steps", self.errors.steps() as f64);
     }
 }

@@ -520,7 +520,6 @@ impl Plan {
         let (_, scenario_table) = load_scenario_table(&scenario_path)?;
         let radio = is_radio(&scenario_table);
         config.metrics.typed_world = radio;
-        config.metrics.base_station_state = rfslam_data::is_radio_bs(&scenario_table);
 
         let published = match &config.published {
             Some(p) => Some(crate::report::PublishedTable::read(&dir.join(p)).map_err(|e| err("published", e))?),

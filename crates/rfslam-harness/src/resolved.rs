@@ -112,7 +112,6 @@ impl ResolvedExperiment {
             toml::from_str(text).map_err(|e: toml::de::Error| e.message().trim().to_string())?;
         // What the scenario says, as when the plan was loaded (never written to the file).
         r.metrics.typed_world = rfslam_data::is_radio(&r.scenario);
-        r.metrics.base_station_state = rfslam_data::is_radio_bs(&r.scenario);
         Ok(r)
     }
 

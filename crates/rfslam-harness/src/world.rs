@@ -14,11 +14,11 @@ use std::marker::PhantomData;
 use std::sync::Arc;
 
 use rfslam_core::model::{
-    BS_STATE, BearingOnlyModel, RadioBsVehicle, RadioVehicle, RangeBearingModel, RelativePositionModel, StateComponent,
+    BearingOnlyModel, RadioSensor, RadioVehicle, RangeBearingModel, RelativePositionModel, StateComponent,
     VehicleModel, WorldVehicle,
 };
 use rfslam_core::{InvertibleSensorModel, Motion, PlanarSensor, PlanarSensorModel, SensorModel, WorldModels};
-use rfslam_data::{DataError, Dataset, DatasetModels, ModelConfig, RadioScenario, ScenarioConfig};
+use rfslam_data::{DataError, Dataset, DatasetModels, ModelConfig, RadioModels, RadioScenario, ScenarioConfig};
 use rfslam_sim::ScenarioData;
 
 use crate::memory::JobSize;
@@ -178,49 +178,33 @@ rate = 1.0
 intensity = "cartesian"
 "#;
 
-/// The 5G mmWave world of the PMBM-SLAM paper (\[Kim2022\] Section VI-A) in the state `V`
-/// ([`rfslam_sim::RadioState`]): the radio vehicle and the TOA/DOD/DOA sensor, landmarks of
-/// three types in 3-D; every base station known ([`Radio5g`]) or the first known only through
-/// a prior and estimated with the vehicle ([`Radio5gBs`]).
-pub struct RadioWorld<V>(PhantomData<V>);
+/// The 5G mmWave world of the PMBM-SLAM paper (\[Kim2022\] Section VI-A): the radio vehicle
+/// (`[x, y, z, heading, clock bias]`) and the TOA/DOD/DOA sensor, landmarks of three types
+/// in 3-D, the base station known.
+pub struct Radio5g;
 
-/// The radio world of \[Kim2022\]: state `[x, y, z, heading, clock bias]`, the base stations
-/// known.
-pub type Radio5g = RadioWorld<RadioVehicle>;
-
-/// The radio world whose first base station is known only through a prior (`[prior]
-/// base_station_sigma`): state `[x, y, z, heading, clock bias, bs_x, bs_y, bs_z]`.
-pub type Radio5gBs = RadioWorld<RadioBsVehicle>;
-
-impl<V: rfslam_sim::RadioState<X>, const X: usize> World<X, 3, 5> for RadioWorld<V> {
-    const NAME: &'static str = <V::Sensor as SensorModel<X, 3, 5>>::NAME;
-    type Vehicle = V;
-    type Sensor = V::Sensor;
-    type Models = V::Models;
+impl World<5, 3, 5> for Radio5g {
+    const NAME: &'static str = "radio5g";
+    type Vehicle = RadioVehicle;
+    type Sensor = RadioSensor;
+    type Models = RadioModels;
     type Scenario = RadioScenario;
 
-    fn dataset(sc: &RadioScenario, seed: u64) -> Result<Dataset<V::Models, X, 3, 5>, DataError> {
-        rfslam_sim::radio_dataset::<V, X>(sc, seed)
+    fn dataset(sc: &RadioScenario, seed: u64) -> Result<rfslam_sim::RadioDataset, DataError> {
+        rfslam_sim::radio_dataset(sc, seed)
     }
 
-    fn scenario_models(sc: &RadioScenario) -> Result<WorldModels<V, V::Sensor, X, 3, 5>, DataError> {
+    fn scenario_models(sc: &RadioScenario) -> Result<rfslam_sim::RadioWorldModels, DataError> {
         let world = rfslam_sim::RadioWorld::from_scenario(sc);
-        let vehicle = rfslam_sim::radio_filters_vehicle::<V, X>(sc, &world.x0, &world.base_station());
-        let mut sensor = rfslam_sim::radio_sensor(sc, true);
-        if V::CARRIES_BASE_STATION {
-            // The filters know the first base station only by its prior mean.
-            let x = &vehicle.initial_state;
-            sensor.base_stations[0] = nalgebra::Vector3::new(x[BS_STATE], x[BS_STATE + 1], x[BS_STATE + 2]);
-        }
         Ok(WorldModels {
-            vehicle,
-            sensor: V::sensor(sensor),
+            vehicle: rfslam_sim::radio_filters_vehicle(sc, &world.x0),
+            sensor: rfslam_sim::radio_sensor(sc, true),
             landmark_types: world.landmarks.iter().map(|l| (l.0, l.2)).collect(),
         })
     }
 
-    fn models(ds: &Dataset<V::Models, X, 3, 5>) -> Result<WorldModels<V, V::Sensor, X, 3, 5>, DataError> {
-        rfslam_sim::radio_world_models::<V, X>(ds)
+    fn models(ds: &rfslam_sim::RadioDataset) -> Result<rfslam_sim::RadioWorldModels, DataError> {
+        rfslam_sim::radio_world_models(ds)
     }
 
     fn job_size(sc: &RadioScenario) -> Result<JobSize, DataError> {
@@ -232,14 +216,9 @@ impl<V: rfslam_sim::RadioState<X>, const X: usize> World<X, 3, 5> for RadioWorld
         })
     }
 
-    /// The published world (every key at its default); for `radio5g-bs` with the base
-    /// station's prior spread 1 m horizontally and 0.5 m vertically.
+    /// The published world (every key at its default).
     fn template() -> Result<RadioScenario, DataError> {
-        let prior = if V::CARRIES_BASE_STATION { "\n[prior]\nbase_station_sigma = [1.0, 1.0, 0.5]\n" } else { "" };
-        RadioScenario::from_toml_str(
-            &format!("name = \"my-dataset\"\n\n[world]\nkind = \"radio5g\"\n{prior}"),
-            "init-dataset template",
-        )
+        RadioScenario::from_toml_str("name = \"my-dataset\"\n\n[world]\nkind = \"radio5g\"\n", "init-dataset template")
     }
 }
 
@@ -293,8 +272,6 @@ worlds! {
     BearingOnly => PlanarWorld<BearingOnlyModel>, [3, 2, 1];
     /// The 5G mmWave radio world of \[Kim2022\].
     Radio5g => Radio5g, [5, 3, 5];
-    /// The radio world with its first base station known only through a prior.
-    Radio5gBs => Radio5gBs, [8, 3, 5];
 }
 
 impl WorldKind {
@@ -339,11 +316,9 @@ impl WorldScenario {
         Ok(WorldScenario { kind, scenario: Arc::new(PlanarScenario { config, world }) })
     }
 
-    /// A radio scenario: of the world `radio5g-bs` when its first base station is known only
-    /// through a prior (`[prior] base_station_sigma`), `radio5g` otherwise.
+    /// A radio scenario.
     pub fn radio(sc: RadioScenario) -> WorldScenario {
-        let kind = if sc.prior.base_station_uncertain() { WorldKind::Radio5gBs } else { WorldKind::Radio5g };
-        WorldScenario { kind, scenario: Arc::new(sc) }
+        WorldScenario { kind: WorldKind::Radio5g, scenario: Arc::new(sc) }
     }
 
     /// The world `W`'s scenario; `None` when this is a scenario of another world.

@@ -109,7 +109,7 @@ impl SumSquares {
 /// component the vehicle model declares ([`StateComponent`]) can be reported per run or
 /// pooled exactly over runs ([`PoseErrors::merge`]): the position (all position axes
 /// together), the heading and the clock bias (the PMBM-SLAM paper's Fig. 4 plots these
-/// three), and the position of a base station the state carries.
+/// three).
 ///
 /// Position error is Euclidean; clock-bias error is the plain difference (m); heading error is the wrapped difference
 /// `angle::diff(est_heading, true_heading)` in `[-pi, pi)`, so 3.1 vs -3.1 rad is an
@@ -124,8 +124,6 @@ pub struct PoseErrors {
     sum_sq_head: f64,
     clock_steps: usize,
     sum_sq_clock: f64,
-    bs_steps: usize,
-    sum_sq_bs: f64,
 }
 
 impl PoseErrors {
@@ -155,7 +153,6 @@ impl PoseErrors {
     ) {
         let mut pos = SVector::<f64, X>::zeros();
         let mut pos_known = true;
-        let (mut bs, mut bs_known) = (0.0, false);
         for (i, c) in components.iter().enumerate() {
             match (c, truth[i]) {
                 (StateComponent::Position(_), Some(t)) => pos[i] = est[i] - t,
@@ -170,17 +167,8 @@ impl PoseErrors {
                     self.clock_steps += 1;
                     self.sum_sq_clock += db * db;
                 }
-                (StateComponent::BaseStation(_), Some(t)) => {
-                    let d = est[i] - t;
-                    bs += d * d;
-                    bs_known = true;
-                }
                 (_, None) => {}
             }
-        }
-        if bs_known {
-            self.bs_steps += 1;
-            self.sum_sq_bs += bs;
         }
         if pos_known {
             self.steps += 1;
@@ -198,8 +186,6 @@ impl PoseErrors {
         self.sum_sq_head += other.sum_sq_head;
         self.clock_steps += other.clock_steps;
         self.sum_sq_clock += other.sum_sq_clock;
-        self.bs_steps += other.bs_steps;
-        self.sum_sq_bs += other.sum_sq_bs;
     }
 
     /// Number of steps pushed.
@@ -236,13 +222,6 @@ impl PoseErrors {
     /// (every planar world).
     pub fn clock_rmse(&self) -> Option<f64> {
         (self.clock_steps > 0).then(|| (self.sum_sq_clock / self.clock_steps as f64).sqrt())
-    }
-
-    /// RMSE of the base station's position carried in the state (m, over its coordinates
-    /// together) over the steps whose truth has it; `None` if there were none (every world but
-    /// `radio5g-bs`).
-    pub fn bs_rmse(&self) -> Option<f64> {
-        (self.bs_steps > 0).then(|| (self.sum_sq_bs / self.bs_steps as f64).sqrt())
     }
 
     /// Heading RMSE in degrees; `None` if no step had a true heading.

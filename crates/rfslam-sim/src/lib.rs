@@ -28,8 +28,8 @@ pub mod victoria_park;
 pub mod world;
 
 pub use radio5g::{
-    RadioDataset, RadioState, RadioWorld, RadioWorldModels, radio_dataset, radio_filters_vehicle, radio_run,
-    radio_sensor, radio_sensor_of, radio_vehicle, radio_world_models,
+    RadioDataset, RadioWorld, RadioWorldModels, radio_dataset, radio_filters_vehicle, radio_run, radio_sensor,
+    radio_sensor_of, radio_vehicle, radio_world_models,
 };
 pub use scenario::ScenarioData;
 pub use simulate::{SimulatedRun, draw_scan, simulate, simulate_along, simulate_run};

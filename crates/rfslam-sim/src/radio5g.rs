@@ -5,14 +5,11 @@
 //! 0.5 s, simulated with [`simulate_run`].
 
 use nalgebra::{SVector, Vector3};
-use rfslam_core::model::{
-    BS_STATE, LandmarkMark, LandmarkType, RadioBsSensor, RadioBsVehicle, RadioMark, RadioSensor, RadioVehicle, Vehicle,
-    WorldVehicle,
-};
-use rfslam_core::{Control, InvertibleSensorModel, Rng, SensorModel, WorldModels};
+use rfslam_core::model::{LandmarkMark, LandmarkType, RadioMark, RadioSensor, RadioVehicle, Vehicle};
+use rfslam_core::{Control, Rng, WorldModels};
 use rfslam_data::{
-    DataError, Dataset, DatasetMeta, DatasetModels, Landmark, LandmarkTypes, OdometryRow, RadioBsModels, RadioModels,
-    RadioScenario, TruthPose, radio_landmark_types,
+    DataError, Dataset, DatasetMeta, Landmark, LandmarkTypes, OdometryRow, RadioModels, RadioScenario, TruthPose,
+    radio_landmark_types,
 };
 
 use crate::simulate::{SimulatedRun, simulate_along, simulate_run};
@@ -128,92 +125,21 @@ impl RadioWorld {
         self.controls.len()
     }
 
-    /// The true position of the first base station.
-    pub fn base_station(&self) -> Vector3<f64> {
-        self.landmarks[0].1
-    }
-
     /// One run: the vehicle moves by `vehicle` (its process noise on the truth), the
-    /// filters receive the known control, and `sensor` draws the scans. A state that carries
-    /// the base station ([`RadioState`]) holds its true position.
-    pub fn simulate<V: RadioState<X>, const X: usize>(
+    /// filters receive the known control, and `sensor` draws the scans.
+    pub fn simulate(
         &self,
-        vehicle: &V,
-        sensor: &V::Sensor,
+        vehicle: &RadioVehicle,
+        sensor: &RadioSensor,
         rng: &mut Rng,
-    ) -> Result<SimulatedRun<X, 5>, DataError> {
-        let bs = self.base_station();
+    ) -> Result<SimulatedRun<5, 5>, DataError> {
         match &self.truth {
-            None => {
-                let x0 = RadioVehicle::state(&self.x0, &bs);
-                simulate_run(vehicle, sensor, x0, &self.controls, [0.0; 3], self.dt, &self.landmarks, rng)
-            }
+            None => simulate_run(vehicle, sensor, self.x0, &self.controls, [0.0; 3], self.dt, &self.landmarks, rng),
             Some(states) => {
-                let states: Vec<SVector<f64, X>> =
-                    states.iter().map(|x| RadioVehicle::state(&SVector::from(*x), &bs)).collect();
+                let states: Vec<SVector<f64, 5>> = states.iter().map(|x| SVector::from(*x)).collect();
                 Ok(simulate_along(sensor, &states, &self.controls, self.dt, &self.landmarks, rng))
             }
         }
-    }
-}
-
-/// The two states of the radio world: the vehicle's five components with every base
-/// station known ([`RadioVehicle`], the world `radio5g`), or eight with the first base
-/// station's position, known only through a prior and estimated ([`RadioBsVehicle`], the
-/// world `radio5g-bs`). Each brings its sensor and its data sets' model tables.
-pub trait RadioState<const X: usize>: WorldVehicle<X> {
-    /// The sensor that reads this state.
-    type Sensor: InvertibleSensorModel<X, 3, 5, Mark = RadioMark> + std::fmt::Debug + Clone + Send + Sync + 'static;
-    /// The model tables of its data sets.
-    type Models: DatasetModels + Send + Sync;
-    /// Whether the state carries the first base station.
-    const CARRIES_BASE_STATION: bool;
-
-    /// The vehicle of this state.
-    fn of(vehicle: RadioVehicle) -> Self;
-    /// The sensor of this state.
-    fn sensor(sensor: RadioSensor) -> Self::Sensor;
-    /// The model tables of a data set.
-    fn models(models: RadioModels) -> Self::Models;
-    /// The radio tables of a data set's model tables.
-    fn tables(models: &Self::Models) -> &RadioModels;
-}
-
-impl RadioState<5> for RadioVehicle {
-    type Sensor = RadioSensor;
-    type Models = RadioModels;
-    const CARRIES_BASE_STATION: bool = false;
-
-    fn of(vehicle: RadioVehicle) -> Self {
-        vehicle
-    }
-    fn sensor(sensor: RadioSensor) -> RadioSensor {
-        sensor
-    }
-    fn models(models: RadioModels) -> RadioModels {
-        models
-    }
-    fn tables(models: &RadioModels) -> &RadioModels {
-        models
-    }
-}
-
-impl RadioState<8> for RadioBsVehicle {
-    type Sensor = RadioBsSensor;
-    type Models = RadioBsModels;
-    const CARRIES_BASE_STATION: bool = true;
-
-    fn of(vehicle: RadioVehicle) -> Self {
-        RadioBsVehicle(vehicle)
-    }
-    fn sensor(sensor: RadioSensor) -> RadioBsSensor {
-        RadioBsSensor(sensor)
-    }
-    fn models(models: RadioModels) -> RadioBsModels {
-        RadioBsModels(models)
-    }
-    fn tables(models: &RadioBsModels) -> &RadioModels {
-        &models.0
     }
 }
 
@@ -273,20 +199,14 @@ pub fn radio_vehicle(sc: &RadioScenario) -> RadioVehicle {
 
 /// The radio vehicle as the filters of a scenario assume it: its model, no control noise
 /// (the control is known), and the prior on `x_0` of `[prior]` around the world's true
-/// start `x0` (and, for a state that carries the base station, around its true position
-/// `bs`: `prior.base_station_offset` and `prior.base_station_sigma`).
-pub fn radio_filters_vehicle<V: RadioState<X>, const X: usize>(
-    sc: &RadioScenario,
-    x0: &SVector<f64, 5>,
-    bs: &Vector3<f64>,
-) -> Vehicle<V, X> {
+/// start `x0`.
+pub fn radio_filters_vehicle(sc: &RadioScenario, x0: &SVector<f64, 5>) -> Vehicle<RadioVehicle, 5> {
     let (mean, sigma) = sc.prior.of(&x0.data.0[0]);
-    let (b, p) = (&sc.prior.base_station_offset, &sc.prior.base_station_sigma);
     Vehicle {
-        model: V::of(radio_vehicle(sc)),
+        model: radio_vehicle(sc),
         control_noise: nalgebra::Matrix3::zeros(),
-        initial_state: RadioVehicle::state(&SVector::from(mean), &(bs + Vector3::new(b[0], b[1], b[2]))),
-        initial_sigma: RadioVehicle::state(&SVector::from(sigma), &Vector3::from(*p)),
+        initial_state: SVector::from(mean),
+        initial_sigma: SVector::from(sigma),
     }
 }
 
@@ -323,16 +243,13 @@ pub type RadioDataset = Dataset<RadioModels, 5, 3, 5>;
 /// The models of the radio world as the filters assume them.
 pub type RadioWorldModels = WorldModels<RadioVehicle, RadioSensor, 5, 3, 5>;
 
-/// The data set of run `seed` of a radio scenario ([`radio_run`]) in the state `V`: one scan
-/// per step (the first at the start), the known control of each transition as an odometry
-/// row at its start, the true states, the mapped landmarks (`landmarks.csv`) and the base
-/// stations (`anchors.csv`, at their true positions).
-pub fn radio_dataset<V: RadioState<X>, const X: usize>(
-    sc: &RadioScenario,
-    seed: u64,
-) -> Result<Dataset<V::Models, X, 3, 5>, DataError> {
-    let (world, run) = radio_run::<V, X>(sc, seed)?;
-    let filters = radio_filters_vehicle::<V, X>(sc, &world.x0, &world.base_station());
+/// The data set of run `seed` of a radio scenario ([`radio_run`]): one scan per step (the
+/// first at the start), the known control of each transition as an odometry row at its
+/// start, the true states, the mapped landmarks (`landmarks.csv`) and the base station
+/// (`anchors.csv`).
+pub fn radio_dataset(sc: &RadioScenario, seed: u64) -> Result<RadioDataset, DataError> {
+    let (world, run) = radio_run(sc, seed)?;
+    let filters = radio_filters_vehicle(sc, &world.x0);
     let odometry = run.truth.iter().zip(&run.odometry).map(|((t, _), seg)| OdometryRow { t: *t, u: seg.u }).collect();
     let groundtruth = run.truth.iter().map(|(t, x)| TruthPose { t: *t, state: x.data.0[0].map(Some) }).collect();
     let landmark = |&(id, position, t): &(i64, Vector3<f64>, RadioMark)| Landmark { id, position, mark: t.index() };
@@ -343,14 +260,13 @@ pub fn radio_dataset<V: RadioState<X>, const X: usize>(
         meta: DatasetMeta {
             name: sc.name.clone(),
             description: Some(format!(
-                "the {} world of scenario `{}`, run seed {seed} (rfslam simulate)",
-                V::Sensor::NAME,
+                "the radio5g world of scenario `{}`, run seed {seed} (rfslam simulate)",
                 sc.name
             )),
             initial_t: 0.0,
             initial_pose: filters.initial_state,
             initial_sigma: filters.initial_sigma,
-            models: V::models(sc.models()),
+            models: sc.models(),
             landmarks: LandmarkTypes { types: radio_landmark_types(stations) },
         },
         scans: run.scans,
@@ -368,13 +284,8 @@ pub fn radio_dataset<V: RadioState<X>, const X: usize>(
 /// further base station `s`), and the landmark types by id of its landmarks and anchors (for
 /// the oracle). The data set's types must be those of its base stations, in order
 /// (`base_station`, `virtual_anchor`, `scattering_point`, then `base_station_1`,
-/// `virtual_anchor_1`, ...). In a state that carries the first base station (`radio5g-bs`)
-/// its prior is `[initial_pose]`'s and `[initial_sigma]`'s `bs_x`, `bs_y`, `bs_z`: the
-/// filters take its anchor at the prior mean, and its `anchors.csv` row (the true position
-/// when `rfslam simulate` wrote it) is not read.
-pub fn radio_world_models<V: RadioState<X>, const X: usize>(
-    ds: &Dataset<V::Models, X, 3, 5>,
-) -> Result<WorldModels<V, V::Sensor, X, 3, 5>, DataError> {
+/// `virtual_anchor_1`, ...).
+pub fn radio_world_models(ds: &RadioDataset) -> Result<RadioWorldModels, DataError> {
     let name = &ds.meta.name;
     let mut stations = Vec::new();
     for mark in RadioMark::ALL.iter().filter(|m| m.kind == LandmarkType::BaseStation) {
@@ -387,10 +298,6 @@ pub fn radio_world_models<V: RadioState<X>, const X: usize>(
             }
             None => break,
         }
-    }
-    if V::CARRIES_BASE_STATION {
-        let x = &ds.meta.initial_pose;
-        stations[0] = Vector3::new(x[BS_STATE], x[BS_STATE + 1], x[BS_STATE + 2]);
     }
     let types = radio_landmark_types(stations.len());
     if ds.meta.landmarks.types != types {
@@ -410,28 +317,24 @@ pub fn radio_world_models<V: RadioState<X>, const X: usize>(
         )));
     }
     let types = ds.landmarks.iter().flatten().chain(&ds.anchors).map(|l| (l.id, RadioMark::from_index(l.mark)));
-    let tables = V::tables(&ds.meta.models);
     Ok(WorldModels {
         vehicle: Vehicle {
-            model: V::of(RadioVehicle { sigma: tables.vehicle.sigma }),
+            model: RadioVehicle { sigma: ds.meta.models.vehicle.sigma },
             control_noise: nalgebra::Matrix3::zeros(),
             initial_state: ds.meta.initial_pose,
             initial_sigma: ds.meta.initial_sigma,
         },
-        sensor: V::sensor(radio_sensor_of(tables, &stations, true)),
+        sensor: radio_sensor_of(&ds.meta.models, &stations, true),
         landmark_types: types.collect(),
     })
 }
 
 /// One run of a radio scenario with run seed `seed` (the data stream
-/// `stream(&[seed, purpose::SCENARIO])`) in the state `V`, with its world.
-pub fn radio_run<V: RadioState<X>, const X: usize>(
-    sc: &RadioScenario,
-    seed: u64,
-) -> Result<(RadioWorld, SimulatedRun<X, 5>), DataError> {
+/// `stream(&[seed, purpose::SCENARIO])`), with its world.
+pub fn radio_run(sc: &RadioScenario, seed: u64) -> Result<(RadioWorld, SimulatedRun<5, 5>), DataError> {
     let world = RadioWorld::from_scenario(sc);
     let mut rng = rfslam_core::rng::stream(&[seed, rfslam_core::rng::purpose::SCENARIO]);
-    let run = world.simulate(&V::of(radio_vehicle(sc)), &V::sensor(radio_sensor(sc, false)), &mut rng)?;
+    let run = world.simulate(&radio_vehicle(sc), &radio_sensor(sc, false), &mut rng)?;
     Ok((world, run))
 }
 
@@ -564,12 +467,12 @@ mod tests {
         for u in &w.controls {
             assert!((u[0] - 22.22).abs() < 1e-9 && (u[1] - std::f64::consts::PI / 10.0).abs() < 1e-12, "{u}");
         }
-        let (_, run) = radio_run::<RadioVehicle, 5>(&sc, 3).unwrap();
+        let (_, run) = radio_run(&sc, 3).unwrap();
         assert_eq!(run.scans.len(), 11);
         for (k, (t, x)) in run.truth.iter().enumerate() {
             assert_eq!((*t, x[4]), (k as f64 * 0.5, 300.0 + 0.1 * k as f64), "the file's state {k}");
         }
-        assert_eq!(radio_dataset::<RadioVehicle, 5>(&sc, 3).unwrap().scans, run.scans);
+        assert_eq!(radio_dataset(&sc, 3).unwrap().scans, run.scans);
         // What does not fit.
         let refused = |text: &str, extra: &str, needles: &[&str]| {
             std::fs::write(&file, text).unwrap();
@@ -591,8 +494,8 @@ mod tests {
     fn a_radio_data_set_round_trips_and_replays_the_run() {
         let sc =
             RadioScenario::from_toml_str("name = \"r\"\n[world]\nkind = \"radio5g\"\nsteps = 6\n", "r.toml").unwrap();
-        let ds = radio_dataset::<RadioVehicle, 5>(&sc, 4).unwrap();
-        let (_, run) = radio_run::<RadioVehicle, 5>(&sc, 4).unwrap();
+        let ds = radio_dataset(&sc, 4).unwrap();
+        let (_, run) = radio_run(&sc, 4).unwrap();
         assert_eq!(ds.scans, run.scans);
         let mut segments = Vec::new();
         for k in 0..ds.scans.len() {
@@ -611,14 +514,14 @@ mod tests {
         assert_eq!(rfslam_data::world_of(tmp.path()).unwrap(), "radio5g");
         let back = RadioDataset::read(tmp.path()).unwrap();
         assert_eq!(back, ds);
-        let models = radio_world_models::<RadioVehicle, 5>(&back).unwrap();
+        let models = radio_world_models(&back).unwrap();
         assert_eq!(models.sensor, radio_sensor(&sc, true));
         assert_eq!(models.vehicle.initial_state, RadioWorld::from_scenario(&sc).x0);
         assert_eq!(models.landmark_types.len(), 9);
         // Without its base station the data set gives no models.
         let mut no_bs = back;
         no_bs.anchors.clear();
-        let e = radio_world_models::<RadioVehicle, 5>(&no_bs).unwrap_err().to_string();
+        let e = radio_world_models(&no_bs).unwrap_err().to_string();
         assert!(e.contains("anchors.csv") && e.contains("base_station"), "{e}");
     }
 
@@ -637,8 +540,8 @@ mod tests {
         let (truth, filters) = (radio_sensor(&sc, false), radio_sensor(&sc, true));
         assert_eq!((truth.noise_scale, filters.noise_scale), ([1.0; 3], [4.0; 3]));
         assert_eq!(truth.kappa, RadioSensor::published().kappa);
-        let (_, run) = radio_run::<RadioVehicle, 5>(&sc, 3).unwrap();
+        let (_, run) = radio_run(&sc, 3).unwrap();
         assert_eq!(run.scans.len(), 81);
-        assert_eq!(radio_run::<RadioVehicle, 5>(&sc, 3).unwrap().1, run, "same seed, same run");
+        assert_eq!(radio_run(&sc, 3).unwrap().1, run, "same seed, same run");
     }
 }

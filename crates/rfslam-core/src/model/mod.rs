@@ -107,8 +107,8 @@ use crate::detection::{DetectionModel, Fov};
 use crate::gaussian::symmetrise;
 
 pub use bearing_only::{Bearing, BearingOnlyModel};
-pub use radio_sensor::{LandmarkType, MAX_BASE_STATIONS, RadioBsSensor, RadioMark, RadioSensor};
-pub use radio_vehicle::{BS_STATE, RadioBsVehicle, RadioVehicle};
+pub use radio_sensor::{LandmarkType, MAX_BASE_STATIONS, RadioMark, RadioSensor};
+pub use radio_vehicle::RadioVehicle;
 pub use range_bearing::RangeBearingModel;
 pub use relative_position::{RelativePositionModel, RelativePositionSensor};
 
@@ -130,15 +130,10 @@ pub enum StateComponent {
     Heading,
     /// A receiver clock bias, expressed in metres (range units).
     ClockBias,
-    /// A coordinate (0 = x, 1 = y, 2 = z) of a base station whose position is uncertain and
-    /// estimated with the vehicle's state (the radio world's `radio5g-bs`), m: static, not a
-    /// coordinate of the vehicle.
-    BaseStation(u8),
 }
 
 impl StateComponent {
-    /// The name used in files and reports (`x`, `y`, `z`, `heading`, `clock_bias`, `bs_x`,
-    /// `bs_y`, `bs_z`).
+    /// The name used in files and reports (`x`, `y`, `z`, `heading`, `clock_bias`).
     pub fn name(&self) -> &'static str {
         match self {
             StateComponent::Position(0) => "x",
@@ -146,9 +141,6 @@ impl StateComponent {
             StateComponent::Position(_) => "z",
             StateComponent::Heading => "heading",
             StateComponent::ClockBias => "clock_bias",
-            StateComponent::BaseStation(0) => "bs_x",
-            StateComponent::BaseStation(1) => "bs_y",
-            StateComponent::BaseStation(_) => "bs_z",
         }
     }
 
@@ -214,13 +206,9 @@ pub trait VehicleModel<const X: usize, const U: usize> {
         None
     }
 
-    /// Which components the transition moves; a component that is not estimated is held
-    /// constant (no process noise), such as the radio vehicle's height. It is known unless
-    /// the prior gives it a spread ([`Vehicle::initial_sigma`]): it is then a static
-    /// parameter, such as the position of an uncertain base station, which a particle
-    /// filter draws once per particle from the prior and keeps (its proposals, conditioned
-    /// on the previous state, cannot move it) and a filter with a Gaussian vehicle
-    /// estimates ([`crate::state::StateSpace::of_vehicle`]). Every component by default.
+    /// Which components the filters estimate; a component that is not estimated is known
+    /// and constant (no process noise, no prior spread), such as the radio vehicle's height.
+    /// Every component by default.
     fn estimated(&self) -> [bool; X] {
         [true; X]
     }

@@ -6,7 +6,6 @@ use nalgebra::{Matrix3, RowVector3, SMatrix, SVector, Vector3};
 use rand::RngExt;
 use rand_distr::{Distribution, Poisson, StandardNormal};
 
-use super::radio_vehicle::BS_STATE;
 use super::{
     DetectionRegion, Inverse, InvertibleSensorModel, LandmarkMark, Linearised, MeasurementComponent, SensorModel,
 };
@@ -156,24 +155,23 @@ impl Direction {
 /// The reflection point of the path from the base station `b` to the vehicle at `v` through
 /// the virtual anchor `m`: where the segment from `m` to `v` meets the wall, the plane
 /// bisecting `b` and `m` perpendicularly. With `a = b - m` and `g = v - m`,
-/// `p = m + s g`, `s = |a|^2 / (2 g . a)`; returns `p`, `dp/dv`, `dp/dm` and `dp/db`.
+/// `p = m + s g`, `s = |a|^2 / (2 g . a)`; returns `p`, `dp/dv` and `dp/dm`.
 #[inline]
 fn reflection_point(
     b: &Vector3<f64>,
     m: &Vector3<f64>,
     v: &Vector3<f64>,
-) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>, Matrix3<f64>) {
+) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>) {
     let (a, g) = (b - m, v - m);
     let ga = g.dot(&a);
     let s = a.norm_squared() / (2.0 * ga);
     let p = m + g * s;
-    // ds/dv = -s a^T / (g . a); ds/dm = (s (a + g) - a)^T / (g . a); ds/db = (a - s g)^T / (g . a).
+    // ds/dv = -s a^T / (g . a); ds/dm = (s (a + g) - a)^T / (g . a).
     let ds_dv = a.transpose() * (-s / ga);
     let ds_dm = ((a + g) * s - a).transpose() / ga;
     let dp_dv = Matrix3::identity() * s + g * ds_dv;
     let dp_dm = Matrix3::identity() * (1.0 - s) + g * ds_dm;
-    let dp_db = g * ((a - g * s).transpose() / ga);
-    (p, dp_dv, dp_dm, dp_db)
+    (p, dp_dv, dp_dm)
 }
 
 /// The TOA/DOD/DOA sensor of \[Kim2022\] (eq. 2; the geometry of the public codes of that world):
@@ -281,27 +279,12 @@ impl RadioSensor {
         self.toa_max * TAU * TAU * PI * PI
     }
 
-    /// The position `B` of the base station of the current scan at the state `x`, and
-    /// whether it is the state's own (`radio5g-bs`: the first base station in components
-    /// [`BS_STATE`]`..+3` of a state of eight) or known.
+    /// `h(x, m, t)` with `H_x` (`5 x 5`) and `H_m` (`5 x 3`).
     #[inline]
-    fn source_position<const X: usize>(&self, x: &SVector<f64, X>) -> (Vector3<f64>, bool) {
-        if X > BS_STATE && self.source == 0 {
-            (Vector3::new(x[BS_STATE], x[BS_STATE + 1], x[BS_STATE + 2]), true)
-        } else {
-            (self.base_station(), false)
-        }
-    }
-
-    /// `h(x, m, t)` with `H_x` (`5 x X`) and `H_m` (`5 x 3`). When the state carries the base
-    /// station `B`, its line of sight is measured at `B` (the anchor's `m` is not read, `H_m`
-    /// is zero) and `H_x` holds `dh/dB`.
-    #[inline]
-    fn measure<const X: usize>(&self, x: &SVector<f64, X>, m: &Vector3<f64>, t: LandmarkType) -> Linearised<X, 3, 5> {
-        let (base_station, own) = self.source_position(x);
-        let m = if own && t == LandmarkType::BaseStation { &base_station } else { m };
+    fn measure(&self, x: &SVector<f64, 5>, m: &Vector3<f64>, t: LandmarkType) -> Linearised<5, 3, 5> {
+        let base_station = self.base_station();
         let v = Vector3::new(x[0], x[1], x[2]);
-        let mut hx = SMatrix::<f64, 5, X>::zeros();
+        let mut hx = SMatrix::<f64, 5, 5>::zeros();
         let mut hm = SMatrix::<f64, 5, 3>::zeros();
         // DOA: the direction of m - v, azimuth relative to the heading (d/dv = -d/dm).
         let doa = Direction::of(&(m - v));
@@ -323,25 +306,15 @@ impl RadioSensor {
                 hx.fixed_view_mut::<1, 3>(2, 0).copy_from(&d.d_el);
                 hm.fixed_view_mut::<1, 3>(1, 0).copy_from(&-d.d_az);
                 hm.fixed_view_mut::<1, 3>(2, 0).copy_from(&-d.d_el);
-                if own {
-                    // m is B: its columns are the state's, and no landmark is measured.
-                    hx.fixed_view_mut::<5, 3>(0, BS_STATE).copy_from(&hm);
-                    hm.fill(0.0);
-                }
                 d
             }
             LandmarkType::VirtualAnchor => {
-                let (p, dp_dv, dp_dm, dp_db) = reflection_point(&base_station, m, &v);
+                let (p, dp_dv, dp_dm) = reflection_point(&base_station, m, &v);
                 let d = Direction::of(&(p - base_station));
                 hx.fixed_view_mut::<1, 3>(1, 0).copy_from(&(d.d_az * dp_dv));
                 hx.fixed_view_mut::<1, 3>(2, 0).copy_from(&(d.d_el * dp_dv));
                 hm.fixed_view_mut::<1, 3>(1, 0).copy_from(&(d.d_az * dp_dm));
                 hm.fixed_view_mut::<1, 3>(2, 0).copy_from(&(d.d_el * dp_dm));
-                if own {
-                    let dd_db = dp_db - Matrix3::identity();
-                    hx.fixed_view_mut::<1, 3>(1, BS_STATE).copy_from(&(d.d_az * dd_db));
-                    hx.fixed_view_mut::<1, 3>(2, BS_STATE).copy_from(&(d.d_el * dd_db));
-                }
                 d
             }
             LandmarkType::ScatteringPoint => {
@@ -351,106 +324,11 @@ impl RadioSensor {
                 row += d.d_r;
                 hm.fixed_view_mut::<1, 3>(1, 0).copy_from(&d.d_az);
                 hm.fixed_view_mut::<1, 3>(2, 0).copy_from(&d.d_el);
-                if own {
-                    hx.fixed_view_mut::<1, 3>(0, BS_STATE).copy_from(&-d.d_r);
-                    hx.fixed_view_mut::<1, 3>(1, BS_STATE).copy_from(&-d.d_az);
-                    hx.fixed_view_mut::<1, 3>(2, BS_STATE).copy_from(&-d.d_el);
-                }
                 d
             }
         };
         let z = SVector::from([toa, wrap(dod.az), dod.el, wrap(doa.az - x[3]), doa.el]);
         Linearised { z, hx, hm }
-    }
-
-    /// The inverse ([`InvertibleSensorModel::inverse`]) at a state of `X` components.
-    fn inverse_in<const X: usize>(
-        &self,
-        x: &SVector<f64, X>,
-        z: &SVector<f64, 5>,
-        mark: RadioMark,
-    ) -> Inverse<X, 3, 5> {
-        let (base_station, own) = self.source_position(x);
-        let v = Vector3::new(x[0], x[1], x[2]);
-        let l = z[0] - x[4];
-        let (u, du_dt, du_dp) = unit_direction(z[3] + x[3], z[4]);
-        let mut jz = SMatrix::<f64, 3, 5>::zeros();
-        let mut jx = SMatrix::<f64, 3, X>::zeros();
-        let (m, dm_dl, dm_dt, dm_dp, dm_dv) = match mark.kind {
-            LandmarkType::BaseStation | LandmarkType::VirtualAnchor => {
-                (v + u * l, u, du_dt * l, du_dp * l, Matrix3::identity())
-            }
-            LandmarkType::ScatteringPoint => {
-                let c = v - base_station;
-                let d = c.dot(&u) + l;
-                let t = (l * l - c.norm_squared()) / (2.0 * d);
-                // dt/dL = (L - t) / D, dt/dc = -(c + t u)^T / D, dt/du = -t c^T / D.
-                let dt_du = c.transpose() * (-t / d);
-                let dm_dt = du_dt * t + u * (dt_du * du_dt)[0];
-                let dm_dp = du_dp * t + u * (dt_du * du_dp)[0];
-                let dm_dv = Matrix3::identity() - u * (c + u * t).transpose() / d;
-                if own {
-                    // c = v - B: dm/dB = -u dt/dc = I - dm/dv.
-                    jx.fixed_view_mut::<3, 3>(0, BS_STATE).copy_from(&(u * (c + u * t).transpose() / d));
-                }
-                (v + u * t, u * ((l - t) / d), dm_dt, dm_dp, dm_dv)
-            }
-        };
-        jz.set_column(0, &dm_dl);
-        jz.set_column(3, &dm_dt);
-        jz.set_column(4, &dm_dp);
-        jx.fixed_view_mut::<3, 3>(0, 0).copy_from(&dm_dv);
-        jx.set_column(3, &dm_dt);
-        jx.set_column(4, &-dm_dl);
-        Inverse { m, jz, jx }
-    }
-
-    /// A draw of the measurement of `m` from the state `x`: `h(x, m)` plus the noise of `R`
-    /// of its type, the azimuths wrapped.
-    fn draw<const X: usize, R: rand::Rng + ?Sized>(
-        &self,
-        x: &SVector<f64, X>,
-        m: &Vector3<f64>,
-        mark: RadioMark,
-        rng: &mut R,
-    ) -> SVector<f64, 5> {
-        let s = self.noise_scale[mark.kind as usize].sqrt();
-        let mut z = self.measure(x, m, mark.kind).z;
-        for (i, sigma) in self.sigma.iter().enumerate() {
-            let e: f64 = StandardNormal.sample(rng);
-            z[i] += s * sigma * e;
-        }
-        z[1] = wrap(z[1]);
-        z[3] = wrap(z[3]);
-        z
-    }
-
-    /// [`InvertibleSensorModel::birth_integral_with_noise`] at a state of `X` components.
-    fn birth_integral_in<const X: usize>(
-        &self,
-        x: &SVector<f64, X>,
-        z: &SVector<f64, 5>,
-        mark: RadioMark,
-        noise: &SMatrix<f64, 5, 5>,
-    ) -> f64 {
-        let m = self.inverse_in(x, z, mark).m;
-        let lin = self.measure(x, &m, mark.kind);
-        let r = wrapped_residual(z, &lin.z);
-        let Some(r_ch) = noise.cholesky() else { return 0.0 };
-        // W = L_R^-1 H_m, y = L_R^-1 r: H^T R^-1 H = W^T W, and the exponent is the part of y
-        // outside the column space of W.
-        let (Some(w), Some(y)) =
-            (r_ch.l_dirty().solve_lower_triangular(&lin.hm), r_ch.l_dirty().solve_lower_triangular(&r))
-        else {
-            return 0.0;
-        };
-        let Some(info) = (w.transpose() * w).cholesky() else { return 0.0 };
-        let proj = w.transpose() * y;
-        let outside = y.norm_squared() - proj.dot(&info.solve(&proj));
-        let log_det_r: f64 = 2.0 * (0..5).map(|i| r_ch.l_dirty()[(i, i)].ln()).sum::<f64>();
-        let log_det_info: f64 = 2.0 * (0..3).map(|i| info.l_dirty()[(i, i)].ln()).sum::<f64>();
-        let ln = -(std::f64::consts::TAU.ln()) - 0.5 * log_det_r - 0.5 * log_det_info - 0.5 * outside.max(0.0);
-        ln.exp()
     }
 }
 
@@ -558,7 +436,15 @@ impl SensorModel<5, 3, 5> for RadioSensor {
         mark: RadioMark,
         rng: &mut R,
     ) -> SVector<f64, 5> {
-        self.draw(x, m, mark, rng)
+        let s = self.noise_scale[mark.kind as usize].sqrt();
+        let mut z = self.predict(x, m, mark);
+        for (i, sigma) in self.sigma.iter().enumerate() {
+            let e: f64 = StandardNormal.sample(rng);
+            z[i] += s * sigma * e;
+        }
+        z[1] = wrap(z[1]);
+        z[3] = wrap(z[3]);
+        z
     }
 
     fn sample_clutter<R: rand::Rng + ?Sized>(&self, _x: &SVector<f64, 5>, rng: &mut R, out: &mut Vec<SVector<f64, 5>>) {
@@ -605,11 +491,38 @@ fn unit_direction(theta: f64, phi: f64) -> (Vector3<f64>, Vector3<f64>, Vector3<
 /// `1 / |det H_m|`.)
 impl InvertibleSensorModel<5, 3, 5> for RadioSensor {
     fn inverse(&self, x: &SVector<f64, 5>, z: &SVector<f64, 5>, mark: RadioMark) -> Inverse<5, 3, 5> {
-        self.inverse_in(x, z, mark)
+        let v = Vector3::new(x[0], x[1], x[2]);
+        let l = z[0] - x[4];
+        let (u, du_dt, du_dp) = unit_direction(z[3] + x[3], z[4]);
+        let mut jz = SMatrix::<f64, 3, 5>::zeros();
+        let mut jx = SMatrix::<f64, 3, 5>::zeros();
+        let (m, dm_dl, dm_dt, dm_dp, dm_dv) = match mark.kind {
+            LandmarkType::BaseStation | LandmarkType::VirtualAnchor => {
+                (v + u * l, u, du_dt * l, du_dp * l, Matrix3::identity())
+            }
+            LandmarkType::ScatteringPoint => {
+                let c = v - self.base_station();
+                let d = c.dot(&u) + l;
+                let t = (l * l - c.norm_squared()) / (2.0 * d);
+                // dt/dL = (L - t) / D, dt/dc = -(c + t u)^T / D, dt/du = -t c^T / D.
+                let dt_du = c.transpose() * (-t / d);
+                let dm_dt = du_dt * t + u * (dt_du * du_dt)[0];
+                let dm_dp = du_dp * t + u * (dt_du * du_dp)[0];
+                let dm_dv = Matrix3::identity() - u * (c + u * t).transpose() / d;
+                (v + u * t, u * ((l - t) / d), dm_dt, dm_dp, dm_dv)
+            }
+        };
+        jz.set_column(0, &dm_dl);
+        jz.set_column(3, &dm_dt);
+        jz.set_column(4, &dm_dp);
+        jx.fixed_view_mut::<3, 3>(0, 0).copy_from(&dm_dv);
+        jx.set_column(3, &dm_dt);
+        jx.set_column(4, &-dm_dl);
+        Inverse { m, jz, jx }
     }
 
     fn birth_integral(&self, x: &SVector<f64, 5>, z: &SVector<f64, 5>, mark: RadioMark) -> f64 {
-        self.birth_integral_in(x, z, mark, &self.noise(mark))
+        self.birth_integral_with_noise(x, z, mark, &self.noise(mark))
     }
 
     /// The integral over the 3-D landmark space of the 5-D Gaussian `N(z; h(x, m), R)` with
@@ -622,138 +535,24 @@ impl InvertibleSensorModel<5, 3, 5> for RadioSensor {
         mark: RadioMark,
         noise: &SMatrix<f64, 5, 5>,
     ) -> f64 {
-        self.birth_integral_in(x, z, mark, noise)
-    }
-}
-
-/// `z - z_hat` with the azimuths (components 1 and 3) wrapped.
-#[inline]
-fn wrapped_residual(z: &SVector<f64, 5>, z_hat: &SVector<f64, 5>) -> SVector<f64, 5> {
-    super::wrapped_difference(z, z_hat, &[false, true, false, true, false])
-}
-
-/// The radio sensor of the world `radio5g-bs`, whose first base station is known only
-/// through a prior and is estimated with the vehicle ([`super::RadioBsVehicle`]'s state
-/// `[x, y, z, heading, clock bias, bs_x, bs_y, bs_z]`): [`RadioSensor`] with `B` read from the
-/// state in the first base station's scans, `H_x` holding `dh/dB` (the line of sight's
-/// `toa` and directions, a virtual anchor's reflection point and DOD, a scattering point's
-/// second leg `|m - B|` and DOD); the further base stations, if any, stay known. The first
-/// base station's anchor position is not read (its line of sight is measured at the state's
-/// `B`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RadioBsSensor(pub RadioSensor);
-
-/// The first five components (the vehicle's) of a `radio5g-bs` state.
-#[inline]
-fn vehicle_part(x: &SVector<f64, 8>) -> SVector<f64, 5> {
-    x.fixed_rows::<5>(0).into_owned()
-}
-
-impl SensorModel<8, 3, 5> for RadioBsSensor {
-    type Mark = RadioMark;
-
-    const NAME: &'static str = "radio5g-bs";
-
-    fn components(&self) -> [MeasurementComponent; 5] {
-        self.0.components()
-    }
-
-    #[inline]
-    fn predict(&self, x: &SVector<f64, 8>, m: &Vector3<f64>, mark: RadioMark) -> SVector<f64, 5> {
-        self.0.measure(x, m, mark.kind).z
-    }
-
-    #[inline]
-    fn linearise(&self, x: &SVector<f64, 8>, m: &Vector3<f64>, mark: RadioMark) -> Linearised<8, 3, 5> {
-        self.0.measure(x, m, mark.kind)
-    }
-
-    fn noise(&self, mark: RadioMark) -> SMatrix<f64, 5, 5> {
-        self.0.noise(mark)
-    }
-
-    fn in_fov(&self, x: &SVector<f64, 8>, m: &Vector3<f64>, mark: RadioMark) -> bool {
-        self.0.in_fov(&vehicle_part(x), m, mark)
-    }
-
-    fn detection_probability(&self, x: &SVector<f64, 8>, m: &Vector3<f64>, cov: &Matrix3<f64>, mark: RadioMark) -> f64 {
-        self.0.detection_probability(&vehicle_part(x), m, cov, mark)
-    }
-
-    fn clutter_intensity(&self, z: &SVector<f64, 5>) -> f64 {
-        self.0.clutter_intensity(z)
-    }
-
-    fn clutter_rate(&self) -> f64 {
-        self.0.clutter_rate
-    }
-
-    fn pd_true(&self, x: &SVector<f64, 8>, m: &Vector3<f64>, mark: RadioMark) -> f64 {
-        self.0.pd_true(&vehicle_part(x), m, mark)
-    }
-
-    fn sources(&self) -> u8 {
-        self.0.sources
-    }
-
-    fn set_source(&mut self, source: u8) {
-        self.0.set_source(source)
-    }
-
-    fn marks(&self) -> &'static [RadioMark] {
-        self.0.marks()
-    }
-
-    fn measures(&self, mark: RadioMark) -> bool {
-        self.0.measures(mark)
-    }
-
-    fn mapped(&self, mark: RadioMark) -> bool {
-        self.0.mapped(mark)
-    }
-
-    fn detection_region(&self, mark: RadioMark) -> Option<DetectionRegion> {
-        self.0.detection_region(mark)
-    }
-
-    /// The base stations: the first at its prior mean (its line of sight reads the state's
-    /// `B`, not this position), the others where they are.
-    fn anchors(&self) -> Vec<(Vector3<f64>, RadioMark)> {
-        self.0.anchors()
-    }
-
-    fn sample<R: rand::Rng + ?Sized>(
-        &self,
-        x: &SVector<f64, 8>,
-        m: &Vector3<f64>,
-        mark: RadioMark,
-        rng: &mut R,
-    ) -> SVector<f64, 5> {
-        self.0.draw(x, m, mark, rng)
-    }
-
-    fn sample_clutter<R: rand::Rng + ?Sized>(&self, x: &SVector<f64, 8>, rng: &mut R, out: &mut Vec<SVector<f64, 5>>) {
-        self.0.sample_clutter(&vehicle_part(x), rng, out)
-    }
-}
-
-impl InvertibleSensorModel<8, 3, 5> for RadioBsSensor {
-    fn inverse(&self, x: &SVector<f64, 8>, z: &SVector<f64, 5>, mark: RadioMark) -> Inverse<8, 3, 5> {
-        self.0.inverse_in(x, z, mark)
-    }
-
-    fn birth_integral(&self, x: &SVector<f64, 8>, z: &SVector<f64, 5>, mark: RadioMark) -> f64 {
-        self.0.birth_integral_in(x, z, mark, &self.0.noise(mark))
-    }
-
-    fn birth_integral_with_noise(
-        &self,
-        x: &SVector<f64, 8>,
-        z: &SVector<f64, 5>,
-        mark: RadioMark,
-        noise: &SMatrix<f64, 5, 5>,
-    ) -> f64 {
-        self.0.birth_integral_in(x, z, mark, noise)
+        let m = self.inverse(x, z, mark).m;
+        let lin = self.measure(x, &m, mark.kind);
+        let r = self.residual(z, &lin.z);
+        let Some(r_ch) = noise.cholesky() else { return 0.0 };
+        // W = L_R^-1 H_m, y = L_R^-1 r: H^T R^-1 H = W^T W, and the exponent is the part of y
+        // outside the column space of W.
+        let (Some(w), Some(y)) =
+            (r_ch.l_dirty().solve_lower_triangular(&lin.hm), r_ch.l_dirty().solve_lower_triangular(&r))
+        else {
+            return 0.0;
+        };
+        let Some(info) = (w.transpose() * w).cholesky() else { return 0.0 };
+        let proj = w.transpose() * y;
+        let outside = y.norm_squared() - proj.dot(&info.solve(&proj));
+        let log_det_r: f64 = 2.0 * (0..5).map(|i| r_ch.l_dirty()[(i, i)].ln()).sum::<f64>();
+        let log_det_info: f64 = 2.0 * (0..3).map(|i| info.l_dirty()[(i, i)].ln()).sum::<f64>();
+        let ln = -(std::f64::consts::TAU.ln()) - 0.5 * log_det_r - 0.5 * log_det_info - 0.5 * outside.max(0.0);
+        ln.exp()
     }
 }
 
@@ -797,7 +596,7 @@ mod tests {
         // the VA, p = v + t (m - v) with x = 100: t = 1/2, p = (100, -25, 20).
         let x = state(0.0, -50.0, 0.0);
         let m = Vector3::new(200.0, 0.0, 40.0);
-        let (p, _, _, _) = reflection_point(&s.base_station(), &m, &Vector3::new(0.0, -50.0, 0.0));
+        let (p, _, _) = reflection_point(&s.base_station(), &m, &Vector3::new(0.0, -50.0, 0.0));
         assert!((p - Vector3::new(100.0, -25.0, 20.0)).norm() < 1e-9, "{p}");
         let z = s.predict(&x, &m, VA);
         // TOA = |m - v| + b = |BS - p| + |p - v| + b (the reflected path's length).
@@ -864,58 +663,6 @@ mod tests {
                 .map_err(|e| format!("case {i} {mark:?}: {e}"))
                 .unwrap();
         }
-    }
-
-    /// The sensor that reads the base station from the state (`radio5g-bs`): the same
-    /// measurement as the known-station sensor with the base station where the state puts it,
-    /// for every type; the Jacobians in `B` and the inverse against central differences (the
-    /// conformance checks); the scans of a second, known base station do not depend on the
-    /// state's `B`.
-    #[test]
-    fn the_base_station_in_the_state() {
-        use crate::model::RadioVehicle;
-        let mut s = RadioSensor::published();
-        s.visibility = [1e4, 1e4, 50.0];
-        s.noise_scale = [1.0, 4.0, 9.0];
-        let bs = Vector3::new(3.0, -2.0, 38.5);
-        let own = RadioBsSensor(s);
-        let known = s.with_base_stations(&[bs]);
-        let mut cases = Vec::new();
-        for &(x, y, h) in &[(70.7, 0.0, 1.6), (10.0, -60.0, -3.0), (-55.0, 30.0, 0.4)] {
-            let x5 = state(x, y, h);
-            let x8: SVector<f64, 8> = RadioVehicle::state(&x5, &bs);
-            let mut landmarks = vec![(s.base_station(), BS), (Vector3::new(x + 20.0, y - 25.0, 12.0), SP)];
-            for va in [[200.0, 0.0, 40.0], [0.0, 200.0, 40.0], [-200.0, 0.0, 40.0]] {
-                landmarks.push((Vector3::from(va), VA));
-            }
-            for (m, mark) in landmarks {
-                // The line of sight is measured at the state's B, whatever the anchor's m.
-                let want = known.predict(&x5, if mark == BS { &bs } else { &m }, mark);
-                assert_eq!(own.predict(&x8, &m, mark), want, "{mark:?}");
-                let lin = own.linearise(&x8, &m, mark);
-                assert!(lin.hx.fixed_view::<5, 3>(0, BS_STATE).norm() > 1e-6, "{mark:?}: dh/dB");
-                if mark == BS {
-                    assert_eq!(lin.hm.norm(), 0.0, "no landmark is measured on the line of sight");
-                }
-                cases.push((x8, m, mark));
-            }
-        }
-        check_sensor_model(&own, &cases).unwrap();
-        for (i, (x, m, mark)) in cases.iter().enumerate().filter(|c| c.1.2 != BS) {
-            crate::model::conformance::At { model: &own, x: *x, m: *m, mark: *mark }
-                .inverse()
-                .map_err(|e| format!("case {i} {mark:?}: {e}"))
-                .unwrap();
-        }
-        // A second base station's scans: its own types are measured as by the known sensor.
-        let second = Vector3::new(-80.0, 40.0, 30.0);
-        let mut two = RadioBsSensor(s.with_base_stations(&[s.base_station(), second]));
-        two.set_source(1);
-        let x8: SVector<f64, 8> = RadioVehicle::state(&state(10.0, -60.0, -3.0), &bs);
-        let lin = two.linearise(&x8, &second, RadioMark::base_station(1));
-        assert_eq!(lin.hx.fixed_view::<5, 3>(0, BS_STATE).norm(), 0.0);
-        let lin = two.linearise(&x8, &Vector3::new(30.0, -85.0, 12.0), SP);
-        assert_eq!(lin.hx.fixed_view::<5, 3>(0, BS_STATE).norm(), 0.0);
     }
 
     /// The birth integral `int N(z; h(x, m), R) dm` against importance sampling from the

@@ -29,48 +29,7 @@ pub struct RadioVehicle {
 impl RadioVehicle {
     /// Indices of the planar part `[x, y, heading]` in the state.
     const PLANAR: [usize; 3] = [0, 1, 3];
-
-    /// The state of `X` components of the vehicle state `s` (`[x, y, z, heading, clock
-    /// bias]`) with the base station at `bs`: `s` itself for `X = 5`, `s` then `bs` for the
-    /// state that carries an uncertain base station (`X = 8`, [`BS_STATE`]).
-    pub fn state<const X: usize>(s: &SVector<f64, 5>, bs: &Vector3<f64>) -> SVector<f64, X> {
-        SVector::from_fn(|i, _| if i < 5 { s[i] } else { bs[i - BS_STATE] })
-    }
-
-    /// Eq. (1) on a state of `X` components: the planar part moves, every other component
-    /// (the height, the clock bias, a base station's coordinates) is held.
-    fn transition_in<const X: usize>(
-        x: &SVector<f64, X>,
-        u: &SVector<f64, 3>,
-        dt: f64,
-    ) -> (SVector<f64, X>, SMatrix<f64, X, X>, SMatrix<f64, X, 3>) {
-        let p = Self::PLANAR;
-        let planar = Vector3::new(x[p[0]], x[p[1]], x[p[2]]);
-        let (mean3, f3, fu3) = VelocityModel.predict_with_jacobians(&planar, u, dt);
-        let mut mean = *x;
-        let mut f = SMatrix::<f64, X, X>::identity();
-        let mut fu = SMatrix::<f64, X, 3>::zeros();
-        for (r, &i) in p.iter().enumerate() {
-            mean[i] = mean3[r];
-            for (c, &j) in p.iter().enumerate() {
-                f[(i, j)] = f3[(r, c)];
-            }
-            for c in 0..3 {
-                fu[(i, c)] = fu3[(r, c)];
-            }
-        }
-        (mean, f, fu)
-    }
-
-    /// `diag(sigma^2)` on the first five components, zero on a base station's.
-    fn noise_in<const X: usize>(&self) -> SMatrix<f64, X, X> {
-        SMatrix::from_fn(|i, j| if i == j && i < 5 { self.sigma[i] * self.sigma[i] } else { 0.0 })
-    }
 }
-
-/// The index of the first base station's `x` in the radio state that carries it (`X = 8`:
-/// `[x, y, z, heading, clock bias, bs_x, bs_y, bs_z]`).
-pub const BS_STATE: usize = 5;
 
 impl VehicleModel<5, 3> for RadioVehicle {
     fn components(&self) -> [StateComponent; 5] {
@@ -93,51 +52,30 @@ impl VehicleModel<5, 3> for RadioVehicle {
         u: &SVector<f64, 3>,
         dt: f64,
     ) -> (SVector<f64, 5>, SMatrix<f64, 5, 5>, SMatrix<f64, 5, 3>) {
-        Self::transition_in(x, u, dt)
+        let p = Self::PLANAR;
+        let planar = Vector3::new(x[p[0]], x[p[1]], x[p[2]]);
+        let (mean3, f3, fu3) = VelocityModel.predict_with_jacobians(&planar, u, dt);
+        let mut mean = *x;
+        let mut f = SMatrix::<f64, 5, 5>::identity();
+        let mut fu = SMatrix::<f64, 5, 3>::zeros();
+        for (r, &i) in p.iter().enumerate() {
+            mean[i] = mean3[r];
+            for (c, &j) in p.iter().enumerate() {
+                f[(i, j)] = f3[(r, c)];
+            }
+            for c in 0..3 {
+                fu[(i, c)] = fu3[(r, c)];
+            }
+        }
+        (mean, f, fu)
     }
 
     fn process_noise(&self, _dt: f64) -> Option<SMatrix<f64, 5, 5>> {
-        Some(self.noise_in())
+        Some(SMatrix::from_diagonal(&SVector::from(self.sigma.map(|s| s * s))))
     }
 
     fn estimated(&self) -> [bool; 5] {
         self.sigma.map(|s| s > 0.0)
-    }
-}
-
-/// The radio vehicle whose state carries the first base station's position (the world
-/// `radio5g-bs`, a base station known only through a prior): `[x, y, z, heading, clock bias,
-/// bs_x, bs_y, bs_z]`. The vehicle part moves as [`RadioVehicle`]; the base station is
-/// static: no process noise, held by the transition ([`VehicleModel::estimated`]), spread by
-/// the prior. The sensor that reads it is [`super::RadioBsSensor`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RadioBsVehicle(pub RadioVehicle);
-
-impl VehicleModel<8, 3> for RadioBsVehicle {
-    fn components(&self) -> [StateComponent; 8] {
-        let v = self.0.components();
-        std::array::from_fn(|i| if i < 5 { v[i] } else { StateComponent::BaseStation((i - BS_STATE) as u8) })
-    }
-
-    fn control_dim(&self) -> usize {
-        2
-    }
-
-    fn transition(
-        &self,
-        x: &SVector<f64, 8>,
-        u: &SVector<f64, 3>,
-        dt: f64,
-    ) -> (SVector<f64, 8>, SMatrix<f64, 8, 8>, SMatrix<f64, 8, 3>) {
-        RadioVehicle::transition_in(x, u, dt)
-    }
-
-    fn process_noise(&self, _dt: f64) -> Option<SMatrix<f64, 8, 8>> {
-        Some(self.0.noise_in())
-    }
-
-    fn estimated(&self) -> [bool; 8] {
-        std::array::from_fn(|i| i < 5 && self.0.sigma[i] > 0.0)
     }
 }
 
@@ -218,28 +156,6 @@ mod tests {
             let e = check_vehicle_model(&Broken(model, k), &s, &u, 0.5).unwrap_err();
             assert!(e.contains(what), "{k}: {e}");
         }
-    }
-
-    /// The vehicle that carries the base station: its first five components move as the
-    /// radio vehicle's, the base station is static (no noise, held), and the conformance
-    /// checks pass.
-    #[test]
-    fn the_base_station_is_static() {
-        use crate::model::conformance::check_vehicle_model;
-        let (model, s, u) = published();
-        let bs = Vector3::new(1.0, -2.0, 40.0);
-        let x: SVector<f64, 8> = RadioVehicle::state(&s, &bs);
-        let carried = RadioBsVehicle(model);
-        let (mean, f, _) = carried.transition(&x, &u, 0.5);
-        assert_eq!(mean.fixed_rows::<5>(0).into_owned(), model.transition(&s, &u, 0.5).0);
-        assert_eq!(mean.fixed_rows::<3>(BS_STATE).into_owned(), bs);
-        assert_eq!(f.fixed_view::<3, 3>(BS_STATE, BS_STATE).into_owned(), nalgebra::Matrix3::identity());
-        let q = carried.process_noise(0.5).unwrap();
-        assert_eq!(q.fixed_view::<5, 5>(0, 0).into_owned(), model.process_noise(0.5).unwrap());
-        assert_eq!(q.fixed_view::<3, 8>(BS_STATE, 0).norm(), 0.0);
-        assert_eq!(carried.estimated(), [true, true, false, true, true, false, false, false]);
-        assert_eq!(carried.components().map(|c| c.name())[5..], ["bs_x", "bs_y", "bs_z"]);
-        check_vehicle_model(&carried, &x, &u, 0.5).unwrap();
     }
 
     /// The propagation every filter predicts with adds the additive noise once per
